@@ -1,0 +1,252 @@
+/* The estimator: init, one step (Table 1 with the switch-off of Sec. 3.2 and the constraint of
+ * Sec. 3.3), and the accessors that translate the scaled internal state into physical units. */
+#include "caekf/caekf.h"
+
+#include "caekf_filter.h"
+#include "caekf_linalg.h"
+#include "caekf_math.h"
+
+#define NQ CAEKF_NQ
+#define N CAEKF_N
+#define IG CAEKF_IG
+#define INIT_MAGIC 0xCAEF0001u
+
+CAEKF_STATIC_ASSERT(IG == N - 1, gamma_is_last);
+CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
+
+static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
+
+caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
+{
+    caekf_model_t model;
+    int i, j;
+    if (est == 0 || s == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (caekf_settings_validate(s, 0) != CAEKF_OK || caekf_model_init(&model, &s->model) != 0) {
+        return CAEKF_ERR_SETTINGS;
+    }
+    est->cfg = *s;
+    est->model = model;
+    for (i = 0; i < NQ; ++i) {
+        est->scale[i] = s->sigma_q0;
+        est->scale[NQ + i] = s->sigma_v0;
+        est->z[i] = s->q0[i] / s->sigma_q0;
+        est->z[NQ + i] = s->v0[i] / s->sigma_v0;
+        /* Ratios before squaring: float would underflow on (1e-9)^2 / (1e-6)^2 done the other way. */
+        est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
+        est->q_diag[NQ + i] = sq(s->sigma_qx_v / s->sigma_v0);
+    }
+    est->scale[IG] = s->sigma_gamma0;
+    est->z[IG] = s->gamma0 / s->sigma_gamma0;
+    est->q_diag[IG] = s->q_gamma_scale * sq(s->sigma_q_gamma / s->sigma_gamma0);
+    est->r_scaled = sq(s->sigma_r / s->sigma_q0);
+    est->gamma_min_scaled = s->gamma_min / s->sigma_gamma0;
+    for (i = 0; i < N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
+        for (j = 0; j < N; ++j) {
+            est->P[i][j] = (i == j) ? 1 : 0;
+            est->P_work[i][j] = 0;
+            est->scratch[i][j] = 0;
+        }
+    }
+    est->step_count = 0;
+    est->last_flags = 0;
+    est->init_magic = INIT_MAGIC;
+    return CAEKF_OK;
+}
+
+static int is_init(const caekf_t *est) { return est != 0 && est->init_magic == INIT_MAGIC; }
+
+static caekf_gamma_policy_t gamma_policy(const caekf_settings_t *cfg, int contact_active)
+{
+    if (cfg->mode == CAEKF_MODE_CANONICAL || contact_active) {
+        return CAEKF_GAMMA_LIVE;
+    }
+    return cfg->switchoff == CAEKF_SWITCHOFF_PAPER ? CAEKF_GAMMA_FROZEN_PAPER : CAEKF_GAMMA_FROZEN_SCHMIDT;
+}
+
+caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], caekf_report_t *report)
+{
+    caekf_scalar_t xprev[N], xk[N], z[N];
+    caekf_scalar_t fv[NQ][N];
+    caekf_scalar_t y_s[CAEKF_NY];
+    caekf_contact_t contact;
+    caekf_gamma_policy_t policy;
+    caekf_status_t st = CAEKF_OK;
+    uint32_t flags = 0;
+    int iters = 0;
+    int i, j;
+    const caekf_scalar_t *s;
+    caekf_scalar_t s_q, s_v;
+
+    if (report != 0) {
+        report->flags = 0;
+        report->newton_iters = 0;
+        report->delta = 0;
+    }
+    if (est == 0 || y == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    if (!CAEKF_ISFINITE(u) || !CAEKF_ISFINITE(y[0]) || !CAEKF_ISFINITE(y[1])) {
+        if (report != 0) {
+            report->flags = CAEKF_FLAG_INPUT_REJECTED;
+        }
+        return CAEKF_ERR_INPUT; /* nothing in *est has been written */
+    }
+    s = est->scale;
+    s_q = s[0];
+    s_v = s[NQ];
+
+    /* Prediction (Table 1): Newton solve of eq. (19), then F by eq. (10) at x_k-. */
+    for (i = 0; i < N; ++i) {
+        xprev[i] = est->z[i] * s[i];
+    }
+    if (caekf_model_newton(&est->model, xprev, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, xk, &iters) != 0) {
+        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
+    }
+    caekf_model_contact(&est->model, xk, xk[IG], &contact);
+    if (contact.delta > 0) { /* eq. (21) */
+        flags |= CAEKF_FLAG_CONTACT_ACTIVE;
+    }
+    policy = gamma_policy(&est->cfg, contact.delta > 0);
+    if (policy != CAEKF_GAMMA_LIVE) {
+        flags |= CAEKF_FLAG_GAMMA_FROZEN;
+    }
+    if (caekf_model_transition_v(&est->model, xk, fv) != 0) {
+        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+        st = CAEKF_ERR_SINGULAR;
+        goto done;
+    }
+    for (i = 0; i < NQ; ++i) { /* F in scaled coordinates: S^-1 F S */
+        for (j = 0; j < N; ++j) {
+            fv[i][j] *= s[j] / s_v;
+        }
+    }
+    for (i = 0; i < N; ++i) {
+        z[i] = xk[i] / s[i];
+    }
+    z[IG] = est->z[IG]; /* exact: the random walk carries gamma over bit for bit */
+    caekf_predict_covariance(est->P, est->P_work, fv, est->model.p.dt * s_v / s_q, est->q_diag, policy);
+
+    /* Correction, eqs. (13)-(15) / (25)-(27). */
+    y_s[0] = y[0] / s_q;
+    y_s[1] = y[1] / s_q;
+    (void)caekf_correct(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH, policy,
+                        est->scratch, &flags);
+
+    /* Inequality constraint, eqs. (28)-(30). */
+    if (est->cfg.constraint_enabled) {
+        caekf_constrain(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
+    }
+    caekf_covariance_health(est->P_work, est->cfg.cov_repair_enabled, est->scratch, &flags);
+
+    if (!caekf_all_finite(z, N) || !caekf_all_finite(&est->P_work[0][0], N * N)) {
+        flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+        st = CAEKF_ERR_NUMERIC;
+        goto done;
+    }
+    for (i = 0; i < N; ++i) { /* commit */
+        est->z[i] = z[i];
+        for (j = 0; j < N; ++j) {
+            est->P[i][j] = est->P_work[i][j];
+        }
+    }
+    est->step_count++;
+    est->last_flags = flags;
+done:
+    if (report != 0) {
+        report->flags = flags;
+        report->newton_iters = iters;
+        report->delta = contact.delta;
+    }
+    return st;
+}
+
+caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
+{
+    int i;
+    if (est == 0 || x == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    for (i = 0; i < N; ++i) {
+        x[i] = est->z[i] * est->scale[i];
+    }
+    return CAEKF_OK;
+}
+
+caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
+{
+    if (est == 0 || gamma == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    *gamma = est->z[IG] * est->scale[IG];
+    return CAEKF_OK;
+}
+
+caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N])
+{
+    int i, j;
+    if (est == 0 || P == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    for (i = 0; i < N; ++i) {
+        for (j = 0; j < N; ++j) {
+            P[i][j] = est->P[i][j] * est->scale[i] * est->scale[j];
+        }
+    }
+    return CAEKF_OK;
+}
+
+caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2)
+{
+    int i, j;
+    if (est == 0 || norm2 == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
+    for (i = 0; i < N; ++i) {
+        for (j = 0; j < N; ++j) {
+            est->P_work[i][j] = est->P[i][j] * est->scale[i] * est->scale[j];
+        }
+    }
+    return caekf_sym_norm2(&est->P_work[0][0], N, &est->scratch[0][0], norm2) == CAEKF_LA_OK ? CAEKF_OK
+                                                                                       : CAEKF_ERR_NUMERIC;
+}
+
+const char *caekf_status_str(caekf_status_t st)
+{
+    switch (st) {
+    case CAEKF_OK: return "ok";
+    case CAEKF_ERR_NULL: return "null pointer";
+    case CAEKF_ERR_SETTINGS: return "settings refused";
+    case CAEKF_ERR_NOT_INIT: return "not initialised";
+    case CAEKF_ERR_INPUT: return "non-finite input rejected";
+    case CAEKF_ERR_NUMERIC: return "non-finite result, step rolled back";
+    case CAEKF_ERR_SINGULAR: return "singular matrix, step rolled back";
+    default: return "unknown status";
+    }
+}
+
+const char *caekf_flag_name(unsigned bit_index)
+{
+    static const char *const names[CAEKF_FLAG_COUNT] = {
+        "newton_not_converged", "input_rejected",       "constraint_applied", "contact_active",
+        "cov_repaired",         "singular_innovation",  "constraint_clamped", "numeric_rollback",
+        "gamma_frozen",         "cov_indefinite"};
+    return bit_index < CAEKF_FLAG_COUNT ? names[bit_index] : "unknown";
+}

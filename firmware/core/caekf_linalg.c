@@ -1,0 +1,291 @@
+#include "caekf_linalg.h"
+
+#include "caekf_math.h"
+
+#define A_(m, n, i, j) ((m)[(i) * (n) + (j)])
+
+static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
+
+caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol)
+{
+    int i, j, k;
+    caekf_scalar_t amax = 0;
+    if (!size_ok(n)) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    for (i = 0; i < n * n; ++i) {
+        amax = caekf_max(amax, CAEKF_FABS(a[i]));
+    }
+    for (k = 0; k < n; ++k) {
+        int p = k;
+        caekf_scalar_t best = CAEKF_FABS(A_(a, n, k, k));
+        for (i = k + 1; i < n; ++i) {
+            caekf_scalar_t cand = CAEKF_FABS(A_(a, n, i, k));
+            if (cand > best) {
+                best = cand;
+                p = i;
+            }
+        }
+        /* Written as !(best > tol) so that a NaN pivot is refused too. */
+        if (!(best > rel_tol * amax)) {
+            return CAEKF_LA_SINGULAR;
+        }
+        piv[k] = p;
+        if (p != k) {
+            for (j = 0; j < n; ++j) {
+                caekf_scalar_t t = A_(a, n, k, j);
+                A_(a, n, k, j) = A_(a, n, p, j);
+                A_(a, n, p, j) = t;
+            }
+        }
+        for (i = k + 1; i < n; ++i) {
+            caekf_scalar_t l = A_(a, n, i, k) / A_(a, n, k, k);
+            A_(a, n, i, k) = l;
+            for (j = k + 1; j < n; ++j) {
+                A_(a, n, i, j) -= l * A_(a, n, k, j);
+            }
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
+caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
+                                 int nrhs, int ldb)
+{
+    int i, j, c;
+    if (!size_ok(n) || nrhs < 1 || ldb < nrhs) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    for (i = 0; i < n; ++i) {
+        if (piv[i] != i) {
+            for (c = 0; c < nrhs; ++c) {
+                caekf_scalar_t t = b[i * ldb + c];
+                b[i * ldb + c] = b[piv[i] * ldb + c];
+                b[piv[i] * ldb + c] = t;
+            }
+        }
+    }
+    for (i = 1; i < n; ++i) { /* forward: L has a unit diagonal */
+        for (j = 0; j < i; ++j) {
+            caekf_scalar_t l = A_(lu, n, i, j);
+            for (c = 0; c < nrhs; ++c) {
+                b[i * ldb + c] -= l * b[j * ldb + c];
+            }
+        }
+    }
+    for (i = n - 1; i >= 0; --i) { /* backward */
+        caekf_scalar_t inv_d = (caekf_scalar_t)1 / A_(lu, n, i, i);
+        for (j = i + 1; j < n; ++j) {
+            caekf_scalar_t u = A_(lu, n, i, j);
+            for (c = 0; c < nrhs; ++c) {
+                b[i * ldb + c] -= u * b[j * ldb + c];
+            }
+        }
+        for (c = 0; c < nrhs; ++c) {
+            b[i * ldb + c] *= inv_d;
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
+caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c, caekf_scalar_t rel_tol,
+                                     caekf_scalar_t inv[3])
+{
+    caekf_scalar_t det = a * c - b * b;
+    if (!(a > 0) || !(c > 0) || !(det > rel_tol * a * c)) {
+        return CAEKF_LA_SINGULAR;
+    }
+    inv[0] = c / det;
+    inv[1] = -b / det;
+    inv[2] = a / det;
+    return CAEKF_LA_OK;
+}
+
+/* D^-1/2 A D^-1/2 with D = diag(A): the correlation form makes the PSD test and the repair
+ * independent of the state scaling. A zero diagonal must come with a zero row. */
+static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *d)
+{
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t aii = A_(a, n, i, i);
+        if (!(aii >= 0) || !CAEKF_ISFINITE(aii)) {
+            return CAEKF_LA_NOT_PSD;
+        }
+        d[i] = CAEKF_SQRT(aii);
+    }
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            caekf_scalar_t aij = A_(a, n, i, j);
+            if (d[i] > 0 && d[j] > 0) {
+                A_(w, n, i, j) = aij / (d[i] * d[j]);
+            } else if (aij != 0) {
+                return CAEKF_LA_NOT_PSD;
+            } else {
+                A_(w, n, i, j) = 0;
+            }
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
+caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *w)
+{
+    caekf_scalar_t d[CAEKF_LA_MAX_N];
+    int i, j, k;
+    if (!size_ok(n)) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    if (normalise(a, n, w, d) != CAEKF_LA_OK) {
+        return CAEKF_LA_NOT_PSD;
+    }
+    /* Outer-product LDL^T on the lower triangle of the correlation matrix (unit diagonal). */
+    for (k = 0; k < n; ++k) {
+        caekf_scalar_t piv = A_(w, n, k, k);
+        if (piv < -tol) {
+            return CAEKF_LA_NOT_PSD;
+        }
+        if (piv <= tol) {
+            /* Zero pivot: a PSD matrix has no coupling left in this direction; |w_ik|^2 <= w_ii w_kk. */
+            for (i = k + 1; i < n; ++i) {
+                if (CAEKF_FABS(A_(w, n, i, k)) > CAEKF_SQRT(tol * caekf_max(A_(w, n, i, i), tol))) {
+                    return CAEKF_LA_NOT_PSD;
+                }
+            }
+            continue;
+        }
+        for (i = k + 1; i < n; ++i) {
+            caekf_scalar_t l = A_(w, n, i, k) / piv;
+            for (j = k + 1; j <= i; ++j) {
+                A_(w, n, i, j) -= l * A_(w, n, j, k);
+            }
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
+caekf_la_status_t caekf_sym_eigen(caekf_scalar_t *a, int n, caekf_scalar_t *v)
+{
+    int sweep, p, q, k;
+    if (!size_ok(n)) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    if (v != 0) {
+        for (p = 0; p < n; ++p) {
+            for (q = 0; q < n; ++q) {
+                A_(v, n, p, q) = (p == q) ? 1 : 0;
+            }
+        }
+    }
+    for (sweep = 0; sweep < CAEKF_JACOBI_MAX_SWEEPS; ++sweep) {
+        caekf_scalar_t off = 0, diag = 0;
+        for (p = 0; p < n; ++p) {
+            diag += A_(a, n, p, p) * A_(a, n, p, p);
+            for (q = p + 1; q < n; ++q) {
+                off += A_(a, n, p, q) * A_(a, n, p, q);
+            }
+        }
+        if (!(off > CAEKF_EPS * CAEKF_EPS * diag)) {
+            return CAEKF_LA_OK;
+        }
+        for (p = 0; p < n - 1; ++p) {
+            for (q = p + 1; q < n; ++q) {
+                caekf_scalar_t apq = A_(a, n, p, q);
+                caekf_scalar_t theta, t, c, s;
+                if (apq == 0) {
+                    continue;
+                }
+                /* Rotation annihilating a_pq (Golub & Van Loan, symmetric Schur 2x2). */
+                theta = (A_(a, n, q, q) - A_(a, n, p, p)) / (2 * apq);
+                t = (theta >= 0 ? 1 : -1) / (CAEKF_FABS(theta) + CAEKF_SQRT(theta * theta + 1));
+                if (!CAEKF_ISFINITE(t)) {
+                    t = 0; /* theta overflowed: a_pq is negligible */
+                }
+                c = 1 / CAEKF_SQRT(t * t + 1);
+                s = t * c;
+                for (k = 0; k < n; ++k) { /* A <- A J (columns p, q) */
+                    caekf_scalar_t akp = A_(a, n, k, p), akq = A_(a, n, k, q);
+                    A_(a, n, k, p) = c * akp - s * akq;
+                    A_(a, n, k, q) = s * akp + c * akq;
+                }
+                for (k = 0; k < n; ++k) { /* A <- J^T A (rows p, q) */
+                    caekf_scalar_t apk = A_(a, n, p, k), aqk = A_(a, n, q, k);
+                    A_(a, n, p, k) = c * apk - s * aqk;
+                    A_(a, n, q, k) = s * apk + c * aqk;
+                }
+                if (v != 0) {
+                    for (k = 0; k < n; ++k) {
+                        caekf_scalar_t vkp = A_(v, n, k, p), vkq = A_(v, n, k, q);
+                        A_(v, n, k, p) = c * vkp - s * vkq;
+                        A_(v, n, k, q) = s * vkp + c * vkq;
+                    }
+                }
+            }
+        }
+    }
+    return CAEKF_LA_OK; /* bound reached: the result is still a valid similarity transform */
+}
+
+caekf_la_status_t caekf_sym_norm2(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *norm2)
+{
+    caekf_scalar_t best = 0;
+    caekf_la_status_t st;
+    int i;
+    if (!size_ok(n)) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    for (i = 0; i < n * n; ++i) {
+        w[i] = a[i];
+    }
+    st = caekf_sym_eigen(w, n, 0);
+    for (i = 0; i < n; ++i) {
+        best = caekf_max(best, CAEKF_FABS(A_(w, n, i, i)));
+    }
+    *norm2 = best;
+    return st;
+}
+
+caekf_la_status_t caekf_psd_repair(caekf_scalar_t *a, int n, caekf_scalar_t *v)
+{
+    caekf_scalar_t lam[CAEKF_LA_MAX_N];
+    caekf_scalar_t d[CAEKF_LA_MAX_N];
+    caekf_la_status_t st;
+    int i, j, k;
+    if (!size_ok(n)) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    /* Negative or non-finite variances cannot be normalised: drop those rows and columns first. */
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t aii = A_(a, n, i, i);
+        if (!(aii > 0) || !CAEKF_ISFINITE(aii)) {
+            for (j = 0; j < n; ++j) {
+                A_(a, n, i, j) = 0;
+                A_(a, n, j, i) = 0;
+            }
+        }
+    }
+    for (i = 0; i < n; ++i) { /* in place: a <- D^-1/2 a D^-1/2 */
+        d[i] = CAEKF_SQRT(A_(a, n, i, i));
+    }
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            caekf_scalar_t dd = d[i] * d[j];
+            A_(a, n, i, j) = dd > 0 ? A_(a, n, i, j) / dd : 0;
+        }
+    }
+    st = caekf_sym_eigen(a, n, v);
+    for (k = 0; k < n; ++k) {
+        lam[k] = caekf_max(A_(a, n, k, k), 0);
+    }
+    for (i = 0; i < n; ++i) { /* a = D^1/2 V diag(max(lam, 0)) V^T D^1/2, symmetric by construction */
+        for (j = i; j < n; ++j) {
+            caekf_scalar_t s = 0;
+            for (k = 0; k < n; ++k) {
+                s += A_(v, n, i, k) * lam[k] * A_(v, n, j, k);
+            }
+            s *= d[i] * d[j];
+            A_(a, n, i, j) = s;
+            A_(a, n, j, i) = s;
+        }
+    }
+    return st;
+}

@@ -1,0 +1,48 @@
+/*
+ * Fixed-size dense linear algebra for the sizes the estimator uses (n <= CAEKF_LA_MAX_N). Matrices
+ * are row-major arrays with leading dimension n (or ldb for right-hand sides). No allocation: callers
+ * own every buffer (`work` arguments are n x n scratch, so stack use stays small on an MCU); loops
+ * are bounded by CAEKF_LA_MAX_N.
+ */
+#ifndef CAEKF_LINALG_H
+#define CAEKF_LINALG_H
+
+#include "caekf/caekf_config.h"
+
+#define CAEKF_LA_MAX_N CAEKF_N
+
+typedef enum {
+    CAEKF_LA_OK = 0,
+    CAEKF_LA_SINGULAR = 1,   /* a pivot fell below the refusal threshold (cf. ARM_MATH_SINGULAR) */
+    CAEKF_LA_BAD_SIZE = 2,
+    CAEKF_LA_NOT_PSD = 3
+} caekf_la_status_t;
+
+/* LU with partial pivoting, in place: PA = LU. A pivot whose magnitude is <= rel_tol * max|a_ij| is
+ * refused (CAEKF_LA_SINGULAR) instead of being divided by. */
+caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol);
+
+/* Solves A X = B for nrhs right-hand sides stored as the columns of b (n x nrhs, leading dim ldb). */
+caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
+                                 int nrhs, int ldb);
+
+/* Inverse of a symmetric 2x2 [a b; b c]. Refused (SINGULAR) when the determinant is <= rel_tol * a c
+ * or a, c <= 0: an innovation covariance must be positive definite. */
+caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c, caekf_scalar_t rel_tol,
+                                     caekf_scalar_t inv[3]);
+
+/* Positive-semidefiniteness test: LDL^T of the correlation form D^-1/2 A D^-1/2 (scale invariant);
+ * pivots within tol of zero count as zero (such directions must then have no coupling left). */
+caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *work);
+
+/* Cyclic Jacobi eigen-decomposition of a symmetric matrix: on return a's diagonal holds the
+ * eigenvalues and v (may be NULL) the eigenvectors as columns. At most CAEKF_JACOBI_MAX_SWEEPS sweeps. */
+caekf_la_status_t caekf_sym_eigen(caekf_scalar_t *a, int n, caekf_scalar_t *v);
+
+/* Largest |eigenvalue| of a symmetric matrix (its 2-norm), computed on a copy. */
+caekf_la_status_t caekf_sym_norm2(const caekf_scalar_t *a, int n, caekf_scalar_t *work, caekf_scalar_t *norm2);
+
+/* PSD repair: negative eigenvalues of the correlation form clipped to 0, variances kept. */
+caekf_la_status_t caekf_psd_repair(caekf_scalar_t *a, int n, caekf_scalar_t *work);
+
+#endif /* CAEKF_LINALG_H */

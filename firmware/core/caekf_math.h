@@ -1,0 +1,37 @@
+/* Scalar helpers matching caekf_scalar_t (float or double), so core code never names sqrt/sqrtf. */
+#ifndef CAEKF_MATH_H
+#define CAEKF_MATH_H
+
+#include <math.h>
+
+#include "caekf/caekf_config.h"
+
+#if CAEKF_USE_FLOAT
+#define CAEKF_SQRT(x) sqrtf(x)
+#define CAEKF_FABS(x) fabsf(x)
+#define CAEKF_HYPOT(x, y) hypotf((x), (y))
+#define CAEKF_C(x) ((caekf_scalar_t)(x##f))
+#else
+#define CAEKF_SQRT(x) sqrt(x)
+#define CAEKF_FABS(x) fabs(x)
+#define CAEKF_HYPOT(x, y) hypot((x), (y))
+#define CAEKF_C(x) ((caekf_scalar_t)(x))
+#endif
+
+/* isfinite() is type-generic in C99. */
+#define CAEKF_ISFINITE(x) (isfinite(x) != 0)
+
+static inline caekf_scalar_t caekf_max(caekf_scalar_t a, caekf_scalar_t b) { return a > b ? a : b; }
+
+/* 1 when all n values are finite. */
+static inline int caekf_all_finite(const caekf_scalar_t *v, int n)
+{
+    int i;
+    int ok = 1;
+    for (i = 0; i < n; ++i) {
+        ok &= CAEKF_ISFINITE(v[i]);
+    }
+    return ok;
+}
+
+#endif /* CAEKF_MATH_H */

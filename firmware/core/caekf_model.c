@@ -1,0 +1,297 @@
+/* The contact model: eq. (16) contact law, eq. (19) residual and Jacobians, Newton, eq. (10) F. */
+#include "caekf/caekf_model.h"
+
+#include "caekf_linalg.h"
+#include "caekf_math.h"
+
+/* Bodies 2 and 3 (0-based 1 and 2) are the contact pair. */
+#define B2 1
+#define B3 2
+
+CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, model_has_four_bodies);
+CAEKF_STATIC_ASSERT(CAEKF_N == 2 * CAEKF_NQ + 1, augmented_state_is_q_v_gamma);
+
+int caekf_model_params_check(const caekf_model_params_t *p, const char **first_bad)
+{
+    const char *bad = 0;
+    int i;
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
+            bad = "m";
+        }
+    }
+    if (!CAEKF_ISFINITE(p->k1) || !(p->k1 > 0)) bad = "k1";
+    if (!CAEKF_ISFINITE(p->k12) || !(p->k12 > 0)) bad = "k12";
+    if (!CAEKF_ISFINITE(p->k34) || !(p->k34 > 0)) bad = "k34";
+    if (!CAEKF_ISFINITE(p->k4) || !(p->k4 > 0)) bad = "k4";
+    if (!CAEKF_ISFINITE(p->c1) || !(p->c1 >= 0)) bad = "c1";
+    if (!CAEKF_ISFINITE(p->c12) || !(p->c12 >= 0)) bad = "c12";
+    if (!CAEKF_ISFINITE(p->c34) || !(p->c34 >= 0)) bad = "c34";
+    if (!CAEKF_ISFINITE(p->c4) || !(p->c4 >= 0)) bad = "c4";
+    if (!CAEKF_ISFINITE(p->gap) || !(p->gap >= 0)) bad = "gap";
+    if (!CAEKF_ISFINITE(p->dt) || !(p->dt > 0)) bad = "dt";
+    if (first_bad != 0) {
+        *first_bad = bad;
+    }
+    return bad != 0;
+}
+
+/* Chain topology: ground -a- 1 -b- 2 | 3 -c- 4 -d- ground. */
+static void chain_matrix(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c,
+                         caekf_scalar_t d)
+{
+    int i, j;
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            out[i][j] = 0;
+        }
+    }
+    out[0][0] = a + b;
+    out[0][1] = -b;
+    out[1][0] = -b;
+    out[1][1] = b;
+    out[2][2] = c;
+    out[2][3] = -c;
+    out[3][2] = -c;
+    out[3][3] = c + d;
+}
+
+int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
+{
+    int i, j;
+    if (caekf_model_params_check(p, 0) != 0) {
+        return -1;
+    }
+    m->p = *p;
+    chain_matrix(m->K, p->k1, p->k12, p->k34, p->k4);
+    chain_matrix(m->C, p->c1, p->c12, p->c34, p->c4);
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        m->m_dt[i] = p->m[i] / p->dt;
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            m->A0[i][j] = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+        }
+    }
+    return 0;
+}
+
+/* Eq. (16)-(17): f_c = gamma delta^1.5 while delta > 0. */
+void caekf_model_contact(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], caekf_scalar_t gamma,
+                         caekf_contact_t *c)
+{
+    caekf_scalar_t d = q[B2] - q[B3] - m->p.gap;
+    c->delta = d;
+    if (d > 0) {
+        caekf_scalar_t sd = CAEKF_SQRT(d);
+        c->dfc_dgamma = d * sd;
+        c->fc = gamma * c->dfc_dgamma;
+        c->dfc_ddelta = CAEKF_C(1.5) * gamma * sd;
+    } else {
+        c->fc = 0;
+        c->dfc_ddelta = 0;
+        c->dfc_dgamma = 0;
+    }
+}
+
+/* Momentum rows of eq. (19) for (q_k, v_k); optionally the magnitude of each row's terms, which is
+ * what the residual's rounding error scales with. The contact force enters as +f_c on body 2 and
+ * -f_c on body 3 (the residual carries -B_c f_c with B_c = [0, -1, +1, 0]). */
+static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], const caekf_scalar_t v[CAEKF_NQ],
+                              const caekf_scalar_t vprev[CAEKF_NQ], caekf_scalar_t u, caekf_scalar_t fc,
+                              caekf_scalar_t r[CAEKF_NQ], caekf_scalar_t mag[CAEKF_NQ])
+{
+    int i, j;
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
+        caekf_scalar_t s = inertia;
+        caekf_scalar_t a = CAEKF_FABS(inertia);
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            caekf_scalar_t kc = m->K[i][j] * q[j] + m->C[i][j] * v[j];
+            s += kc;
+            a += CAEKF_FABS(m->K[i][j] * q[j]) + CAEKF_FABS(m->C[i][j] * v[j]);
+        }
+        r[i] = s;
+        if (mag != 0) {
+            mag[i] = a;
+        }
+    }
+    r[0] -= u;
+    r[B2] += fc;
+    r[B3] -= fc;
+    if (mag != 0) {
+        mag[0] += CAEKF_FABS(u);
+        mag[B2] += CAEKF_FABS(fc);
+        mag[B3] += CAEKF_FABS(fc);
+    }
+}
+
+void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
+                          const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u, caekf_scalar_t g[CAEKF_N])
+{
+    caekf_contact_t c;
+    int i;
+    caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        g[i] = (xk[i] - xprev[i]) / m->p.dt - xk[CAEKF_NQ + i];
+    }
+    momentum_residual(m, xk, xk + CAEKF_NQ, xprev + CAEKF_NQ, u, c.fc, g + CAEKF_NQ, 0);
+    g[CAEKF_IG] = xk[CAEKF_IG] - xprev[CAEKF_IG];
+}
+
+void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
+                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
+{
+    caekf_contact_t c;
+    int i, j;
+    caekf_scalar_t inv_dt = 1 / m->p.dt;
+    caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
+    for (i = 0; i < CAEKF_N; ++i) {
+        for (j = 0; j < CAEKF_N; ++j) {
+            Jk[i][j] = 0;
+            Jprev[i][j] = 0;
+        }
+    }
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        Jk[i][i] = inv_dt;
+        Jk[i][CAEKF_NQ + i] = -1;
+        Jprev[i][i] = -inv_dt;
+        Jprev[CAEKF_NQ + i][CAEKF_NQ + i] = -m->m_dt[i];
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            Jk[CAEKF_NQ + i][j] = m->K[i][j];
+            Jk[CAEKF_NQ + i][CAEKF_NQ + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
+        }
+    }
+    /* Contact tangent: d(+-f_c)/dq through delta = q2 - q3 - gap, and d/dgamma. */
+    Jk[CAEKF_NQ + B2][B2] += c.dfc_ddelta;
+    Jk[CAEKF_NQ + B2][B3] -= c.dfc_ddelta;
+    Jk[CAEKF_NQ + B3][B2] -= c.dfc_ddelta;
+    Jk[CAEKF_NQ + B3][B3] += c.dfc_ddelta;
+    Jk[CAEKF_NQ + B2][CAEKF_IG] = c.dfc_dgamma;
+    Jk[CAEKF_NQ + B3][CAEKF_IG] = -c.dfc_dgamma;
+    Jk[CAEKF_IG][CAEKF_IG] = 1;
+    Jprev[CAEKF_IG][CAEKF_IG] = -1;
+}
+
+/* A = M/dt + C + dt (K + K_c): the Jacobian of the momentum rows with respect to v_k once
+ * q_k = q_{k-1} + dt v_k is substituted; K_c = f_c'(delta) n n^T with n = [0, 1, -1, 0]. */
+static void newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta, caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ])
+{
+    int i, j;
+    caekf_scalar_t kc = m->p.dt * dfc_ddelta;
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            A[i][j] = m->A0[i][j];
+        }
+    }
+    A[B2][B2] += kc;
+    A[B2][B3] -= kc;
+    A[B3][B2] -= kc;
+    A[B3][B3] += kc;
+}
+
+#define LU_REL_TOL (CAEKF_EPS * 16)
+
+int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u,
+                       int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters)
+{
+    const caekf_scalar_t *qp = xprev;
+    const caekf_scalar_t *vp = xprev + CAEKF_NQ;
+    caekf_scalar_t gamma = xprev[CAEKF_IG];
+    caekf_scalar_t *q = xk;
+    caekf_scalar_t *v = xk + CAEKF_NQ;
+    caekf_scalar_t dt = m->p.dt;
+    int it, i;
+    int result = 1;
+    if (max_iter > CAEKF_NEWTON_MAX_ITER) {
+        max_iter = CAEKF_NEWTON_MAX_ITER;
+    }
+    for (i = 0; i < CAEKF_NQ; ++i) { /* initial guess v_k = v_{k-1} */
+        v[i] = vp[i];
+        q[i] = qp[i] + dt * v[i];
+    }
+    xk[CAEKF_IG] = gamma; /* random walk: gamma_k = gamma_{k-1} */
+    for (it = 0; it <= max_iter; ++it) {
+        caekf_contact_t c;
+        caekf_scalar_t r[CAEKF_NQ], mag[CAEKF_NQ];
+        caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ];
+        int piv[CAEKF_NQ];
+        caekf_scalar_t rmax = 0, magmax = 0;
+        caekf_model_contact(m, q, gamma, &c);
+        momentum_residual(m, q, v, vp, u, c.fc, r, mag);
+        for (i = 0; i < CAEKF_NQ; ++i) {
+            rmax = caekf_max(rmax, CAEKF_FABS(r[i]));
+            magmax = caekf_max(magmax, mag[i]);
+        }
+        /* Norm-wise test: a lightly loaded row cannot be resolved better than the rounding that the
+         * coupled solve spreads from the heavily loaded ones. Written so that NaN never converges. */
+        if (it > 0 && rmax <= rtol * magmax) { /* at least one update: it solves the linear part exactly */
+            result = 0;
+            break;
+        }
+        if (it == max_iter) {
+            break; /* bound reached: x_k keeps the last iterate */
+        }
+        newton_matrix(m, c.dfc_ddelta, A);
+        if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
+            result = 2;
+            break;
+        }
+        (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, r, 1, 1);
+        for (i = 0; i < CAEKF_NQ; ++i) {
+            v[i] -= r[i];
+            q[i] = qp[i] + dt * v[i];
+        }
+    }
+    *iters = it;
+    return result;
+}
+
+int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
+                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    caekf_contact_t c;
+    caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ];
+    int piv[CAEKF_NQ];
+    int i, j;
+    caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
+    newton_matrix(m, c.dfc_ddelta, A);
+    if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
+        return -1;
+    }
+    /* Linearising eq. (19): A dv_k = -K_t dq_{k-1} + M/dt dv_{k-1} - n delta^1.5 dgamma_{k-1};
+     * the right-hand sides are built in fv and solved in place. */
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            fv[i][j] = -m->K[i][j];
+            fv[i][CAEKF_NQ + j] = (i == j) ? m->m_dt[i] : 0;
+        }
+        fv[i][CAEKF_IG] = 0;
+    }
+    fv[B2][B2] -= c.dfc_ddelta;
+    fv[B2][B3] += c.dfc_ddelta;
+    fv[B3][B2] += c.dfc_ddelta;
+    fv[B3][B3] -= c.dfc_ddelta;
+    fv[B2][CAEKF_IG] = -c.dfc_dgamma;
+    fv[B3][CAEKF_IG] = c.dfc_dgamma;
+    (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, &fv[0][0], CAEKF_N, CAEKF_N);
+    return 0;
+}
+
+int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
+                           caekf_scalar_t F[CAEKF_N][CAEKF_N])
+{
+    int i, j;
+    /* The v-rows land in F's rows 4..7 directly. */
+    if (caekf_model_transition_v(m, xk, (caekf_scalar_t(*)[CAEKF_N]) & F[CAEKF_NQ][0]) != 0) {
+        return -1;
+    }
+    /* dq_k = dq_{k-1} + dt dv_k; dgamma_k = dgamma_{k-1} (eq. 23's last row). */
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        for (j = 0; j < CAEKF_N; ++j) {
+            F[i][j] = m->p.dt * F[CAEKF_NQ + i][j] + (i == j ? 1 : 0);
+        }
+    }
+    for (j = 0; j < CAEKF_N; ++j) {
+        F[CAEKF_IG][j] = (j == CAEKF_IG) ? 1 : 0;
+    }
+    return 0;
+}

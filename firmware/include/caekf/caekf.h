@@ -1,0 +1,151 @@
+/*
+ * caekf: contact-parameter estimation with a switched, constrained augmented EKF.
+ *
+ * The public API speaks physical SI units. All state lives in one caller-owned `caekf_t`; nothing is
+ * allocated and there are no mutable globals, so several estimators can run side by side.
+ *
+ *   caekf_settings_t s;
+ *   caekf_settings_default(&s);            // then fill in the model and noise from your scenario
+ *   caekf_t est;
+ *   if (caekf_init(&est, &s) != CAEKF_OK) { ...settings refused... }
+ *   for each sample k: caekf_step(&est, u_k, y_k, &report);
+ */
+#ifndef CAEKF_H
+#define CAEKF_H
+
+#include <stdint.h>
+
+#include "caekf/caekf_config.h"
+#include "caekf/caekf_model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status of every public call (errno-like: 0 is success, negative is an error). */
+typedef enum {
+    CAEKF_OK = 0,
+    CAEKF_ERR_NULL = -1,          /* a required pointer was NULL */
+    CAEKF_ERR_SETTINGS = -2,      /* settings refused by validation; nothing was changed */
+    CAEKF_ERR_NOT_INIT = -3,      /* estimator not initialised */
+    CAEKF_ERR_INPUT = -4,         /* non-finite u or y rejected; state untouched */
+    CAEKF_ERR_NUMERIC = -5,       /* step produced a non-finite value; rolled back, state untouched */
+    CAEKF_ERR_SINGULAR = -6       /* a linear solve met a (numerically) singular matrix */
+} caekf_status_t;
+
+/* Health flags of one step (bit mask, PX4-style). Several may be set at once. */
+enum {
+    CAEKF_FLAG_NEWTON_NOT_CONVERGED = 1u << 0, /* Newton hit its iteration bound or a singular Jacobian */
+    CAEKF_FLAG_INPUT_REJECTED = 1u << 1,       /* non-finite u or y: the step was refused */
+    CAEKF_FLAG_CONSTRAINT_APPLIED = 1u << 2,   /* gamma < gamma_min after correction: eqs. 28-30 applied */
+    CAEKF_FLAG_CONTACT_ACTIVE = 1u << 3,       /* predicted penetration delta(x_k-) > 0 (eq. 21) */
+    CAEKF_FLAG_COV_REPAIRED = 1u << 4,         /* P had lost positive semidefiniteness and was repaired */
+    CAEKF_FLAG_SINGULAR_INNOVATION = 1u << 5,  /* an innovation covariance was refused as singular */
+    CAEKF_FLAG_CONSTRAINT_CLAMPED = 1u << 6,   /* perfect measurement refused: gamma clamped (fallback) */
+    CAEKF_FLAG_NUMERIC_ROLLBACK = 1u << 7,     /* non-finite result: the step was rolled back */
+    CAEKF_FLAG_GAMMA_FROZEN = 1u << 8,         /* switched mode, contact inactive: gamma frozen */
+    CAEKF_FLAG_COV_INDEFINITE = 1u << 9        /* P failed the PSD test (repaired only if enabled) */
+};
+#define CAEKF_FLAG_COUNT 10
+
+typedef enum { CAEKF_MODE_CANONICAL = 0, CAEKF_MODE_SWITCHED = 1 } caekf_mode_t;
+
+/* How the switched filter treats the gamma cross-covariance while contact is inactive. */
+typedef enum {
+    CAEKF_SWITCHOFF_CONSISTENT = 0, /* Schmidt "consider" update of P_x,gamma; P stays PSD (default) */
+    CAEKF_SWITCHOFF_PAPER = 1       /* eqs. 23-27 read literally: P_x,gamma frozen (P may turn indefinite) */
+} caekf_switchoff_t;
+
+typedef enum { CAEKF_COV_STANDARD = 0, CAEKF_COV_JOSEPH = 1 } caekf_cov_update_t;
+
+typedef struct {
+    caekf_model_params_t model;
+
+    /* Initial estimate and its standard deviations (P0 diagonal). All sigma0 must be > 0: they also
+     * set the internal state scaling that keeps P well conditioned in float. */
+    caekf_scalar_t q0[CAEKF_NQ];
+    caekf_scalar_t v0[CAEKF_NQ];
+    caekf_scalar_t gamma0;
+    caekf_scalar_t sigma_q0, sigma_v0, sigma_gamma0;
+
+    /* Process noise std per step (Q diagonal) and measurement noise std (R diagonal). */
+    caekf_scalar_t sigma_qx_q, sigma_qx_v;
+    caekf_scalar_t sigma_q_gamma;  /* Q_gamma = q_gamma_scale * sigma_q_gamma^2 */
+    caekf_scalar_t q_gamma_scale;  /* 1 for Sec. 4.1, 1000 for Sec. 4.2 */
+    caekf_scalar_t sigma_r;        /* > 0 */
+
+    caekf_mode_t mode;
+    caekf_switchoff_t switchoff;
+    caekf_cov_update_t cov_update;
+    int constraint_enabled;        /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
+    caekf_scalar_t gamma_min;
+    int cov_repair_enabled;        /* repair P when it loses PSD (always flagged); default on */
+
+    int newton_max_iter;           /* 1..CAEKF_NEWTON_MAX_ITER */
+    caekf_scalar_t newton_rtol;    /* residual tolerance relative to the size of the equation's terms */
+} caekf_settings_t;
+
+/* What one step did. */
+typedef struct {
+    uint32_t flags;       /* CAEKF_FLAG_* */
+    int newton_iters;     /* Newton iterations of the prediction */
+    caekf_scalar_t delta; /* predicted penetration delta(x_k-) [m] */
+} caekf_report_t;
+
+/* The estimator instance (CMSIS-DSP style: caller-owned, no hidden state). Treat as opaque and read it
+ * through the accessors below. Internally the state is scaled, z = S^-1 x with
+ * S = diag(sigma_q0, sigma_v0, sigma_gamma0), and P is kept in the same scaled coordinates (P0 = I),
+ * which keeps float32 well conditioned. P_work and scratch are the step's work buffers: they live here
+ * rather than on the stack so the step fits a small MCU stack, and so that a failed step can be
+ * dropped without touching P. */
+typedef struct {
+    caekf_settings_t cfg;
+    caekf_model_t model;                    /* derived model matrices */
+    caekf_scalar_t scale[CAEKF_N];          /* S */
+    caekf_scalar_t z[CAEKF_N];              /* scaled state */
+    caekf_scalar_t P[CAEKF_N][CAEKF_N];     /* scaled covariance */
+    caekf_scalar_t P_work[CAEKF_N][CAEKF_N];
+    caekf_scalar_t scratch[CAEKF_N][CAEKF_N];
+    caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
+    caekf_scalar_t r_scaled;                /* scaled R diagonal */
+    caekf_scalar_t gamma_min_scaled;
+    uint32_t step_count;
+    uint32_t last_flags;
+    uint32_t init_magic;
+} caekf_t;
+
+/* Fills reasonable defaults (switched, consistent, standard update, constraint off, repair on) and
+ * zero model parameters: the caller must fill the model and noise settings. */
+caekf_status_t caekf_settings_default(caekf_settings_t *s);
+
+/* Validates the settings (finite values, dt > 0, positive masses and stiffnesses, non-negative
+ * damping and gap, sigma0 > 0, sigma_r > 0, gamma0 >= gamma_min when constrained, known enums,
+ * Newton bounds). Returns CAEKF_OK or CAEKF_ERR_SETTINGS; `first_bad` (may be NULL) names the field. */
+caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **first_bad);
+
+/* Validates and initialises. On refusal `est` is left unchanged. */
+caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s);
+
+/* One estimator step with input u_k [N] and measurement y_k = [q1, q4] [m].
+ * Non-finite u or y: CAEKF_ERR_INPUT, flags INPUT_REJECTED, state bit-for-bit untouched.
+ * A non-finite intermediate result rolls the step back (CAEKF_ERR_NUMERIC). `report` may be NULL. */
+caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY],
+                          caekf_report_t *report);
+
+/* Accessors in physical units. */
+caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N]);
+caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma);
+/* P in physical units (P_phys = S P S). */
+caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N]);
+/* 2-norm of P in physical units (largest eigenvalue, by bounded Jacobi sweeps). Uses the instance's
+ * scratch buffer, hence the non-const instance; the estimate is not changed. */
+caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2);
+
+const char *caekf_status_str(caekf_status_t st);
+const char *caekf_flag_name(unsigned bit_index);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* CAEKF_H */

@@ -1,0 +1,169 @@
+/*
+ * caekf CAN protocol: frame type, message table and the allocation-free codec of caekf.dbc.
+ *
+ * Layers: caekf_proto_encode_* fill payload bytes 1..7 (E2E fields zero); caekf_proto_seal() adds
+ * ID, DLC, alive counter and CRC. On receive, check E2E first (caekf_e2e_check), then decode.
+ * Encoding follows cantools exactly: scaled integers are round-half-even of value / LSB, float
+ * signals are IEEE-754 float32, little-endian bit order. tests/protocol compares both byte for byte.
+ */
+#ifndef CAEKF_PROTO_H
+#define CAEKF_PROTO_H
+
+#include <stdint.h>
+
+#include "caekf/caekf_proto_ids.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define CAEKF_CAN_DLC 8u
+#define CAEKF_CAN_ID_EXT_FLAG 0x80000000u /* set by a HAL for 29-bit IDs: never a caekf message */
+
+typedef struct {
+    uint32_t id;   /* 11-bit standard ID, or 29-bit ID | CAEKF_CAN_ID_EXT_FLAG */
+    uint8_t dlc;
+    uint8_t data[CAEKF_CAN_DLC];
+} caekf_can_frame_t;
+
+typedef enum {
+    CAEKF_PROTO_OK = 0,
+    CAEKF_PROTO_SATURATED = 1,   /* encoded, but a value was outside its signal range and clipped */
+    CAEKF_PROTO_ERR_NULL = -1,
+    CAEKF_PROTO_ERR_MSG = -2,    /* unknown message, or the message does not have this layout */
+    CAEKF_PROTO_ERR_VALUE = -3,  /* a decoded float is not finite or a field is outside its set */
+    CAEKF_PROTO_ERR_RANGE = -4   /* a field to encode is outside its set: nothing written */
+} caekf_proto_status_t;
+
+/* Every message of caekf.dbc. Order is the table order, not the CAN ID order. */
+typedef enum {
+    CAEKF_MSG_CTRL_RESET = 0,
+    CAEKF_MSG_CTRL_PARAM,
+    CAEKF_MSG_CTRL_STATUS_REQ,
+    CAEKF_MSG_BENCH_U,
+    CAEKF_MSG_BENCH_Y1,
+    CAEKF_MSG_BENCH_Y4,
+    CAEKF_MSG_EST_ACK,
+    CAEKF_MSG_EST_HEALTH,
+    CAEKF_MSG_EST_GAMMA,
+    CAEKF_MSG_EST_Q1,
+    CAEKF_MSG_EST_Q2,
+    CAEKF_MSG_EST_Q3,
+    CAEKF_MSG_EST_Q4,
+    CAEKF_MSG_EST_V1,
+    CAEKF_MSG_EST_V2,
+    CAEKF_MSG_EST_V3,
+    CAEKF_MSG_EST_V4,
+    CAEKF_MSG_EST_P_NORM,
+    CAEKF_MSG_EST_P_GG,
+    CAEKF_MSG_EST_STEP,
+    CAEKF_MSG_COUNT
+} caekf_msg_t;
+
+/* Payload layouts shared by several messages. */
+typedef enum {
+    CAEKF_LAYOUT_RESET = 0,
+    CAEKF_LAYOUT_PARAM,
+    CAEKF_LAYOUT_STATUS_REQ,
+    CAEKF_LAYOUT_ACK,
+    CAEKF_LAYOUT_HEALTH,
+    CAEKF_LAYOUT_INT36,   /* STEP (16 bits at bit 12) + scaled signed 36-bit value at bit 28 */
+    CAEKF_LAYOUT_FLOAT32, /* STEP (16 bits at bit 12) + IEEE float32 at bit 32 */
+    CAEKF_LAYOUT_STEP     /* STEP + FLAGS + NEWTON_ITERS + STEP_STATUS */
+} caekf_layout_t;
+
+typedef enum { CAEKF_DIR_TO_ESTIMATOR = 0, CAEKF_DIR_FROM_ESTIMATOR = 1 } caekf_dir_t;
+
+typedef struct {
+    const char *name;   /* DBC message name */
+    uint16_t can_id;
+    uint16_t data_id;   /* E2E data ID (DBC attribute E2E_DataID) */
+    uint8_t layout;     /* caekf_layout_t */
+    uint8_t dir;        /* caekf_dir_t */
+    double lsb;         /* value LSB of CAEKF_LAYOUT_INT36 messages, else 0 */
+} caekf_msg_info_t;
+
+caekf_proto_status_t caekf_proto_msg_info(caekf_msg_t msg, const caekf_msg_info_t **info);
+/* CAEKF_PROTO_ERR_MSG for IDs that are not in the protocol (extended IDs included). */
+caekf_proto_status_t caekf_proto_msg_from_id(uint32_t can_id, caekf_msg_t *msg);
+
+/* Sets ID and DLC, writes the alive counter and the CRC. */
+caekf_proto_status_t caekf_proto_seal(caekf_msg_t msg, uint8_t counter, caekf_can_frame_t *frame);
+
+/* Step value frames (INT36 and FLOAT32 layouts: BENCH_U/Y1/Y4, EST_GAMMA/Q/V/P_NORM/P_GG).
+ * Encode: out-of-range values are clipped and CAEKF_PROTO_SATURATED returned (NaN in an INT36 signal
+ * becomes 0, saturated); float signals carry NaN and infinities unchanged.
+ * Decode: CAEKF_PROTO_ERR_VALUE for a non-finite float; outputs are written only on success. */
+caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, double value, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step,
+                                              double *value);
+
+typedef struct {
+    uint16_t step;
+    uint16_t flags;       /* CAEKF_FLAG_* | CAEKF_STEP_FLAG_* */
+    uint8_t newton_iters;
+    int8_t status;        /* caekf_status_t of the step */
+} caekf_msg_step_t;
+
+typedef struct {
+    uint8_t experiment;   /* caekf_experiment_t */
+    uint8_t n_params;
+    uint8_t token;
+} caekf_msg_reset_t;
+
+/* value = mantissa * 10^exp10 (see caekf_proto_param_value). */
+typedef struct {
+    uint8_t param_id;     /* caekf_param_id_t */
+    int8_t exp10;         /* 6-bit field: -32..31 on the wire, -22..22 usable */
+    int64_t mantissa;     /* 38-bit signed field */
+} caekf_msg_param_t;
+
+typedef struct {
+    uint8_t token;
+} caekf_msg_status_req_t;
+
+typedef struct {
+    uint8_t token;
+    int8_t status;        /* caekf_ack_status_t */
+    uint8_t bad_param;    /* caekf_param_id_t or CAEKF_ACK_BAD_PARAM_NONE */
+    uint8_t experiment;   /* caekf_experiment_t or CAEKF_EXPERIMENT_NONE */
+    uint8_t n_params_rx;
+    uint8_t state;        /* CAEKF_ACK_STATE_* */
+} caekf_msg_ack_t;
+
+typedef struct {
+    uint8_t page;         /* 0 .. CAEKF_HEALTH_PAGES-1 */
+    uint32_t counter_a;   /* counter 2*page, sent modulo 2^24 */
+    uint32_t counter_b;   /* counter 2*page+1 */
+} caekf_msg_health_t;
+
+caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_step_t *m);
+caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_reset(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_reset_t *m);
+/* Encode refuses (CAEKF_PROTO_ERR_RANGE) mantissas or exponents that do not fit their fields. */
+caekf_proto_status_t caekf_proto_encode_param(const caekf_msg_param_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_param(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_param_t *m);
+caekf_proto_status_t caekf_proto_encode_status_req(const caekf_msg_status_req_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_status_req(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_status_req_t *m);
+caekf_proto_status_t caekf_proto_encode_ack(const caekf_msg_ack_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_ack_t *m);
+/* Encode refuses pages >= CAEKF_HEALTH_PAGES; counters are reduced modulo 2^24. */
+caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m);
+
+/* mantissa * 10^exp10 as a double. Exact (correctly rounded, the same double a decimal parser gives)
+ * because |mantissa| < 2^53 and 10^|exp10| <= 10^22 are exact and one IEEE division or
+ * multiplication rounds once. CAEKF_PROTO_ERR_VALUE if |exp10| > 22. */
+caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double *value);
+
+/* Names as in caekf.dbc (value tables and signal names). ERR_RANGE for an unknown value. */
+caekf_proto_status_t caekf_proto_param_name(unsigned param_id, const char **name);
+caekf_proto_status_t caekf_proto_counter_name(unsigned counter_id, const char **name);
+caekf_proto_status_t caekf_proto_experiment_name(unsigned experiment, const char **name);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* CAEKF_PROTO_H */

@@ -1,0 +1,73 @@
+/* The message table of caekf.dbc: IDs, E2E data IDs, layouts and value LSBs. */
+#include <stddef.h>
+
+#include "caekf/caekf_e2e.h"
+#include "caekf/caekf_proto.h"
+
+#define POS_LSB 1e-12 /* m per LSB of positions */
+#define VEL_LSB 1e-10 /* m/s per LSB of velocities */
+
+/* Data ID = 0xCA00 | low byte of the CAN ID: unique here, and unlike the CAN ID itself. */
+static const caekf_msg_info_t msg_table[CAEKF_MSG_COUNT] = {
+    {"CTRL_RESET", 0x0C0, 0xCAC0, CAEKF_LAYOUT_RESET, CAEKF_DIR_TO_ESTIMATOR, 0.0},
+    {"CTRL_PARAM", 0x0C1, 0xCAC1, CAEKF_LAYOUT_PARAM, CAEKF_DIR_TO_ESTIMATOR, 0.0},
+    {"CTRL_STATUS_REQ", 0x0C2, 0xCAC2, CAEKF_LAYOUT_STATUS_REQ, CAEKF_DIR_TO_ESTIMATOR, 0.0},
+    {"BENCH_U", 0x100, 0xCA00, CAEKF_LAYOUT_FLOAT32, CAEKF_DIR_TO_ESTIMATOR, 0.0},
+    {"BENCH_Y1", 0x101, 0xCA01, CAEKF_LAYOUT_INT36, CAEKF_DIR_TO_ESTIMATOR, POS_LSB},
+    {"BENCH_Y4", 0x102, 0xCA02, CAEKF_LAYOUT_INT36, CAEKF_DIR_TO_ESTIMATOR, POS_LSB},
+    {"EST_ACK", 0x0C8, 0xCAC8, CAEKF_LAYOUT_ACK, CAEKF_DIR_FROM_ESTIMATOR, 0.0},
+    {"EST_HEALTH", 0x0C9, 0xCAC9, CAEKF_LAYOUT_HEALTH, CAEKF_DIR_FROM_ESTIMATOR, 0.0},
+    {"EST_GAMMA", 0x180, 0xCA80, CAEKF_LAYOUT_FLOAT32, CAEKF_DIR_FROM_ESTIMATOR, 0.0},
+    {"EST_Q1", 0x181, 0xCA81, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, POS_LSB},
+    {"EST_Q2", 0x182, 0xCA82, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, POS_LSB},
+    {"EST_Q3", 0x183, 0xCA83, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, POS_LSB},
+    {"EST_Q4", 0x184, 0xCA84, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, POS_LSB},
+    {"EST_V1", 0x185, 0xCA85, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, VEL_LSB},
+    {"EST_V2", 0x186, 0xCA86, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, VEL_LSB},
+    {"EST_V3", 0x187, 0xCA87, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, VEL_LSB},
+    {"EST_V4", 0x188, 0xCA88, CAEKF_LAYOUT_INT36, CAEKF_DIR_FROM_ESTIMATOR, VEL_LSB},
+    {"EST_P_NORM", 0x189, 0xCA89, CAEKF_LAYOUT_FLOAT32, CAEKF_DIR_FROM_ESTIMATOR, 0.0},
+    {"EST_P_GG", 0x18A, 0xCA8A, CAEKF_LAYOUT_FLOAT32, CAEKF_DIR_FROM_ESTIMATOR, 0.0},
+    {"EST_STEP", 0x18B, 0xCA8B, CAEKF_LAYOUT_STEP, CAEKF_DIR_FROM_ESTIMATOR, 0.0},
+};
+
+caekf_proto_status_t caekf_proto_msg_info(caekf_msg_t msg, const caekf_msg_info_t **info)
+{
+    if (info == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if ((unsigned)msg >= (unsigned)CAEKF_MSG_COUNT) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    *info = &msg_table[msg];
+    return CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_msg_from_id(uint32_t can_id, caekf_msg_t *msg)
+{
+    unsigned i;
+    if (msg == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
+        if (msg_table[i].can_id == can_id) { /* extended IDs carry the flag bit: never equal */
+            *msg = (caekf_msg_t)i;
+            return CAEKF_PROTO_OK;
+        }
+    }
+    return CAEKF_PROTO_ERR_MSG;
+}
+
+caekf_proto_status_t caekf_proto_seal(caekf_msg_t msg, uint8_t counter, caekf_can_frame_t *frame)
+{
+    if (frame == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if ((unsigned)msg >= (unsigned)CAEKF_MSG_COUNT) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    frame->id = msg_table[msg].can_id;
+    frame->dlc = CAEKF_CAN_DLC;
+    (void)caekf_e2e_protect(msg_table[msg].data_id, counter, frame->data);
+    return CAEKF_PROTO_OK;
+}

@@ -1,0 +1,27 @@
+/* Reader for measurement CSVs: a header whose first columns are t,u,y1,y4, then numeric rows with the
+ * header's column count. Errors carry the line number. */
+#ifndef CAEKF_HOST_CSV_H
+#define CAEKF_HOST_CSV_H
+
+#include <stdio.h>
+
+typedef struct {
+    FILE *f;
+    const char *name;
+    unsigned long line;
+    int columns;
+    int allow_nonfinite;
+    char err[256];
+} caekf_csv_t;
+
+typedef struct {
+    double t, u, y1, y4;
+} caekf_meas_t;
+
+/* Reads and checks the header. Returns 0 or -1 (message in r->err). */
+int caekf_csv_open(caekf_csv_t *r, FILE *f, const char *name, int allow_nonfinite);
+
+/* Returns 1 with a row, 0 at end of input, -1 on a malformed row (message in r->err). */
+int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m);
+
+#endif

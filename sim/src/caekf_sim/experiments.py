@@ -1,0 +1,104 @@
+"""The paper's four experiments (SCENARIO.md) and their summary table."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, Iterable, List, Optional
+
+import numpy as np
+
+from . import flags as fl
+from .estimator import CANONICAL, SWITCHED, EstimateResult, EstimatorConfig, run_estimator
+from .scenario import Scenario
+from .truth import Truth
+
+HIGH_Q = 1000.0  # Sec. 4.2: Q_gamma three orders of magnitude larger
+
+EXPERIMENTS: Dict[str, EstimatorConfig] = {
+    "canonical": EstimatorConfig(mode=CANONICAL),  # Table 1, Figs 3-5
+    "switched": EstimatorConfig(mode=SWITCHED),  # Sec. 3.2, Figs 3-5
+    "switched-highq": EstimatorConfig(mode=SWITCHED, q_gamma_scale=HIGH_Q),  # Fig. 6
+    "switched-highq-constrained": EstimatorConfig(
+        mode=SWITCHED, q_gamma_scale=HIGH_Q, constrained=True
+    ),  # Sec. 3.3, Fig. 6
+}
+
+
+def experiment_config(name: str, **overrides) -> EstimatorConfig:
+    if name not in EXPERIMENTS:
+        raise KeyError(f"unknown experiment {name!r}; choose from {sorted(EXPERIMENTS)}")
+    base = EXPERIMENTS[name]
+    if not overrides:
+        return base
+    from dataclasses import replace
+
+    return replace(base, **overrides)
+
+
+def run_experiment(
+    sc: Scenario, truth: Truth, name: str, keep_P: bool = True, progress: bool = False, **overrides
+) -> EstimateResult:
+    return run_estimator(
+        sc, experiment_config(name, **overrides), truth.t, truth.u, truth.y, keep_P=keep_P,
+        progress=progress,
+    )
+
+
+@dataclass(frozen=True)
+class Summary:
+    name: str
+    final_gamma_error: float  # gamma_N / gamma_true - 1
+    min_gamma: float
+    max_p_norm: float
+    newton_mean: float
+    newton_max: int
+    flags_seen: int
+    steps_per_second: float
+
+    def row(self) -> List[str]:
+        return [
+            self.name,
+            f"{100 * self.final_gamma_error:+.3f} %",
+            f"{self.min_gamma:.4g}",
+            f"{self.max_p_norm:.3g}",
+            f"{self.newton_mean:.3f}",
+            str(self.newton_max),
+            ",".join(fl.describe(self.flags_seen)) or "-",
+            f"{self.steps_per_second:.0f}" if np.isfinite(self.steps_per_second) else "-",
+        ]
+
+
+def summarize(name: str, res: EstimateResult, gamma_true: float) -> Summary:
+    g = res.gamma
+    finite = g[np.isfinite(g)]
+    return Summary(
+        name=name,
+        final_gamma_error=float(g[-1] / gamma_true - 1.0),
+        min_gamma=float(finite.min()) if finite.size else float("nan"),
+        max_p_norm=float(np.nanmax(res.p_norm)) if np.isfinite(res.p_norm).any() else float("nan"),
+        newton_mean=float(res.newton_iters.mean()),
+        newton_max=int(res.newton_iters.max()),
+        flags_seen=int(np.bitwise_or.reduce(res.flags)),
+        steps_per_second=res.steps_per_second,
+    )
+
+
+HEADER = ["experiment", "final gamma err", "min gamma", "max ||P||", "newton mean", "max",
+          "flags seen", "steps/s"]
+
+
+def format_table(rows: Iterable[Summary]) -> str:
+    cells = [HEADER] + [s.row() for s in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(HEADER))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def run_all(
+    sc: Scenario, truth: Truth, names: Optional[Iterable[str]] = None, keep_P: bool = False,
+    progress: bool = False,
+) -> Dict[str, EstimateResult]:
+    return {
+        n: run_experiment(sc, truth, n, keep_P=keep_P, progress=progress)
+        for n in (names or EXPERIMENTS)
+    }

@@ -1,0 +1,178 @@
+"""Figures 3-6 of the paper from results CSVs (matplotlib, Agg backend, PNG)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Dict, List, Optional, Tuple, Union
+
+import numpy as np
+
+from .estimator import EstimateResult
+from .results import read_result_csv
+from .truth import Truth, contact_episodes, read_truth_csv
+
+PathLike = Union[str, Path]
+
+# Paper colours: canonical blue, switched red, constrained green, reference black.
+COLORS = {
+    "canonical": "tab:blue",
+    "switched": "tab:red",
+    "switched-highq": "tab:red",
+    "switched-highq-constrained": "tab:green",
+    "truth": "black",
+}
+LABELS = {
+    "canonical": "AEKF (canonical)",
+    "switched": "AEKF for contact",
+    "switched-highq": "AEKF for contact, unconstrained",
+    "switched-highq-constrained": "AEKF for contact, constrained",
+}
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only, no display
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _shade_contact(ax, truth: Truth) -> None:
+    """Grey bands where the truth is in contact (merging the short initial bounces)."""
+    for i, (a, b) in enumerate(contact_episodes(truth.t, truth.delta, merge_gap=0.1)):
+        ax.axvspan(a, b, color="0.9", zorder=0, label="contact (truth)" if i == 0 else None)
+
+
+def fig3_p_norm(res: Dict[str, EstimateResult], truth: Truth, out: Path) -> Path:
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    _shade_contact(ax, truth)
+    for name in ("canonical", "switched"):
+        r = res[name]
+        ax.semilogy(r.t, r.p_norm, color=COLORS[name], label=LABELS[name])
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(r"$\|\mathbf{P}\|_2$ (physical units)")
+    ax.set_title("Fig. 3: norm of the error covariance")
+    ax.grid(True, which="major", alpha=0.4)
+    ax.legend(loc="upper left")
+    return _save(fig, out / "fig3_p_norm.png")
+
+
+def fig4_gamma(res: Dict[str, EstimateResult], truth: Truth, gamma_true: float, out: Path) -> Path:
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    _shade_contact(ax, truth)
+    for name in ("canonical", "switched"):
+        r = res[name]
+        ax.plot(r.t, r.gamma, color=COLORS[name], label=LABELS[name])
+    ax.axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
+    ax.set_title("Fig. 4: contact stiffness estimate")
+    ax.grid(True, alpha=0.4)
+    ax.legend(loc="upper left")
+    return _save(fig, out / "fig4_gamma.png")
+
+
+def fig5_q2(
+    res: Dict[str, EstimateResult], truth: Truth, out: Path, window: Tuple[float, float] = (12.0, 16.0)
+) -> Path:
+    """q2 estimate vs truth around the first contact, plus the estimation error."""
+    plt = _pyplot()
+    fig, (ax, ax_err) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True,
+                                     gridspec_kw={"height_ratios": [3, 2]})
+    sel = (truth.t >= window[0]) & (truth.t <= window[1])
+    for a in (ax, ax_err):
+        _shade_contact(a, truth)
+    ax.plot(truth.t[sel], 1e3 * truth.q[sel, 1], color=COLORS["truth"], lw=2.5, label="reference")
+    for name in ("canonical", "switched"):
+        r = res[name]
+        s = (r.t >= window[0]) & (r.t <= window[1])
+        ax.plot(r.t[s], 1e3 * r.x[s, 1], color=COLORS[name], lw=1.0, label=LABELS[name])
+        err = r.x[s, 1] - np.interp(r.t[s], truth.t, truth.q[:, 1])
+        ax_err.plot(r.t[s], 1e6 * err, color=COLORS[name], lw=0.8, label=LABELS[name])
+    ax.set_ylabel(r"$q_2$ [mm]")
+    ax.set_title("Fig. 5: position of body 2 around a contact event")
+    ax.legend(loc="best")
+    ax.grid(True, alpha=0.4)
+    ax_err.set_ylabel(r"$\hat q_2 - q_2$ [$\mu$m]")
+    ax_err.set_xlabel("time [s]")
+    ax_err.grid(True, alpha=0.4)
+    ax_err.set_xlim(*window)
+    return _save(fig, out / "fig5_q2.png")
+
+
+def fig6_constrained(
+    res: Dict[str, EstimateResult], truth: Truth, gamma_true: float, gamma_min: float, out: Path,
+    detail: Optional[Tuple[float, float]] = None,
+) -> List[Path]:
+    """(a) unconstrained vs constrained gamma over the run; (b) zoom on the first contact."""
+    plt = _pyplot()
+    paths = []
+    un, co = res["switched-highq"], res["switched-highq-constrained"]
+    if detail is None:
+        first = contact_episodes(truth.t, truth.delta, merge_gap=0.1)[0]
+        detail = (first[0] - 0.2, first[0] + 1.5)
+    for tag, (t0, t1) in (("a", (truth.t[0], truth.t[-1])), ("b", detail)):
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        _shade_contact(ax, truth)
+        for name, r, lw in (("switched-highq", un, 1.0), ("switched-highq-constrained", co, 1.6)):
+            s = (r.t >= t0) & (r.t <= t1)
+            ax.plot(r.t[s], r.gamma[s], color=COLORS[name], lw=lw, label=LABELS[name])
+        ax.axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
+        ax.axhline(gamma_min, color="0.4", lw=1.0, ls="--", label=r"$\gamma_{min}$")
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.set_xlim(t0, t1)
+        if tag == "b":
+            # Fit the constrained estimate and the zero line; the unconstrained one leaves the frame.
+            s = (co.t >= t0) & (co.t <= t1)
+            hi = max(np.nanmax(co.gamma[s]), gamma_true)
+            ax.set_ylim(-0.6 * hi, 1.5 * hi)
+            ax.set_title("Fig. 6(b): detail of the first contact episode")
+        else:
+            ax.set_title(r"Fig. 6(a): $\hat\gamma$ with $Q_\gamma \times 1000$: unconstrained vs constrained")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
+        ax.grid(True, alpha=0.4)
+        ax.legend(loc="lower right" if tag == "a" else "upper right", fontsize=8)
+        paths.append(_save(fig, out / f"fig6{tag}_gamma_constrained.png"))
+    return paths
+
+
+def _save(fig, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return path
+
+
+def load_results(results_dir: PathLike, names: Optional[List[str]] = None) -> Dict[str, EstimateResult]:
+    d = Path(results_dir)
+    names = names or ["canonical", "switched", "switched-highq", "switched-highq-constrained"]
+    return {n: read_result_csv(d / f"{n}.csv") for n in names if (d / f"{n}.csv").exists()}
+
+
+def make_all(
+    results: Dict[str, EstimateResult], truth: Truth, gamma_true: float, gamma_min: float,
+    outdir: PathLike,
+) -> List[Path]:
+    """Every figure whose inputs are present; returns the PNG paths."""
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths: List[Path] = []
+    if {"canonical", "switched"} <= results.keys():
+        paths.append(fig3_p_norm(results, truth, out))
+        paths.append(fig4_gamma(results, truth, gamma_true, out))
+        paths.append(fig5_q2(results, truth, out))
+    if {"switched-highq", "switched-highq-constrained"} <= results.keys():
+        paths.extend(fig6_constrained(results, truth, gamma_true, gamma_min, out))
+    return paths
+
+
+def make_all_from_files(
+    results_dir: PathLike, truth_csv: PathLike, gamma_true: float, gamma_min: float,
+    outdir: PathLike,
+) -> List[Path]:
+    return make_all(load_results(results_dir), read_truth_csv(truth_csv), gamma_true, gamma_min, outdir)

@@ -1,0 +1,45 @@
+"""Estimate CSV (same columns as the C `caekf-replay` output) and its reader."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+
+from .estimator import EstimateResult
+
+RESULT_COLUMNS = (
+    "t", "q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma", "p_norm", "p_gg", "flags",
+    "newton_iters",
+)
+
+PathLike = Union[str, Path]
+
+
+def write_result_csv(res: EstimateResult, path: PathLike) -> None:
+    """%.17g for the floats so a reader gets the bits back; flags and iterations as integers."""
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(",".join(RESULT_COLUMNS) + "\n")
+        floats = np.column_stack([res.t, res.x, res.p_norm, res.p_gg])
+        for row, flag, it in zip(floats, res.flags, res.newton_iters):
+            f.write(",".join("%.17g" % v for v in row) + f",{int(flag)},{int(it)}\n")
+
+
+def read_result_csv(path: PathLike) -> EstimateResult:
+    """Read an estimate CSV (ours or caekf-replay's); columns matched by header name."""
+    with open(path, encoding="utf-8") as f:
+        header = [c.strip() for c in f.readline().split(",")]
+    missing = [c for c in RESULT_COLUMNS if c not in header]
+    if missing:
+        raise ValueError(f"{path}: missing columns {missing}")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    col = {name: data[:, header.index(name)] for name in RESULT_COLUMNS}
+    x = np.column_stack([col[c] for c in RESULT_COLUMNS[1:10]])
+    return EstimateResult(
+        t=col["t"],
+        x=x,
+        p_norm=col["p_norm"],
+        p_gg=col["p_gg"],
+        flags=col["flags"].astype(np.int64),
+        newton_iters=col["newton_iters"].astype(np.int64),
+    )

@@ -1,0 +1,28 @@
+# check_no_heap.cmake - fails if an image contains a heap.
+#   cmake -DNM=arm-none-eabi-nm -DIMAGE=x.elf -DSYMBOLS="malloc;free;_sbrk;..." -P check_no_heap.cmake
+# Registered by caekf_target_finalize() (cmake/Target.cmake) as the ctest test <image>.no_heap.
+foreach(v NM IMAGE SYMBOLS)
+    if(NOT DEFINED ${v})
+        message(FATAL_ERROR "check_no_heap.cmake: -D${v}=... is required")
+    endif()
+endforeach()
+execute_process(COMMAND "${NM}" --defined-only "${IMAGE}"
+    OUTPUT_VARIABLE out RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${NM} failed on ${IMAGE}: ${err}")
+endif()
+string(REPLACE "\n" ";" lines "${out}")
+set(found "")
+foreach(line IN LISTS lines)
+    if(line MATCHES "^[0-9a-fA-F]+ [A-Za-z] (.+)$")
+        list(FIND SYMBOLS "${CMAKE_MATCH_1}" idx)
+        if(NOT idx EQUAL -1)
+            list(APPEND found "${CMAKE_MATCH_1}")
+        endif()
+    endif()
+endforeach()
+if(found)
+    message(FATAL_ERROR "${IMAGE} contains heap symbols: ${found}")
+endif()
+list(LENGTH lines n)
+message(STATUS "no heap in ${IMAGE} (${n} symbols checked)")
