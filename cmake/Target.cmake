@@ -14,6 +14,10 @@
 #   CAEKF_QEMU_MACHINE     mps2-an386 (cortex-m4f) or mps2-an500 (cortex-m7)
 #   CAEKF_QEMU_RUN         the emulator command list (tools/qemu-run.sh --machine ...)
 #   CAEKF_TARGET_LINKER_SCRIPT
+#   CAEKF_TARGET_TEST_FILE_IO  source implementing test_file_open/read/close over semihosting
+#
+# The port compiles with ${CAEKF_WARNINGS} if defined before the include (else -Wall -Wextra
+# -Wpedantic -Werror).
 #
 # Every executable target of the build is finalized automatically at the end of the top-level
 # CMakeLists (cmake_language(DEFER)), so caekf_add_unity_test() and plain add_executable() need no
@@ -23,7 +27,8 @@
 # status. add_test(NAME t COMMAND <target>) runs under QEMU through CMAKE_CROSSCOMPILING_EMULATOR.
 #
 # It also adds the target-only images in tests/target/ (unless CAEKF_TARGET_IMAGES is OFF) and the
-# TCG instruction-count plugin (tools/qemu-icount/, built with the host C compiler).
+# TCG instruction-count plugin (tools/qemu-icount/, built with the host C compiler). The replay image
+# links caekf_core by name: the top-level must define it (firmware/core) in the same build.
 
 include_guard(GLOBAL)
 
@@ -67,8 +72,12 @@ add_library(caekf_target_port OBJECT
     "${CAEKF_PORT_DIR}/stack.c")
 target_include_directories(caekf_target_port PUBLIC "${CAEKF_PORT_DIR}")
 set_target_properties(caekf_target_port PROPERTIES C_STANDARD 99 C_EXTENSIONS OFF)
-target_compile_options(caekf_target_port PRIVATE
-    $<$<COMPILE_LANGUAGE:C>:-Wall -Wextra -Wpedantic -Werror>)
+if(DEFINED CAEKF_WARNINGS)
+    set(_caekf_port_warnings ${CAEKF_WARNINGS})
+else()
+    set(_caekf_port_warnings -Wall -Wextra -Wpedantic -Werror)
+endif()
+target_compile_options(caekf_target_port PRIVATE $<$<COMPILE_LANGUAGE:C>:${_caekf_port_warnings}>)
 
 add_library(caekf_target_runtime INTERFACE)
 # The objects themselves (not an archive): the vector table and the newlib hooks must always be
@@ -79,6 +88,9 @@ target_link_options(caekf_target_runtime INTERFACE
     "-T${CAEKF_TARGET_LINKER_SCRIPT}" "-L${CAEKF_PORT_DIR}")
 set_property(TARGET caekf_target_runtime PROPERTY INTERFACE_LINK_DEPENDS
     "${CAEKF_TARGET_LINKER_SCRIPT};${CAEKF_PORT_DIR}/caekf_sections.ld")
+
+# The unit tests' file access on the MCU (tests/unit/support/test_support.h): semihosting.
+set(CAEKF_TARGET_TEST_FILE_IO "${CAEKF_ROOT_DIR}/tests/target/test_file_semihost.c")
 
 # Symbols whose presence in an image means a heap.
 set(CAEKF_HEAP_SYMBOLS malloc free calloc realloc _malloc_r _free_r _calloc_r _realloc_r
@@ -128,11 +140,11 @@ function(_caekf_target_finalize_all)
 endfunction()
 
 # ---- instruction-count plugin (host shared object) and the target-only images ---------------------
-# tests/target is added at the end of the top-level CMakeLists, once caekf_core exists.
+# tests/target links caekf_core by name (defined later by firmware/core; resolved at generation).
 option(CAEKF_TARGET_IMAGES "Build the target-only images and tests of tests/target/" ON)
 if(CAEKF_TARGET_IMAGES)
+    enable_testing() # before add_subdirectory: a directory's tests exist only if testing was enabled
     add_subdirectory("${CAEKF_ROOT_DIR}/tools/qemu-icount" "${CMAKE_BINARY_DIR}/tools/qemu-icount")
-    cmake_language(DEFER DIRECTORY "${CMAKE_SOURCE_DIR}" CALL
-        add_subdirectory "${CAEKF_ROOT_DIR}/tests/target" "${CMAKE_BINARY_DIR}/tests/target")
+    add_subdirectory("${CAEKF_ROOT_DIR}/tests/target" "${CMAKE_BINARY_DIR}/tests/target")
 endif()
 cmake_language(DEFER DIRECTORY "${CMAKE_SOURCE_DIR}" CALL _caekf_target_finalize_all)

@@ -58,9 +58,10 @@ set(CMAKE_ASM_FLAGS_INIT "${CAEKF_MCU_FLAGS}")
 # linker script's RAM); no heap (no _sbrk is provided: anything that needs malloc fails to link).
 set(CMAKE_EXE_LINKER_FLAGS_INIT "--specs=nano.specs -nostartfiles -Wl,--gc-sections")
 
-# Default optimisation of the MCU builds is -Os (MinSizeRel); Release gives -O2.
-set(CMAKE_C_FLAGS_MINSIZEREL_INIT "-Os -g -DNDEBUG")
-set(CMAKE_C_FLAGS_RELEASE_INIT "-O2 -g -DNDEBUG")
+# The presets build MinSizeRel (-Os). CMake appends "-Os -DNDEBUG" / "-O3 -DNDEBUG" (Release)
+# to these; debug info costs no target memory. tools/mcu-report.sh --o2 builds with -O2.
+set(CMAKE_C_FLAGS_MINSIZEREL_INIT "-g")
+set(CMAKE_C_FLAGS_RELEASE_INIT "-g")
 
 # Run target executables under QEMU (ctest, add_test with a target name, CMake's own checks).
 get_filename_component(_caekf_root "${CMAKE_CURRENT_LIST_DIR}/.." ABSOLUTE)

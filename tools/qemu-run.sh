@@ -7,7 +7,7 @@
 # It is CMAKE_CROSSCOMPILING_EMULATOR of the cortex-m4f / cortex-m7 builds, so ctest runs every
 # target test through it. The image talks to the host by semihosting: its console goes to our
 # stdout, and its exit status (SYS_EXIT_EXTENDED) becomes ours. A hung guest never exits by
-# itself: after the timeout (default 120 s, or $CAEKF_QEMU_TIMEOUT) QEMU is killed and the status
+# itself: after the timeout (default 900 s, or $CAEKF_QEMU_TIMEOUT) QEMU is killed and the status
 # is 124, as with timeout(1).
 #
 # --plugin SO,ARGS  loads a TCG plugin, e.g. build/.../libqemu-icount.so,begin=0x..,end=0x..;
@@ -16,7 +16,7 @@
 set -eu
 
 machine=""
-timeout_s="${CAEKF_QEMU_TIMEOUT:-120}"
+timeout_s="${CAEKF_QEMU_TIMEOUT:-900}"
 plugin=""
 logfile=""
 qemu="${CAEKF_QEMU:-qemu-system-arm}"

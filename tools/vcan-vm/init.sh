@@ -113,4 +113,3 @@ while [ "$i" -ge 0 ]; do
 done
 sync
 halt
-# end

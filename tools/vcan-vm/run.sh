@@ -148,7 +148,7 @@ show_klog() {
 }
 since() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
 if [ -s "$jobdir/qemu.err" ]; then
-	grep -v -e 'warning: host doesn.t support requested feature' "$jobdir/qemu.err" >&2 || true
+	grep -v -e 'terminating on signal 15 from pid' "$jobdir/qemu.err" >&2 || true
 fi
 if [ -f "$jobdir/booted" ]; then
 	tb=$(date +%s.%N -r "$jobdir/booted")
@@ -158,7 +158,7 @@ else
 fi
 
 if [ "$qrc" = 124 ] || [ "$qrc" = 137 ] && [ ! -f "$jobdir/rc" ]; then
-	show_klog
+	[ -f "$jobdir/booted" ] || show_klog
 	msg "ERROR: timed out after $timeout_s s ($boot); VM killed"
 	exit 124
 fi

@@ -75,30 +75,44 @@ def fig4_gamma(res: Dict[str, EstimateResult], truth: Truth, gamma_true: float, 
 
 
 def fig5_q2(
-    res: Dict[str, EstimateResult], truth: Truth, out: Path, window: Tuple[float, float] = (12.0, 16.0)
+    res: Dict[str, EstimateResult], truth: Truth, out: Path,
+    windows: Optional[List[Tuple[float, float]]] = None,
 ) -> Path:
-    """q2 estimate vs truth around the first contact, plus the estimation error."""
+    """q2 estimate vs truth and its error around the first two contact events.
+
+    The first episode (about 12-16 s) is where the paper looks; the second one (about
+    32-36 s) is where the canonical filter enters contact with its drifted gamma.
+    """
     plt = _pyplot()
-    fig, (ax, ax_err) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True,
-                                     gridspec_kw={"height_ratios": [3, 2]})
-    sel = (truth.t >= window[0]) & (truth.t <= window[1])
-    for a in (ax, ax_err):
-        _shade_contact(a, truth)
-    ax.plot(truth.t[sel], 1e3 * truth.q[sel, 1], color=COLORS["truth"], lw=2.5, label="reference")
-    for name in ("canonical", "switched"):
-        r = res[name]
-        s = (r.t >= window[0]) & (r.t <= window[1])
-        ax.plot(r.t[s], 1e3 * r.x[s, 1], color=COLORS[name], lw=1.0, label=LABELS[name])
-        err = r.x[s, 1] - np.interp(r.t[s], truth.t, truth.q[:, 1])
-        ax_err.plot(r.t[s], 1e6 * err, color=COLORS[name], lw=0.8, label=LABELS[name])
-    ax.set_ylabel(r"$q_2$ [mm]")
-    ax.set_title("Fig. 5: position of body 2 around a contact event")
-    ax.legend(loc="best")
-    ax.grid(True, alpha=0.4)
-    ax_err.set_ylabel(r"$\hat q_2 - q_2$ [$\mu$m]")
-    ax_err.set_xlabel("time [s]")
-    ax_err.grid(True, alpha=0.4)
-    ax_err.set_xlim(*window)
+    if windows is None:
+        starts = [a for a, _ in contact_episodes(truth.t, truth.delta, merge_gap=0.1)][:2]
+        windows = [(round(a) - 1.0, round(a) + 3.0) for a in starts]
+    fig, axes = plt.subplots(2, len(windows), figsize=(6 * len(windows), 6.5), sharex="col",
+                             gridspec_kw={"height_ratios": [3, 2]}, squeeze=False)
+    for col, window in enumerate(windows):
+        ax, ax_err = axes[0, col], axes[1, col]
+        sel = (truth.t >= window[0]) & (truth.t <= window[1])
+        for a in (ax, ax_err):
+            _shade_contact(a, truth)
+        ax.plot(truth.t[sel], 1e3 * truth.q[sel, 1], color=COLORS["truth"], lw=2.5,
+                label="reference")
+        for name in ("canonical", "switched"):
+            r = res[name]
+            s = (r.t >= window[0]) & (r.t <= window[1])
+            err = r.x[s, 1] - np.interp(r.t[s], truth.t, truth.q[:, 1])
+            rms = float(np.sqrt(np.mean(err**2)))
+            ax.plot(r.t[s], 1e3 * r.x[s, 1], color=COLORS[name], lw=1.0, label=LABELS[name])
+            ax_err.plot(r.t[s], 1e6 * err, color=COLORS[name], lw=0.8,
+                        label=f"{LABELS[name]}: rms {1e9 * rms:.1f} nm")
+        ax.set_ylabel(r"$q_2$ [mm]")
+        ax.set_title(f"Fig. 5: position of body 2, {window[0]:g}-{window[1]:g} s")
+        ax.legend(loc="lower right", fontsize=8)
+        ax.grid(True, alpha=0.4)
+        ax_err.set_ylabel(r"$\hat q_2 - q_2$ [$\mu$m]")
+        ax_err.set_xlabel("time [s]")
+        ax_err.grid(True, alpha=0.4)
+        ax_err.legend(loc="upper right", fontsize=8)
+        ax_err.set_xlim(*window)
     return _save(fig, out / "fig5_q2.png")
 
 
@@ -121,16 +135,22 @@ def fig6_constrained(
             ax.plot(r.t[s], r.gamma[s], color=COLORS[name], lw=lw, label=LABELS[name])
         ax.axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
         ax.axhline(gamma_min, color="0.4", lw=1.0, ls="--", label=r"$\gamma_{min}$")
-        ax.axhline(0.0, color="0.6", lw=0.6)
         ax.set_xlim(t0, t1)
-        if tag == "b":
+        if tag == "a":
+            # Symmetric log axis: the unconstrained excursions span decades on both signs.
+            ax.set_yscale("symlog", linthresh=gamma_min)
+            vals = np.abs(np.r_[un.gamma, co.gamma])
+            top = int(np.ceil(np.log10(max(np.nanmax(vals[np.isfinite(vals)]), gamma_true))))
+            dec = [10.0**e for e in range(int(np.log10(gamma_min)), top + 1)]
+            ax.set_yticks([-d for d in reversed(dec)] + [0.0] + dec)  # one label per decade
+            ax.set_title(r"Fig. 6(a): $\hat\gamma$ with $Q_\gamma \times 1000$: unconstrained vs constrained")
+        else:
+            ax.axhline(0.0, color="0.6", lw=0.6)
             # Fit the constrained estimate and the zero line; the unconstrained one leaves the frame.
             s = (co.t >= t0) & (co.t <= t1)
             hi = max(np.nanmax(co.gamma[s]), gamma_true)
             ax.set_ylim(-0.6 * hi, 1.5 * hi)
             ax.set_title("Fig. 6(b): detail of the first contact episode")
-        else:
-            ax.set_title(r"Fig. 6(a): $\hat\gamma$ with $Q_\gamma \times 1000$: unconstrained vs constrained")
         ax.set_xlabel("time [s]")
         ax.set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
         ax.grid(True, alpha=0.4)

@@ -106,7 +106,7 @@ typedef struct {
 } caekf_msg_step_t;
 
 typedef struct {
-    uint8_t experiment;   /* caekf_experiment_t */
+    uint8_t experiment;   /* caekf_proto_experiment_t */
     uint8_t n_params;
     uint8_t token;
 } caekf_msg_reset_t;
@@ -126,7 +126,7 @@ typedef struct {
     uint8_t token;
     int8_t status;        /* caekf_ack_status_t */
     uint8_t bad_param;    /* caekf_param_id_t or CAEKF_ACK_BAD_PARAM_NONE */
-    uint8_t experiment;   /* caekf_experiment_t or CAEKF_EXPERIMENT_NONE */
+    uint8_t experiment;   /* caekf_proto_experiment_t or CAEKF_EXPERIMENT_NONE */
     uint8_t n_params_rx;
     uint8_t state;        /* CAEKF_ACK_STATE_* */
 } caekf_msg_ack_t;

@@ -16,7 +16,7 @@ typedef enum {
     CAEKF_EXPERIMENT_SWITCHED_HIGHQ = 2,             /* Q_gamma times highq_scale */
     CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED = 3, /* ... and gamma >= gamma_min */
     CAEKF_EXPERIMENT_COUNT = 4
-} caekf_experiment_t;
+} caekf_proto_experiment_t;
 #define CAEKF_EXPERIMENT_NONE 255u /* EST_ACK.EXPERIMENT while not configured */
 
 /* CTRL_PARAM.PARAM_ID. Names (caekf_proto_param_name) equal the scenario file keys. */

@@ -1,0 +1,127 @@
+/* Step assembly: collects BENCH_U, BENCH_Y1, BENCH_Y4 of one STEP, then runs the estimator once.
+ * One slot is enough: the bench sends a step's frames together, so a frame of a newer step means the
+ * open step will never complete. STEP is 16 bits on the wire, compared modulo 2^16. */
+#include <stddef.h>
+
+#include "app_internal.h"
+
+#define HAVE_U 1u
+#define HAVE_Y1 2u
+#define HAVE_Y4 4u
+#define HAVE_ALL (HAVE_U | HAVE_Y1 | HAVE_Y4)
+
+/* a is after b in modulo-2^16 order (within half the circle). */
+static int step_after(uint16_t a, uint16_t b)
+{
+    uint16_t d = (uint16_t)(a - b);
+    return d != 0u && d < 0x8000u;
+}
+
+static void close_slot(caekf_app_t *app)
+{
+    app->slot.open = 0;
+    app->slot.have = 0;
+    app->last_closed_step = app->slot.step;
+    app->have_closed = 1;
+}
+
+void caekf_app_assembly_reset(caekf_app_t *app)
+{
+    app->slot.open = 0;
+    app->slot.have = 0;
+    app->have_closed = 0;
+    app->have_run = 0;
+}
+
+void caekf_app_assembly_timeout(caekf_app_t *app, uint32_t now_us)
+{
+    if (app->slot.open && (uint32_t)(now_us - app->slot.opened_us) > app->cfg.step_timeout_us) {
+        caekf_app_count(app, CAEKF_CNT_STEPS_TIMED_OUT, 1u);
+        close_slot(app);
+    }
+}
+
+static void run_step(caekf_app_t *app)
+{
+    caekf_scalar_t y[CAEKF_NY];
+    caekf_report_t report;
+    caekf_status_t st;
+    uint16_t app_flags = 0;
+    const uint16_t step = app->slot.step;
+
+    if (app->have_run && step != (uint16_t)(app->last_run_step + 1u)) {
+        /* The estimator advances one dt per call: steps never estimated shift it against the truth. */
+        app_flags |= (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
+        caekf_app_count(app, CAEKF_CNT_STEPS_SKIPPED, (uint16_t)(step - app->last_run_step - 1u));
+    }
+    y[0] = (caekf_scalar_t)app->slot.y1;
+    y[1] = (caekf_scalar_t)app->slot.y4;
+    st = caekf_step(&app->est, (caekf_scalar_t)app->slot.u, y, &report);
+    caekf_app_count(app, CAEKF_CNT_STEPS_DONE, 1u);
+    if (st != CAEKF_OK) {
+        caekf_app_count(app, CAEKF_CNT_STEPS_FAILED, 1u);
+    }
+    close_slot(app);
+    app->last_run_step = step;
+    app->have_run = 1;
+    caekf_app_send_estimate(app, step, st, &report, app_flags);
+}
+
+/* Decides where a frame of `step` goes; returns 1 if it belongs to the (possibly new) open slot. */
+static int route(caekf_app_t *app, uint16_t step, uint32_t now_us)
+{
+    if (app->slot.open && step == app->slot.step) {
+        return 1;
+    }
+    if (app->slot.open && !step_after(step, app->slot.step)) {
+        caekf_app_count(app, CAEKF_CNT_RX_LATE, 1u);
+        return 0;
+    }
+    if (app->slot.open) {
+        caekf_app_count(app, CAEKF_CNT_STEPS_SUPERSEDED, 1u);
+        close_slot(app);
+    } else if (app->have_closed && !step_after(step, app->last_closed_step)) {
+        caekf_app_count(app, CAEKF_CNT_RX_LATE, 1u);
+        return 0;
+    }
+    app->slot.open = 1;
+    app->slot.have = 0;
+    app->slot.step = step;
+    app->slot.opened_us = now_us;
+    return 1;
+}
+
+void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint32_t now_us)
+{
+    uint16_t step;
+    double value;
+    uint8_t bit;
+    if (caekf_proto_decode_value(msg, data, &step, &value) != CAEKF_PROTO_OK) {
+        caekf_app_count(app, CAEKF_CNT_RX_BAD_VALUE, 1u); /* NaN/inf never reaches the estimator */
+        return;
+    }
+    caekf_app_count(app, CAEKF_CNT_RX_OK, 1u);
+    if (!app->configured) {
+        caekf_app_count(app, CAEKF_CNT_RX_UNCONFIGURED, 1u);
+        return;
+    }
+    bit = (msg == CAEKF_MSG_BENCH_U) ? HAVE_U : (msg == CAEKF_MSG_BENCH_Y1) ? HAVE_Y1 : HAVE_Y4;
+    if (!route(app, step, now_us)) {
+        return;
+    }
+    if (app->slot.have & bit) {
+        caekf_app_count(app, CAEKF_CNT_RX_REPEATED, 1u); /* keep the first value */
+        return;
+    }
+    app->slot.have = (uint8_t)(app->slot.have | bit);
+    if (bit == HAVE_U) {
+        app->slot.u = value;
+    } else if (bit == HAVE_Y1) {
+        app->slot.y1 = value;
+    } else {
+        app->slot.y4 = value;
+    }
+    if (app->slot.have == HAVE_ALL) {
+        run_step(app);
+    }
+}

@@ -1,0 +1,54 @@
+/* The estimate frames of one step. EST_STEP goes last: it tells the bench the step is complete. */
+#include <math.h>
+#include <stddef.h>
+
+#include "app_internal.h"
+
+static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double value, uint16_t *app_flags)
+{
+    caekf_can_frame_t f;
+    if (caekf_proto_encode_value(msg, step, value, f.data) == CAEKF_PROTO_SATURATED) {
+        *app_flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
+        caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
+    }
+    caekf_app_send(app, msg, &f);
+}
+
+void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
+                             uint16_t app_flags)
+{
+    static const caekf_msg_t q_msgs[CAEKF_NQ] = {CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3,
+                                                 CAEKF_MSG_EST_Q4};
+    static const caekf_msg_t v_msgs[CAEKF_NQ] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3,
+                                                 CAEKF_MSG_EST_V4};
+    caekf_scalar_t x[CAEKF_N];
+    caekf_scalar_t p_norm;
+    double p_norm_out = (double)NAN; /* sent when the norm cannot be computed */
+    caekf_msg_step_t sm;
+    caekf_can_frame_t f;
+    unsigned i;
+
+    (void)caekf_get_state(&app->est, x);
+    (void)caekf_get_covariance(&app->est, app->cov_scratch);
+    if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
+        p_norm_out = (double)p_norm;
+    } else {
+        app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
+    }
+    send_value(app, CAEKF_MSG_EST_GAMMA, step, (double)x[CAEKF_IG], &app_flags);
+    for (i = 0; i < CAEKF_NQ; i++) {
+        send_value(app, q_msgs[i], step, (double)x[i], &app_flags);
+    }
+    for (i = 0; i < CAEKF_NQ; i++) {
+        send_value(app, v_msgs[i], step, (double)x[CAEKF_NQ + i], &app_flags);
+    }
+    send_value(app, CAEKF_MSG_EST_P_NORM, step, p_norm_out, &app_flags);
+    send_value(app, CAEKF_MSG_EST_P_GG, step, (double)app->cov_scratch[CAEKF_IG][CAEKF_IG], &app_flags);
+
+    sm.step = step;
+    sm.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
+    sm.newton_iters = (uint8_t)((report->newton_iters < 0) ? 0 : (report->newton_iters > 255) ? 255 : report->newton_iters);
+    sm.status = (int8_t)status;
+    (void)caekf_proto_encode_step(&sm, f.data);
+    caekf_app_send(app, CAEKF_MSG_EST_STEP, &f);
+}

@@ -1,0 +1,330 @@
+"""Cross-check: the hand-written C codec (firmware/protocol) against cantools' reading of caekf.dbc.
+
+Every frame layout, scaling, ID, E2E data ID and name table is compared by encoding the same values
+on both sides (byte for byte) and decoding each side's payloads with the other."""
+import math
+import random
+import struct
+from decimal import Decimal
+
+import pytest
+
+from e2e_ref import crc8_sae_j1850, e2e_crc, seal, to_mantissa_exp10
+
+LAYOUT = {"RESET": 0, "PARAM": 1, "STATUS_REQ": 2, "ACK": 3, "HEALTH": 4, "INT36": 5, "FLOAT32": 6, "STEP": 7}
+E2E = ("E2E_CRC", "E2E_COUNTER")
+RNG_SEED = 20240611
+
+
+def c_table(dump):
+    rows = {}
+    for line in dump.listing("info"):
+        name, can_id, data_id, layout, direction, lsb = line.split()
+        rows[name] = dict(can_id=int(can_id), data_id=int(data_id), layout=int(layout), dir=int(direction),
+                          lsb=float(lsb))
+    return rows
+
+
+def value_signal(msg):
+    sigs = [s for s in msg.signals if s.name not in E2E + ("STEP",)]
+    assert len(sigs) == 1, msg.name
+    return sigs[0]
+
+
+def dbc_layout(msg):
+    names = [s.name for s in msg.signals]
+    if msg.name == "EST_STEP":
+        return LAYOUT["STEP"]
+    if msg.name.startswith(("BENCH_", "EST_")) and "STEP" in names:
+        return LAYOUT["FLOAT32"] if value_signal(msg).is_float else LAYOUT["INT36"]
+    return LAYOUT[{"CTRL_RESET": "RESET", "CTRL_PARAM": "PARAM", "CTRL_STATUS_REQ": "STATUS_REQ",
+                   "EST_ACK": "ACK", "EST_HEALTH": "HEALTH"}[msg.name]]
+
+
+def encode(db, name, values, scaling=True):
+    return db.encode_message(name, {"E2E_CRC": 0, "E2E_COUNTER": 0, **values}, scaling=scaling, strict=True).hex()
+
+
+def c_hex(line):
+    status, payload = line.split()
+    return int(status), payload
+
+
+# --- the message table -------------------------------------------------------------------------
+
+def test_every_dbc_message_is_in_the_c_table_and_back(db, dump):
+    table = c_table(dump)
+    assert sorted(table) == sorted(m.name for m in db.messages)
+
+
+def test_ids_data_ids_dlc_direction_layout_and_lsb_match(db, dump):
+    table = c_table(dump)
+    data_ids = set()
+    for msg in db.messages:
+        row = table[msg.name]
+        assert row["can_id"] == msg.frame_id and not msg.is_extended_frame, msg.name
+        assert msg.length == 8, msg.name
+        assert row["data_id"] == msg.dbc.attributes["E2E_DataID"].value, msg.name
+        data_ids.add(row["data_id"])
+        assert row["dir"] == (0 if msg.senders == ["BENCH"] else 1), msg.name
+        assert row["layout"] == dbc_layout(msg), msg.name
+        if row["layout"] == LAYOUT["INT36"]:
+            sig = value_signal(msg)
+            assert (sig.start, sig.length, sig.is_signed, sig.offset) == (28, 36, True, 0)
+            assert row["lsb"] == sig.scale, msg.name
+    assert len(data_ids) == len(db.messages), "E2E data IDs must be unique"
+
+
+def test_every_frame_starts_with_crc_and_counter(db):
+    for msg in db.messages:
+        crc, counter = msg.get_signal_by_name("E2E_CRC"), msg.get_signal_by_name("E2E_COUNTER")
+        assert (crc.start, crc.length, crc.byte_order) == (0, 8, "little_endian")
+        assert (counter.start, counter.length) == (8, 4)
+        assert all(s.byte_order == "little_endian" for s in msg.signals)
+
+
+def test_every_signal_has_a_comment_and_values_state_their_resolution(db):
+    for msg in db.messages:
+        assert msg.comment, msg.name
+        for sig in msg.signals:
+            assert sig.comment, f"{msg.name}.{sig.name}"
+            if sig.is_float or sig.length == 36:
+                assert "LSB" in sig.comment or "float32" in sig.comment, f"{msg.name}.{sig.name}"
+
+
+# --- name tables -------------------------------------------------------------------------------
+
+def test_param_and_experiment_names_match_value_tables(db, dump):
+    params = db.get_message_by_name("CTRL_PARAM").get_signal_by_name("PARAM_ID")
+    assert dump.listing("names param") == [params.choices[i] for i in sorted(params.choices)]
+    assert max(params.choices) == params.maximum
+    exps = db.get_message_by_name("CTRL_RESET").get_signal_by_name("EXPERIMENT")
+    assert dump.listing("names experiment") == [exps.choices[i] for i in sorted(exps.choices)]
+
+
+def test_counter_names_match_health_pages(db, dump):
+    health = db.get_message_by_name("EST_HEALTH")
+    by_page = sorted((s.multiplexer_ids[0], s.start, s.name) for s in health.signals if s.multiplexer_ids)
+    assert [name for _, _, name in by_page] == dump.listing("names counter")
+    assert health.get_signal_by_name("PAGE").maximum == len(by_page) // 2 - 1
+
+
+# --- CRC and E2E -------------------------------------------------------------------------------
+
+def test_crc_check_value():
+    assert crc8_sae_j1850(b"123456789") == 0x4B
+
+
+def test_crc_matches_reference_for_random_data(dump):
+    rng = random.Random(RNG_SEED)
+    data = [bytes(rng.randrange(256) for _ in range(rng.randrange(1, 20))) for _ in range(200)]
+    out = dump.run(["crc 313233343536373839"] + [f"crc {d.hex()}" for d in data])
+    assert out[0] == "0 4b"
+    assert out[1:] == [f"0 {crc8_sae_j1850(d):02x}" for d in data]
+
+
+def test_seal_matches_reference_for_every_message(db, dump):
+    rng = random.Random(RNG_SEED + 1)
+    cmds, expected = [], []
+    for msg in db.messages:
+        data_id = msg.dbc.attributes["E2E_DataID"].value
+        for _ in range(20):
+            payload = bytes(rng.randrange(256) for _ in range(8))
+            counter = rng.randrange(16)
+            cmds.append(f"seal {msg.name} {counter} {payload.hex()}")
+            expected.append(f"0 {seal(data_id, counter, payload).hex()}")
+    assert dump.run(cmds) == expected
+
+
+def test_cantools_frame_sealed_by_reference_is_what_c_sends(db, dump):
+    msg = db.get_message_by_name("BENCH_Y1")
+    body = db.encode_message("BENCH_Y1", {"E2E_CRC": 0, "E2E_COUNTER": 9, "STEP": 1234, "Y1": 1.5e-3})
+    sealed = seal(msg.dbc.attributes["E2E_DataID"].value, 9, body)
+    status, c_body = c_hex(dump.one(f"enc_value BENCH_Y1 1234 {(1.5e-3).hex()}"))
+    assert status == 0
+    assert dump.one(f"seal BENCH_Y1 9 {c_body}") == f"0 {sealed.hex()}"
+    assert db.decode_message(msg.frame_id, sealed)["E2E_CRC"] == e2e_crc(msg.dbc.attributes["E2E_DataID"].value, sealed)
+
+
+# --- value frames (INT36, FLOAT32) --------------------------------------------------------------
+
+def int36_values(sig, rng):
+    lsb, max_raw = sig.scale, 2 ** 35 - 1
+    ks = [0, 1, -1, 2, -2, 3, 1000, -1000, max_raw, -max_raw - 1, max_raw - 1, -max_raw]
+    ks += [rng.randrange(-max_raw - 1, max_raw + 1) for _ in range(300)]
+    values = [k * lsb for k in ks]
+    # exact ties k + 0.5 after the division: both sides must round half to even
+    ties = [k * lsb + 0.5 * lsb for k in range(-2000, 2000) if (k * lsb + 0.5 * lsb) / lsb == k + 0.5]
+    assert len(ties) > 50
+    values += ties
+    values += [rng.uniform(sig.minimum, sig.maximum) for _ in range(300)]
+    values += [rng.uniform(-1e-3, 1e-3) * 10 ** -rng.randrange(0, 9) for _ in range(200)]
+    return [v for v in values if sig.minimum <= v <= sig.maximum]
+
+
+def float_values(rng):
+    vals = [0.0, -0.0, 1.0, -1.0, 1e8, 7.5e7, -1e12, 1e17, 1.6e16, 3.4028234663852886e38, -3.4028234663852886e38,
+            1e-45, -1.4e-45, 1.1754943508222875e-38, 2.6, -2.6, math.pi]
+    vals += [rng.uniform(-1, 1) * 10 ** rng.uniform(-40, 38) for _ in range(400)]
+    return vals
+
+
+@pytest.mark.parametrize("kind", ["INT36", "FLOAT32"])
+def test_value_frames_encode_identically(db, dump, kind):
+    rng = random.Random(RNG_SEED + 2)
+    cmds, expected = [], []
+    for msg in db.messages:
+        if dbc_layout(msg) != LAYOUT[kind]:
+            continue
+        sig = value_signal(msg)
+        values = int36_values(sig, rng) if kind == "INT36" else float_values(rng)
+        for v in values:
+            step = rng.randrange(65536)
+            cmds.append(f"enc_value {msg.name} {step} {v.hex()}")
+            expected.append(f"0 {encode(db, msg.name, {'STEP': step, sig.name: v})}")
+    assert len(cmds) > 1000
+    got = dump.run(cmds)
+    mismatches = [(c, g, e) for c, g, e in zip(cmds, got, expected) if g != e]
+    assert not mismatches, mismatches[:5]
+
+
+@pytest.mark.parametrize("kind", ["INT36", "FLOAT32"])
+def test_value_frames_decode_identically(db, dump, kind):
+    rng = random.Random(RNG_SEED + 3)
+    cmds, expected = [], []
+    for msg in db.messages:
+        if dbc_layout(msg) != LAYOUT[kind]:
+            continue
+        sig = value_signal(msg)
+        for _ in range(300):
+            step = rng.randrange(65536)
+            if kind == "INT36":
+                raw = rng.randrange(-2 ** 35, 2 ** 35)
+            else:
+                raw = struct.unpack("<f", struct.pack("<I", rng.randrange(2 ** 32)))[0]
+                if not math.isfinite(raw):
+                    continue
+            payload = encode(db, msg.name, {"STEP": step, sig.name: raw}, scaling=False)
+            decoded = db.decode_message(msg.frame_id, bytes.fromhex(payload))
+            cmds.append(f"dec_value {msg.name} {payload}")
+            expected.append((0, step, float(decoded[sig.name])))
+    got = [(int(s), int(k), float.fromhex(v)) for s, k, v in (line.split() for line in dump.run(cmds))]
+    mismatches = [(c, g, e) for c, g, e in zip(cmds, got, expected) if g != e]
+    assert not mismatches, mismatches[:5]
+
+
+def test_non_finite_floats_are_rejected_by_the_c_decoder(db, dump):
+    for bits in (0x7FC00000, 0xFFC00001, 0x7F800000, 0xFF800000):
+        value = struct.unpack("<f", struct.pack("<I", bits))[0]
+        payload = db.encode_message("BENCH_U", {"E2E_CRC": 0, "E2E_COUNTER": 0, "STEP": 7, "U": value},
+                                    strict=False).hex()
+        assert payload[8:] == struct.pack("<I", bits).hex()
+        assert dump.one(f"dec_value BENCH_U {payload}").split()[0] == "-3"
+
+
+def test_int36_out_of_range_saturates_at_the_dbc_limits(db, dump):
+    sig = value_signal(db.get_message_by_name("BENCH_Y1"))
+    for v, limit in ((1.0, sig.maximum), (-1.0, sig.minimum), (float("nan"), 0.0)):
+        status, payload = c_hex(dump.one(f"enc_value BENCH_Y1 3 {v.hex()}"))
+        assert status == 1
+        assert payload == encode(db, "BENCH_Y1", {"STEP": 3, "Y1": limit})
+
+
+def test_position_resolution_is_far_below_a_micrometre(db):
+    for msg in db.messages:
+        for sig in msg.signals:
+            if sig.unit == "m":
+                assert sig.scale <= 1e-12 and sig.maximum >= 0.03, sig.name
+            if sig.unit == "m/s":
+                assert sig.scale <= 1e-10 and sig.maximum >= 3.0, sig.name
+
+
+# --- control frames and EST_STEP ----------------------------------------------------------------
+
+def roundtrip(db, dump, name, c_enc, c_dec, cases, fields):
+    """Each case: C encode == cantools encode; cantools payload decoded by C gives the fields back."""
+    enc_cmds = [f"{c_enc} " + " ".join(str(case[f]) for f in fields) for case in cases]
+    payloads = [encode(db, name, case) for case in cases]
+    assert dump.run(enc_cmds) == [f"0 {p}" for p in payloads]
+    decoded = dump.run([f"{c_dec} {p}" for p in payloads])
+    assert decoded == ["0 " + " ".join(str(case[f]) for f in fields) for case in cases]
+
+
+def test_step_frame(db, dump):
+    rng = random.Random(RNG_SEED + 4)
+    cases = [dict(STEP=rng.randrange(65536), FLAGS=rng.randrange(65536), NEWTON_ITERS=rng.randrange(256),
+                  STEP_STATUS=rng.randrange(-128, 128)) for _ in range(200)]
+    roundtrip(db, dump, "EST_STEP", "enc_step", "dec_step", cases, ["STEP", "FLAGS", "NEWTON_ITERS", "STEP_STATUS"])
+
+
+def test_reset_frame(db, dump):
+    rng = random.Random(RNG_SEED + 5)
+    cases = [dict(EXPERIMENT=rng.randrange(4), N_PARAMS=rng.randrange(256), TOKEN=rng.randrange(256))
+             for _ in range(100)]
+    roundtrip(db, dump, "CTRL_RESET", "enc_reset", "dec_reset", cases, ["EXPERIMENT", "N_PARAMS", "TOKEN"])
+
+
+def test_param_frame(db, dump):
+    rng = random.Random(RNG_SEED + 6)
+    cases = [dict(PARAM_ID=rng.randrange(37), PARAM_EXP10=rng.randrange(-22, 23),
+                  PARAM_MANTISSA=rng.randrange(-2 ** 37, 2 ** 37)) for _ in range(200)]
+    cases += [dict(PARAM_ID=36, PARAM_EXP10=-22, PARAM_MANTISSA=-2 ** 37),
+              dict(PARAM_ID=0, PARAM_EXP10=22, PARAM_MANTISSA=2 ** 37 - 1)]
+    roundtrip(db, dump, "CTRL_PARAM", "enc_param", "dec_param", cases, ["PARAM_ID", "PARAM_EXP10", "PARAM_MANTISSA"])
+
+
+def test_status_req_ack_and_health_frames(db, dump):
+    rng = random.Random(RNG_SEED + 7)
+    roundtrip(db, dump, "CTRL_STATUS_REQ", "enc_status_req", "dec_status_req",
+              [dict(TOKEN=t) for t in range(0, 256, 7)], ["TOKEN"])
+    acks = [dict(TOKEN=rng.randrange(256), ACK_STATUS=rng.choice([1, 0, -1, -2, -3, -4, -5, -6]),
+                 BAD_PARAM=rng.randrange(256), EXPERIMENT=rng.choice([0, 1, 2, 3, 255]), N_PARAMS_RX=rng.randrange(256),
+                 STATE=rng.randrange(256)) for _ in range(100)]
+    roundtrip(db, dump, "EST_ACK", "enc_ack", "dec_ack", acks,
+              ["TOKEN", "ACK_STATUS", "BAD_PARAM", "EXPERIMENT", "N_PARAMS_RX", "STATE"])
+    health = db.get_message_by_name("EST_HEALTH")
+    pages = {}
+    for s in health.signals:
+        if s.multiplexer_ids:
+            pages.setdefault(s.multiplexer_ids[0], []).append(s)
+    cases, c_cases = [], []
+    for page, sigs in sorted(pages.items()):
+        a, b = sorted(sigs, key=lambda s: s.start)
+        for _ in range(10):
+            va, vb = rng.randrange(2 ** 24), rng.randrange(2 ** 24)
+            cases.append({"PAGE": page, a.name: va, b.name: vb})
+            c_cases.append(dict(PAGE=page, A=va, B=vb))
+    assert dump.run([f"enc_health {c['PAGE']} {c['A']} {c['B']}" for c in c_cases]) == \
+        [f"0 {encode(db, 'EST_HEALTH', case)}" for case in cases]
+    assert dump.run([f"dec_health {encode(db, 'EST_HEALTH', case)}" for case in cases]) == \
+        [f"0 {c['PAGE']} {c['A']} {c['B']}" for c in c_cases]
+
+
+# --- decimal parameter values --------------------------------------------------------------------
+
+SCENARIO_VALUES = [1.0, 2.0e3, 1.0e4, 5.0, 1.0e-3, 7.5e7, 1.0e-6, 1.0e-5, 2.5e7, 1.0e-9, 1.0e-7, 1.0e6, 1.0e-7,
+                   1.0e6, 1000.0, 1e-10, 1e-12, 0.0, 20.0, 3.141592653589793]
+
+
+def test_param_values_arrive_as_the_exact_double(dump):
+    rng = random.Random(RNG_SEED + 8)
+    values = SCENARIO_VALUES + [round(rng.uniform(-1, 1), rng.randrange(1, 10)) * 10 ** rng.randrange(-15, 12)
+                                for _ in range(500)]
+    cmds, expected = [], []
+    for v in values:
+        mant, exp = to_mantissa_exp10(v)
+        shortest = Decimal(repr(v)).normalize().as_tuple().digits
+        if abs(exp) > 22:
+            continue
+        cmds.append(f"param_value 0 {exp} {mant}")
+        exact = float(f"{mant}e{exp}")  # Python's correctly rounded decimal conversion
+        expected.append((0, exact))
+        if len(shortest) <= 11:
+            assert exact == v, "the bench's decimal form must reproduce the double exactly"
+    got = [(int(s), float.fromhex(x)) for s, x in (line.split() for line in dump.run(cmds))]
+    assert got == expected
+
+
+def test_param_exponent_beyond_exact_range_is_refused(dump):
+    assert dump.one("param_value 0 23 1").split()[0] == "-3"
+    assert dump.one("param_value 0 -23 1").split()[0] == "-3"

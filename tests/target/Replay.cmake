@@ -1,0 +1,90 @@
+# Replay.cmake (included by tests/target/CMakeLists.txt): the replay image and its checks.
+#
+# Needs the host build's test data, like the unit tests do in the cross builds (build the
+# host-double preset first):
+#   CAEKF_REPLAY_TRUTH_BIN   caekf-truth --bin record of the reference scenario
+#   CAEKF_HOST_REPLAY        the host caekf-replay (double), for the reference trajectory
+# Tests:
+#   target_replay            runs the image, compares with the host: Cortex-M7 (double) every
+#                            snapshot within 1e-9 relative; Cortex-M4F (float) final gamma within 0.5 %
+#   target_replay.stack      the measured stack (painting) of caekf_init and of the steps is within
+#                            CAEKF_STACK_BUDGET (512 B); reads target_replay's saved output
+
+set(CAEKF_HOST_BUILD_DIR "${PROJECT_SOURCE_DIR}/build/host-double" CACHE PATH
+    "A host double build (for the replay image's inputs and reference)")
+set(CAEKF_REPLAY_TRUTH_BIN "${CAEKF_HOST_BUILD_DIR}/testdata/paper_truth.bin" CACHE FILEPATH
+    "caekf-truth --bin record embedded in target_replay")
+set(CAEKF_REPLAY_TRUTH_CSV "${CAEKF_HOST_BUILD_DIR}/testdata/paper_truth.csv" CACHE FILEPATH
+    "The same record as CSV (input of the host caekf-replay)")
+set(CAEKF_HOST_REPLAY "${CAEKF_HOST_BUILD_DIR}/host/caekf-replay" CACHE FILEPATH
+    "Host caekf-replay (double) giving the reference trajectory")
+set(CAEKF_STACK_BUDGET 512 CACHE STRING "Stack budget of caekf_step in bytes (target_replay.stack)")
+
+find_package(Python3 COMPONENTS Interpreter)
+if(NOT Python3_FOUND)
+    message(WARNING "tests/target: no Python 3, target_replay is not built")
+    return()
+endif()
+if(NOT EXISTS "${PROJECT_SOURCE_DIR}/firmware/core/CMakeLists.txt")
+    message(STATUS "tests/target: no firmware/core yet, target_replay is not built")
+    return()
+endif()
+if(NOT EXISTS "${CAEKF_REPLAY_TRUTH_BIN}")
+    message(WARNING "tests/target: ${CAEKF_REPLAY_TRUTH_BIN} not found, target_replay is not built "
+                    "(build the host-double preset first, or set CAEKF_HOST_BUILD_DIR)")
+    return()
+endif()
+
+set(_gen "${CMAKE_CURRENT_BINARY_DIR}/replay_data")
+add_custom_command(
+    OUTPUT "${_gen}/replay_inputs.bin" "${_gen}/replay_inputs.S" "${_gen}/replay_scenario.c"
+    COMMAND "${Python3_EXECUTABLE}" "${_dir}/gen_replay_data.py"
+            --truth-bin "${CAEKF_REPLAY_TRUTH_BIN}" --scenario "${CAEKF_SCENARIO}"
+            --scalar "${CAEKF_SCALAR}" --out-dir "${_gen}"
+    DEPENDS "${_dir}/gen_replay_data.py" "${CAEKF_REPLAY_TRUTH_BIN}" "${CAEKF_SCENARIO}"
+    COMMENT "Embedding the reference scenario's inputs (${CAEKF_SCALAR}) for target_replay"
+    VERBATIM)
+set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS "${_gen}/replay_inputs.bin")
+# host/common/experiment.c checks enum ranges that are unsigned with the Arm EABI.
+set_source_files_properties("${PROJECT_SOURCE_DIR}/host/common/experiment.c" PROPERTIES
+    COMPILE_OPTIONS "-Wno-type-limits")
+
+caekf_target_image(target_replay
+    SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S" "${_gen}/replay_scenario.c"
+            "${PROJECT_SOURCE_DIR}/host/common/experiment.c"
+    LIBS caekf_core
+    INCLUDES "${PROJECT_SOURCE_DIR}/host" "${PROJECT_SOURCE_DIR}/host/common"
+    DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"")
+
+if(EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}")
+    set(_ref "${CMAKE_CURRENT_BINARY_DIR}/replay_host_reference.csv")
+    add_custom_command(OUTPUT "${_ref}"
+        COMMAND "${CAEKF_HOST_REPLAY}" --scenario "${CAEKF_SCENARIO}" --in "${CAEKF_REPLAY_TRUTH_CSV}"
+                --experiment switched-highq-constrained --out "${_ref}"
+        DEPENDS "${CAEKF_HOST_REPLAY}" "${CAEKF_REPLAY_TRUTH_CSV}" "${CAEKF_SCENARIO}"
+        COMMENT "Host reference trajectory for target_replay (caekf-replay, double)"
+        VERBATIM)
+    add_custom_target(target_replay_reference ALL DEPENDS "${_ref}")
+    if(CAEKF_SCALAR STREQUAL "double")
+        set(_mode double)
+    else()
+        set(_mode float)
+    endif()
+    add_test(NAME target_replay
+        COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --mode ${_mode}
+                --reference "${_ref}" --output "${CMAKE_CURRENT_BINARY_DIR}/target_replay.out"
+                -- ${CAEKF_QEMU_RUN} --timeout 600 $<TARGET_FILE:target_replay>)
+    set_tests_properties(target_replay PROPERTIES LABELS "target;replay" TIMEOUT 700
+        FIXTURES_SETUP target_replay_output)
+    add_test(NAME target_replay.stack
+        COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --stack-only
+                --from "${CMAKE_CURRENT_BINARY_DIR}/target_replay.out" --stack-budget ${CAEKF_STACK_BUDGET})
+    set_tests_properties(target_replay.stack PROPERTIES LABELS "target;replay;stack" TIMEOUT 30
+        FIXTURES_REQUIRED target_replay_output)
+else()
+    message(WARNING "tests/target: no host caekf-replay/CSV in ${CAEKF_HOST_BUILD_DIR}: "
+                    "target_replay runs without the comparison to the host")
+    add_test(NAME target_replay COMMAND target_replay)
+    set_tests_properties(target_replay PROPERTIES LABELS "target;replay" TIMEOUT 700
+        PASS_REGULAR_EXPRESSION "replay: done")
+endif()

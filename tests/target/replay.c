@@ -1,0 +1,195 @@
+/*
+ * replay.c - the switched-highq-constrained experiment of the reference scenario on the MCU.
+ *
+ * Inputs: u, y1, y4 of every step (from caekf-truth, generated on the host), embedded as const data
+ * in flash by replay_inputs.S (.incbin of a file written by gen_replay_data.py), in the build's
+ * scalar type: 60,000 steps x 3 x 8 B = 1.44 MB (double, Cortex-M7) or 720 KB (float, Cortex-M4F),
+ * within the 4 MB of the MPS2's SSRAM1. The scenario's numbers come from a generated initializer
+ * (replay_scenario.c) and the settings from host/common/experiment.c, exactly as caekf-replay does.
+ *
+ * Each caekf_step() is bracketed by caekf_mark_begin()/caekf_mark_end() for tools/qemu-icount.
+ * The stack is painted before caekf_init() and again before the first step; the high-water marks
+ * are printed ("stack:" line): init = caekf_init, steps = caekf_step plus the small accessors
+ * (caekf_get_state/get_covariance) of the snapshots, measured from main's stack pointer. Every REPLAY_EVERY steps (and at the last step) a snapshot of the
+ * state is kept in RAM and printed after the run as exact bit patterns; one class word per step
+ * (flags | newton_iters << 9 | not-ok << 15) is printed in hex for mcu-report's worst-case search.
+ *
+ * Output lines (parsed by check_replay.py and tools/mcu-report.sh):
+ *   replay: mcu=... scalar=... steps=N experiment=switched-highq-constrained
+ *   S k x0 .. x8 p_gg flags iters        (k: 1-based step; values as 16-hex-digit binary64)
+ *   C hhhh hhhh ...                      (class words, 64 per line, in step order)
+ *   summary: gamma=... gamma_bits=... rejected=.. iters_max=.. flags_seen=0x..
+ *   stack: init=B steps=B reserved=B
+ *   replay: done
+ * Exit status 0 unless the settings were refused or a step returned an error.
+ */
+#include <stddef.h>
+#include <stdint.h>
+
+#include "caekf/caekf.h"
+#include "caekf_port.h"
+#include "common/experiment.h"
+#include "common/scenario.h"
+
+#ifndef REPLAY_EVERY
+#define REPLAY_EVERY 100u
+#endif
+
+extern const caekf_scenario_t caekf_replay_scenario;
+extern const caekf_scalar_t caekf_replay_inputs[];     /* u, y1, y4 per step */
+extern const caekf_scalar_t caekf_replay_inputs_end[];
+
+typedef struct {
+    uint32_t k;
+    uint16_t flags;
+    uint8_t iters;
+    double x[CAEKF_N];
+    double p_gg;
+} snapshot_t;
+
+#define MAX_STEPS 60000u
+#define MAX_SNAPSHOTS (MAX_STEPS / REPLAY_EVERY + 2u)
+
+static snapshot_t snapshots[MAX_SNAPSHOTS];
+static uint16_t classes[MAX_STEPS];
+static caekf_t est;
+
+static void put_scalar_bits(double v)
+{
+    caekf_console_putc(' ');
+    caekf_console_put_f64_bits(v);
+}
+
+/* Static, so that the snapshot's buffers do not count in the measured stack (only the accessors'
+ * own frames do). */
+static caekf_scalar_t snap_x[CAEKF_N];
+static caekf_scalar_t snap_P[CAEKF_N][CAEKF_N];
+
+static void take_snapshot(snapshot_t *s, uint32_t k, const caekf_report_t *rep)
+{
+    caekf_scalar_t *x = snap_x;
+    caekf_scalar_t(*P)[CAEKF_N] = snap_P;
+    int i;
+    (void)caekf_get_state(&est, x);
+    (void)caekf_get_covariance(&est, P);
+    s->k = k;
+    s->flags = (uint16_t)rep->flags;
+    s->iters = (uint8_t)rep->newton_iters;
+    for (i = 0; i < CAEKF_N; ++i) {
+        s->x[i] = (double)x[i];
+    }
+    s->p_gg = (double)P[CAEKF_IG][CAEKF_IG];
+}
+
+int main(void)
+{
+    caekf_settings_t s;
+    caekf_report_t rep;
+    const char *bad = NULL;
+    uint32_t steps = (uint32_t)((size_t)(caekf_replay_inputs_end - caekf_replay_inputs) / 3u);
+    uint32_t k, n_snap = 0u, rejected = 0u, flags_seen = 0u;
+    int iters_max = 0;
+    uintptr_t top;
+    size_t stack_init, stack_steps;
+    caekf_scalar_t gamma = 0;
+    caekf_status_t st;
+
+    caekf_console_puts("replay: mcu=" CAEKF_REPLAY_MCU " scalar=" CAEKF_SCALAR_NAME " steps=");
+    caekf_console_put_u32(steps);
+    caekf_console_puts(" experiment=switched-highq-constrained\n");
+    if (steps > MAX_STEPS) {
+        caekf_console_puts("replay: too many steps for the snapshot buffers\n");
+        return 2;
+    }
+
+    st = caekf_experiment_settings(&caekf_replay_scenario, CAEKF_EXP_SWITCHED_HIGHQ_CONSTRAINED, &s);
+    if (st != CAEKF_OK || caekf_settings_validate(&s, &bad) != CAEKF_OK) {
+        caekf_console_puts("replay: settings refused: ");
+        caekf_console_puts(bad != NULL ? bad : "?");
+        caekf_console_putc('\n');
+        return 3;
+    }
+
+    top = caekf_stack_paint();
+    st = caekf_init(&est, &s);
+    stack_init = caekf_stack_used_since(top);
+    if (st != CAEKF_OK) {
+        caekf_console_puts("replay: caekf_init failed\n");
+        return 3;
+    }
+
+    top = caekf_stack_paint();
+    for (k = 0u; k < steps; ++k) {
+        const caekf_scalar_t *in = &caekf_replay_inputs[3u * k];
+        caekf_scalar_t y[CAEKF_NY];
+        uint32_t cls;
+        y[0] = in[1];
+        y[1] = in[2];
+        caekf_mark_begin();
+        st = caekf_step(&est, in[0], y, &rep);
+        caekf_mark_end();
+        cls = (rep.flags & 0x1FFu) | ((uint32_t)(rep.newton_iters > 31 ? 31 : rep.newton_iters) << 9);
+        if (st != CAEKF_OK) {
+            ++rejected;
+            cls |= 0x8000u;
+        }
+        classes[k] = (uint16_t)cls;
+        flags_seen |= rep.flags;
+        if (rep.newton_iters > iters_max) {
+            iters_max = rep.newton_iters;
+        }
+        if ((k + 1u) % REPLAY_EVERY == 0u || k + 1u == steps) {
+            take_snapshot(&snapshots[n_snap++], k + 1u, &rep);
+        }
+    }
+    stack_steps = caekf_stack_used_since(top);
+    (void)caekf_get_gamma(&est, &gamma);
+
+    for (k = 0u; k < n_snap; ++k) {
+        const snapshot_t *p = &snapshots[k];
+        int i;
+        caekf_console_puts("S ");
+        caekf_console_put_u32(p->k);
+        for (i = 0; i < CAEKF_N; ++i) {
+            put_scalar_bits(p->x[i]);
+        }
+        put_scalar_bits(p->p_gg);
+        caekf_console_putc(' ');
+        caekf_console_put_u32(p->flags);
+        caekf_console_putc(' ');
+        caekf_console_put_u32(p->iters);
+        caekf_console_putc('\n');
+    }
+    for (k = 0u; k < steps; ++k) {
+        static const char hex[] = "0123456789abcdef";
+        if (k % 64u == 0u) {
+            caekf_console_putc('C');
+        }
+        caekf_console_putc(' ');
+        caekf_console_putc(hex[(classes[k] >> 12) & 0xFu]);
+        caekf_console_putc(hex[(classes[k] >> 8) & 0xFu]);
+        caekf_console_putc(hex[(classes[k] >> 4) & 0xFu]);
+        caekf_console_putc(hex[classes[k] & 0xFu]);
+        if (k % 64u == 63u || k + 1u == steps) {
+            caekf_console_putc('\n');
+        }
+    }
+    caekf_console_puts("summary: gamma=");
+    caekf_console_put_f64((double)gamma, 12);
+    caekf_console_puts(" gamma_bits=");
+    caekf_console_put_f64_bits((double)gamma);
+    caekf_console_puts(" rejected=");
+    caekf_console_put_u32(rejected);
+    caekf_console_puts(" iters_max=");
+    caekf_console_put_i32(iters_max);
+    caekf_console_puts(" flags_seen=0x");
+    caekf_console_put_hex32(flags_seen);
+    caekf_console_puts("\nstack: init=");
+    caekf_console_put_u32((uint32_t)stack_init);
+    caekf_console_puts(" steps=");
+    caekf_console_put_u32((uint32_t)stack_steps);
+    caekf_console_puts(" reserved=");
+    caekf_console_put_u32((uint32_t)caekf_stack_size());
+    caekf_console_puts("\nreplay: done\n");
+    return rejected == 0u ? 0 : 4;
+}

@@ -1,0 +1,141 @@
+/* E2E protect/check: CRC over data ID and payload, alive counter logic (wrap, duplicate, jump). */
+#include <string.h>
+
+#include "caekf/caekf_crc8.h"
+#include "caekf/caekf_e2e.h"
+#include "unity.h"
+
+#define DATA_ID 0xCA01u
+
+static caekf_e2e_rx_t rx;
+
+void setUp(void) { TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_rx_init(&rx)); }
+void tearDown(void) {}
+
+static void frame(uint8_t counter, uint8_t out[8])
+{
+    const uint8_t body[8] = {0, 0xB0, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66};
+    memcpy(out, body, 8);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect(DATA_ID, counter, out));
+}
+
+static caekf_e2e_status_t check(uint8_t counter, uint8_t max_delta, uint8_t *lost)
+{
+    uint8_t f[8];
+    frame(counter, f);
+    return caekf_e2e_check(&rx, DATA_ID, max_delta, f, 8, lost);
+}
+
+static void test_crc_covers_data_id_both_bytes_then_bytes_1_to_7(void)
+{
+    uint8_t f[8];
+    const uint8_t seq[9] = {0x01, 0xCA, 0xB5, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66};
+    uint8_t expected;
+    frame(5, f);
+    TEST_ASSERT_EQUAL_INT(0, caekf_crc8(seq, sizeof seq, &expected));
+    TEST_ASSERT_EQUAL_HEX8(expected, f[0]);
+    TEST_ASSERT_EQUAL_HEX8(0xB5, f[1]); /* counter in the low nibble, the high nibble kept */
+}
+
+static void test_consecutive_counters_pass_through_the_wrap(void)
+{
+    unsigned i;
+    uint8_t lost = 99;
+    for (i = 0; i < 40u; i++) {
+        TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check((uint8_t)((i + 13u) & 15u), 1, &lost));
+        TEST_ASSERT_EQUAL_UINT8(0, lost);
+    }
+}
+
+static void test_first_frame_is_accepted_with_any_counter(void)
+{
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(9, 1, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_JUMP, check(3, 1, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_rx_init(&rx));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(3, 1, NULL)); /* after init: accepted again */
+}
+
+static void test_duplicate_is_rejected_and_keeps_the_state(void)
+{
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(4, 1, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DUPLICATE, check(4, 1, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DUPLICATE, check(4, 15, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(5, 1, NULL));
+}
+
+static void test_jump_is_rejected_then_resyncs(void)
+{
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(14, 1, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_JUMP, check(0, 1, NULL)); /* 14 -> 0 is +2 across the wrap */
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(1, 1, NULL));
+}
+
+static void test_gap_within_max_delta_passes_and_reports_lost_frames(void)
+{
+    uint8_t lost = 0;
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(15, 3, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(2, 3, &lost)); /* 15 -> 2: delta 3 */
+    TEST_ASSERT_EQUAL_UINT8(2, lost);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_JUMP, check(6, 3, NULL));
+}
+
+static void test_max_delta_zero_means_one(void)
+{
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(0, 0, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, check(1, 0, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_JUMP, check(3, 0, NULL));
+}
+
+static void test_wrong_dlc_is_rejected_before_anything_else(void)
+{
+    uint8_t f[8];
+    frame(0, f);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DLC, caekf_e2e_check(&rx, DATA_ID, 1, f, 7, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DLC, caekf_e2e_check(&rx, DATA_ID, 1, f, 0, NULL));
+    TEST_ASSERT_EQUAL_UINT8(0, rx.synced);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_check(&rx, DATA_ID, 1, f, 8, NULL));
+}
+
+static void test_any_bit_flip_or_wrong_data_id_is_a_crc_error(void)
+{
+    uint8_t f[8];
+    unsigned bit;
+    frame(7, f);
+    for (bit = 0; bit < 64u; bit++) {
+        f[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+        TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_CRC, caekf_e2e_check(&rx, DATA_ID, 1, f, 8, NULL));
+        f[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_CRC, caekf_e2e_check(&rx, DATA_ID ^ 0x0100u, 1, f, 8, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_CRC, caekf_e2e_check(&rx, DATA_ID ^ 0x0001u, 1, f, 8, NULL));
+    TEST_ASSERT_EQUAL_UINT8(0, rx.synced); /* CRC errors never touch the counter state */
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_check(&rx, DATA_ID, 1, f, 8, NULL));
+}
+
+static void test_null_pointers_are_refused(void)
+{
+    uint8_t f[8] = {0};
+    uint8_t crc;
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_check(NULL, DATA_ID, 1, f, 8, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_check(&rx, DATA_ID, 1, NULL, 8, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_protect(DATA_ID, 0, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_crc(DATA_ID, f, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_crc(DATA_ID, NULL, &crc));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_rx_init(NULL));
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_crc_covers_data_id_both_bytes_then_bytes_1_to_7);
+    RUN_TEST(test_consecutive_counters_pass_through_the_wrap);
+    RUN_TEST(test_first_frame_is_accepted_with_any_counter);
+    RUN_TEST(test_duplicate_is_rejected_and_keeps_the_state);
+    RUN_TEST(test_jump_is_rejected_then_resyncs);
+    RUN_TEST(test_gap_within_max_delta_passes_and_reports_lost_frames);
+    RUN_TEST(test_max_delta_zero_means_one);
+    RUN_TEST(test_wrong_dlc_is_rejected_before_anything_else);
+    RUN_TEST(test_any_bit_flip_or_wrong_data_id_is_a_crc_error);
+    RUN_TEST(test_null_pointers_are_refused);
+    return UNITY_END();
+}

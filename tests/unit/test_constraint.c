@@ -1,0 +1,205 @@
+/* The inequality constraint of Sec. 3.3 (eqs. 28-30): gamma >= gamma_min after every step, nothing
+ * non-finite, the sequential perfect measurement equal to the batch [H; D] correction, and the
+ * singular paths (refused innovation, unusable gamma variance) handled with flags, not NaN. */
+#include <math.h>
+#include <string.h>
+
+#include "caekf_filter.h"
+#include "test_support.h"
+#include "unity.h"
+
+#define N CAEKF_N
+#define IG CAEKF_IG
+
+#if CAEKF_USE_FLOAT
+#define EQ_RTOL 2e-3
+#else
+#define EQ_RTOL 1e-9
+#endif
+
+void setUp(void) {}
+void tearDown(void) {}
+
+typedef struct {
+    double gamma_min;
+    long applied, below, nonfinite;
+} cwatch_t;
+
+static void cwatch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *t, void *ctx)
+{
+    cwatch_t *w = ctx;
+    caekf_scalar_t x[N];
+    int i;
+    (void)t;
+    (void)st;
+    (void)caekf_get_state(est, x);
+    if ((double)x[IG] < w->gamma_min * (1 - 1e-9)) {
+        w->below++;
+    }
+    for (i = 0; i < N; ++i) {
+        int j;
+        w->nonfinite += !isfinite((double)est->z[i]);
+        for (j = 0; j < N; ++j) {
+            w->nonfinite += !isfinite((double)est->P[i][j]);
+        }
+    }
+    w->applied += (rep->flags & CAEKF_FLAG_CONSTRAINT_APPLIED) != 0;
+}
+
+static void test_constrained_highq_stays_above_gamma_min(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    cwatch_t w;
+    caekf_scalar_t g;
+    memset(&w, 0, sizeof w);
+    w.gamma_min = paper_gamma_min();
+    paper_settings(&s, EXP_SWITCHED_HIGHQ_CONSTRAINED);
+    TEST_ASSERT_EQUAL_INT32(paper_steps(), run_paper(&est, &s, cwatch, &w));
+    TEST_ASSERT_EQUAL_INT32(0, w.below);
+    TEST_ASSERT_EQUAL_INT32(0, w.nonfinite);
+    TEST_ASSERT_TRUE_MESSAGE(w.applied > 0, "the constraint must have been exercised");
+    (void)caekf_get_gamma(&est, &g);
+    TEST_ASSERT_DOUBLE_WITHIN(0.02, 1.0, (double)g / paper_gamma_true());
+}
+
+/* A deterministic SPD matrix L L^T + small diagonal. */
+static void spd(caekf_scalar_t P[N][N])
+{
+    double L[N][N];
+    int i, j, k;
+    for (i = 0; i < N; ++i)
+        for (j = 0; j < N; ++j) L[i][j] = j <= i ? 0.3 + 0.1 * ((i * 7 + j * 3) % 5) - (i == j ? 0 : 0.2) : 0;
+    for (i = 0; i < N; ++i)
+        for (j = 0; j < N; ++j) {
+            double s = (i == j) ? 0.05 : 0;
+            for (k = 0; k < N; ++k) s += L[i][k] * L[j][k];
+            P[i][j] = (caekf_scalar_t)s;
+        }
+}
+
+/* 3x3 inverse by cofactors, double. */
+static void inv3(double a[3][3], double r[3][3])
+{
+    double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                 a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    r[0][0] = (a[1][1] * a[2][2] - a[1][2] * a[2][1]) / det;
+    r[0][1] = (a[0][2] * a[2][1] - a[0][1] * a[2][2]) / det;
+    r[0][2] = (a[0][1] * a[1][2] - a[0][2] * a[1][1]) / det;
+    r[1][0] = (a[1][2] * a[2][0] - a[1][0] * a[2][2]) / det;
+    r[1][1] = (a[0][0] * a[2][2] - a[0][2] * a[2][0]) / det;
+    r[1][2] = (a[0][2] * a[1][0] - a[0][0] * a[1][2]) / det;
+    r[2][0] = (a[1][0] * a[2][1] - a[1][1] * a[2][0]) / det;
+    r[2][1] = (a[0][1] * a[2][0] - a[0][0] * a[2][1]) / det;
+    r[2][2] = (a[0][0] * a[1][1] - a[0][1] * a[1][0]) / det;
+}
+
+static void test_sequential_perfect_measurement_equals_batch_eq29(void)
+{
+    caekf_scalar_t P[N][N], scratch[N][N], z[N], y[2];
+    double Pd[N][N], zd[N], S[3][3], Si[3][3], G[N][3], e[3];
+    const int rows[3] = {CAEKF_IY1, CAEKF_IY4, IG};
+    const double r = 0.01, zmin = 2.0;
+    uint32_t flags = 0;
+    int i, j, k;
+    spd(P);
+    for (i = 0; i < N; ++i) {
+        z[i] = (caekf_scalar_t)(0.1 * i - 0.3);
+        zd[i] = (double)z[i];
+        for (j = 0; j < N; ++j) Pd[i][j] = (double)P[i][j];
+    }
+    z[IG] = zd[IG] = 2.5;
+    y[0] = (caekf_scalar_t)-2.0; /* pulls gamma below zmin through the correlations */
+    y[1] = (caekf_scalar_t)-3.0;
+    TEST_ASSERT_EQUAL_INT(0, caekf_correct(z, P, y, (caekf_scalar_t)r, 0, CAEKF_GAMMA_LIVE, scratch, &flags));
+    TEST_ASSERT_TRUE_MESSAGE((double)z[IG] < zmin, "test setup: the y-correction must violate the bound");
+    caekf_constrain(z, P, (caekf_scalar_t)zmin, 1, (caekf_scalar_t)zmin, &flags);
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_CONSTRAINT_APPLIED);
+    TEST_ASSERT_FALSE(flags & CAEKF_FLAG_CONSTRAINT_CLAMPED);
+    /* Batch: H^c = [H; D], R^c = blkdiag(R, R, 0), y^c = [y; zmin] from the prior (eqs. 29-30). */
+    for (i = 0; i < 3; ++i)
+        for (j = 0; j < 3; ++j) S[i][j] = Pd[rows[i]][rows[j]] + ((i == j && i < 2) ? r : 0);
+    inv3(S, Si);
+    e[0] = (double)y[0] - zd[CAEKF_IY1];
+    e[1] = (double)y[1] - zd[CAEKF_IY4];
+    e[2] = zmin - zd[IG];
+    for (i = 0; i < N; ++i)
+        for (j = 0; j < 3; ++j) {
+            G[i][j] = 0;
+            for (k = 0; k < 3; ++k) G[i][j] += Pd[i][rows[k]] * Si[k][j];
+        }
+    for (i = 0; i < N; ++i) {
+        double zb = zd[i] + G[i][0] * e[0] + G[i][1] * e[1] + G[i][2] * e[2];
+        TEST_ASSERT_DOUBLE_WITHIN(EQ_RTOL * (1 + fabs(zb)), zb, (double)z[i]);
+        for (j = 0; j < N; ++j) {
+            double pb = Pd[i][j];
+            for (k = 0; k < 3; ++k) pb -= G[i][k] * Pd[rows[k]][j];
+            TEST_ASSERT_DOUBLE_WITHIN(EQ_RTOL * 10, pb, (double)P[i][j]);
+        }
+    }
+    TEST_ASSERT_EQUAL_DOUBLE(zmin, (double)z[IG]);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)P[IG][IG]);
+}
+
+static void test_zero_gamma_variance_falls_back_to_clamp(void)
+{
+    caekf_scalar_t P[N][N], before[N][N], z[N];
+    uint32_t flags = 0;
+    int i;
+    spd(P);
+    for (i = 0; i < N; ++i) {
+        P[i][IG] = P[IG][i] = 0; /* just after a constraint: gamma's variance is exactly 0 */
+        z[i] = (caekf_scalar_t)0.5;
+    }
+    z[IG] = (caekf_scalar_t)0.5;
+    memcpy(before, P, sizeof P);
+    caekf_constrain(z, P, 1, 1, 1, &flags);
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_CONSTRAINT_APPLIED);
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_CONSTRAINT_CLAMPED);
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_SINGULAR_INNOVATION);
+    TEST_ASSERT_TRUE((double)z[IG] >= 1.0);
+    TEST_ASSERT_EQUAL_DOUBLE(0.5, (double)z[0]);
+    TEST_ASSERT_TRUE(memcmp(before, P, sizeof P) == 0);
+}
+
+static void test_inconsistent_gamma_column_falls_back_to_clamp(void)
+{
+    caekf_scalar_t P[N][N], z[N];
+    uint32_t flags = 0;
+    int i;
+    spd(P);
+    P[IG][IG] = (caekf_scalar_t)1e-6; /* |P_ig|^2 > P_ii P_gg: no valid covariance, the gain would explode */
+    for (i = 0; i < N; ++i) z[i] = 0;
+    caekf_constrain(z, P, 1, 1, 1, &flags);
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_CONSTRAINT_CLAMPED);
+    for (i = 0; i < IG; ++i) TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)z[i]);
+}
+
+static void test_singular_innovation_is_refused_with_a_flag(void)
+{
+    caekf_scalar_t P[N][N], scratch[N][N], z[N], y[2] = {1, 1}, Pb[N][N], zb[N];
+    uint32_t flags = 0;
+    int i, j;
+    for (i = 0; i < N; ++i)
+        for (j = 0; j < N; ++j) P[i][j] = (i == j) ? 1 : 0;
+    /* q1 and q4 perfectly correlated with a negligible R: S is singular to working precision. */
+    P[CAEKF_IY1][CAEKF_IY4] = P[CAEKF_IY4][CAEKF_IY1] = 1;
+    for (i = 0; i < N; ++i) z[i] = 0;
+    memcpy(Pb, P, sizeof P);
+    memcpy(zb, z, sizeof z);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_correct(z, P, y, (caekf_scalar_t)1e-30, 1, CAEKF_GAMMA_LIVE, scratch, &flags));
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_SINGULAR_INNOVATION);
+    TEST_ASSERT_TRUE(memcmp(Pb, P, sizeof P) == 0);
+    TEST_ASSERT_TRUE(memcmp(zb, z, sizeof z) == 0);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_constrained_highq_stays_above_gamma_min);
+    RUN_TEST(test_sequential_perfect_measurement_equals_batch_eq29);
+    RUN_TEST(test_zero_gamma_variance_falls_back_to_clamp);
+    RUN_TEST(test_inconsistent_gamma_column_falls_back_to_clamp);
+    RUN_TEST(test_singular_innovation_is_refused_with_a_flag);
+    return UNITY_END();
+}

@@ -1,0 +1,187 @@
+/* With contact never active the estimator must be an ordinary linear Kalman filter. The reference
+ * filter here is written independently, in double and physical units, from the backward-Euler
+ * matrices: [I, -dt I; dt K, M + dt C] x_k = [q_{k-1}; M v_{k-1} + dt B_u u_k]. */
+#include <math.h>
+#include <string.h>
+
+#include "test_support.h"
+#include "unity.h"
+
+#define NX 8
+#define STEPS 3000
+
+#if CAEKF_USE_FLOAT
+#define X_RTOL 2e-3
+#define P_RTOL 2e-2
+#else
+#define X_RTOL 1e-8
+#define P_RTOL 1e-7
+#endif
+
+void setUp(void) {}
+void tearDown(void) {}
+
+static void mat_inverse(double a[NX][NX], double inv[NX][NX])
+{
+    int i, j, k;
+    for (i = 0; i < NX; ++i)
+        for (j = 0; j < NX; ++j) inv[i][j] = (i == j);
+    for (k = 0; k < NX; ++k) {
+        int p = k;
+        double piv;
+        for (i = k + 1; i < NX; ++i)
+            if (fabs(a[i][k]) > fabs(a[p][k])) p = i;
+        for (j = 0; j < NX; ++j) {
+            double t = a[k][j]; a[k][j] = a[p][j]; a[p][j] = t;
+            t = inv[k][j]; inv[k][j] = inv[p][j]; inv[p][j] = t;
+        }
+        piv = a[k][k];
+        for (j = 0; j < NX; ++j) { a[k][j] /= piv; inv[k][j] /= piv; }
+        for (i = 0; i < NX; ++i) {
+            double f = a[i][k];
+            if (i == k) continue;
+            for (j = 0; j < NX; ++j) { a[i][j] -= f * a[k][j]; inv[i][j] -= f * inv[k][j]; }
+        }
+    }
+}
+
+typedef struct {
+    double F[NX][NX], Ainv[NX][NX];
+    double x[NX], P[NX][NX];
+    double qd[NX], r, dt;
+    double m[4];
+} linear_kf_t;
+
+static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
+{
+    const caekf_model_params_t *p = &s->model;
+    double K[4][4] = {{0}}, C[4][4] = {{0}}, A[NX][NX] = {{0}}, B[NX][NX] = {{0}};
+    int i, j, k;
+    double dt = (double)p->dt;
+    K[0][0] = (double)p->k1 + (double)p->k12; K[0][1] = K[1][0] = -(double)p->k12; K[1][1] = (double)p->k12;
+    K[2][2] = (double)p->k34; K[2][3] = K[3][2] = -(double)p->k34; K[3][3] = (double)p->k34 + (double)p->k4;
+    C[0][0] = (double)p->c1 + (double)p->c12; C[0][1] = C[1][0] = -(double)p->c12; C[1][1] = (double)p->c12;
+    C[2][2] = (double)p->c34; C[2][3] = C[3][2] = -(double)p->c34; C[3][3] = (double)p->c34 + (double)p->c4;
+    for (i = 0; i < 4; ++i) {
+        kf->m[i] = (double)p->m[i];
+        A[i][i] = 1;
+        A[i][4 + i] = -dt;
+        B[i][i] = 1;
+        B[4 + i][4 + i] = kf->m[i];
+        for (j = 0; j < 4; ++j) {
+            A[4 + i][j] = dt * K[i][j];
+            A[4 + i][4 + j] = (i == j ? kf->m[i] : 0) + dt * C[i][j];
+        }
+    }
+    mat_inverse(A, kf->Ainv);
+    for (i = 0; i < NX; ++i)
+        for (j = 0; j < NX; ++j) {
+            double acc = 0;
+            for (k = 0; k < NX; ++k) acc += kf->Ainv[i][k] * B[k][j];
+            kf->F[i][j] = acc;
+        }
+    memset(kf->P, 0, sizeof kf->P);
+    for (i = 0; i < 4; ++i) {
+        kf->x[i] = 0;
+        kf->x[4 + i] = 0;
+        kf->P[i][i] = (double)s->sigma_q0 * (double)s->sigma_q0;
+        kf->P[4 + i][4 + i] = (double)s->sigma_v0 * (double)s->sigma_v0;
+        kf->qd[i] = (double)s->sigma_qx_q * (double)s->sigma_qx_q;
+        kf->qd[4 + i] = (double)s->sigma_qx_v * (double)s->sigma_qx_v;
+    }
+    kf->r = (double)s->sigma_r * (double)s->sigma_r;
+    kf->dt = dt;
+}
+
+static void kf_step(linear_kf_t *kf, double u, double y1, double y4)
+{
+    double xp[NX], T[NX][NX], Pp[NX][NX], S[2][2], Si[2][2], G[NX][2], det, e[2];
+    int i, j, k;
+    for (i = 0; i < NX; ++i) { /* x- = F x + Ainv [0; dt B_u u] */
+        double acc = kf->Ainv[i][4] * kf->dt * u;
+        for (k = 0; k < NX; ++k) acc += kf->F[i][k] * kf->x[k];
+        xp[i] = acc;
+    }
+    for (i = 0; i < NX; ++i)
+        for (j = 0; j < NX; ++j) {
+            double acc = 0;
+            for (k = 0; k < NX; ++k) acc += kf->F[i][k] * kf->P[k][j];
+            T[i][j] = acc;
+        }
+    for (i = 0; i < NX; ++i)
+        for (j = 0; j < NX; ++j) {
+            double acc = (i == j) ? kf->qd[i] : 0;
+            for (k = 0; k < NX; ++k) acc += T[i][k] * kf->F[j][k];
+            Pp[i][j] = acc;
+        }
+    S[0][0] = Pp[0][0] + kf->r; S[0][1] = Pp[0][3]; S[1][0] = Pp[3][0]; S[1][1] = Pp[3][3] + kf->r;
+    det = S[0][0] * S[1][1] - S[0][1] * S[1][0];
+    Si[0][0] = S[1][1] / det; Si[1][1] = S[0][0] / det; Si[0][1] = -S[0][1] / det; Si[1][0] = -S[1][0] / det;
+    for (i = 0; i < NX; ++i) {
+        G[i][0] = Pp[i][0] * Si[0][0] + Pp[i][3] * Si[1][0];
+        G[i][1] = Pp[i][0] * Si[0][1] + Pp[i][3] * Si[1][1];
+    }
+    e[0] = y1 - xp[0];
+    e[1] = y4 - xp[3];
+    for (i = 0; i < NX; ++i) kf->x[i] = xp[i] + G[i][0] * e[0] + G[i][1] * e[1];
+    for (i = 0; i < NX; ++i)
+        for (j = 0; j < NX; ++j) kf->P[i][j] = Pp[i][j] - G[i][0] * Pp[0][j] - G[i][1] * Pp[3][j];
+}
+
+static void compare_with_linear_kf(int mode)
+{
+    caekf_settings_t s;
+    linear_kf_t kf;
+    static caekf_t est;
+    truth_rec_t r;
+    caekf_scalar_t gamma0;
+    long n = 0;
+    int i, j;
+    paper_settings(&s, EXP_SWITCHED);
+    s.mode = (caekf_mode_t)mode;
+    s.model.gap = 1; /* 1 m: contact is never active */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    (void)caekf_get_gamma(&est, &gamma0);
+    kf_init(&kf, &s);
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    while (n < STEPS && truth_next(&r) == 1) {
+        caekf_scalar_t y[2], x[CAEKF_N], P[CAEKF_N][CAEKF_N];
+        caekf_report_t rep;
+        /* Measurements from the contact truth are fine: any data exercises the filter. */
+        y[0] = (caekf_scalar_t)r.y1;
+        y[1] = (caekf_scalar_t)r.y4;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (caekf_scalar_t)r.u, y, &rep));
+        TEST_ASSERT_FALSE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
+        kf_step(&kf, r.u, r.y1, r.y4);
+        (void)caekf_get_state(&est, x);
+        (void)caekf_get_covariance(&est, P);
+        for (i = 0; i < NX; ++i) {
+            double scale = i < 4 ? 1e-3 : 1e-3; /* positions ~mm, velocities ~mm/s */
+            TEST_ASSERT_DOUBLE_WITHIN(X_RTOL * (fabs(kf.x[i]) + 1e-6 * scale), kf.x[i], (double)x[i]);
+            for (j = 0; j < NX; ++j) {
+                double ref = kf.P[i][j];
+                double tol = P_RTOL * sqrt(kf.P[i][i] * kf.P[j][j]);
+                TEST_ASSERT_DOUBLE_WITHIN(tol, ref, (double)P[i][j]);
+            }
+        }
+        n++;
+    }
+    truth_close();
+    TEST_ASSERT_EQUAL_INT32(STEPS, n);
+    if (mode == CAEKF_MODE_SWITCHED) {
+        caekf_scalar_t g;
+        (void)caekf_get_gamma(&est, &g);
+        TEST_ASSERT_TRUE(memcmp(&g, &gamma0, sizeof g) == 0); /* frozen throughout */
+    }
+}
+
+static void test_switched_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED); }
+static void test_canonical_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_CANONICAL); }
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_switched_without_contact_is_a_linear_kf);
+    RUN_TEST(test_canonical_without_contact_is_a_linear_kf);
+    return UNITY_END();
+}

@@ -1,0 +1,144 @@
+/* Fixed-size linear algebra: LU with pivoting and several right-hand sides, the refusing 2x2
+ * symmetric inverse, the PSD test, Jacobi eigenvalues and the PSD repair. */
+#include <math.h>
+#include <string.h>
+
+#include "caekf_linalg.h"
+#include "unity.h"
+
+#if CAEKF_USE_FLOAT
+#define TOL 1e-4
+#else
+#define TOL 1e-12
+#endif
+
+void setUp(void) {}
+void tearDown(void) {}
+
+static void test_lu_solves_several_rhs_with_pivoting(void)
+{
+    /* a[0][0] = 0 forces a row exchange. */
+    caekf_scalar_t a[4][4] = {{0, 2, 1, 0}, {3, 1, 0, 1}, {1, 0, 4, 2}, {2, 1, 1, 5}};
+    caekf_scalar_t x[4][3] = {{1, -2, 0.5f}, {2, 0, -1}, {-1, 3, 2}, {0.25f, 1, -3}};
+    caekf_scalar_t b[4][3];
+    int piv[4], i, j, k;
+    for (i = 0; i < 4; ++i) {
+        for (j = 0; j < 3; ++j) {
+            caekf_scalar_t s = 0;
+            for (k = 0; k < 4; ++k) {
+                s += a[i][k] * x[k][j];
+            }
+            b[i][j] = s;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu_factor(&a[0][0], 4, piv, CAEKF_EPS * 16));
+    TEST_ASSERT_EQUAL_INT(1, piv[0]); /* largest |a_i0| is row 1 */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu_solve(&a[0][0], 4, piv, &b[0][0], 3, 3));
+    for (i = 0; i < 4; ++i) {
+        for (j = 0; j < 3; ++j) {
+            TEST_ASSERT_DOUBLE_WITHIN(TOL * 10, (double)x[i][j], (double)b[i][j]);
+        }
+    }
+}
+
+static void test_lu_refuses_singular_and_nan(void)
+{
+    caekf_scalar_t a[3][3] = {{1, 2, 3}, {2, 4, 6}, {1, 0, 1}}; /* row 1 = 2 row 0 */
+    caekf_scalar_t n[2][2] = {{1, 0}, {0, 1}};
+    int piv[3];
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_lu_factor(&a[0][0], 3, piv, CAEKF_EPS * 16));
+    n[1][1] = (caekf_scalar_t)NAN;
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_lu_factor(&n[0][0], 2, piv, CAEKF_EPS * 16));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_BAD_SIZE, caekf_lu_factor(&n[0][0], 0, piv, CAEKF_EPS * 16));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_BAD_SIZE, caekf_lu_factor(&n[0][0], CAEKF_LA_MAX_N + 1, piv, CAEKF_EPS));
+}
+
+static void test_sym2_inverse_and_refusals(void)
+{
+    caekf_scalar_t inv[3];
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym2_inverse(4, 1, 3, CAEKF_EPS * 16, inv));
+    TEST_ASSERT_DOUBLE_WITHIN(TOL, 3.0 / 11.0, (double)inv[0]);
+    TEST_ASSERT_DOUBLE_WITHIN(TOL, -1.0 / 11.0, (double)inv[1]);
+    TEST_ASSERT_DOUBLE_WITHIN(TOL, 4.0 / 11.0, (double)inv[2]);
+    /* Rank one plus a negligible R: the determinant is rounding noise, so it is refused. */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(1 + (caekf_scalar_t)1e-20, 1,
+                                                                1 + (caekf_scalar_t)1e-20, CAEKF_EPS * 16, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(0, 0, 1, CAEKF_EPS * 16, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(-1, 0, 1, CAEKF_EPS * 16, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse((caekf_scalar_t)NAN, 0, 1, CAEKF_EPS * 16, inv));
+}
+
+static void test_psd_check_cases(void)
+{
+    caekf_scalar_t w[9];
+    caekf_scalar_t id[3][3] = {{1, 0, 0}, {0, 2, 0}, {0, 0, 3}};
+    caekf_scalar_t indef[3][3] = {{1, 2, 0}, {2, 1, 0}, {0, 0, 1}};
+    caekf_scalar_t semidef[3][3] = {{1, 1, 0}, {1, 1, 0}, {0, 0, 0}}; /* rank 1 with a zero row */
+    caekf_scalar_t coupled_zero[3][3] = {{1, 0, 0.5f}, {0, 1, 0}, {0.5f, 0, 0}};
+    caekf_scalar_t corr_above_one[2][2] = {{1e-12f, 1.001e-6f}, {1.001e-6f, 1}}; /* corr 1.001 */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&id[0][0], 3, CAEKF_EPS * 1024, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&indef[0][0], 3, CAEKF_EPS * 1024, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&semidef[0][0], 3, CAEKF_EPS * 1024, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&coupled_zero[0][0], 3, CAEKF_EPS * 1024, w));
+    /* Scale invariance: tiny and large variances side by side are judged by correlation. */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&corr_above_one[0][0], 2, CAEKF_EPS * 1024, w));
+    corr_above_one[0][1] = corr_above_one[1][0] = (caekf_scalar_t)0.999e-6;
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&corr_above_one[0][0], 2, CAEKF_EPS * 1024, w));
+}
+
+/* A = R diag(d) R^T with R a rotation in the (0, 2) plane. */
+static void rotated(caekf_scalar_t a[3][3], const double d[3], double angle)
+{
+    double c = cos(angle), s = sin(angle);
+    double r[3][3] = {{c, 0, -s}, {0, 1, 0}, {s, 0, c}};
+    int i, j, k;
+    for (i = 0; i < 3; ++i) {
+        for (j = 0; j < 3; ++j) {
+            double acc = 0;
+            for (k = 0; k < 3; ++k) {
+                acc += r[i][k] * d[k] * r[j][k];
+            }
+            a[i][j] = (caekf_scalar_t)acc;
+        }
+    }
+}
+
+static void test_eigen_norm_and_repair(void)
+{
+    const double d[3] = {5, 0.5, -2}; /* the negative one mixes with axis 0 */
+    caekf_scalar_t a[3][3], w[9], v[9], nrm;
+    double eig[3];
+    int i;
+    rotated(a, d, 0.7);
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym_norm2(&a[0][0], 3, w, &nrm));
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 50, 5.0, (double)nrm);
+    memcpy(w, a, sizeof a);
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym_eigen(w, 3, v));
+    for (i = 0; i < 3; ++i) {
+        eig[i] = (double)w[i * 3 + i];
+    }
+    /* The eigenvalues, in any order, are the d's. */
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 50, d[0] + d[1] + d[2], eig[0] + eig[1] + eig[2]);
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 200, d[0] * d[1] * d[2], eig[0] * eig[1] * eig[2]);
+    /* Repair: indefinite in, PSD out, variances kept. */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&a[0][0], 3, CAEKF_EPS * 1024, w));
+    {
+        caekf_scalar_t diag_before[3] = {a[0][0], a[1][1], a[2][2]};
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_repair(&a[0][0], 3, v));
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&a[0][0], 3, CAEKF_EPS * 1024, w));
+        TEST_ASSERT_DOUBLE_WITHIN(0.5, (double)diag_before[1], (double)a[1][1]); /* untouched axis */
+        TEST_ASSERT_TRUE(a[0][0] > 0 && a[2][2] > 0);
+        TEST_ASSERT_EQUAL_DOUBLE((double)a[0][2], (double)a[2][0]);
+    }
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_lu_solves_several_rhs_with_pivoting);
+    RUN_TEST(test_lu_refuses_singular_and_nan);
+    RUN_TEST(test_sym2_inverse_and_refusals);
+    RUN_TEST(test_psd_check_cases);
+    RUN_TEST(test_eigen_norm_and_repair);
+    return UNITY_END();
+}

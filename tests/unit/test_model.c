@@ -1,0 +1,263 @@
+/* The model of eq. (19): analytic Jacobians against central finite differences (in and out of
+ * contact), the structured F of eq. (10) against -(dg/dx_k)^-1 dg/dx_{k-1}, and Newton over the whole
+ * reference scenario, including a forced failure that must be reported. */
+#include <math.h>
+#include <string.h>
+
+#include "caekf/caekf_model.h"
+#include "test_support.h"
+#include "unity.h"
+
+#define N CAEKF_N
+
+#if CAEKF_USE_FLOAT
+#define JAC_RTOL 3e-2
+#define F_RTOL 2e-3
+static const double fd_step[N] = {1e-7, 1e-7, 1e-7, 1e-7, 1e-5, 1e-5, 1e-5, 1e-5, 1e4};
+#else
+#define JAC_RTOL 1e-6
+#define F_RTOL 1e-9
+static const double fd_step[N] = {1e-9, 1e-9, 1e-9, 1e-9, 1e-7, 1e-7, 1e-7, 1e-7, 1e2};
+#endif
+
+static caekf_model_t model;
+
+void setUp(void)
+{
+    caekf_settings_t s;
+    paper_settings(&s, EXP_SWITCHED);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&model, &s.model));
+}
+void tearDown(void) {}
+
+/* A state with penetration `delta` (<= 0: no contact) and some motion. */
+static void make_state(caekf_scalar_t x[N], double delta)
+{
+    double q3 = 1.5e-5;
+    x[0] = (caekf_scalar_t)1.2e-3;
+    x[1] = (caekf_scalar_t)(q3 + 1.0e-3 + delta);
+    x[2] = (caekf_scalar_t)q3;
+    x[3] = (caekf_scalar_t)-4e-6;
+    x[4] = (caekf_scalar_t)3e-3;
+    x[5] = (caekf_scalar_t)-2e-3;
+    x[6] = (caekf_scalar_t)1e-3;
+    x[7] = (caekf_scalar_t)-5e-4;
+    x[8] = (caekf_scalar_t)1.1e8;
+}
+
+static void check_jacobians_at(double delta)
+{
+    caekf_scalar_t xk[N], xp[N], Jk[N][N], Jp[N][N];
+    int i, j;
+    make_state(xk, delta);
+    make_state(xp, delta * 0.9);
+    xp[4] = (caekf_scalar_t)2.5e-3;
+    caekf_model_jacobians(&model, xk, Jk, Jp);
+    for (j = 0; j < N; ++j) {
+        caekf_scalar_t a[N], b[N], ga[N], gb[N];
+        double h;
+        /* d/dx_k */
+        memcpy(a, xk, sizeof a);
+        memcpy(b, xk, sizeof b);
+        a[j] += (caekf_scalar_t)fd_step[j];
+        b[j] -= (caekf_scalar_t)fd_step[j];
+        h = (double)a[j] - (double)b[j]; /* the step actually taken after rounding */
+        caekf_model_residual(&model, a, xp, (caekf_scalar_t)0.3, ga);
+        caekf_model_residual(&model, b, xp, (caekf_scalar_t)0.3, gb);
+        for (i = 0; i < N; ++i) {
+            double fd = ((double)ga[i] - (double)gb[i]) / h;
+            double rowmax = 0;
+            int c;
+            for (c = 0; c < N; ++c) {
+                rowmax = fmax(rowmax, fabs((double)Jk[i][c]));
+            }
+            TEST_ASSERT_DOUBLE_WITHIN(JAC_RTOL * (fabs((double)Jk[i][j]) + 1e-3 * rowmax), (double)Jk[i][j], fd);
+        }
+        /* d/dx_{k-1} */
+        memcpy(a, xp, sizeof a);
+        memcpy(b, xp, sizeof b);
+        a[j] += (caekf_scalar_t)fd_step[j];
+        b[j] -= (caekf_scalar_t)fd_step[j];
+        h = (double)a[j] - (double)b[j];
+        caekf_model_residual(&model, xk, a, (caekf_scalar_t)0.3, ga);
+        caekf_model_residual(&model, xk, b, (caekf_scalar_t)0.3, gb);
+        for (i = 0; i < N; ++i) {
+            double fd = ((double)ga[i] - (double)gb[i]) / h;
+            TEST_ASSERT_DOUBLE_WITHIN(JAC_RTOL * (fabs((double)Jp[i][j]) + 1e-3), (double)Jp[i][j], fd);
+        }
+    }
+}
+
+static void test_jacobians_match_finite_differences_in_contact(void)
+{
+    caekf_contact_t c;
+    caekf_scalar_t x[N];
+    make_state(x, 2e-6);
+    caekf_model_contact(&model, x, x[8], &c);
+    TEST_ASSERT_TRUE(c.delta > 0 && c.fc > 0 && c.dfc_ddelta > 0);
+    check_jacobians_at(2e-6);
+}
+
+static void test_jacobians_match_finite_differences_out_of_contact(void)
+{
+    caekf_contact_t c;
+    caekf_scalar_t x[N];
+    make_state(x, -5e-6);
+    caekf_model_contact(&model, x, x[8], &c);
+    TEST_ASSERT_TRUE(c.delta < 0);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)c.fc);
+    check_jacobians_at(-5e-6);
+}
+
+/* Gauss-Jordan inverse in double, written independently of the library's LU. */
+static void invert(double a[N][N], double inv[N][N])
+{
+    int i, j, k;
+    for (i = 0; i < N; ++i) {
+        for (j = 0; j < N; ++j) {
+            inv[i][j] = (i == j);
+        }
+    }
+    for (k = 0; k < N; ++k) {
+        int p = k;
+        double piv;
+        for (i = k + 1; i < N; ++i) {
+            if (fabs(a[i][k]) > fabs(a[p][k])) p = i;
+        }
+        for (j = 0; j < N; ++j) {
+            double t = a[k][j]; a[k][j] = a[p][j]; a[p][j] = t;
+            t = inv[k][j]; inv[k][j] = inv[p][j]; inv[p][j] = t;
+        }
+        piv = a[k][k];
+        TEST_ASSERT_TRUE(fabs(piv) > 0);
+        for (j = 0; j < N; ++j) {
+            a[k][j] /= piv;
+            inv[k][j] /= piv;
+        }
+        for (i = 0; i < N; ++i) {
+            double f = a[i][k];
+            if (i == k) continue;
+            for (j = 0; j < N; ++j) {
+                a[i][j] -= f * a[k][j];
+                inv[i][j] -= f * inv[k][j];
+            }
+        }
+    }
+}
+
+static void check_transition_at(double delta)
+{
+    caekf_scalar_t xk[N], Jk[N][N], Jp[N][N], F[N][N];
+    double A[N][N], Ai[N][N];
+    int i, j, k;
+    make_state(xk, delta);
+    caekf_model_jacobians(&model, xk, Jk, Jp);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition(&model, xk, F));
+    for (i = 0; i < N; ++i) {
+        for (j = 0; j < N; ++j) {
+            A[i][j] = (double)Jk[i][j];
+        }
+    }
+    invert(A, Ai);
+    for (i = 0; i < N; ++i) {
+        double rowmax = 0;
+        double ref[N];
+        for (j = 0; j < N; ++j) {
+            double s = 0;
+            for (k = 0; k < N; ++k) {
+                s += Ai[i][k] * (double)Jp[k][j];
+            }
+            ref[j] = -s; /* eq. (10) */
+            rowmax = fmax(rowmax, fabs(ref[j]));
+        }
+        for (j = 0; j < N; ++j) {
+            TEST_ASSERT_DOUBLE_WITHIN(F_RTOL * rowmax + 1e-300, ref[j], (double)F[i][j]);
+        }
+    }
+    /* The known zero block and the random walk row of eq. (23). */
+    for (j = 0; j < N - 1; ++j) {
+        TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)F[N - 1][j]);
+    }
+    TEST_ASSERT_EQUAL_DOUBLE(1.0, (double)F[N - 1][N - 1]);
+    if (delta <= 0) {
+        for (i = 0; i < N - 1; ++i) {
+            TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)F[i][N - 1]); /* gamma does not act without contact */
+        }
+    }
+}
+
+static void test_structured_transition_equals_eq10(void)
+{
+    check_transition_at(2e-6);
+    check_transition_at(-5e-6);
+}
+
+static void test_newton_converges_over_the_reference_scenario(void)
+{
+    truth_rec_t r;
+    caekf_scalar_t xp[N], xk[N];
+    long n = 0, contact = 0, iters = 0;
+    int max_it = 0, rc, i;
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    memset(xp, 0, sizeof xp);
+    xp[8] = (caekf_scalar_t)paper_gamma_true();
+    while ((rc = truth_next(&r)) == 1) {
+        int it = -1;
+        int st = caekf_model_newton(&model, xp, (caekf_scalar_t)r.u, CAEKF_NEWTON_MAX_ITER,
+                                    (caekf_scalar_t)(CAEKF_EPS * 256), xk, &it);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(0, st, "Newton did not converge on the reference scenario");
+        TEST_ASSERT_TRUE(it >= 1 && it <= CAEKF_NEWTON_MAX_ITER);
+        max_it = it > max_it ? it : max_it;
+        iters += it;
+        contact += r.delta > 0;
+        /* Next step starts from the truth (the estimator's situation: a good previous estimate). */
+        for (i = 0; i < 4; ++i) {
+            xp[i] = (caekf_scalar_t)r.q[i];
+            xp[4 + i] = (caekf_scalar_t)r.v[i];
+        }
+        n++;
+    }
+    truth_close();
+    TEST_ASSERT_EQUAL_INT(0, rc);
+    TEST_ASSERT_EQUAL_INT32(paper_steps(), n);
+    TEST_ASSERT_TRUE_MESSAGE(contact > 1000, "the scenario must exercise contact");
+    TEST_ASSERT_TRUE(max_it >= 2);           /* contact steps need real Newton iterations */
+    TEST_ASSERT_TRUE(max_it <= 6);           /* far inside the bound */
+    TEST_ASSERT_TRUE((double)iters / (double)n < 1.5);
+}
+
+static void test_forced_newton_failure_is_reported(void)
+{
+    caekf_scalar_t xp[N], xk[N];
+    int it = 0;
+    make_state(xp, 2e-6);
+    /* One iteration cannot meet an absurd tolerance in contact: status 1, the iterate is kept. */
+    TEST_ASSERT_EQUAL_INT(1, caekf_model_newton(&model, xp, 0, 1, (caekf_scalar_t)1e-30, xk, &it));
+    TEST_ASSERT_EQUAL_INT(1, it);
+    TEST_ASSERT_TRUE(isfinite((double)xk[1]));
+    /* Through the estimator: the step completes and raises NEWTON_NOT_CONVERGED. */
+    {
+        caekf_settings_t s;
+        caekf_t est;
+        caekf_report_t rep;
+        caekf_scalar_t y[2] = {0, 0};
+        paper_settings(&s, EXP_SWITCHED);
+        s.newton_max_iter = 1;
+        s.newton_rtol = (caekf_scalar_t)1e-30;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (caekf_scalar_t)0.5, y, &rep));
+        TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NEWTON_NOT_CONVERGED);
+        TEST_ASSERT_EQUAL_INT(1, rep.newton_iters);
+    }
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_jacobians_match_finite_differences_in_contact);
+    RUN_TEST(test_jacobians_match_finite_differences_out_of_contact);
+    RUN_TEST(test_structured_transition_equals_eq10);
+    RUN_TEST(test_newton_converges_over_the_reference_scenario);
+    RUN_TEST(test_forced_newton_failure_is_reported);
+    return UNITY_END();
+}
