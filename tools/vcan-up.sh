@@ -21,10 +21,15 @@ as_root() {
 die() { echo "vcan-up: $*" >&2; exit 1; }
 
 PATH=$PATH:/usr/sbin:/sbin
-command -v ip >/dev/null 2>&1 || die "the 'ip' command (iproute2) is missing"
+exists() { [ -e "/sys/class/net/$1" ]; }
+is_up() { [ $(($(cat "/sys/class/net/$1/flags" 2>/dev/null || echo 0) & 1)) = 1 ]; }
+need_ip() { command -v ip >/dev/null 2>&1 || die "the 'ip' command (iproute2) is missing, cannot $*"; }
 
 for ifc in "$@"; do
-	if ! ip link show dev "$ifc" >/dev/null 2>&1; then
+	if exists "$ifc" && is_up "$ifc"; then
+		continue
+	fi
+	if ! exists "$ifc"; then
 		if [ ! -d /sys/module/vcan ]; then
 			if ! command -v modprobe >/dev/null 2>&1; then
 				if ls /lib/modules/"$(uname -r)"/kernel/drivers/net/can/vcan.ko* >/dev/null 2>&1; then
@@ -36,11 +41,13 @@ for ifc in "$@"; do
 				die "modprobe vcan failed: this kernel ($(uname -r)) has no vcan module (CONFIG_CAN_VCAN)"
 		fi
 		as_root modprobe can_raw 2>/dev/null || true
+		need_ip "create $ifc"
 		as_root ip link add dev "$ifc" type vcan ||
-			ip link show dev "$ifc" >/dev/null 2>&1 || # lost a race with another caller
+			exists "$ifc" || # lost a race with another caller
 			die "cannot create $ifc"
 	fi
-	if ! ip link show dev "$ifc" | head -n1 | grep -q '[<,]UP[,>]'; then
+	if ! is_up "$ifc"; then
+		need_ip "bring $ifc up"
 		as_root ip link set up dev "$ifc" || die "cannot bring $ifc up"
 	fi
 done

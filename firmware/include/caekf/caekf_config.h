@@ -30,10 +30,12 @@
 #if CAEKF_USE_FLOAT
 typedef float caekf_scalar_t;
 #define CAEKF_EPS FLT_EPSILON
+#define CAEKF_TINY 1e-30f /* off-diagonal covariances below this are flushed to 0 (no subnormals) */
 #define CAEKF_SCALAR_NAME "float"
 #else
 typedef double caekf_scalar_t;
 #define CAEKF_EPS DBL_EPSILON
+#define CAEKF_TINY 1e-290
 #define CAEKF_SCALAR_NAME "double"
 #endif
 
