@@ -39,6 +39,9 @@ def run(args):
         counts_path = args.counts or os.path.join(tmp, "counts.txt")
         log_path = os.path.join(tmp, "plugin.log")
         plugin = f"{args.plugin},begin={begin:#x},end={end:#x},out={counts_path}"
+        prof_path = os.path.join(tmp, "profile.txt")
+        if args.profile:
+            plugin += f",profile={prof_path}"
         cmd = [QEMU_RUN, "--machine", args.machine, "--timeout", str(args.timeout),
                "--plugin", plugin, "--log", log_path, "--", args.image]
         proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -52,7 +55,34 @@ def run(args):
         if os.path.exists(counts_path):
             with open(counts_path) as f:
                 counts = [int(x) for x in f.read().split()]
+        if args.profile and os.path.exists(prof_path):
+            print_profile(nm, args.image, prof_path, args.profile)
     return proc.returncode, guest, log, counts, begin, end
+
+
+def print_profile(nm, image, path, top):
+    """Instructions per function over the whole run (blocks attributed to the enclosing symbol)."""
+    syms = []
+    out = subprocess.run([nm, "--defined-only", "-n", "-S", image], check=True, capture_output=True, text=True).stdout
+    for line in out.splitlines():
+        p = line.split()
+        if len(p) == 4 and p[2] in "tTwW":
+            syms.append((int(p[0], 16) & ~1, int(p[1], 16), p[3]))
+    syms.sort()
+    per = {}
+    total = 0
+    import bisect
+    starts = [s[0] for s in syms]
+    for line in open(path):
+        va, n, ex = line.split()
+        va, insns = int(va, 16), int(n) * int(ex)
+        i = bisect.bisect_right(starts, va) - 1
+        name = syms[i][2] if i >= 0 and va < syms[i][0] + max(syms[i][1], 2) else f"?{va:#x}"
+        per[name] = per.get(name, 0) + insns
+        total += insns
+    print(f"profile: {total} instructions in the whole run, top {top} functions:")
+    for name, v in sorted(per.items(), key=lambda kv: -kv[1])[:top]:
+        print(f"profile: {v:12d} {100.0 * v / total:6.2f} %  {name}")
 
 
 def summary(counts):
@@ -82,6 +112,8 @@ def main():
     ap.add_argument("--json", help="write the summary as JSON here")
     ap.add_argument("--expect-from-output", action="store_true")
     ap.add_argument("--quiet", action="store_true", help="do not echo the guest output")
+    ap.add_argument("--profile", type=int, default=0, metavar="N",
+                    help="also print the N functions executing the most instructions (whole run)")
     args = ap.parse_args()
 
     status, guest, log, counts, begin, end = run(args)

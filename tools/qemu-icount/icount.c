@@ -1,7 +1,8 @@
 /*
  * icount.c - QEMU TCG plugin: instructions executed between two marker functions.
  *
- *   qemu-system-arm ... -plugin libqemu-icount.so,begin=0xADDR,end=0xADDR[,out=FILE][,verbose=on]
+ *   qemu-system-arm ... -plugin libqemu-icount.so,begin=0xADDR,end=0xADDR[,out=FILE][,profile=FILE]
+ *                   [,verbose=on]
  *                   -d plugin [-D logfile]
  *
  * `begin` and `end` are the entry addresses of two functions (e.g. caekf_mark_begin and
@@ -21,6 +22,8 @@
  * and at exit one summary line:
  *   icount: intervals=N min=.. median=.. max=.. mean=.. argmax=K total=..
  * out=FILE writes every interval's count, one per line, in order.
+ * profile=FILE writes "vaddr n_insns executions" per translation block start address, over the
+ * whole run (not only inside intervals), for a per-function profile (icount-run.py --profile).
  *
  * QEMU 7.2 as packaged by Debian ships no qemu-plugin.h, so the subset of the plugin API v1 used
  * here is declared below (same declarations as QEMU's include/qemu/qemu-plugin.h, API version 1).
@@ -94,6 +97,17 @@ static uint64_t nested_begins; /* `begin` entered again before `end` (restarts t
 static uint64_t stray_ends;    /* `end` entered outside an interval */
 static uint64_t misplaced;     /* a marker found inside a block instead of at its start */
 
+/* profile=: one record per translated block (a block retranslated later gets another record; the
+ * dump adds them up by address). */
+typedef struct tb_prof {
+    uint64_t vaddr;
+    uint64_t n;
+    uint64_t execs;
+    struct tb_prof *next;
+} tb_prof_t;
+static const char *profile_path;
+static tb_prof_t *profiles;
+
 static uint64_t *intervals;
 static size_t n_intervals;
 static size_t cap_intervals;
@@ -161,6 +175,16 @@ static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
     } else {
         qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &counter, (uint64_t)n);
     }
+    if (profile_path != NULL) {
+        tb_prof_t *p = calloc(1, sizeof *p);
+        if (p != NULL) {
+            p->vaddr = va;
+            p->n = n;
+            p->next = profiles;
+            profiles = p;
+            qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &p->execs, 1u);
+        }
+    }
 }
 
 static int cmp_u64(const void *a, const void *b)
@@ -184,6 +208,20 @@ static void on_plugin_exit(qemu_plugin_id_t id, void *udata)
             size_t i;
             for (i = 0; i < n_intervals; ++i) {
                 fprintf(f, "%" PRIu64 "\n", intervals[i]);
+            }
+            fclose(f);
+        }
+    }
+    if (profile_path != NULL) {
+        FILE *f = fopen(profile_path, "w");
+        if (f == NULL) {
+            qemu_plugin_outs("icount: cannot open profile= file\n");
+        } else {
+            const tb_prof_t *p;
+            for (p = profiles; p != NULL; p = p->next) {
+                if (p->execs != 0) {
+                    fprintf(f, "%#" PRIx64 " %" PRIu64 " %" PRIu64 "\n", p->vaddr, p->n, p->execs);
+                }
             }
             fclose(f);
         }
@@ -252,6 +290,8 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
             }
         } else if (strncmp(a, "out=", 4) == 0) {
             out_path = a + 4;
+        } else if (strncmp(a, "profile=", 8) == 0) {
+            profile_path = a + 8;
         } else if (strcmp(a, "verbose=on") == 0 || strcmp(a, "verbose=true") == 0) {
             verbose = true;
         } else if (strcmp(a, "verbose=off") == 0 || strcmp(a, "verbose=false") == 0) {
@@ -261,7 +301,7 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
         }
         continue;
     bad:
-        fprintf(stderr, "icount: bad argument '%s' (expected begin=ADDR end=ADDR [out=FILE] [verbose=on])\n", a);
+        fprintf(stderr, "icount: bad argument '%s' (expected begin=ADDR end=ADDR [out=FILE] [profile=FILE] [verbose=on])\n", a);
         return -1;
     }
     if (addr_begin == UINT64_MAX || addr_end == UINT64_MAX || addr_begin == addr_end) {

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# caekf-replay's input handling: malformed CSVs are reported with their line number and a non-zero
+# exit status; a good CSV (with extra columns) replays; --allow-nonfinite hands NaN to the estimator,
+# which rejects that step with the input_rejected flag (2).
+set -u
+replay=$1
+scenario=$2
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fails=0 passes=0
+
+expect_error() { # name, expected exit, expected message regex, csv content
+    local name=$1 code=$2 re=$3
+    printf '%b' "$4" > "$tmp/in.csv"
+    "$replay" --scenario "$scenario" --in "$tmp/in.csv" --out "$tmp/out.csv" 2> "$tmp/err"
+    local rc=$?
+    if [[ $rc -eq $code ]] && grep -Eq "$re" "$tmp/err"; then
+        passes=$((passes + 1))
+    else
+        echo "FAIL $name: exit $rc (want $code), stderr: $(cat "$tmp/err")"
+        fails=$((fails + 1))
+    fi
+}
+
+expect_error bad-header 4 'in.csv:1: bad header' 't,u,y2,y4\n0.001,0,0,0\n'
+expect_error empty 4 'empty input' ''
+expect_error column-count 4 'in.csv:3: wrong column count' 't,u,y1,y4\n0.001,0,0,0\n0.002,0,0\n'
+expect_error non-numeric 4 'in.csv:2: column 3' 't,u,y1,y4\n0.001,0,abc,0\n'
+expect_error non-finite 4 'in.csv:3: column 2: non-finite' 't,u,y1,y4\n0.001,0,0,0\n0.002,nan,0,0\n'
+expect_error trailing-junk 4 'in.csv:2: column 4' 't,u,y1,y4\n0.001,0,0,1e-3x\n'
+"$replay" --scenario "$scenario" --in "$tmp/nope.csv" 2>/dev/null; [[ $? -eq 5 ]] && passes=$((passes + 1)) || { echo "FAIL missing-file exit"; fails=$((fails + 1)); }
+"$replay" --scenario "$tmp/none.toml" --in /dev/null 2>/dev/null; [[ $? -eq 3 ]] && passes=$((passes + 1)) || { echo "FAIL bad scenario exit"; fails=$((fails + 1)); }
+"$replay" --bogus 2>/dev/null; [[ $? -eq 2 ]] && passes=$((passes + 1)) || { echo "FAIL usage exit"; fails=$((fails + 1)); }
+
+# Good input with extra columns, then NaN passed through to the estimator.
+printf 't,u,y1,y4,extra\n0.001,0.1,1e-6,0,7\n0.002,nan,1e-6,0,7\n0.003,0.1,2e-6,0,7\n' > "$tmp/ok.csv"
+if "$replay" --scenario "$scenario" --in "$tmp/ok.csv" --out "$tmp/out.csv" --allow-nonfinite 2>"$tmp/err"; then
+    rows=$(($(wc -l < "$tmp/out.csv") - 1))
+    flags2=$(sed -n 3p "$tmp/out.csv" | awk -F, '{print $13}')
+    if [[ $rows -eq 3 && $(head -1 "$tmp/out.csv") == t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters && $flags2 -eq 2 ]]; then
+        passes=$((passes + 1))
+    else
+        echo "FAIL good-input: rows=$rows flags(row2)=$flags2"; fails=$((fails + 1))
+    fi
+else
+    echo "FAIL good-input exit: $(cat "$tmp/err")"; fails=$((fails + 1))
+fi
+echo "$passes passed, $fails failed"
+[[ $fails -eq 0 ]]
