@@ -254,8 +254,19 @@ fetch_unity() {
     [ -n "$ver" ] || ver="$(tr -d '[:space:]' <"$usrc/release/version.info" 2>/dev/null || true)"
     rm -rf "$dest.new"
     cp -a "$usrc" "$dest.new"
+    # cJSON's copy differs from upstream Unity in one line: unity_internals.h always
+    # includes ../examples/unity_config.h (which only defines UNITY_INCLUDE_DOUBLE).
+    # Restore upstream's opt-in form so the copy is upstream Unity again and configured
+    # only by the compile definitions cmake/Unity.cmake sets.
+    local note="unmodified"
+    if grep -q '^#include "../examples/unity_config.h"$' "$dest.new/src/unity_internals.h"; then
+        sed -i 's|^#include "../examples/unity_config.h"$|#ifdef UNITY_INCLUDE_CONFIG_H\n#include "unity_config.h"\n#endif|' \
+            "$dest.new/src/unity_internals.h"
+        note="cJSON's forced '#include \"../examples/unity_config.h\"' reverted to upstream's #ifdef UNITY_INCLUDE_CONFIG_H form"
+    fi
     {
         echo "Unity $ver from Debian source package $(basename "$dsc" .dsc) (tests/unity/)"
+        echo "Changes: $note."
         echo "Unpacked by tools/bootstrap.sh on $(date -u +%Y-%m-%dT%H:%M:%SZ). Not part of the repository."
     } >"$dest.new/SOURCE"
     rm -rf "$dest"

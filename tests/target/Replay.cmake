@@ -8,7 +8,10 @@
 #   target_replay            runs the image, compares with the host: Cortex-M7 (double) every
 #                            snapshot within 1e-9 relative; Cortex-M4F (float) final gamma within 0.5 %
 #   target_replay.stack      the measured stack (painting) of caekf_init and of the steps is within
-#                            CAEKF_STACK_BUDGET (512 B); reads target_replay's saved output
+#                            CAEKF_STACK_BUDGET (512 B float, 1024 B double); reads target_replay's
+#                            saved output                                          (label budget)
+#   target_replay.icount     Cortex-M4F only: no step above CAEKF_ICOUNT_BUDGET (8000) instructions
+#                            (tools/qemu-icount)                                   (label budget)
 
 set(CAEKF_HOST_BUILD_DIR "${PROJECT_SOURCE_DIR}/build/host-double" CACHE PATH
     "A host double build (for the replay image's inputs and reference)")
@@ -18,7 +21,15 @@ set(CAEKF_REPLAY_TRUTH_CSV "${CAEKF_HOST_BUILD_DIR}/testdata/paper_truth.csv" CA
     "The same record as CSV (input of the host caekf-replay)")
 set(CAEKF_HOST_REPLAY "${CAEKF_HOST_BUILD_DIR}/host/caekf-replay" CACHE FILEPATH
     "Host caekf-replay (double) giving the reference trajectory")
-set(CAEKF_STACK_BUDGET 512 CACHE STRING "Stack budget of caekf_step in bytes (target_replay.stack)")
+# Goals (Cortex-M4F, -Os): <= 512 B of stack, <= 8000 instructions per step. The double build's stack
+# budget is twice the float one. Tests labelled "budget" check them: `ctest -LE budget` skips them.
+if(CAEKF_SCALAR STREQUAL "float")
+    set(_stack_default 512)
+else()
+    set(_stack_default 1024)
+endif()
+set(CAEKF_STACK_BUDGET ${_stack_default} CACHE STRING "Stack budget of caekf_init/caekf_step in bytes")
+set(CAEKF_ICOUNT_BUDGET 8000 CACHE STRING "Instructions per caekf_step budget (Cortex-M4F)")
 
 find_package(Python3 COMPONENTS Interpreter)
 if(NOT Python3_FOUND)
@@ -79,7 +90,7 @@ if(EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}")
     add_test(NAME target_replay.stack
         COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --stack-only
                 --from "${CMAKE_CURRENT_BINARY_DIR}/target_replay.out" --stack-budget ${CAEKF_STACK_BUDGET})
-    set_tests_properties(target_replay.stack PROPERTIES LABELS "target;replay;stack" TIMEOUT 30
+    set_tests_properties(target_replay.stack PROPERTIES LABELS "target;replay;stack;budget" TIMEOUT 30
         FIXTURES_REQUIRED target_replay_output)
 else()
     message(WARNING "tests/target: no host caekf-replay/CSV in ${CAEKF_HOST_BUILD_DIR}: "
@@ -87,4 +98,13 @@ else()
     add_test(NAME target_replay COMMAND target_replay)
     set_tests_properties(target_replay PROPERTIES LABELS "target;replay" TIMEOUT 700
         PASS_REGULAR_EXPRESSION "replay: done")
+endif()
+
+if(CAEKF_MCU STREQUAL "cortex-m4f" AND TARGET qemu_icount_plugin)
+    add_test(NAME target_replay.icount
+        COMMAND "${Python3_EXECUTABLE}" "${CAEKF_ROOT_DIR}/tools/qemu-icount/icount-run.py"
+                --machine "${CAEKF_QEMU_MACHINE}" --plugin "${CAEKF_ICOUNT_PLUGIN}" --quiet
+                --max-budget ${CAEKF_ICOUNT_BUDGET} $<TARGET_FILE:target_replay>)
+    set_tests_properties(target_replay.icount PROPERTIES LABELS "target;replay;icount;budget" TIMEOUT 700
+        ENVIRONMENT "CAEKF_ARM_NM=${CAEKF_ARM_NM}")
 endif()

@@ -8,7 +8,8 @@ The marker addresses (caekf_mark_begin / caekf_mark_end, or --begin/--end symbol
 the image with arm-none-eabi-nm. The image runs through tools/qemu-run.sh (timeout, exit status).
 Prints one line:  intervals=N min=.. median=.. max=.. mean=..
 --expect-from-output: the guest prints "expect: c0 c1 ..." and the counts must equal it exactly
-(tests/target/icount_calib.c). Exit status: the guest's if non-zero, 1 on a mismatch, else 0.
+(tests/target/icount_calib.c). --max-budget N: every interval must be <= N instructions.
+Exit status: the guest's if non-zero, 1 on a mismatch or over budget, else 0.
 """
 import argparse
 import json
@@ -111,6 +112,7 @@ def main():
     ap.add_argument("--guest-output", help="write the guest's console output here")
     ap.add_argument("--json", help="write the summary as JSON here")
     ap.add_argument("--expect-from-output", action="store_true")
+    ap.add_argument("--max-budget", type=int, help="fail if any interval exceeds this many instructions")
     ap.add_argument("--quiet", action="store_true", help="do not echo the guest output")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="also print the N functions executing the most instructions (whole run)")
@@ -144,6 +146,12 @@ def main():
             print(f"icount-run: MISMATCH expected {exp} got {counts}", file=sys.stderr)
             return 1
         print(f"icount-run: counts match the expected {exp}")
+    if args.max_budget is not None:
+        if not counts or max(counts) > args.max_budget:
+            print(f"icount-run: FAIL max {summ.get('max')} instructions per interval > budget {args.max_budget}",
+                  file=sys.stderr)
+            return 1
+        print(f"icount-run: max {summ['max']} <= budget {args.max_budget}")
     return 0
 
 

@@ -89,6 +89,7 @@ ip link set lo up
 for ifc in ${VM_IFACES:-vcan0}; do
 	if ! ip link add dev "$ifc" type vcan 2>/dev/null; then
 		# busybox ip may not know "type vcan": use the host's iproute2.
+		vsay "busybox ip could not create $ifc, trying the host's ip"
 		chroot $R ip link add dev "$ifc" type vcan ||
 			die "cannot create $ifc (neither busybox ip nor the host's ip could)"
 	fi

@@ -176,6 +176,12 @@ class AugmentedEKF:
         x = xp + G @ (yc - Hc @ xp)
         IKH = self.I - G @ Hc
         P = joseph(IKH, P, G, Rc) if self.cfg.joseph else IKH @ P
+        if not used_pinv:
+            # A perfect measurement leaves gamma = gamma_min and zero gamma row/column in exact
+            # arithmetic; restore that, else round-off (P_gg ~ -1e-15 P_gg^-) makes P indefinite.
+            x[IG] = self.sc.gamma_min
+            P[IG, :] = 0.0
+            P[:, IG] = 0.0
         return x, P, used_pinv
 
     def _switched_off_correction(

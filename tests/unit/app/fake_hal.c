@@ -40,7 +40,7 @@ void fake_hal_init(fake_hal_t *f, caekf_app_hal_t *hal)
 {
     unsigned i;
     memset(f, 0, sizeof *f);
-    f->now_us = 0xFFFF0000u; /* near the 32-bit wrap: time differences must survive it */
+    f->now_us = 0xFFFFC000u; /* near the 32-bit wrap: time differences must survive it */
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         (void)caekf_e2e_rx_init(&f->bench_rx[i]);
     }
@@ -148,4 +148,17 @@ int fake_tx_e2e_ok(fake_hal_t *f, unsigned index)
         return 0;
     }
     return caekf_e2e_check(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, NULL) == CAEKF_E2E_OK;
+}
+
+int fake_tx_crc_ok(const fake_hal_t *f, unsigned index)
+{
+    caekf_msg_t msg;
+    const caekf_msg_info_t *info;
+    const caekf_can_frame_t *fr = &f->tx[index];
+    uint8_t crc = 0;
+    if (caekf_proto_msg_from_id(fr->id, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
+        return 0;
+    }
+    (void)caekf_e2e_crc(info->data_id, fr->data, &crc);
+    return fr->dlc == CAEKF_CAN_DLC && crc == fr->data[0];
 }

@@ -1,0 +1,269 @@
+/*
+ * caekf-host: the caekf firmware application on Linux, bound to a SocketCAN interface.
+ *
+ *   caekf-host --iface vcan0 [--scenario FILE [--experiment NAME]] [options]
+ *
+ * It waits for frames (poll with a small timeout, no busy loop), lets the app handle them, and on
+ * SIGINT/SIGTERM stops cleanly and prints the app's counters. Exit status: 0 after a signal or
+ * --run-for, 1 on a setup error, 2 on a usage error.
+ */
+#define _POSIX_C_SOURCE 200809L
+
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "caekf/caekf_app.h"
+#include "host_settings.h"
+#include "socketcan_hal.h"
+
+#define ERR_LEN 512
+
+static volatile sig_atomic_t stop_signal = 0; /* host program: the one global, written by the handler */
+
+static void on_signal(int sig)
+{
+    stop_signal = sig;
+}
+
+typedef struct {
+    const char *iface;
+    const char *scenario;
+    int experiment;
+    long step_timeout_ms;
+    long status_period_ms;
+    long max_delta;
+    long poll_ms;
+    double run_for_s; /* 0: until a signal */
+    int quiet;
+} options_t;
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: caekf-host [--iface NAME] [--scenario FILE [--experiment NAME|N]] [options]\n"
+            "  --iface NAME            SocketCAN interface (default vcan0; a real can0 works the same)\n"
+            "  --scenario FILE         configure the estimator from a scenario file at start-up\n"
+            "                          (otherwise it waits for CTRL_PARAM/CTRL_RESET from the bench)\n"
+            "  --experiment E          with --scenario: canonical, switched (default), switched-highq,\n"
+            "                          switched-highq-constrained, or 0..3\n"
+            "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
+            "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
+            "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
+            "  --poll-ms N             longest wait for a frame before the app checks timeouts (default 5)\n"
+            "  --run-for SECONDS       exit by itself after this long (default: run until SIGINT/SIGTERM)\n"
+            "  --quiet                 print only errors and the final counters\n");
+}
+
+static int parse_long(const char *text, long lo, long hi, long *out)
+{
+    char *end = NULL;
+    long v;
+    errno = 0;
+    v = strtol(text, &end, 10);
+    if (errno != 0 || end == text || *end != '\0' || v < lo || v > hi) {
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+/* Returns 0 to run, 1 to exit 0 (help), 2 on a usage error. */
+static int parse_args(int argc, char **argv, options_t *o)
+{
+    int i;
+    o->iface = "vcan0";
+    o->scenario = NULL;
+    o->experiment = CAEKF_EXPERIMENT_SWITCHED;
+    o->step_timeout_ms = 20;
+    o->status_period_ms = 1000;
+    o->max_delta = 1;
+    o->poll_ms = 5;
+    o->run_for_s = 0.0;
+    o->quiet = 0;
+    for (i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
+        int takes_value = 1;
+        int bad = 0;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            return 1;
+        } else if (strcmp(a, "--quiet") == 0) {
+            o->quiet = 1;
+            takes_value = 0;
+        } else if (v == NULL) {
+            bad = 1;
+        } else if (strcmp(a, "--iface") == 0) {
+            o->iface = v;
+        } else if (strcmp(a, "--scenario") == 0) {
+            o->scenario = v;
+        } else if (strcmp(a, "--experiment") == 0) {
+            o->experiment = host_experiment_parse(v);
+            bad = o->experiment < 0;
+        } else if (strcmp(a, "--step-timeout-ms") == 0) {
+            bad = parse_long(v, 1, 4000000, &o->step_timeout_ms);
+        } else if (strcmp(a, "--status-period-ms") == 0) {
+            bad = parse_long(v, 0, 4000000, &o->status_period_ms);
+        } else if (strcmp(a, "--max-delta") == 0) {
+            bad = parse_long(v, 1, 15, &o->max_delta);
+        } else if (strcmp(a, "--poll-ms") == 0) {
+            bad = parse_long(v, 1, 1000, &o->poll_ms);
+        } else if (strcmp(a, "--run-for") == 0) {
+            char *end = NULL;
+            o->run_for_s = strtod(v, &end);
+            bad = (end == v || *end != '\0' || !(o->run_for_s > 0.0));
+        } else {
+            bad = 1;
+        }
+        if (bad) {
+            fprintf(stderr, "caekf-host: bad or incomplete option '%s%s%s'\n", a, v ? " " : "", v ? v : "");
+            usage(stderr);
+            return 2;
+        }
+        i += takes_value;
+    }
+    return 0;
+}
+
+static double seconds_since(const struct timespec *t0)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)(t.tv_sec - t0->tv_sec) + 1e-9 * (double)(t.tv_nsec - t0->tv_nsec);
+}
+
+static const char *experiment_name(unsigned e)
+{
+    const char *name = "none";
+    (void)caekf_proto_experiment_name(e, &name);
+    return name;
+}
+
+static void print_counters(const caekf_app_t *app)
+{
+    unsigned i;
+    printf("caekf-host: counters\n");
+    for (i = 0; i < (unsigned)CAEKF_CNT_COUNT; i++) {
+        const char *name = "?";
+        uint32_t v = 0;
+        (void)caekf_proto_counter_name(i, &name);
+        (void)caekf_app_counter(app, i, &v);
+        printf("  %-18s %lu\n", name, (unsigned long)v);
+    }
+}
+
+/* Reports configuration changes made over CAN, by watching the app's counters. */
+static void report_config_changes(const caekf_app_t *app, uint32_t *seen_accepted, uint32_t *seen_refused)
+{
+    uint32_t acc = 0, ref = 0;
+    (void)caekf_app_counter(app, CAEKF_CNT_CFG_ACCEPTED, &acc);
+    (void)caekf_app_counter(app, CAEKF_CNT_CFG_REFUSED, &ref);
+    if (acc != *seen_accepted) {
+        printf("caekf-host: configuration accepted, experiment %s\n", experiment_name(app->experiment));
+    }
+    if (ref != *seen_refused) {
+        printf("caekf-host: configuration refused, still running experiment %s\n", experiment_name(app->experiment));
+    }
+    *seen_accepted = acc;
+    *seen_refused = ref;
+}
+
+static int configure_from_scenario(caekf_app_t *app, const options_t *o)
+{
+    static caekf_app_settings_t settings;
+    char err[ERR_LEN];
+    uint8_t bad = 0;
+    caekf_app_status_t st;
+    if (host_settings_from_scenario(o->scenario, &settings, err, sizeof err) != 0) {
+        fprintf(stderr, "caekf-host: %s\n", err);
+        return -1;
+    }
+    st = caekf_app_configure(app, &settings, (unsigned)o->experiment, &bad);
+    if (st != CAEKF_APP_OK) {
+        const char *name = "unknown";
+        (void)caekf_proto_param_name(bad, &name);
+        fprintf(stderr, "caekf-host: %s: %s (parameter %s)\n", o->scenario, caekf_app_status_str(st), name);
+        return -1;
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    static caekf_app_t app; /* ~4 KB: static rather than on the stack */
+    static socketcan_t can;
+    options_t o;
+    caekf_app_config_t cfg;
+    caekf_app_hal_t hal;
+    struct sigaction sa;
+    struct timespec t0;
+    char err[ERR_LEN];
+    uint32_t seen_accepted = 0, seen_refused = 0;
+    int rc = parse_args(argc, argv, &o);
+    if (rc != 0) {
+        return rc == 1 ? 0 : 2;
+    }
+    setvbuf(stdout, NULL, _IOLBF, 0); /* line by line into logs of HIL runs */
+
+    /* The scenario is checked before the bus is touched: a typo there is the commoner mistake. */
+    can.fd = -1;
+    (void)caekf_app_config_default(&cfg);
+    cfg.step_timeout_us = (uint32_t)(o.step_timeout_ms * 1000L);
+    cfg.status_period_us = (uint32_t)(o.status_period_ms * 1000L);
+    cfg.e2e_max_delta = (uint8_t)o.max_delta;
+    socketcan_hal(&can, &hal);
+    if (caekf_app_init(&app, &hal, &cfg) != CAEKF_APP_OK) {
+        fprintf(stderr, "caekf-host: app initialisation failed\n");
+        return 1;
+    }
+    if (o.scenario != NULL && configure_from_scenario(&app, &o) != 0) {
+        return 1;
+    }
+    if (socketcan_open(&can, o.iface, err, sizeof err) != 0) {
+        fprintf(stderr, "caekf-host: %s\n", err);
+        return 1;
+    }
+
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal; /* no SA_RESTART: poll() returns EINTR and the loop sees the flag */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+
+    if (!o.quiet) {
+        printf("caekf-host: ready on %s (ifindex %u), scalar %s, %s\n", o.iface, can.ifindex, CAEKF_SCALAR_NAME,
+               o.scenario ? "configured from the scenario" : "waiting for CTRL_PARAM/CTRL_RESET");
+        if (o.scenario) {
+            printf("caekf-host: experiment %s\n", experiment_name((unsigned)o.experiment));
+        }
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    rc = 0;
+    while (!stop_signal) {
+        if (socketcan_wait(&can, (int)o.poll_ms) < 0) {
+            fprintf(stderr, "caekf-host: poll failed: %s\n", strerror(errno));
+            rc = 1;
+            break;
+        }
+        (void)caekf_app_poll(&app);
+        if (!o.quiet) {
+            report_config_changes(&app, &seen_accepted, &seen_refused);
+        }
+        if (o.run_for_s > 0.0 && seconds_since(&t0) >= o.run_for_s) {
+            break;
+        }
+    }
+    if (stop_signal && !o.quiet) {
+        printf("caekf-host: stopping on %s\n", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
+    }
+    print_counters(&app);
+    if (can.rx_dropped_foreign != 0u) {
+        printf("  %-18s %lu\n", "(host) bad size", can.rx_dropped_foreign); /* not a classic CAN frame */
+    }
+    socketcan_close(&can);
+    return rc;
+}

@@ -1,0 +1,314 @@
+#!/usr/bin/env python3
+"""One command for the MCU numbers: instructions per step, memory, stack.
+
+    tools/mcu-report.py [--no-build] [--no-o2] [--presets cortex-m4f,cortex-m7] [--json FILE]
+
+For each preset (default cortex-m4f and cortex-m7; configured/built with `cmake --preset` if needed,
+which needs the host-double preset's test data, see tests/target/Replay.cmake):
+  * instructions per estimator step: tests/target/target_replay.elf (the switched-highq-constrained
+    experiment of the reference scenario, 60,000 steps) under QEMU with the TCG plugin
+    tools/qemu-icount; min / median / max over all steps, and the worst case of the steps with
+    contact active + constraint applied + the most Newton iterations seen with both
+    (each count includes ~8 instructions of call overhead around caekf_step);
+  * text/data/bss (arm-none-eabi-size) of the estimator library, of what the replay image really
+    links from it (linker map), of every image; sizeof(caekf_t) (one instance's RAM);
+  * stack: worst case from -fstack-usage/-fcallgraph-info (tools/mcu-stack.py) for caekf_step and
+    caekf_init, and the measured stack painting of the replay image;
+  * with -O2 as well (build/<preset>-o2, library and replay image only) unless --no-o2.
+Goals checked (Cortex-M4F, -Os): worst case <= 8000 instructions/step, text <= 10 KB, static RAM
+<= 1 KB, stack <= 512 B.
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+MACHINE = {"cortex-m4f": "mps2-an386", "cortex-m7": "mps2-an500"}
+FLAG_CONSTRAINT_APPLIED = 1 << 2
+FLAG_CONTACT_ACTIVE = 1 << 3
+GOAL_ICOUNT, GOAL_TEXT, GOAL_RAM, GOAL_STACK = 8000, 10 * 1024, 1024, 512
+
+
+def sh(cmd, **kw):
+    return subprocess.run(cmd, check=True, capture_output=True, text=True, **kw).stdout
+
+
+def cache_value(bdir, key):
+    try:
+        for line in open(os.path.join(bdir, "CMakeCache.txt")):
+            if line.startswith(key + ":"):
+                return line.split("=", 1)[1].strip()
+    except OSError:
+        pass
+    return None
+
+
+def build(preset, bdir, extra=(), targets=()):
+    if not os.path.exists(os.path.join(bdir, "CMakeCache.txt")):
+        print(f"mcu-report: configuring {bdir}", file=sys.stderr)
+        subprocess.run(["cmake", "--preset", preset, "-B", bdir, *extra], check=True, cwd=ROOT,
+                       stdout=subprocess.DEVNULL)
+    cmd = ["cmake", "--build", bdir, "-j", "2"]
+    for t in targets:
+        cmd += ["--target", t]
+    subprocess.run(cmd, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+
+
+def size_of(path):
+    """(text, data, bss) totals of an ELF or an archive."""
+    out = sh(["arm-none-eabi-size", "-t", path] if path.endswith(".a") else ["arm-none-eabi-size", path])
+    last = out.strip().splitlines()[-1].split()
+    return int(last[0]), int(last[1]), int(last[2])
+
+
+def linked_from_map(mapfile):
+    """text/data/bss linked into an image per origin: core library vs toolchain libraries."""
+    res = {"core": [0, 0, 0], "toolchain": [0, 0, 0]}
+    text = open(mapfile).read()
+    i = text.find("Linker script and memory map")
+    lines = text[i:].splitlines() if i >= 0 else []
+    pending = None
+    for line in lines:
+        m = re.match(r"^ (\.\S+|COMMON)\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$", line)
+        if not m and re.match(r"^ (\.\S+|COMMON)\s*$", line):
+            pending = line.strip()
+            continue
+        if not m and pending:
+            m2 = re.match(r"^\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$", line)
+            if m2:
+                sec, size, origin = pending, int(m2.group(2), 16), m2.group(3)
+            else:
+                pending = None
+                continue
+        elif m:
+            sec, size, origin = m.group(1), int(m.group(3), 16), m.group(4)
+        else:
+            continue
+        pending = None
+        if size == 0:
+            continue
+        if "libcaekf_core.a" in origin:
+            who = "core"
+        elif "/arm-none-eabi/" in origin or "/gcc/arm-none-eabi/" in origin:
+            who = "toolchain"
+        else:
+            continue
+        if sec.startswith((".text", ".rodata")):
+            res[who][0] += size
+        elif sec.startswith(".data"):
+            res[who][1] += size
+        elif sec.startswith((".bss", "COMMON")):
+            res[who][2] += size
+    return res
+
+
+def symbol_size(image, name):
+    for line in sh(["arm-none-eabi-nm", "-S", "--defined-only", image]).splitlines():
+        p = line.split()
+        if len(p) == 4 and p[3] == name:
+            return int(p[1], 16)
+    return None
+
+
+def icount(bdir, preset):
+    image = os.path.join(bdir, "tests", "target", "target_replay.elf")
+    plugin = os.path.join(bdir, "tools", "qemu-icount", "libqemu-icount.so")
+    with tempfile.TemporaryDirectory(prefix="mcu-report-") as tmp:
+        counts_f, guest_f = os.path.join(tmp, "counts"), os.path.join(tmp, "guest")
+        subprocess.run([sys.executable, os.path.join(ROOT, "tools", "qemu-icount", "icount-run.py"),
+                        "--machine", MACHINE[preset], "--plugin", plugin, "--quiet",
+                        "--counts", counts_f, "--guest-output", guest_f, image],
+                       check=True, stdout=subprocess.DEVNULL)
+        counts = [int(x) for x in open(counts_f).read().split()]
+        guest = open(guest_f).read()
+    classes = []
+    stack = {}
+    summary = ""
+    for line in guest.splitlines():
+        if line.startswith("C "):
+            classes += [int(h, 16) for h in line.split()[1:]]
+        elif line.startswith("stack:"):
+            stack = {k: int(v) for k, v in (kv.split("=") for kv in line.split()[1:])}
+        elif line.startswith("summary:"):
+            summary = line
+    if len(classes) != len(counts):
+        raise SystemExit(f"mcu-report: {len(counts)} counted steps but {len(classes)} step classes")
+    s = sorted(counts)
+    both = [(c, (cl >> 9) & 31) for c, cl in zip(counts, classes)
+            if cl & FLAG_CONTACT_ACTIVE and cl & FLAG_CONSTRAINT_APPLIED]
+    r = {"steps": len(counts), "min": s[0], "median": s[(len(s) - 1) // 2], "max": s[-1],
+         "max_step": counts.index(s[-1]) + 1, "stack_measured": stack, "summary": summary}
+    if both:
+        it = max(i for _, i in both)
+        r["worst_case"] = max(c for c, i in both if i == it)
+        r["worst_case_iters"] = it
+        r["worst_case_steps"] = sum(1 for _, i in both if i == it)
+        r["contact_constraint_steps"] = len(both)
+    iters_all = [(cl >> 9) & 31 for cl in classes]
+    r["newton_iters_max"] = max(iters_all)
+    # Marginal cost of one Newton iteration: median count per (flags, iterations) group, differences
+    # between consecutive iteration counts with the same flags, median of those.
+    groups = {}
+    for c, cl in zip(counts, classes):
+        groups.setdefault((cl & 0x1FF, (cl >> 9) & 31), []).append(c)
+    med = {k: sorted(v)[(len(v) - 1) // 2] for k, v in groups.items()}
+    deltas = []
+    for (fl, it), m in med.items():
+        if (fl, it + 1) in med:
+            deltas.append(med[(fl, it + 1)] - m)
+    if deltas:
+        deltas.sort()
+        r["per_newton_iteration"] = deltas[(len(deltas) - 1) // 2]
+    return r
+
+
+def stack_static(bdir):
+    out = sh([sys.executable, os.path.join(ROOT, "tools", "mcu-stack.py"),
+              "--ci-dir", os.path.join(bdir, "firmware", "core"),
+              "--image", os.path.join(bdir, "tests", "target", "target_replay.elf"),
+              "--root", "caekf_step", "--root", "caekf_init"])
+    res = {}
+    for line in out.splitlines():
+        m = re.match(r"(\S+) worst=(\d+) path=(\S+)(.*)", line)
+        if m:
+            res[m.group(1)] = {"worst": int(m.group(2)), "path": m.group(3), "notes": m.group(4).strip()}
+    return res
+
+
+def report_preset(preset, args, o2):
+    bdir = os.path.join(ROOT, "build", preset + ("-o2" if o2 else ""))
+    if not args.no_build:
+        extra = []
+        if o2:
+            # same host data as the -Os build; no unit tests needed for the library and replay image
+            extra = ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG",
+                     "-DCAEKF_BUILD_TESTS=OFF"]
+            for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
+                v = cache_value(os.path.join(ROOT, "build", preset), key)
+                if v:
+                    extra.append(f"-D{key}={v}")
+        targets = ["target_replay", "qemu_icount_plugin"] if o2 else []
+        build(preset, bdir, extra, targets)
+    lib = os.path.join(bdir, "firmware", "core", "libcaekf_core.a")
+    replay = os.path.join(bdir, "tests", "target", "target_replay.elf")
+    if not (os.path.exists(lib) and os.path.exists(replay)):
+        print(f"mcu-report: {bdir} has no library or replay image; skipped", file=sys.stderr)
+        return None
+    r = {"preset": preset, "opt": "-O2" if o2 else "-Os", "lib": size_of(lib)}
+    r["linked"] = linked_from_map(replay + ".map")
+    r["sizeof_caekf_t"] = symbol_size(replay, "est")
+    r["icount"] = icount(bdir, preset)
+    r["stack_static"] = stack_static(bdir)
+    if not o2:
+        images = []
+        for dirpath, _, files in os.walk(os.path.join(bdir, "tests")):
+            for f in sorted(files):
+                if f.endswith(".elf"):
+                    images.append((f[:-4], size_of(os.path.join(dirpath, f))))
+        r["images"] = sorted(images)
+    return r
+
+
+def fmt_row(cols, widths):
+    return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cols, widths)) + " |"
+
+
+def table(title, header, rows):
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
+    print(f"\n{title}")
+    print(fmt_row(header, widths))
+    print("|" + "|".join("-" * (w + 2) for w in widths) + "|")
+    for row in rows:
+        print(fmt_row(row, widths))
+
+
+def ok(v, goal):
+    return "yes" if v <= goal else "NO"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--presets", default="cortex-m4f,cortex-m7")
+    ap.add_argument("--no-build", action="store_true", help="use the existing builds as they are")
+    ap.add_argument("--no-o2", action="store_true", help="skip the -O2 builds")
+    ap.add_argument("--json", help="also write all numbers as JSON")
+    a = ap.parse_args()
+
+    results = []
+    for p in a.presets.split(","):
+        results.append(report_preset(p, a, False))
+        if not a.no_o2:
+            results.append(report_preset(p, a, True))
+    results = [r for r in results if r is not None]
+    if not results:
+        return 1
+
+    rows = []
+    for r in results:
+        ic = r["icount"]
+        wc = ic.get("worst_case")
+        wc_s = f"{wc} ({ic['worst_case_iters']} it, {ic['worst_case_steps']} steps)" if wc else "n/a"
+        goal = ok(wc if wc else ic["max"], GOAL_ICOUNT) if r["preset"] == "cortex-m4f" else "-"
+        rows.append([r["preset"], r["opt"], ic["min"], ic["median"], f"{ic['max']} (step {ic['max_step']})",
+                     wc_s, goal])
+    notes = []
+    for r in results:
+        ic = r["icount"]
+        if "per_newton_iteration" in ic and "worst_case" in ic:
+            bound = ic["worst_case"] + (20 - ic["worst_case_iters"]) * ic["per_newton_iteration"]
+            notes.append(f"  {r['preset']} {r['opt']}: one more Newton iteration costs ~{ic['per_newton_iteration']} "
+                         f"instructions; a contact+constraint step at the bound of 20 iterations would be ~{bound}")
+    table("Instructions per caekf_step (QEMU TCG count, reference scenario switched-highq-constrained, "
+          "60,000 steps)", ["target", "opt", "min", "median", "max", "worst case: contact+constraint, "
+          "max Newton", f"<= {GOAL_ICOUNT}"], rows)
+    print("\n".join(notes))
+
+    rows = []
+    for r in results:
+        t, d, b = r["lib"]
+        lt, ld, lb = r["linked"]["core"]
+        tt, td, tb = r["linked"]["toolchain"]
+        inst = r["sizeof_caekf_t"] or 0
+        goal = (f"{ok(t, GOAL_TEXT)} / {ok(d + b + inst, GOAL_RAM)}"
+                if r["preset"] == "cortex-m4f" and r["opt"] == "-Os" else "-")
+        rows.append([r["preset"], r["opt"], t, d, b, f"{lt}/{ld}/{lb}", f"{tt}/{td}/{tb}",
+                     r["sizeof_caekf_t"], goal])
+    table("Estimator memory (bytes; text includes rodata)",
+          ["target", "opt", "lib text", "lib data", "lib bss", "core linked in replay t/d/b",
+           "libc+libm+libgcc in replay t/d/b", "sizeof(caekf_t)", "text<=10K / lib data+bss+instance<=1K"], rows)
+
+    rows = []
+    for r in results:
+        st = r["stack_static"]
+        ms = r["icount"]["stack_measured"]
+        worst = max(st.get("caekf_step", {}).get("worst", 0), st.get("caekf_init", {}).get("worst", 0))
+        goal = ok(max(worst, ms.get("steps", 0), ms.get("init", 0)), GOAL_STACK) if r["preset"] == "cortex-m4f" else "-"
+        rows.append([r["preset"], r["opt"], st.get("caekf_step", {}).get("worst"), st.get("caekf_init", {}).get("worst"),
+                     ms.get("steps"), ms.get("init"), goal])
+    table("Stack (bytes)", ["target", "opt", "caekf_step -fstack-usage worst", "caekf_init -fstack-usage worst",
+                            "caekf_step measured (painting)", "caekf_init measured", f"<= {GOAL_STACK}"], rows)
+    for r in results:
+        st = r["stack_static"].get("caekf_step")
+        if st:
+            print(f"  {r['preset']} {r['opt']} deepest path: {st['path']} {st['notes']}")
+
+    rows = []
+    for r in results:
+        for name, (t, d, b) in r.get("images", []):
+            rows.append([r["preset"], name, t, d, b])
+    if rows:
+        table("Images (-Os; arm-none-eabi-size)", ["target", "image", "text", "data", "bss"], rows)
+    for r in results:
+        print(f"  {r['preset']} {r['opt']} replay {r['icount']['summary']}")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(results, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
