@@ -210,7 +210,7 @@ class AugmentedEKF:
         status = 0
         xp, F, iters, ok = self.predict(u)
         if not ok:
-            status |= fl.NEWTON_FAILED
+            status |= fl.NEWTON_NOT_CONVERGED
         active = self.plant.penetration(xp[:4]) > 0.0  # eq. (21), on the predicted state
         if active:
             status |= fl.CONTACT_ACTIVE
@@ -233,9 +233,10 @@ class AugmentedEKF:
                 x, Pp, used_pinv = self._constrained_correction(xp, Pm, y)
                 status |= fl.CONSTRAINT_APPLIED
                 if used_pinv:
-                    status |= fl.CONSTRAINT_PINV
+                    status |= fl.SINGULAR_INNOVATION
         else:
             x, Pp = self._switched_off_correction(xp, Pm, y)
+            status |= fl.GAMMA_FROZEN
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(Pp))):
             status |= fl.NON_FINITE
         self.x, self.P = x, Pp
