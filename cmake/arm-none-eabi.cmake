@@ -50,7 +50,7 @@ endif()
 #   has VFMA.F64) rounds exactly like the x86-64 host build.
 # -fno-math-errno: sqrt() becomes VSQRT; results are unchanged (IEEE sqrt is exact-rounded).
 # -fstack-usage + -fcallgraph-info=su: per-function stack (.su) and call graph (.ci) for
-#   tools/stack-usage.py (worst-case stack of the step path).
+#   tools/mcu-stack.py (worst-case stack of the step path).
 set(CMAKE_C_FLAGS_INIT
     "${CAEKF_MCU_FLAGS} -ffunction-sections -fdata-sections -ffp-contract=off -fno-math-errno -fstack-usage -fcallgraph-info=su")
 set(CMAKE_ASM_FLAGS_INIT "${CAEKF_MCU_FLAGS}")
@@ -59,7 +59,7 @@ set(CMAKE_ASM_FLAGS_INIT "${CAEKF_MCU_FLAGS}")
 set(CMAKE_EXE_LINKER_FLAGS_INIT "--specs=nano.specs -nostartfiles -Wl,--gc-sections")
 
 # The presets build MinSizeRel (-Os). CMake appends "-Os -DNDEBUG" / "-O3 -DNDEBUG" (Release)
-# to these; debug info costs no target memory. tools/mcu-report.sh --o2 builds with -O2.
+# to these; debug info costs no target memory. tools/mcu-report.py also builds -O2 variants.
 set(CMAKE_C_FLAGS_MINSIZEREL_INIT "-g")
 set(CMAKE_C_FLAGS_RELEASE_INIT "-g")
 

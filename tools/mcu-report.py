@@ -50,7 +50,7 @@ def cache_value(bdir, key):
 def build(preset, bdir, extra=(), targets=()):
     if not os.path.exists(os.path.join(bdir, "CMakeCache.txt")):
         print(f"mcu-report: configuring {bdir}", file=sys.stderr)
-        subprocess.run(["cmake", "--preset", preset, "-B", bdir, *extra], check=True, cwd=ROOT,
+        subprocess.run(["cmake", "--preset", preset, "-B", bdir, "--no-warn-unused-cli", *extra], check=True, cwd=ROOT,
                        stdout=subprocess.DEVNULL)
     cmd = ["cmake", "--build", bdir, "-j", "2"]
     for t in targets:

@@ -18,16 +18,16 @@ static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
 {
-    caekf_model_t model;
     int i, j;
     if (est == 0 || s == 0) {
         return CAEKF_ERR_NULL;
     }
-    if (caekf_settings_validate(s, 0) != CAEKF_OK || caekf_model_init(&model, &s->model) != 0) {
+    /* Validation covers everything caekf_model_init checks, so nothing below can fail half-way. */
+    if (caekf_settings_validate(s, 0) != CAEKF_OK) {
         return CAEKF_ERR_SETTINGS;
     }
     est->cfg = *s;
-    est->model = model;
+    (void)caekf_model_init(&est->model, &s->model);
     for (i = 0; i < NQ; ++i) {
         est->scale[i] = s->sigma_q0;
         est->scale[NQ + i] = s->sigma_v0;
@@ -48,6 +48,13 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
             est->P_work[i][j] = 0;
             est->scratch[i][j] = 0;
         }
+        est->x_prev[i] = 0;
+        est->x_pred[i] = 0;
+    }
+    for (i = 0; i < NQ; ++i) {
+        for (j = 0; j < N; ++j) {
+            est->fv[i][j] = 0;
+        }
     }
     est->step_count = 0;
     est->last_flags = 0;
@@ -67,8 +74,7 @@ static caekf_gamma_policy_t gamma_policy(const caekf_settings_t *cfg, int contac
 
 caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], caekf_report_t *report)
 {
-    caekf_scalar_t xprev[N], xk[N], z[N];
-    caekf_scalar_t fv[NQ][N];
+    caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_NY];
     caekf_contact_t contact;
     caekf_gamma_policy_t policy;
@@ -99,15 +105,18 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     s = est->scale;
     s_q = s[0];
     s_v = s[NQ];
+    xprev = est->x_prev;
+    z = est->x_pred;
 
     /* Prediction (Table 1): Newton solve of eq. (19), then F by eq. (10) at x_k-. */
     for (i = 0; i < N; ++i) {
         xprev[i] = est->z[i] * s[i];
     }
-    if (caekf_model_newton(&est->model, xprev, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, xk, &iters) != 0) {
+    if (caekf_model_newton(&est->model, xprev, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred,
+                           &iters) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
     }
-    caekf_model_contact(&est->model, xk, xk[IG], &contact);
+    caekf_model_contact(&est->model, est->x_pred, est->x_pred[IG], &contact);
     if (contact.delta > 0) { /* eq. (21) */
         flags |= CAEKF_FLAG_CONTACT_ACTIVE;
     }
@@ -115,21 +124,21 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     if (policy != CAEKF_GAMMA_LIVE) {
         flags |= CAEKF_FLAG_GAMMA_FROZEN;
     }
-    if (caekf_model_transition_v(&est->model, xk, fv) != 0) {
+    if (caekf_model_transition_v(&est->model, est->x_pred, est->fv) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
     }
     for (i = 0; i < NQ; ++i) { /* F in scaled coordinates: S^-1 F S */
         for (j = 0; j < N; ++j) {
-            fv[i][j] *= s[j] / s_v;
+            est->fv[i][j] *= s[j] / s_v;
         }
     }
-    for (i = 0; i < N; ++i) {
-        z[i] = xk[i] / s[i];
+    for (i = 0; i < IG; ++i) {
+        z[i] = est->x_pred[i] / s[i];
     }
     z[IG] = est->z[IG]; /* exact: the random walk carries gamma over bit for bit */
-    caekf_predict_covariance(est->P, est->P_work, fv, est->model.p.dt * s_v / s_q, est->q_diag, policy);
+    caekf_predict_covariance(est->P, est->P_work, est->fv, est->model.p.dt * s_v / s_q, est->q_diag, policy);
 
     /* Correction, eqs. (13)-(15) / (25)-(27). */
     y_s[0] = y[0] / s_q;
@@ -141,7 +150,8 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     if (est->cfg.constraint_enabled) {
         caekf_constrain(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
     }
-    caekf_covariance_health(est->P_work, est->cfg.cov_repair_enabled, est->scratch, &flags);
+    caekf_covariance_health(est->P_work, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
+                            est->cfg.cov_repair_enabled, est->scratch, &flags);
 
     if (!caekf_all_finite(z, N) || !caekf_all_finite(&est->P_work[0][0], N * N)) {
         flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;

@@ -73,6 +73,9 @@ void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t T, caekf_scalar_t fv[NQ
     for (i = 0; i < N; ++i) { /* (F P) F^T: v-columns, then q-columns, gamma column = T's */
         for (j = 0; j < NQ; ++j) {
             caekf_scalar_t s = 0;
+            if (i > NQ + j) {
+                continue; /* only the upper triangle of the symmetric result is formed */
+            }
             for (k = 0; k < N; ++k) {
                 s += T[i][k] * fv[j][k];
             }
@@ -204,11 +207,31 @@ void caekf_constrain(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zmin, ca
     }
 }
 
-void caekf_covariance_health(caekf_mat_t P, int repair, caekf_mat_t scratch, uint32_t *flags)
+/* Every valid covariance has P_ii >= 0 and P_ij^2 <= P_ii P_jj; failing either is the common way
+ * P goes bad (|corr| > 1, as eqs. 23-27 produce). Cheap enough for every step. */
+static int screen_fails(caekf_mat_t P)
 {
-    /* Tolerance on the correlation form: rounding grows with the ~N-term sums of each update. */
-    if (caekf_psd_check(&P[0][0], N, CAEKF_EPS * 1024, &scratch[0][0]) == CAEKF_LA_OK) {
-        return;
+    int i, j;
+    for (i = 0; i < N; ++i) {
+        if (!(P[i][i] >= 0)) {
+            return 1;
+        }
+        for (j = i + 1; j < N; ++j) {
+            if (P[i][j] * P[i][j] > P[i][i] * P[j][j] * (1 + CAEKF_EPS * 64)) {
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+void caekf_covariance_health(caekf_mat_t P, int full_check, int repair, caekf_mat_t scratch, uint32_t *flags)
+{
+    if (!screen_fails(P)) {
+        /* Tolerance on the correlation form: rounding grows with the ~N-term sums of each update. */
+        if (!full_check || caekf_psd_check(&P[0][0], N, CAEKF_EPS * 1024, &scratch[0][0]) == CAEKF_LA_OK) {
+            return;
+        }
     }
     *flags |= CAEKF_FLAG_COV_INDEFINITE;
     if (repair) {

@@ -42,7 +42,9 @@ int caekf_correct(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, const caekf_scalar_t
 void caekf_constrain(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
                      caekf_scalar_t gamma_min_phys, uint32_t *flags);
 
-/* PSD test (flag COV_INDEFINITE); repair when allowed (flag COV_REPAIRED). */
-void caekf_covariance_health(caekf_mat_t P, int repair, caekf_mat_t scratch, uint32_t *flags);
+/* Covariance health: a cheap necessary test every step (P_ii >= 0, P_ij^2 <= P_ii P_jj) and, when
+ * full_check, the complete PSD test (LDL^T of the correlation form). A failure is flagged
+ * COV_INDEFINITE; with repair allowed P is repaired (flag COV_REPAIRED). Never silent. */
+void caekf_covariance_health(caekf_mat_t P, int full_check, int repair, caekf_mat_t scratch, uint32_t *flags);
 
 #endif /* CAEKF_FILTER_H */

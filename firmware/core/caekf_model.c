@@ -56,24 +56,6 @@ static void chain_matrix(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], caekf_scalar_t 
     out[3][3] = c + d;
 }
 
-int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
-{
-    int i, j;
-    if (caekf_model_params_check(p, 0) != 0) {
-        return -1;
-    }
-    m->p = *p;
-    chain_matrix(m->K, p->k1, p->k12, p->k34, p->k4);
-    chain_matrix(m->C, p->c1, p->c12, p->c34, p->c4);
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        m->m_dt[i] = p->m[i] / p->dt;
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            m->A0[i][j] = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
-        }
-    }
-    return 0;
-}
-
 /* Eq. (16)-(17): f_c = gamma delta^1.5 while delta > 0. */
 void caekf_model_contact(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], caekf_scalar_t gamma,
                          caekf_contact_t *c)
@@ -230,12 +212,16 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         if (it == max_iter) {
             break; /* bound reached: x_k keeps the last iterate */
         }
-        newton_matrix(m, c.dfc_ddelta, A);
-        if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
-            result = 2;
-            break;
+        if (c.delta > 0) { /* contact: the tangent changes A; else the constant LU */
+            newton_matrix(m, c.dfc_ddelta, A);
+            if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
+                result = 2;
+                break;
+            }
+            (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, r, 1, 1);
+        } else {
+            (void)caekf_lu_solve(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, r, 1, 1);
         }
-        (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, r, 1, 1);
         for (i = 0; i < CAEKF_NQ; ++i) {
             v[i] -= r[i];
             q[i] = qp[i] + dt * v[i];
@@ -243,6 +229,26 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     }
     *iters = it;
     return result;
+}
+
+/* Right-hand sides of the linearised eq. (19): A dv_k = -K_t dq_{k-1} + M/dt dv_{k-1}
+ * - n delta^1.5 dgamma_{k-1}, one column per component of x_{k-1}. */
+static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *c, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    int i, j;
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            fv[i][j] = -m->K[i][j];
+            fv[i][CAEKF_NQ + j] = (i == j) ? m->m_dt[i] : 0;
+        }
+        fv[i][CAEKF_IG] = 0;
+    }
+    fv[B2][B2] -= c->dfc_ddelta;
+    fv[B2][B3] += c->dfc_ddelta;
+    fv[B3][B2] += c->dfc_ddelta;
+    fv[B3][B3] -= c->dfc_ddelta;
+    fv[B2][CAEKF_IG] = -c->dfc_dgamma;
+    fv[B3][CAEKF_IG] = c->dfc_dgamma;
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
@@ -253,26 +259,50 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     int piv[CAEKF_NQ];
     int i, j;
     caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
+    if (!(c.delta > 0)) { /* linear step: the constant F */
+        for (i = 0; i < CAEKF_NQ; ++i) {
+            for (j = 0; j < CAEKF_N; ++j) {
+                fv[i][j] = m->fv0[i][j];
+            }
+        }
+        return 0;
+    }
     newton_matrix(m, c.dfc_ddelta, A);
     if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
     }
-    /* Linearising eq. (19): A dv_k = -K_t dq_{k-1} + M/dt dv_{k-1} - n delta^1.5 dgamma_{k-1};
-     * the right-hand sides are built in fv and solved in place. */
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            fv[i][j] = -m->K[i][j];
-            fv[i][CAEKF_NQ + j] = (i == j) ? m->m_dt[i] : 0;
-        }
-        fv[i][CAEKF_IG] = 0;
-    }
-    fv[B2][B2] -= c.dfc_ddelta;
-    fv[B2][B3] += c.dfc_ddelta;
-    fv[B3][B2] += c.dfc_ddelta;
-    fv[B3][B3] -= c.dfc_ddelta;
-    fv[B2][CAEKF_IG] = -c.dfc_dgamma;
-    fv[B3][CAEKF_IG] = c.dfc_dgamma;
+    transition_rhs(m, &c, fv); /* solved in place */
     (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, &fv[0][0], CAEKF_N, CAEKF_N);
+    return 0;
+}
+
+int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
+{
+    caekf_contact_t none;
+    int i, j;
+    if (caekf_model_params_check(p, 0) != 0) {
+        return -1;
+    }
+    m->p = *p;
+    chain_matrix(m->K, p->k1, p->k12, p->k34, p->k4);
+    chain_matrix(m->C, p->c1, p->c12, p->c34, p->c4);
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        m->m_dt[i] = p->m[i] / p->dt;
+        for (j = 0; j < CAEKF_NQ; ++j) {
+            m->A0[i][j] = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+            m->A0_lu[i][j] = m->A0[i][j];
+        }
+    }
+    none.delta = 0;
+    none.fc = 0;
+    none.dfc_ddelta = 0;
+    none.dfc_dgamma = 0;
+    /* A0 = M/dt + C + dt K is positive definite for valid parameters; the check is belt and braces. */
+    if (caekf_lu_factor(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
+        return -1;
+    }
+    transition_rhs(m, &none, m->fv0);
+    (void)caekf_lu_solve(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, &m->fv0[0][0], CAEKF_N, CAEKF_N);
     return 0;
 }
 

@@ -16,6 +16,7 @@ caekf_status_t caekf_settings_default(caekf_settings_t *s)
     s->cov_update = CAEKF_COV_STANDARD;
     s->constraint_enabled = 0;
     s->cov_repair_enabled = 1;
+    s->psd_check_period = 1;
     s->newton_max_iter = CAEKF_NEWTON_MAX_ITER;
     /* Residual rounding scales with eps times the row's terms; 256 leaves room for the sums. */
     s->newton_rtol = CAEKF_EPS * 256;
@@ -52,6 +53,7 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **f
         else if (s->cov_update != CAEKF_COV_STANDARD && s->cov_update != CAEKF_COV_JOSEPH) bad = "cov_update";
         else if (s->constraint_enabled != 0 && s->constraint_enabled != 1) bad = "constraint_enabled";
         else if (s->cov_repair_enabled != 0 && s->cov_repair_enabled != 1) bad = "cov_repair_enabled";
+        else if (s->psd_check_period < 1 || s->psd_check_period > 1000) bad = "psd_check_period";
         else if (!CAEKF_ISFINITE(s->gamma_min)) bad = "gamma_min";
         else if (s->constraint_enabled && s->gamma0 < s->gamma_min) bad = "gamma0 < gamma_min";
         else if (s->newton_max_iter < 1 || s->newton_max_iter > CAEKF_NEWTON_MAX_ITER) bad = "newton_max_iter";

@@ -14,7 +14,7 @@
  * state is kept in RAM and printed after the run as exact bit patterns; one class word per step
  * (flags | newton_iters << 9 | not-ok << 15) is printed in hex for mcu-report's worst-case search.
  *
- * Output lines (parsed by check_replay.py and tools/mcu-report.sh):
+ * Output lines (parsed by check_replay.py and tools/mcu-report.py):
  *   replay: mcu=... scalar=... steps=N experiment=switched-highq-constrained
  *   S k x0 .. x8 p_gg flags iters        (k: 1-based step; values as 16-hex-digit binary64)
  *   C hhhh hhhh ...                      (class words, 64 per line, in step order)

@@ -80,6 +80,8 @@ typedef struct {
     int constraint_enabled;        /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
     caekf_scalar_t gamma_min;
     int cov_repair_enabled;        /* repair P when it loses PSD (always flagged); default on */
+    int psd_check_period;          /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
+                                    * screen runs every step and triggers the full test at once) */
 
     int newton_max_iter;           /* 1..CAEKF_NEWTON_MAX_ITER */
     caekf_scalar_t newton_rtol;    /* residual tolerance relative to the size of the equation's terms */
@@ -106,6 +108,9 @@ typedef struct {
     caekf_scalar_t P[CAEKF_N][CAEKF_N];     /* scaled covariance */
     caekf_scalar_t P_work[CAEKF_N][CAEKF_N];
     caekf_scalar_t scratch[CAEKF_N][CAEKF_N];
+    caekf_scalar_t x_prev[CAEKF_N];         /* step work: x_{k-1}, then x_k- and the scaled z */
+    caekf_scalar_t x_pred[CAEKF_N];
+    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of F */
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
     caekf_scalar_t r_scaled;                /* scaled R diagonal */
     caekf_scalar_t gamma_min_scaled;

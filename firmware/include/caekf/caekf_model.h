@@ -32,6 +32,11 @@ typedef struct {
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t m_dt[CAEKF_NQ];                  /* M / dt (diagonal) */
     caekf_scalar_t A0[CAEKF_NQ][CAEKF_NQ];          /* M/dt + C + dt K: Newton matrix without contact */
+    /* Without contact the step is linear: A0's LU and the v-rows of F are constants, computed once by
+     * the same code the contact path runs, so using them changes no bit of the result. */
+    caekf_scalar_t A0_lu[CAEKF_NQ][CAEKF_NQ];
+    int A0_piv[CAEKF_NQ];
+    caekf_scalar_t fv0[CAEKF_NQ][CAEKF_N];
 } caekf_model_t;
 
 /* Contact law at positions q: penetration and the force with its derivatives. */

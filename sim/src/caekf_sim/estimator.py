@@ -15,6 +15,10 @@ One step k:
                               Schmidt ("consider") update that keeps P positive semidefinite.
   constraint   if gamma^+ < gamma_min, redo the correction from (x^-, P^-) with the perfect
                measurement gamma = gamma_min: H^c = [H; D], R^c = blkdiag(R, 0) (eqs. 28-30).
+               S^c is solved after diagonal equilibration, with a pseudo-inverse fallback when
+               singular (flag SINGULAR_INNOVATION); afterwards gamma = gamma_min and P's gamma
+               row/column are set to their exact-arithmetic values (gamma_min, 0).
+Flags use the C core's bit layout (flags.py).
 """
 from __future__ import annotations
 

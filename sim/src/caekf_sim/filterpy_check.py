@@ -9,7 +9,7 @@ joseph=True; the standard-form run is compared as well.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict
+from typing import Dict, Tuple
 
 import numpy as np
 
@@ -39,7 +39,7 @@ def _filterpy_ekf_class():
     return NewtonEKF
 
 
-def run_filterpy(sc: Scenario, truth: Truth, cfg: EstimatorConfig) -> np.ndarray:
+def run_filterpy(sc: Scenario, truth: Truth, cfg: EstimatorConfig) -> Tuple[np.ndarray, np.ndarray]:
     """Canonical AEKF through FilterPy; returns the posterior states (N, 9) and P (N, 9, 9)."""
     model = AugmentedEKF(sc, cfg)
     ekf = _filterpy_ekf_class()(model)
