@@ -16,7 +16,7 @@ caekf_status_t caekf_settings_default(caekf_settings_t *s)
     s->cov_update = CAEKF_COV_STANDARD;
     s->constraint_enabled = 0;
     s->cov_repair_enabled = 1;
-    s->psd_check_period = 1;
+    s->psd_check_period = 16; /* the per-step screen catches |corr| > 1 at once */
     s->newton_max_iter = CAEKF_NEWTON_MAX_ITER;
     /* Residual rounding scales with eps times the row's terms; 256 leaves room for the sums. */
     s->newton_rtol = CAEKF_EPS * 256;

@@ -32,6 +32,8 @@ def find_tool(name: str):
 def c_truth_csv(tmp_path_factory):
     tool = find_tool("caekf-truth")
     if tool is None:
+        if os.environ.get("CAEKF_BUILD_DIR"):  # CI names the build: missing tools are a failure
+            pytest.fail("caekf-truth not found under $CAEKF_BUILD_DIR/host")
         pytest.skip("caekf-truth not built")
     out = tmp_path_factory.mktemp("c") / "truth.csv"
     subprocess.run([str(tool), "--scenario", str(default_scenario_path()), "--out", str(out), "--quiet"],
@@ -55,6 +57,8 @@ def test_c_replay_matches_numpy_estimator(name, c_truth_csv, results, sc, tmp_pa
     """
     tool = find_tool("caekf-replay")
     if tool is None:
+        if os.environ.get("CAEKF_BUILD_DIR"):  # CI names the build: missing tools are a failure
+            pytest.fail("caekf-replay not found under $CAEKF_BUILD_DIR/host")
         pytest.skip("caekf-replay not built")
     out = tmp_path / f"{name}.csv"
     subprocess.run([str(tool), "--scenario", str(default_scenario_path()), "--in", str(c_truth_csv),

@@ -3,12 +3,15 @@
 
     icount-run.py --machine mps2-an386 --plugin build/.../libqemu-icount.so image.elf
                   [--expect-from-output] [--counts FILE] [--guest-output FILE] [--json FILE]
+                  [--profile N [--profile-interval K]]
 
 The marker addresses (caekf_mark_begin / caekf_mark_end, or --begin/--end symbols) are read from
 the image with arm-none-eabi-nm. The image runs through tools/qemu-run.sh (timeout, exit status).
 Prints one line:  intervals=N min=.. median=.. max=.. mean=..
 --expect-from-output: the guest prints "expect: c0 c1 ..." and the counts must equal it exactly
 (tests/target/icount_calib.c). --max-budget N: every interval must be <= N instructions.
+--profile N prints the N functions executing the most instructions, over the whole run or, with
+--profile-interval K, inside interval K only (0-based; e.g. the argmax step).
 Exit status: the guest's if non-zero, 1 on a mismatch or over budget, else 0.
 """
 import argparse
@@ -43,6 +46,8 @@ def run(args):
         prof_path = os.path.join(tmp, "profile.txt")
         if args.profile:
             plugin += f",profile={prof_path}"
+            if args.profile_interval is not None:
+                plugin += f",profile_interval={args.profile_interval}"
         cmd = [QEMU_RUN, "--machine", args.machine, "--timeout", str(args.timeout),
                "--plugin", plugin, "--log", log_path, "--", args.image]
         proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -57,12 +62,13 @@ def run(args):
             with open(counts_path) as f:
                 counts = [int(x) for x in f.read().split()]
         if args.profile and os.path.exists(prof_path):
-            print_profile(nm, args.image, prof_path, args.profile)
+            where = "the whole run" if args.profile_interval is None else f"interval {args.profile_interval}"
+            print_profile(nm, args.image, prof_path, args.profile, where)
     return proc.returncode, guest, log, counts, begin, end
 
 
-def print_profile(nm, image, path, top):
-    """Instructions per function over the whole run (blocks attributed to the enclosing symbol)."""
+def profile_by_function(nm, image, path):
+    """{function: instructions} from a plugin profile file (blocks attributed to the enclosing symbol)."""
     syms = []
     out = subprocess.run([nm, "--defined-only", "-n", "-S", image], check=True, capture_output=True, text=True).stdout
     for line in out.splitlines():
@@ -71,7 +77,6 @@ def print_profile(nm, image, path, top):
             syms.append((int(p[0], 16) & ~1, int(p[1], 16), p[3]))
     syms.sort()
     per = {}
-    total = 0
     import bisect
     starts = [s[0] for s in syms]
     for line in open(path):
@@ -80,8 +85,13 @@ def print_profile(nm, image, path, top):
         i = bisect.bisect_right(starts, va) - 1
         name = syms[i][2] if i >= 0 and va < syms[i][0] + max(syms[i][1], 2) else f"?{va:#x}"
         per[name] = per.get(name, 0) + insns
-        total += insns
-    print(f"profile: {total} instructions in the whole run, top {top} functions:")
+    return per
+
+
+def print_profile(nm, image, path, top, where="the whole run"):
+    per = profile_by_function(nm, image, path)
+    total = sum(per.values())
+    print(f"profile: {total} instructions in {where}, top {top} functions:")
     for name, v in sorted(per.items(), key=lambda kv: -kv[1])[:top]:
         print(f"profile: {v:12d} {100.0 * v / total:6.2f} %  {name}")
 
@@ -116,6 +126,8 @@ def main():
     ap.add_argument("--quiet", action="store_true", help="do not echo the guest output")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="also print the N functions executing the most instructions (whole run)")
+    ap.add_argument("--profile-interval", type=int, metavar="K",
+                    help="with --profile: profile interval K only (0-based)")
     args = ap.parse_args()
 
     status, guest, log, counts, begin, end = run(args)

@@ -24,6 +24,8 @@
  * out=FILE writes every interval's count, one per line, in order.
  * profile=FILE writes "vaddr n_insns executions" per translation block start address, over the
  * whole run (not only inside intervals), for a per-function profile (icount-run.py --profile).
+ * profile_interval=K restricts that profile to interval K (0-based): the breakdown of one step,
+ * e.g. the worst one (icount-run.py --profile-interval).
  *
  * QEMU 7.2 as packaged by Debian ships no qemu-plugin.h, so the subset of the plugin API v1 used
  * here is declared below (same declarations as QEMU's include/qemu/qemu-plugin.h, API version 1).
@@ -103,10 +105,32 @@ typedef struct tb_prof {
     uint64_t vaddr;
     uint64_t n;
     uint64_t execs;
+    uint64_t snap; /* execs when interval profile_interval began */
+    uint64_t win;  /* executions inside that interval */
     struct tb_prof *next;
 } tb_prof_t;
 static const char *profile_path;
 static tb_prof_t *profiles;
+static uint64_t profile_interval = UINT64_MAX; /* UINT64_MAX: whole run */
+static bool profile_window_open;
+static bool profile_window_done;
+
+/* Interval profile: snapshot every block's count when the interval begins and take the difference
+ * at its end (blocks keep counting afterwards, so the difference is kept apart). Blocks translated
+ * inside the interval start from 0, which is their count before it. */
+static void profile_window(bool open)
+{
+    tb_prof_t *p;
+    for (p = profiles; p != NULL; p = p->next) {
+        if (open) {
+            p->snap = p->execs;
+        } else {
+            p->win = p->execs - p->snap;
+        }
+    }
+    profile_window_open = open;
+    profile_window_done = !open;
+}
 
 static uint64_t *intervals;
 static size_t n_intervals;
@@ -140,6 +164,9 @@ static void on_begin(unsigned int vcpu, void *udata)
     }
     in_interval = true;
     start_count = counter;
+    if (profile_path != NULL && profile_interval == n_intervals && !profile_window_done) {
+        profile_window(true);
+    }
     counter += (uint64_t)(uintptr_t)udata;
 }
 
@@ -149,6 +176,9 @@ static void on_end(unsigned int vcpu, void *udata)
     if (in_interval) {
         record(counter - start_count);
         in_interval = false;
+        if (profile_window_open) {
+            profile_window(false);
+        }
     } else {
         ++stray_ends;
     }
@@ -175,7 +205,7 @@ static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
     } else {
         qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &counter, (uint64_t)n);
     }
-    if (profile_path != NULL) {
+    if (profile_path != NULL && !profile_window_done) {
         tb_prof_t *p = calloc(1, sizeof *p);
         if (p != NULL) {
             p->vaddr = va;
@@ -218,9 +248,13 @@ static void on_plugin_exit(qemu_plugin_id_t id, void *udata)
             qemu_plugin_outs("icount: cannot open profile= file\n");
         } else {
             const tb_prof_t *p;
+            if (profile_interval != UINT64_MAX && !profile_window_done) {
+                qemu_plugin_outs("icount: profile_interval never completed\n");
+            }
             for (p = profiles; p != NULL; p = p->next) {
-                if (p->execs != 0) {
-                    fprintf(f, "%#" PRIx64 " %" PRIu64 " %" PRIu64 "\n", p->vaddr, p->n, p->execs);
+                uint64_t ex = profile_interval == UINT64_MAX ? p->execs : p->win;
+                if (ex != 0) {
+                    fprintf(f, "%#" PRIx64 " %" PRIu64 " %" PRIu64 "\n", p->vaddr, p->n, ex);
                 }
             }
             fclose(f);
@@ -292,6 +326,12 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
             out_path = a + 4;
         } else if (strncmp(a, "profile=", 8) == 0) {
             profile_path = a + 8;
+        } else if (strncmp(a, "profile_interval=", 17) == 0) {
+            char *end = NULL;
+            profile_interval = strtoull(a + 17, &end, 0);
+            if (end == a + 17 || *end != '\0') {
+                goto bad;
+            }
         } else if (strcmp(a, "verbose=on") == 0 || strcmp(a, "verbose=true") == 0) {
             verbose = true;
         } else if (strcmp(a, "verbose=off") == 0 || strcmp(a, "verbose=false") == 0) {
@@ -301,7 +341,7 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
         }
         continue;
     bad:
-        fprintf(stderr, "icount: bad argument '%s' (expected begin=ADDR end=ADDR [out=FILE] [profile=FILE] [verbose=on])\n", a);
+        fprintf(stderr, "icount: bad argument '%s' (expected begin=ADDR end=ADDR [out=FILE] [profile=FILE] [profile_interval=K] [verbose=on])\n", a);
         return -1;
     }
     if (addr_begin == UINT64_MAX || addr_end == UINT64_MAX || addr_begin == addr_end) {
