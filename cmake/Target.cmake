@@ -147,4 +147,5 @@ if(CAEKF_TARGET_IMAGES)
     add_subdirectory("${CAEKF_ROOT_DIR}/tools/qemu-icount" "${CMAKE_BINARY_DIR}/tools/qemu-icount")
     add_subdirectory("${CAEKF_ROOT_DIR}/tests/target" "${CMAKE_BINARY_DIR}/tests/target")
 endif()
+add_subdirectory("${CAEKF_PORT_DIR}/can" "${CMAKE_BINARY_DIR}/firmware/port/cortex-m/can") # bxCAN, MCU HAL, caekf_fw images
 cmake_language(DEFER DIRECTORY "${CMAKE_SOURCE_DIR}" CALL _caekf_target_finalize_all)

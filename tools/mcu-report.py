@@ -2,6 +2,7 @@
 """One command for the MCU numbers: instructions per step, memory, stack.
 
     tools/mcu-report.py [--no-build] [--no-o2] [--presets cortex-m4f,cortex-m7] [--json FILE]
+                        [--breakdown N]
 
 For each preset (default cortex-m4f and cortex-m7; configured/built with `cmake --preset` if needed,
 which needs the host-double preset's test data, see tests/target/Replay.cmake):
@@ -14,7 +15,9 @@ which needs the host-double preset's test data, see tests/target/Replay.cmake):
     links from it (linker map), of every image; sizeof(caekf_t) (one instance's RAM);
   * stack: worst case from -fstack-usage/-fcallgraph-info (tools/mcu-stack.py) for caekf_step and
     caekf_init, and the measured stack painting of the replay image;
-  * with -O2 as well (build/<preset>-o2, library and replay image only) unless --no-o2.
+  * with -O2 as well (build/<preset>-o2, library and replay image only) unless --no-o2;
+  * with --breakdown N: instructions per function (the N largest) inside the median step, the max
+    step and the worst-case step (one more QEMU run each, plugin option profile_interval).
 Goals checked (Cortex-M4F, -Os): worst case <= 8000 instructions/step, text <= 10 KB, static RAM
 <= 1 KB, stack <= 512 B.
 """
@@ -142,9 +145,13 @@ def icount(bdir, preset):
             if cl & FLAG_CONTACT_ACTIVE and cl & FLAG_CONSTRAINT_APPLIED]
     r = {"steps": len(counts), "min": s[0], "median": s[(len(s) - 1) // 2], "max": s[-1],
          "max_step": counts.index(s[-1]) + 1, "stack_measured": stack, "summary": summary}
+    r["median_step"] = counts.index(r["median"]) + 1
     if both:
         it = max(i for _, i in both)
         r["worst_case"] = max(c for c, i in both if i == it)
+        r["worst_case_step"] = 1 + next(k for k, (c, cl) in enumerate(zip(counts, classes))
+                                        if c == r["worst_case"] and cl & FLAG_CONTACT_ACTIVE
+                                        and cl & FLAG_CONSTRAINT_APPLIED and (cl >> 9) & 31 == it)
         r["worst_case_iters"] = it
         r["worst_case_steps"] = sum(1 for _, i in both if i == it)
         r["contact_constraint_steps"] = len(both)
@@ -164,6 +171,24 @@ def icount(bdir, preset):
         deltas.sort()
         r["per_newton_iteration"] = deltas[(len(deltas) - 1) // 2]
     return r
+
+
+def breakdown(bdir, preset, steps, top):
+    """{label: [(function, instructions), ...]} for the given 1-based steps (one QEMU run each)."""
+    image = os.path.join(bdir, "tests", "target", "target_replay.elf")
+    plugin = os.path.join(bdir, "tools", "qemu-icount", "libqemu-icount.so")
+    res = {}
+    for label, step in steps:
+        out = sh([sys.executable, os.path.join(ROOT, "tools", "qemu-icount", "icount-run.py"),
+                  "--machine", MACHINE[preset], "--plugin", plugin, "--quiet", "--profile", str(top),
+                  "--profile-interval", str(step - 1), image])
+        rows = []
+        for line in out.splitlines():
+            m = re.match(r"profile:\s+(\d+)\s+\S+ %\s+(\S+)$", line)
+            if m:
+                rows.append((m.group(2), int(m.group(1))))
+        res[f"{label} (step {step})"] = rows
+    return res
 
 
 def stack_static(bdir):
@@ -203,6 +228,12 @@ def report_preset(preset, args, o2):
     r["sizeof_caekf_t"] = symbol_size(replay, "est")
     r["icount"] = icount(bdir, preset)
     r["stack_static"] = stack_static(bdir)
+    if args.breakdown:
+        ic = r["icount"]
+        steps = [("median", ic["median_step"]), ("max", ic["max_step"])]
+        if "worst_case_step" in ic:
+            steps.append(("worst case", ic["worst_case_step"]))
+        r["breakdown"] = breakdown(bdir, preset, steps, args.breakdown)
     if not o2:
         images = []
         for dirpath, _, files in os.walk(os.path.join(bdir, "tests")):
@@ -236,6 +267,8 @@ def main():
     ap.add_argument("--no-build", action="store_true", help="use the existing builds as they are")
     ap.add_argument("--no-o2", action="store_true", help="skip the -O2 builds")
     ap.add_argument("--json", help="also write all numbers as JSON")
+    ap.add_argument("--breakdown", type=int, default=0, metavar="N",
+                    help="per-function instructions (top N) of the median, max and worst-case steps")
     a = ap.parse_args()
 
     results = []
@@ -266,6 +299,18 @@ def main():
           "60,000 steps)", ["target", "opt", "min", "median", "max", "worst case: contact+constraint, "
           "max Newton", f"<= {GOAL_ICOUNT}"], rows)
     print("\n".join(notes))
+    for r in results:
+        bd = r.get("breakdown")
+        if not bd:
+            continue
+        names = []
+        for rows in bd.values():
+            names += [n for n, _ in rows if n not in names]
+        labels = list(bd)
+        per = {lab: dict(bd[lab]) for lab in labels}
+        table(f"Instructions per function, {r['preset']} {r['opt']}", ["function", *labels],
+              [[n, *(per[lab].get(n, 0) for lab in labels)] for n in names] +
+              [["total", *(sum(per[lab].values()) for lab in labels)]])
 
     rows = []
     for r in results:

@@ -16,6 +16,33 @@ CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, 
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
+/* F in scaled coordinates, S^-1 F S: column j of the v-rows times s_j / s_v, which is exactly 1 for
+ * the v-columns (so those are left alone) and one ratio for all q-columns. */
+static void scale_fv(caekf_scalar_t fv[NQ][N], const caekf_scalar_t s[N])
+{
+    caekf_scalar_t rq = s[0] / s[NQ], rg = s[IG] / s[NQ];
+    int i, j;
+    for (i = 0; i < NQ; ++i) {
+        for (j = 0; j < NQ; ++j) {
+            fv[i][j] *= rq;
+        }
+        fv[i][IG] *= rg;
+    }
+}
+
+/* The contact-free F is a constant: scaled once and kept in fv until a contact step overwrites it. */
+static void load_fv0(caekf_t *est)
+{
+    int i, j;
+    for (i = 0; i < NQ; ++i) {
+        for (j = 0; j < N; ++j) {
+            est->fv[i][j] = est->model.fv0[i][j];
+        }
+    }
+    scale_fv(est->fv, est->scale);
+    est->fv_const = 1;
+}
+
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
 {
     int i, j;
@@ -51,11 +78,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->x_prev[i] = 0;
         est->x_pred[i] = 0;
     }
-    for (i = 0; i < NQ; ++i) {
-        for (j = 0; j < N; ++j) {
-            est->fv[i][j] = 0;
-        }
-    }
+    load_fv0(est);
     est->step_count = 0;
     est->last_flags = 0;
     est->init_magic = INIT_MAGIC;
@@ -81,9 +104,9 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     caekf_status_t st = CAEKF_OK;
     uint32_t flags = 0;
     int iters = 0;
-    int i, j;
+    int i, j, finite;
     const caekf_scalar_t *s;
-    caekf_scalar_t s_q, s_v;
+    caekf_scalar_t s_q, s_v, nf;
 
     if (report != 0) {
         report->flags = 0;
@@ -124,44 +147,51 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     if (policy != CAEKF_GAMMA_LIVE) {
         flags |= CAEKF_FLAG_GAMMA_FROZEN;
     }
-    if (caekf_model_transition_v(&est->model, est->x_pred, est->fv) != 0) {
-        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_SINGULAR;
-        goto done;
-    }
-    for (i = 0; i < NQ; ++i) { /* F in scaled coordinates: S^-1 F S */
-        for (j = 0; j < N; ++j) {
-            est->fv[i][j] *= s[j] / s_v;
+    if (contact.delta > 0) {
+        est->fv_const = 0;
+        if (caekf_model_transition_v(&est->model, est->x_pred, est->fv) != 0) {
+            flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+            st = CAEKF_ERR_SINGULAR;
+            goto done;
         }
+        scale_fv(est->fv, s);
+    } else if (!est->fv_const) {
+        load_fv0(est);
     }
     for (i = 0; i < IG; ++i) {
         z[i] = est->x_pred[i] / s[i];
     }
     z[IG] = est->z[IG]; /* exact: the random walk carries gamma over bit for bit */
-    caekf_predict_covariance(est->P, est->P_work, est->fv, est->model.p.dt * s_v / s_q, est->q_diag, policy);
+    /* From here on P_work holds the upper triangle only; the commit mirrors it. */
+    caekf_predict_covariance(est->P, est->P_work, est->fv, est->model.p.dt * s_v / s_q, est->q_diag, policy,
+                             contact.delta > 0);
 
     /* Correction, eqs. (13)-(15) / (25)-(27). */
     y_s[0] = y[0] / s_q;
     y_s[1] = y[1] / s_q;
-    (void)caekf_correct(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH, policy,
-                        est->scratch, &flags);
+    (void)caekf_correct_upper(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH, policy,
+                              est->scratch, &flags);
 
     /* Inequality constraint, eqs. (28)-(30). */
     if (est->cfg.constraint_enabled) {
-        caekf_constrain(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
+        caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
     }
-    caekf_covariance_health(est->P_work, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
-                            est->cfg.cov_repair_enabled, est->scratch, &flags);
-
-    if (!caekf_all_finite(z, N) || !caekf_all_finite(&est->P_work[0][0], N * N)) {
+    finite = caekf_covariance_health(est->P_work, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
+                                     est->cfg.cov_repair_enabled, est->scratch, &flags);
+    nf = 0; /* v * 0 is 0 for finite v, NaN otherwise */
+    for (i = 0; i < N; ++i) {
+        nf += z[i] * 0;
+    }
+    if (!finite || !(nf == 0)) {
         flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
-    for (i = 0; i < N; ++i) { /* commit */
+    for (i = 0; i < N; ++i) { /* commit, filling the lower triangle */
         est->z[i] = z[i];
-        for (j = 0; j < N; ++j) {
+        for (j = i; j < N; ++j) {
             est->P[i][j] = est->P_work[i][j];
+            est->P[j][i] = est->P_work[i][j];
         }
     }
     est->step_count++;

@@ -8,7 +8,7 @@ static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol)
 {
-    int i, j, k;
+    int i;
     caekf_scalar_t amax = 0;
     if (!size_ok(n)) {
         return CAEKF_LA_BAD_SIZE;
@@ -16,9 +16,16 @@ caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_sca
     for (i = 0; i < n * n; ++i) {
         amax = caekf_max(amax, CAEKF_FABS(a[i]));
     }
+    return caekf_lu_factor_tol(a, n, piv, rel_tol * amax);
+}
+
+caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol)
+{
+    int i, j, k;
     for (k = 0; k < n; ++k) {
+        caekf_scalar_t *ak = a + k * n;
+        caekf_scalar_t best = CAEKF_FABS(ak[k]);
         int p = k;
-        caekf_scalar_t best = CAEKF_FABS(A_(a, n, k, k));
         for (i = k + 1; i < n; ++i) {
             caekf_scalar_t cand = CAEKF_FABS(A_(a, n, i, k));
             if (cand > best) {
@@ -27,22 +34,24 @@ caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_sca
             }
         }
         /* Written as !(best > tol) so that a NaN pivot is refused too. */
-        if (!(best > rel_tol * amax)) {
+        if (!(best > tol)) {
             return CAEKF_LA_SINGULAR;
         }
         piv[k] = p;
         if (p != k) {
+            caekf_scalar_t *ap = a + p * n;
             for (j = 0; j < n; ++j) {
-                caekf_scalar_t t = A_(a, n, k, j);
-                A_(a, n, k, j) = A_(a, n, p, j);
-                A_(a, n, p, j) = t;
+                caekf_scalar_t t = ak[j];
+                ak[j] = ap[j];
+                ap[j] = t;
             }
         }
         for (i = k + 1; i < n; ++i) {
-            caekf_scalar_t l = A_(a, n, i, k) / A_(a, n, k, k);
-            A_(a, n, i, k) = l;
+            caekf_scalar_t *ai = a + i * n;
+            caekf_scalar_t l = ai[k] / ak[k];
+            ai[k] = l;
             for (j = k + 1; j < n; ++j) {
-                A_(a, n, i, j) -= l * A_(a, n, k, j);
+                ai[j] -= l * ak[j];
             }
         }
     }
@@ -88,6 +97,52 @@ caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[
     return CAEKF_LA_OK;
 }
 
+/* The 4x4 solve the model runs on every step: the same operations in the same order as
+ * caekf_lu_solve (bit for bit the same results), with the size fixed so that the factors stay in
+ * registers across the columns. */
+void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs)
+{
+    int perm[4] = {0, 1, 2, 3};
+    int i, c;
+    const caekf_scalar_t l10 = lu[4], l20 = lu[8], l21 = lu[9], l30 = lu[12], l31 = lu[13], l32 = lu[14];
+    const caekf_scalar_t u01 = lu[1], u02 = lu[2], u03 = lu[3], u12 = lu[6], u13 = lu[7], u23 = lu[11];
+    const caekf_scalar_t d0 = (caekf_scalar_t)1 / lu[0], d1 = (caekf_scalar_t)1 / lu[5],
+                         d2 = (caekf_scalar_t)1 / lu[10], d3 = (caekf_scalar_t)1 / lu[15];
+    const caekf_scalar_t *r0, *r1, *r2, *r3;
+    for (i = 0; i < 4; ++i) { /* the row swaps, applied once as a permutation of the rows */
+        int t = perm[i];
+        perm[i] = perm[piv[i]];
+        perm[piv[i]] = t;
+    }
+    r0 = b + perm[0] * nrhs;
+    r1 = b + perm[1] * nrhs;
+    r2 = b + perm[2] * nrhs;
+    r3 = b + perm[3] * nrhs;
+    for (c = 0; c < nrhs; ++c) { /* each column: all four read before any is written */
+        caekf_scalar_t x0 = r0[c], x1 = r1[c], x2 = r2[c], x3 = r3[c];
+        x1 -= l10 * x0; /* forward: L has a unit diagonal */
+        x2 -= l20 * x0;
+        x2 -= l21 * x1;
+        x3 -= l30 * x0;
+        x3 -= l31 * x1;
+        x3 -= l32 * x2;
+        x3 *= d3; /* backward */
+        x2 -= u23 * x3;
+        x2 *= d2;
+        x1 -= u12 * x2;
+        x1 -= u13 * x3;
+        x1 *= d1;
+        x0 -= u01 * x1;
+        x0 -= u02 * x2;
+        x0 -= u03 * x3;
+        x0 *= d0;
+        b[c] = x0;
+        b[nrhs + c] = x1;
+        b[2 * nrhs + c] = x2;
+        b[3 * nrhs + c] = x3;
+    }
+}
+
 caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c, caekf_scalar_t rel_tol,
                                      caekf_scalar_t inv[3])
 {
@@ -102,7 +157,8 @@ caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_s
 }
 
 /* D^-1/2 A D^-1/2 with D = diag(A): the correlation form makes the PSD test and the repair
- * independent of the state scaling. A zero diagonal must come with a zero row. */
+ * independent of the state scaling. A zero diagonal must come with a zero row. Reads a's upper
+ * triangle and writes w's lower one (all the LDL^T below uses). */
 static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *d)
 {
     int i, j;
@@ -114,14 +170,15 @@ static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_
         d[i] = CAEKF_SQRT(aii);
     }
     for (i = 0; i < n; ++i) {
-        for (j = 0; j < n; ++j) {
-            caekf_scalar_t aij = A_(a, n, i, j);
+        caekf_scalar_t *wi = w + i * n;
+        const caekf_scalar_t *aji = a + i; /* a[j][i], j = 0.. */
+        for (j = 0; j <= i; ++j, aji += n) {
             if (d[i] > 0 && d[j] > 0) {
-                A_(w, n, i, j) = aij / (d[i] * d[j]);
-            } else if (aij != 0) {
+                wi[j] = *aji / (d[i] * d[j]);
+            } else if (*aji != 0) {
                 return CAEKF_LA_NOT_PSD;
             } else {
-                A_(w, n, i, j) = 0;
+                wi[j] = 0;
             }
         }
     }
@@ -154,9 +211,11 @@ caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t
             continue;
         }
         for (i = k + 1; i < n; ++i) {
-            caekf_scalar_t l = A_(w, n, i, k) / piv;
-            for (j = k + 1; j <= i; ++j) {
-                A_(w, n, i, j) -= l * A_(w, n, j, k);
+            caekf_scalar_t *wi = w + i * n;
+            const caekf_scalar_t *wjk = w + (k + 1) * n + k; /* column k from row k + 1 */
+            caekf_scalar_t l = wi[k] / piv;
+            for (j = k + 1; j <= i; ++j, wjk += n) {
+                wi[j] -= l * *wjk;
             }
         }
     }

@@ -26,13 +26,21 @@ caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_sca
 caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
                                  int nrhs, int ldb);
 
+/* caekf_lu_factor with the refusal threshold given (tol = rel_tol * max|a_ij|, from a caller who
+ * knows the largest entry already); n is not checked. */
+caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol);
+
+/* caekf_lu_solve for n = 4 (lu row-major 4 x 4) and ldb = nrhs, bit for bit the same, faster. */
+void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs);
+
 /* Inverse of a symmetric 2x2 [a b; b c]. Refused (SINGULAR) when the determinant is <= rel_tol * a c
  * or a, c <= 0: an innovation covariance must be positive definite. */
 caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c, caekf_scalar_t rel_tol,
                                      caekf_scalar_t inv[3]);
 
 /* Positive-semidefiniteness test: LDL^T of the correlation form D^-1/2 A D^-1/2 (scale invariant);
- * pivots within tol of zero count as zero (such directions must then have no coupling left). */
+ * pivots within tol of zero count as zero (such directions must then have no coupling left). Reads
+ * the upper triangle of the symmetric a only. */
 caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *work);
 
 /* Cyclic Jacobi eigen-decomposition of a symmetric matrix: on return a's diagonal holds the

@@ -86,10 +86,14 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t q[CAE
         caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
         caekf_scalar_t s = inertia;
         caekf_scalar_t a = CAEKF_FABS(inertia);
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            caekf_scalar_t kc = m->K[i][j] * q[j] + m->C[i][j] * v[j];
-            s += kc;
-            a += CAEKF_FABS(m->K[i][j] * q[j]) + CAEKF_FABS(m->C[i][j] * v[j]);
+        /* K and C couple bodies (1,2) and (3,4) only (chain_matrix): the other terms are exact
+         * zeros, which change neither sum. */
+        for (j = i & 2; j < (i & 2) + 2; ++j) {
+            caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
+            s += kq + cv;
+            if (mag != 0) {
+                a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
+            }
         }
         r[i] = s;
         if (mag != 0) {
@@ -153,12 +157,18 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
     Jprev[CAEKF_IG][CAEKF_IG] = -1;
 }
 
+#define LU_REL_TOL (CAEKF_EPS * 16)
+
 /* A = M/dt + C + dt (K + K_c): the Jacobian of the momentum rows with respect to v_k once
- * q_k = q_{k-1} + dt v_k is substituted; K_c = f_c'(delta) n n^T with n = [0, 1, -1, 0]. */
-static void newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta, caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ])
+ * q_k = q_{k-1} + dt v_k is substituted; K_c = f_c'(delta) n n^T with n = [0, 1, -1, 0]. Returns the
+ * LU refusal threshold LU_REL_TOL * max|A_ij|: only the contact block differs from A0, and a maximum
+ * does not depend on the order it is taken in (A holds no NaN: delta > 0 here). */
+static caekf_scalar_t newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta,
+                                    caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ])
 {
     int i, j;
     caekf_scalar_t kc = m->p.dt * dfc_ddelta;
+    caekf_scalar_t amax = m->A0_absmax_out;
     for (i = 0; i < CAEKF_NQ; ++i) {
         for (j = 0; j < CAEKF_NQ; ++j) {
             A[i][j] = m->A0[i][j];
@@ -168,9 +178,13 @@ static void newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta, cae
     A[B2][B3] -= kc;
     A[B3][B2] -= kc;
     A[B3][B3] += kc;
+    for (i = B2; i <= B3; ++i) {
+        for (j = B2; j <= B3; ++j) {
+            amax = caekf_max(amax, CAEKF_FABS(A[i][j]));
+        }
+    }
+    return LU_REL_TOL * amax;
 }
-
-#define LU_REL_TOL (CAEKF_EPS * 16)
 
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u,
                        int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters)
@@ -198,29 +212,32 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         int piv[CAEKF_NQ];
         caekf_scalar_t rmax = 0, magmax = 0;
         caekf_model_contact(m, q, gamma, &c);
-        momentum_residual(m, q, v, vp, u, c.fc, r, mag);
-        for (i = 0; i < CAEKF_NQ; ++i) {
-            rmax = caekf_max(rmax, CAEKF_FABS(r[i]));
-            magmax = caekf_max(magmax, mag[i]);
-        }
-        /* Norm-wise test: a lightly loaded row cannot be resolved better than the rounding that the
-         * coupled solve spreads from the heavily loaded ones. Written so that NaN never converges. */
-        if (it > 0 && rmax <= rtol * magmax) { /* at least one update: it solves the linear part exactly */
-            result = 0;
-            break;
+        /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
+        momentum_residual(m, q, v, vp, u, c.fc, r, it > 0 ? mag : 0);
+        if (it > 0) {
+            for (i = 0; i < CAEKF_NQ; ++i) {
+                rmax = caekf_max(rmax, CAEKF_FABS(r[i]));
+                magmax = caekf_max(magmax, mag[i]);
+            }
+            /* Norm-wise test: a lightly loaded row cannot be resolved better than the rounding that
+             * the coupled solve spreads from the heavily loaded ones. Written so that NaN never
+             * converges. */
+            if (rmax <= rtol * magmax) {
+                result = 0;
+                break;
+            }
         }
         if (it == max_iter) {
             break; /* bound reached: x_k keeps the last iterate */
         }
         if (c.delta > 0) { /* contact: the tangent changes A; else the constant LU */
-            newton_matrix(m, c.dfc_ddelta, A);
-            if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
+            if (caekf_lu_factor_tol(&A[0][0], CAEKF_NQ, piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
                 result = 2;
                 break;
             }
-            (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, r, 1, 1);
+            caekf_lu4_solve(&A[0][0], piv, r, 1);
         } else {
-            (void)caekf_lu_solve(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, r, 1, 1);
+            caekf_lu4_solve(&m->A0_lu[0][0], m->A0_piv, r, 1);
         }
         for (i = 0; i < CAEKF_NQ; ++i) {
             v[i] -= r[i];
@@ -239,8 +256,9 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *c, cae
     for (i = 0; i < CAEKF_NQ; ++i) {
         for (j = 0; j < CAEKF_NQ; ++j) {
             fv[i][j] = -m->K[i][j];
-            fv[i][CAEKF_NQ + j] = (i == j) ? m->m_dt[i] : 0;
+            fv[i][CAEKF_NQ + j] = 0;
         }
+        fv[i][CAEKF_NQ + i] = m->m_dt[i];
         fv[i][CAEKF_IG] = 0;
     }
     fv[B2][B2] -= c->dfc_ddelta;
@@ -267,18 +285,18 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
         }
         return 0;
     }
-    newton_matrix(m, c.dfc_ddelta, A);
-    if (caekf_lu_factor(&A[0][0], CAEKF_NQ, piv, LU_REL_TOL) != CAEKF_LA_OK) {
+    if (caekf_lu_factor_tol(&A[0][0], CAEKF_NQ, piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
         return -1;
     }
     transition_rhs(m, &c, fv); /* solved in place */
-    (void)caekf_lu_solve(&A[0][0], CAEKF_NQ, piv, &fv[0][0], CAEKF_N, CAEKF_N);
+    caekf_lu4_solve(&A[0][0], piv, &fv[0][0], CAEKF_N);
     return 0;
 }
 
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 {
     caekf_contact_t none;
+    caekf_scalar_t amax;
     int i, j;
     if (caekf_model_params_check(p, 0) != 0) {
         return -1;
@@ -286,11 +304,18 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     m->p = *p;
     chain_matrix(m->K, p->k1, p->k12, p->k34, p->k4);
     chain_matrix(m->C, p->c1, p->c12, p->c34, p->c4);
+    amax = 0;
+    m->A0_absmax_out = 0;
     for (i = 0; i < CAEKF_NQ; ++i) {
         m->m_dt[i] = p->m[i] / p->dt;
         for (j = 0; j < CAEKF_NQ; ++j) {
-            m->A0[i][j] = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
-            m->A0_lu[i][j] = m->A0[i][j];
+            caekf_scalar_t a = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+            m->A0[i][j] = a;
+            m->A0_lu[i][j] = a;
+            amax = caekf_max(amax, CAEKF_FABS(a));
+            if (i < B2 || i > B3 || j < B2 || j > B3) {
+                m->A0_absmax_out = caekf_max(m->A0_absmax_out, CAEKF_FABS(a));
+            }
         }
     }
     none.delta = 0;
@@ -298,11 +323,11 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     none.dfc_ddelta = 0;
     none.dfc_dgamma = 0;
     /* A0 = M/dt + C + dt K is positive definite for valid parameters; the check is belt and braces. */
-    if (caekf_lu_factor(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
+    if (caekf_lu_factor_tol(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL * amax) != CAEKF_LA_OK) {
         return -1;
     }
     transition_rhs(m, &none, m->fv0);
-    (void)caekf_lu_solve(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, &m->fv0[0][0], CAEKF_N, CAEKF_N);
+    caekf_lu4_solve(&m->A0_lu[0][0], m->A0_piv, &m->fv0[0][0], CAEKF_N);
     return 0;
 }
 

@@ -110,7 +110,8 @@ typedef struct {
     caekf_scalar_t scratch[CAEKF_N][CAEKF_N];
     caekf_scalar_t x_prev[CAEKF_N];         /* step work: x_{k-1}, then x_k- and the scaled z */
     caekf_scalar_t x_pred[CAEKF_N];
-    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of F */
+    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of the scaled F */
+    uint32_t fv_const;                      /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
     caekf_scalar_t r_scaled;                /* scaled R diagonal */
     caekf_scalar_t gamma_min_scaled;

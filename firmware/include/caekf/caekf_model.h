@@ -36,6 +36,7 @@ typedef struct {
      * the same code the contact path runs, so using them changes no bit of the result. */
     caekf_scalar_t A0_lu[CAEKF_NQ][CAEKF_NQ];
     int A0_piv[CAEKF_NQ];
+    caekf_scalar_t A0_absmax_out; /* max |A0_ij| outside the contact block (bodies 2, 3) */
     caekf_scalar_t fv0[CAEKF_NQ][CAEKF_N];
 } caekf_model_t;
 

@@ -1,0 +1,1089 @@
+/*
+ * libFuzzer harness 1: CAN frames into the firmware application (caekf_app_poll over an in-memory HAL),
+ * checked against a reference model of the protocol written from caekf.dbc / firmware/protocol/README.md
+ * and caekf_app.h, not from the app's code.
+ *
+ * The model keeps its own E2E receivers (own CRC-8/SAE-J1850 and bit extraction), its own step assembly,
+ * its own configuration staging and commit, and a shadow estimator stepped with the inputs the model
+ * decoded. After every poll it checks, exactly:
+ *   - every counter the app keeps (all but TX_SATURATED): so every frame is accounted once, and every
+ *     rejected frame (unknown ID, DLC, CRC, duplicate, jump, bad value, unconfigured, late, repeated)
+ *     raised its counter;
+ *   - the transmitted frames, in order: DLC 8, valid CRC, consecutive alive counters per message, the
+ *     12 estimate frames of a step with EST_STEP last (STEP, status, flags, Newton iterations), EST_ACK
+ *     fields (token, status, bad parameter, experiment, N_PARAMS_RX, state), EST_HEALTH bursts;
+ *   - the running configuration (settings compared field by field, bit for bit), the experiment, the
+ *     staging state, and the estimator (z, P, step count) against the shadow: a refused configuration
+ *     or a rejected frame changes none of them;
+ *   - after every accepted step: z and P finite, P exactly symmetric.
+ *
+ * Input: [cfg] [resync] [init] [time] then operations until the end (see the OP_* list below).
+ */
+#include "caekf/caekf_app.h"
+#include "fuzz_common.h"
+#include "fuzz_paper.h"
+
+#define N CAEKF_N
+#define NMSG ((unsigned)CAEKF_MSG_COUNT)
+#define QLEN 256u
+#define TXCAP 4096u
+#define MAX_OPS 2000u
+#define ACK_BAD_ANY 0x1FFu /* expectation: any valid parameter id or NONE */
+
+enum {
+    OP_RAW = 0,       /* [id sel] ([id u32]) [dlc] [8 bytes]: a frame as it comes */
+    OP_SEALED,        /* [msg] [counter mode] [7 payload bytes]: valid CRC over arbitrary payload */
+    OP_STEP,          /* [flags] [step u16] [u u32] [y1 5 bytes] [y4 5 bytes]: a bench step */
+    OP_PARAM,         /* [id] [exp10] [mantissa 5 bytes] */
+    OP_RESET,         /* [experiment] [n mode] [token] */
+    OP_STATUS_REQ,    /* [token] */
+    OP_TIME,          /* [u16]: advance the clock, poll */
+    OP_HAL_FAULT,     /* [b]: receive errors pending, transmit failure toggle; poll */
+    OP_LOCAL_CONFIG,  /* [experiment] [n] n x ([param id] [value]): caekf_app_configure */
+    OP_BURST,         /* toggles burst mode: frames queue up, then polls drain the queue */
+    OP_PAPER_CONFIG,  /* [experiment] [token]: the paper settings as CTRL_PARAM frames + CTRL_RESET */
+    OP_REPEAT_STEPS,  /* [n]: n more steps with the last inputs and consecutive STEP numbers */
+    OP_COUNT
+};
+
+/* caekf.dbc, independently of the codec's table (cross-checked once). */
+static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
+                                                     0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
+                                                     0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B};
+static int is_bench_msg(unsigned m) { return m <= (unsigned)CAEKF_MSG_BENCH_Y4; }
+static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
+
+/* ---- bits and CRC (own implementation) -------------------------------------------------------- */
+
+static uint64_t le64(const uint8_t d[8])
+{
+    uint64_t v = 0;
+    int i;
+    for (i = 7; i >= 0; --i) {
+        v = (v << 8) | d[i];
+    }
+    return v;
+}
+
+static uint64_t mask_of(unsigned len) { return (len >= 64u) ? ~(uint64_t)0 : (((uint64_t)1 << len) - 1u); }
+
+static uint64_t get_bits(const uint8_t d[8], unsigned start, unsigned len) { return (le64(d) >> start) & mask_of(len); }
+
+static int64_t get_sbits(const uint8_t d[8], unsigned start, unsigned len)
+{
+    const uint64_t v = get_bits(d, start, len);
+    if ((v >> (len - 1u)) & 1u) {
+        return -(int64_t)((~v) & mask_of(len)) - 1;
+    }
+    return (int64_t)v;
+}
+
+static void put_bits(uint8_t d[8], unsigned start, unsigned len, uint64_t raw)
+{
+    uint64_t v = le64(d);
+    int i;
+    v &= ~(mask_of(len) << start);
+    v |= (raw & mask_of(len)) << start;
+    for (i = 0; i < 8; ++i) {
+        d[i] = (uint8_t)(v >> (8 * i));
+    }
+}
+
+static uint8_t crc8_j1850(uint16_t data_id, const uint8_t d[8])
+{
+    uint8_t buf[9];
+    uint8_t crc = 0xFFu;
+    unsigned i, b;
+    buf[0] = (uint8_t)(data_id & 0xFFu);
+    buf[1] = (uint8_t)(data_id >> 8);
+    memcpy(&buf[2], &d[1], 7);
+    for (i = 0; i < sizeof buf; ++i) {
+        crc ^= buf[i];
+        for (b = 0; b < 8u; ++b) {
+            crc = (uint8_t)((crc & 0x80u) ? ((crc << 1) ^ 0x1Du) : (crc << 1));
+        }
+    }
+    return (uint8_t)(crc ^ 0xFFu);
+}
+
+/* ---- settings helpers --------------------------------------------------------------------------- */
+
+#define SAME(a, b) (memcmp(&(a), &(b), sizeof(a)) == 0)
+
+static int settings_equal(const caekf_settings_t *a, const caekf_settings_t *b)
+{
+    return SAME(a->model, b->model) && SAME(a->q0, b->q0) && SAME(a->v0, b->v0) && SAME(a->gamma0, b->gamma0) &&
+           SAME(a->sigma_q0, b->sigma_q0) && SAME(a->sigma_v0, b->sigma_v0) &&
+           SAME(a->sigma_gamma0, b->sigma_gamma0) && SAME(a->sigma_qx_q, b->sigma_qx_q) &&
+           SAME(a->sigma_qx_v, b->sigma_qx_v) && SAME(a->sigma_q_gamma, b->sigma_q_gamma) &&
+           SAME(a->q_gamma_scale, b->q_gamma_scale) && SAME(a->sigma_r, b->sigma_r) && a->mode == b->mode &&
+           a->switchoff == b->switchoff && a->cov_update == b->cov_update &&
+           a->constraint_enabled == b->constraint_enabled && SAME(a->gamma_min, b->gamma_min) &&
+           a->cov_repair_enabled == b->cov_repair_enabled && a->psd_check_period == b->psd_check_period &&
+           a->newton_max_iter == b->newton_max_iter && SAME(a->newton_rtol, b->newton_rtol);
+}
+
+static int app_settings_equal(const caekf_app_settings_t *a, const caekf_app_settings_t *b)
+{
+    return settings_equal(&a->est, &b->est) && SAME(a->highq_scale, b->highq_scale);
+}
+
+/* The real-valued parameters by id, in caekf.dbc's PARAM_ID order; NULL for the others. */
+static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
+{
+    caekf_model_params_t *m = &s->model;
+    switch (id) {
+    case CAEKF_PARAM_M1: case CAEKF_PARAM_M2: case CAEKF_PARAM_M3: case CAEKF_PARAM_M4:
+        return &m->m[id - CAEKF_PARAM_M1];
+    case CAEKF_PARAM_K1: return &m->k1;
+    case CAEKF_PARAM_K12: return &m->k12;
+    case CAEKF_PARAM_K34: return &m->k34;
+    case CAEKF_PARAM_K4: return &m->k4;
+    case CAEKF_PARAM_C1: return &m->c1;
+    case CAEKF_PARAM_C12: return &m->c12;
+    case CAEKF_PARAM_C34: return &m->c34;
+    case CAEKF_PARAM_C4: return &m->c4;
+    case CAEKF_PARAM_GAP: return &m->gap;
+    case CAEKF_PARAM_DT: return &m->dt;
+    case CAEKF_PARAM_Q0_1: case CAEKF_PARAM_Q0_2: case CAEKF_PARAM_Q0_3: case CAEKF_PARAM_Q0_4:
+        return &s->q0[id - CAEKF_PARAM_Q0_1];
+    case CAEKF_PARAM_V0_1: case CAEKF_PARAM_V0_2: case CAEKF_PARAM_V0_3: case CAEKF_PARAM_V0_4:
+        return &s->v0[id - CAEKF_PARAM_V0_1];
+    case CAEKF_PARAM_GAMMA0: return &s->gamma0;
+    case CAEKF_PARAM_SIGMA_Q0: return &s->sigma_q0;
+    case CAEKF_PARAM_SIGMA_V0: return &s->sigma_v0;
+    case CAEKF_PARAM_SIGMA_GAMMA0: return &s->sigma_gamma0;
+    case CAEKF_PARAM_SIGMA_QX_Q: return &s->sigma_qx_q;
+    case CAEKF_PARAM_SIGMA_QX_V: return &s->sigma_qx_v;
+    case CAEKF_PARAM_SIGMA_Q_GAMMA: return &s->sigma_q_gamma;
+    case CAEKF_PARAM_SIGMA_R: return &s->sigma_r;
+    case CAEKF_PARAM_GAMMA_MIN: return &s->gamma_min;
+    case CAEKF_PARAM_NEWTON_RTOL: return &s->newton_rtol;
+    default: return NULL;
+    }
+}
+
+/* Sets a parameter as the model understands it, and checks caekf_app_settings_set agrees. 0 if set. */
+static int model_set(caekf_app_settings_t *s, unsigned id, double value)
+{
+    caekf_app_settings_t other = *s;
+    const caekf_app_status_t ast = caekf_app_settings_set(&other, id, value);
+    caekf_scalar_t *f = model_real_field(&s->est, id);
+    int ok;
+    if (id >= (unsigned)CAEKF_PARAM_COUNT) {
+        ok = 0;
+    } else if (f != NULL) {
+        *f = (caekf_scalar_t)value; /* any value: validation is the commit's business */
+        ok = 1;
+    } else if (id == (unsigned)CAEKF_PARAM_HIGHQ_SCALE) {
+        s->highq_scale = value;
+        ok = 1;
+    } else {
+        /* Integer parameters: "an integral value in their range"; the app's setter decides the range. */
+        ok = (ast == CAEKF_APP_OK);
+        if (ok) {
+            *s = other;
+        }
+    }
+    FZ_CHECK((ast == CAEKF_APP_OK) == ok, "caekf_app_settings_set agrees on acceptance");
+    if (ok) {
+        FZ_CHECK(app_settings_equal(s, &other), "caekf_app_settings_set writes the documented field");
+    }
+    return ok ? 0 : -1;
+}
+
+/* The experiments as caekf_app.h describes them. 0, or -1 unknown experiment, -2 unusable highq_scale. */
+static int model_experiment(const caekf_app_settings_t *b, unsigned exp, caekf_settings_t *out)
+{
+    caekf_settings_t app_out;
+    const caekf_app_status_t ast = caekf_app_experiment_settings(b, exp, &app_out);
+    int rc = 0;
+    if (exp >= (unsigned)CAEKF_EXPERIMENT_COUNT) {
+        rc = -1;
+    } else if (!(b->highq_scale > 0.0) || isinf(b->highq_scale)) {
+        rc = -2;
+    } else {
+        *out = b->est;
+        out->mode = (exp == CAEKF_EXPERIMENT_CANONICAL) ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
+        out->q_gamma_scale = (exp >= CAEKF_EXPERIMENT_SWITCHED_HIGHQ) ? (caekf_scalar_t)b->highq_scale : (caekf_scalar_t)1;
+        out->constraint_enabled = (exp == CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED) ? 1 : 0;
+    }
+    FZ_CHECK(ast == (rc == 0 ? CAEKF_APP_OK : rc == -1 ? CAEKF_APP_ERR_EXPERIMENT : CAEKF_APP_ERR_PARAM),
+             "caekf_app_experiment_settings status");
+    if (rc == 0) {
+        FZ_CHECK(settings_equal(out, &app_out), "caekf_app_experiment_settings result");
+    }
+    return rc;
+}
+
+/* ---- the model ---------------------------------------------------------------------------------- */
+
+typedef struct {
+    uint8_t msg;
+    uint16_t step;      /* value frames and EST_STEP */
+    int8_t status;      /* EST_STEP: step status; EST_ACK: ack status */
+    uint16_t flags;     /* EST_STEP: flags without bits 12 and 14 (saturation, P norm) */
+    uint8_t iters;
+    uint8_t token, experiment, n_rx, state;
+    uint16_t bad_param; /* EST_ACK: expected BAD_PARAM, or ACK_BAD_ANY */
+    uint8_t page;
+} expect_t;
+
+typedef struct {
+    /* app configuration */
+    caekf_app_config_t cfg;
+    /* E2E receivers */
+    uint8_t synced[CAEKF_MSG_COUNT], last_ctr[CAEKF_MSG_COUNT];
+    uint32_t last_us[CAEKF_MSG_COUNT];
+    uint32_t cnt[CAEKF_CNT_COUNT];
+    /* configuration */
+    int configured;
+    unsigned experiment;
+    caekf_app_settings_t active;
+    int staging;
+    unsigned staged_count;
+    int staged_error;
+    unsigned staged_bad;
+    caekf_app_settings_t staged;
+    /* step assembly */
+    int open;
+    unsigned have;
+    uint16_t step;
+    uint32_t opened_us;
+    double u, y1, y4;
+    int have_closed, have_run;
+    uint16_t last_closed, last_run;
+    caekf_t est; /* shadow estimator */
+    uint32_t last_status_us;
+    /* transmit expectations of the current poll */
+    expect_t exp[TXCAP];
+    unsigned n_exp;
+    /* bench-side view of what the app sends */
+    uint8_t tx_seen[CAEKF_MSG_COUNT], tx_next[CAEKF_MSG_COUNT];
+} model_t;
+
+typedef struct {
+    caekf_can_frame_t q[QLEN];
+    unsigned head, count;
+    uint32_t now;
+    int rx_errors_pending;
+    int tx_fail;
+    caekf_can_frame_t tx[TXCAP];
+    unsigned n_tx;
+    uint8_t bench_ctr[CAEKF_MSG_COUNT];
+} hal_t;
+
+static model_t M;
+static hal_t H;
+static caekf_app_t app;
+
+static void expect_push(const expect_t *e)
+{
+    FZ_CHECK(M.n_exp < TXCAP, "harness: expectation list full");
+    M.exp[M.n_exp++] = *e;
+}
+
+static void model_close_slot(void)
+{
+    M.open = 0;
+    M.have = 0;
+    M.last_closed = M.step;
+    M.have_closed = 1;
+}
+
+static void model_timeout(uint32_t now)
+{
+    if (M.open && (uint32_t)(now - M.opened_us) > M.cfg.step_timeout_us) {
+        M.cnt[CAEKF_CNT_STEPS_TIMED_OUT]++;
+        model_close_slot();
+    }
+}
+
+static int step_after(uint16_t a, uint16_t b)
+{
+    const uint16_t d = (uint16_t)(a - b);
+    return d != 0u && d < 0x8000u;
+}
+
+static void check_estimate_sane(const caekf_t *e)
+{
+    int i, j;
+    for (i = 0; i < N; ++i) {
+        FZ_CHECK(fz_is_finite_scalar(e->z[i]), "accepted step: z finite");
+        for (j = 0; j < N; ++j) {
+            FZ_CHECK(fz_is_finite_scalar(e->P[i][j]), "accepted step: P finite");
+            FZ_CHECK(e->P[i][j] == e->P[j][i], "accepted step: P exactly symmetric");
+        }
+    }
+}
+
+static void model_run_step(void)
+{
+    caekf_scalar_t y[CAEKF_NY];
+    caekf_report_t rep;
+    caekf_status_t st;
+    expect_t e;
+    uint16_t gap = 0;
+    unsigned i;
+    uint8_t zb[sizeof M.est.z], Pb[sizeof M.est.P];
+    if (M.have_run && M.step != (uint16_t)(M.last_run + 1u)) {
+        gap = (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
+        M.cnt[CAEKF_CNT_STEPS_SKIPPED] += (uint16_t)(M.step - M.last_run - 1u);
+    }
+    y[0] = (caekf_scalar_t)M.y1;
+    y[1] = (caekf_scalar_t)M.y4;
+    memcpy(zb, M.est.z, sizeof zb);
+    memcpy(Pb, M.est.P, sizeof Pb);
+    st = caekf_step(&M.est, (caekf_scalar_t)M.u, y, &rep);
+    M.cnt[CAEKF_CNT_STEPS_DONE]++;
+    if (st != CAEKF_OK) {
+        M.cnt[CAEKF_CNT_STEPS_FAILED]++;
+        FZ_CHECK(st == CAEKF_ERR_NUMERIC || st == CAEKF_ERR_SINGULAR, "decoded inputs are finite: no ERR_INPUT");
+        FZ_CHECK(memcmp(zb, M.est.z, sizeof zb) == 0 && memcmp(Pb, M.est.P, sizeof Pb) == 0,
+                 "failed step: estimate untouched");
+    } else {
+        check_estimate_sane(&M.est);
+    }
+    model_close_slot();
+    M.last_run = M.step;
+    M.have_run = 1;
+    memset(&e, 0, sizeof e);
+    e.step = M.step;
+    for (i = (unsigned)CAEKF_MSG_EST_GAMMA; i <= (unsigned)CAEKF_MSG_EST_P_GG; ++i) {
+        e.msg = (uint8_t)i;
+        expect_push(&e);
+    }
+    e.msg = (uint8_t)CAEKF_MSG_EST_STEP;
+    e.status = (int8_t)st;
+    e.flags = (uint16_t)((rep.flags & 0x0FFFu) | gap);
+    e.iters = (uint8_t)(rep.newton_iters < 0 ? 0 : rep.newton_iters > 255 ? 255 : rep.newton_iters);
+    expect_push(&e);
+}
+
+static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
+{
+    const uint16_t step = (uint16_t)get_bits(d, 12, 16);
+    const unsigned bit = (msg == CAEKF_MSG_BENCH_U) ? 1u : (msg == CAEKF_MSG_BENCH_Y1) ? 2u : 4u;
+    double v;
+    if (msg == CAEKF_MSG_BENCH_U) {
+        const uint32_t fb = (uint32_t)get_bits(d, 32, 32);
+        if (((fb >> 23) & 0xFFu) == 0xFFu) { /* NaN or infinity: refused */
+            M.cnt[CAEKF_CNT_RX_BAD_VALUE]++;
+            return;
+        }
+        v = fz_bits_to_float(fb);
+    } else {
+        v = (double)get_sbits(d, 28, 36) * 1e-12; /* LSB 1e-12 m, as cantools: raw * scale */
+    }
+    M.cnt[CAEKF_CNT_RX_OK]++;
+    if (!M.configured) {
+        M.cnt[CAEKF_CNT_RX_UNCONFIGURED]++;
+        return;
+    }
+    /* A frame of the open step joins it; an older one is late; a newer one drops the open step. */
+    if (!(M.open && step == M.step)) {
+        if (M.open && !step_after(step, M.step)) {
+            M.cnt[CAEKF_CNT_RX_LATE]++;
+            return;
+        }
+        if (M.open) {
+            M.cnt[CAEKF_CNT_STEPS_SUPERSEDED]++;
+            model_close_slot();
+        } else if (M.have_closed && !step_after(step, M.last_closed)) {
+            M.cnt[CAEKF_CNT_RX_LATE]++;
+            return;
+        }
+        M.open = 1;
+        M.have = 0;
+        M.step = step;
+        M.opened_us = now;
+    }
+    if (M.have & bit) {
+        M.cnt[CAEKF_CNT_RX_REPEATED]++; /* the first value stays */
+        return;
+    }
+    M.have |= bit;
+    if (bit == 1u) {
+        M.u = v;
+    } else if (bit == 2u) {
+        M.y1 = v;
+    } else {
+        M.y4 = v;
+    }
+    if (M.have == 7u) {
+        model_run_step();
+    }
+}
+
+static void model_stage_error(unsigned id)
+{
+    if (M.staged_error == 0) {
+        M.staged_error = (int)CAEKF_ACK_REFUSED_PARAM;
+        M.staged_bad = id;
+    }
+}
+
+static void model_param(const uint8_t d[8])
+{
+    const unsigned id = (unsigned)get_bits(d, 12, 8);
+    const int exp10 = (int)get_sbits(d, 20, 6);
+    const int64_t mant = get_sbits(d, 26, 38);
+    static const double p10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                   1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    if (!M.staging) {
+        if (M.configured) {
+            M.staged = M.active;
+        } else {
+            (void)caekf_app_settings_default(&M.staged);
+        }
+        M.staging = 1;
+        M.staged_count = 0;
+        M.staged_error = 0;
+        M.staged_bad = CAEKF_ACK_BAD_PARAM_NONE;
+    }
+    if (M.staged_count < 255u) {
+        M.staged_count++;
+    }
+    if (exp10 > 22 || exp10 < -22 || id >= (unsigned)CAEKF_PARAM_COUNT) {
+        M.cnt[CAEKF_CNT_RX_BAD_VALUE]++;
+        model_stage_error(id);
+        return;
+    }
+    M.cnt[CAEKF_CNT_RX_OK]++;
+    M.cnt[CAEKF_CNT_PARAMS_RX]++;
+    if (model_set(&M.staged, id, exp10 >= 0 ? (double)mant * p10[exp10] : (double)mant / p10[-exp10]) != 0) {
+        model_stage_error(id);
+    }
+}
+
+/* Accepts `base` with `exp` into the model (the estimator is re-initialised, the step history forgotten). */
+static void model_commit_accepted(const caekf_app_settings_t *base, const caekf_settings_t *s, unsigned exp)
+{
+    FZ_CHECK(caekf_init(&M.est, s) == CAEKF_OK, "validated settings initialise");
+    M.active = *base;
+    M.experiment = exp;
+    M.configured = 1;
+    M.open = 0;
+    M.have = 0;
+    M.have_closed = 0;
+    M.have_run = 0;
+}
+
+static void model_reset(const uint8_t d[8])
+{
+    const unsigned exp = (unsigned)get_bits(d, 16, 8);
+    const unsigned n_params = (unsigned)get_bits(d, 24, 8);
+    const unsigned token = (unsigned)get_bits(d, 32, 8);
+    const unsigned received = M.staging ? M.staged_count : 0u;
+    int status;
+    unsigned bad = CAEKF_ACK_BAD_PARAM_NONE;
+    expect_t e;
+    M.cnt[CAEKF_CNT_RX_OK]++;
+    if (exp >= (unsigned)CAEKF_EXPERIMENT_COUNT) {
+        status = CAEKF_ACK_REFUSED_EXPERIMENT;
+    } else if (M.staging && M.staged_error != 0) {
+        status = M.staged_error;
+        bad = M.staged_bad;
+    } else if (n_params != received) {
+        status = CAEKF_ACK_REFUSED_INCOMPLETE;
+    } else if (received == 0u && !M.configured) {
+        status = CAEKF_ACK_REFUSED_NO_SETTINGS;
+    } else {
+        const caekf_app_settings_t base = received ? M.staged : M.active;
+        caekf_settings_t s;
+        const int rc = model_experiment(&base, exp, &s);
+        if (rc == -2) {
+            status = CAEKF_ACK_REFUSED_SETTINGS;
+            bad = CAEKF_PARAM_HIGHQ_SCALE;
+        } else if (caekf_settings_validate(&s, NULL) != CAEKF_OK) {
+            status = CAEKF_ACK_REFUSED_SETTINGS;
+            bad = ACK_BAD_ANY;
+        } else {
+            status = CAEKF_ACK_ACCEPTED;
+            model_commit_accepted(&base, &s, exp);
+        }
+    }
+    M.staging = 0; /* accepted or not, the staged values are spent */
+    M.cnt[status == CAEKF_ACK_ACCEPTED ? CAEKF_CNT_CFG_ACCEPTED : CAEKF_CNT_CFG_REFUSED]++;
+    memset(&e, 0, sizeof e);
+    e.msg = (uint8_t)CAEKF_MSG_EST_ACK;
+    e.token = (uint8_t)token;
+    e.status = (int8_t)status;
+    e.bad_param = (uint16_t)bad;
+    e.experiment = (uint8_t)(M.configured ? M.experiment : CAEKF_EXPERIMENT_NONE);
+    e.n_rx = (uint8_t)received;
+    e.state = (uint8_t)(M.configured ? CAEKF_ACK_STATE_CONFIGURED : 0u);
+    expect_push(&e);
+}
+
+static void model_health(void)
+{
+    expect_t e;
+    unsigned p;
+    memset(&e, 0, sizeof e);
+    e.msg = (uint8_t)CAEKF_MSG_EST_HEALTH;
+    for (p = 0; p < (unsigned)CAEKF_HEALTH_PAGES; ++p) {
+        e.page = (uint8_t)p;
+        expect_push(&e);
+    }
+}
+
+static void model_status_req(const uint8_t d[8])
+{
+    expect_t e;
+    M.cnt[CAEKF_CNT_RX_OK]++;
+    M.cnt[CAEKF_CNT_STATUS_REQUESTS]++;
+    memset(&e, 0, sizeof e);
+    e.msg = (uint8_t)CAEKF_MSG_EST_ACK;
+    e.token = (uint8_t)get_bits(d, 16, 8);
+    e.status = (int8_t)CAEKF_ACK_STATUS;
+    e.bad_param = CAEKF_ACK_BAD_PARAM_NONE;
+    e.experiment = (uint8_t)(M.configured ? M.experiment : CAEKF_EXPERIMENT_NONE);
+    e.n_rx = (uint8_t)(M.staging ? M.staged_count : 0u);
+    e.state = (uint8_t)((M.configured ? CAEKF_ACK_STATE_CONFIGURED : 0u) | (M.staging ? CAEKF_ACK_STATE_STAGED : 0u));
+    expect_push(&e);
+    model_health();
+}
+
+/* One frame as the app receives it at time `now`. */
+static void model_rx(const caekf_can_frame_t *f, uint32_t now)
+{
+    unsigned m;
+    uint8_t ctr;
+    for (m = 0; m < NMSG; ++m) {
+        if ((uint32_t)k_can_id[m] == f->id) {
+            break;
+        }
+    }
+    if (m == NMSG || !is_bench_msg(m)) {
+        M.cnt[CAEKF_CNT_RX_UNKNOWN_ID]++;
+        return;
+    }
+    if (M.synced[m] && (uint32_t)(now - M.last_us[m]) > M.cfg.e2e_resync_us) {
+        M.synced[m] = 0; /* silence: a new sender, any counter goes */
+    }
+    if (f->dlc != 8u) {
+        M.cnt[CAEKF_CNT_RX_BAD_DLC]++;
+        return;
+    }
+    if (crc8_j1850(data_id_of(m), f->data) != f->data[0]) {
+        M.cnt[CAEKF_CNT_RX_BAD_CRC]++;
+        return;
+    }
+    M.last_us[m] = now;
+    ctr = (uint8_t)(f->data[1] & 0x0Fu);
+    if (M.synced[m]) {
+        const uint8_t delta = (uint8_t)((ctr - M.last_ctr[m]) & 0x0Fu);
+        if (delta == 0u) {
+            M.cnt[CAEKF_CNT_RX_DUPLICATE]++;
+            return;
+        }
+        M.last_ctr[m] = ctr;
+        if (delta > M.cfg.e2e_max_delta) {
+            M.cnt[CAEKF_CNT_RX_COUNTER_JUMP]++; /* re-synced to the new counter */
+            return;
+        }
+        M.cnt[CAEKF_CNT_RX_LOST] += (uint32_t)(delta - 1u);
+    } else {
+        M.synced[m] = 1;
+        M.last_ctr[m] = ctr;
+    }
+    switch (m) {
+    case CAEKF_MSG_CTRL_PARAM: model_param(f->data); break;
+    case CAEKF_MSG_CTRL_RESET: model_reset(f->data); break;
+    case CAEKF_MSG_CTRL_STATUS_REQ: model_status_req(f->data); break;
+    default: model_assembly(m, f->data, now); break;
+    }
+}
+
+/* ---- the HAL ------------------------------------------------------------------------------------ */
+
+static int hal_receive(void *ctx, caekf_can_frame_t *frame)
+{
+    FZ_CHECK(ctx == &H, "HAL context handed back");
+    if (H.rx_errors_pending > 0) {
+        H.rx_errors_pending--;
+        M.cnt[CAEKF_CNT_RX_HAL_ERROR]++;
+        return -5;
+    }
+    if (H.count == 0u) {
+        return 0;
+    }
+    *frame = H.q[H.head];
+    H.head = (H.head + 1u) % QLEN;
+    H.count--;
+    model_rx(frame, H.now);
+    return 1;
+}
+
+static int hal_transmit(void *ctx, const caekf_can_frame_t *frame)
+{
+    FZ_CHECK(ctx == &H, "HAL context handed back");
+    FZ_CHECK(H.n_tx < TXCAP, "harness: transmit log full");
+    H.tx[H.n_tx++] = *frame;
+    if (H.tx_fail) {
+        M.cnt[CAEKF_CNT_TX_ERRORS]++;
+        return -105;
+    }
+    M.cnt[CAEKF_CNT_TX_FRAMES]++;
+    return 0;
+}
+
+static uint32_t hal_now(void *ctx)
+{
+    FZ_CHECK(ctx == &H, "HAL context handed back");
+    return H.now;
+}
+
+static void queue_frame(const caekf_can_frame_t *f)
+{
+    if (H.count < QLEN) { /* a full bus queue drops: the model only sees delivered frames */
+        H.q[(H.head + H.count) % QLEN] = *f;
+        H.count++;
+    }
+}
+
+/* ---- checks after each poll ---------------------------------------------------------------------- */
+
+static void check_tx(void)
+{
+    unsigned i;
+    FZ_CHECK(H.n_tx == M.n_exp, "number of frames sent");
+    for (i = 0; i < H.n_tx; ++i) {
+        const caekf_can_frame_t *f = &H.tx[i];
+        const expect_t *e = &M.exp[i];
+        const unsigned m = e->msg;
+        const uint8_t ctr = (uint8_t)(f->data[1] & 0x0Fu);
+        FZ_CHECK(f->id == k_can_id[m], "frame sent in the expected order");
+        FZ_CHECK(f->dlc == 8u, "DLC 8");
+        FZ_CHECK(crc8_j1850(data_id_of(m), f->data) == f->data[0], "CRC of a sent frame");
+        FZ_CHECK(!M.tx_seen[m] || ctr == M.tx_next[m], "alive counter +1 per frame of a message");
+        M.tx_seen[m] = 1;
+        M.tx_next[m] = (uint8_t)((ctr + 1u) & 0x0Fu);
+        if (m == CAEKF_MSG_EST_ACK) {
+            FZ_CHECK(f->data[2] == e->token, "ACK token");
+            FZ_CHECK((int8_t)f->data[3] == e->status, "ACK status");
+            if (e->bad_param == ACK_BAD_ANY) {
+                FZ_CHECK(f->data[4] == CAEKF_ACK_BAD_PARAM_NONE || f->data[4] < CAEKF_PARAM_COUNT, "ACK bad param");
+            } else {
+                FZ_CHECK(f->data[4] == e->bad_param, "ACK bad param");
+            }
+            FZ_CHECK(f->data[5] == e->experiment, "ACK experiment");
+            FZ_CHECK(f->data[6] == e->n_rx, "ACK N_PARAMS_RX");
+            FZ_CHECK(f->data[7] == e->state, "ACK state");
+        } else if (m == CAEKF_MSG_EST_HEALTH) {
+            FZ_CHECK(get_bits(f->data, 12, 4) == e->page, "HEALTH pages in order");
+        } else if (m == CAEKF_MSG_EST_STEP) {
+            FZ_CHECK(get_bits(f->data, 12, 16) == e->step, "EST_STEP step");
+            FZ_CHECK((get_bits(f->data, 32, 16) & ~(uint64_t)0x5000u) == e->flags, "EST_STEP flags");
+            FZ_CHECK(f->data[6] == e->iters, "EST_STEP Newton iterations");
+            FZ_CHECK((int8_t)f->data[7] == e->status, "EST_STEP status");
+        } else {
+            FZ_CHECK(get_bits(f->data, 12, 16) == e->step, "estimate frame step");
+        }
+    }
+    H.n_tx = 0;
+    M.n_exp = 0;
+}
+
+static void check_state(void)
+{
+    unsigned i;
+    for (i = 0; i < (unsigned)CAEKF_CNT_COUNT; ++i) {
+        uint32_t v = 0;
+        if (i == (unsigned)CAEKF_CNT_TX_SATURATED) {
+            continue;
+        }
+        FZ_CHECK(caekf_app_counter(&app, i, &v) == CAEKF_APP_OK, "counter readable");
+        if (v != M.cnt[i]) {
+            const char *name = "?";
+            (void)caekf_proto_counter_name(i, &name);
+            fprintf(stderr, "counter %s: app %lu, model %lu\n", name, (unsigned long)v, (unsigned long)M.cnt[i]);
+        }
+        FZ_CHECK(v == M.cnt[i], "counter as the protocol says");
+    }
+    FZ_CHECK(!!app.configured == !!M.configured, "configured");
+    FZ_CHECK(!!app.staging == !!M.staging, "staging");
+    if (M.staging) {
+        FZ_CHECK(app.staged_count == M.staged_count, "staged count");
+        FZ_CHECK(app.staged_error == M.staged_error, "staged error");
+        FZ_CHECK(app_settings_equal(&app.staged, &M.staged), "staged settings");
+    }
+    if (M.configured) {
+        FZ_CHECK(app.experiment == M.experiment, "running experiment unchanged unless accepted");
+        FZ_CHECK(app_settings_equal(&app.active, &M.active), "running settings unchanged unless accepted");
+        FZ_CHECK(settings_equal(&app.est.cfg, &M.est.cfg), "estimator settings");
+        FZ_CHECK(memcmp(app.est.z, M.est.z, sizeof app.est.z) == 0, "estimator state == shadow");
+        FZ_CHECK(memcmp(app.est.P, M.est.P, sizeof app.est.P) == 0, "estimator covariance == shadow");
+        FZ_CHECK(app.est.step_count == M.est.step_count, "estimator step count == shadow");
+    }
+}
+
+static void poll_once(void)
+{
+    model_timeout(H.now);
+    FZ_CHECK(caekf_app_poll(&app) == CAEKF_APP_OK, "poll");
+    model_timeout(H.now);
+    if (M.cfg.status_period_us != 0u && (uint32_t)(H.now - M.last_status_us) >= M.cfg.status_period_us) {
+        M.last_status_us = H.now;
+        model_health();
+    }
+    check_tx();
+    check_state();
+}
+
+static int burst; /* frames queue up without polling while set */
+
+static void send_frame(const caekf_can_frame_t *f)
+{
+    queue_frame(f);
+    if (!burst) {
+        poll_once();
+    }
+}
+
+static void drain(void)
+{
+    unsigned guard = 0;
+    do {
+        poll_once();
+    } while (H.count > 0u && ++guard < 2u * QLEN + 16u);
+}
+
+/* Seals with the bench's next alive counter (or a given one) and sends. */
+static void send_sealed(unsigned msg, uint8_t data[8], int counter)
+{
+    caekf_can_frame_t f;
+    f.id = k_can_id[msg];
+    f.dlc = 8;
+    if (counter < 0) {
+        counter = H.bench_ctr[msg];
+        H.bench_ctr[msg] = (uint8_t)((H.bench_ctr[msg] + 1u) & 0x0Fu);
+    }
+    data[1] = (uint8_t)((data[1] & 0xF0u) | ((unsigned)counter & 0x0Fu));
+    data[0] = crc8_j1850(data_id_of(msg), data);
+    memcpy(f.data, data, 8);
+    send_frame(&f);
+}
+
+static void send_param(unsigned id, int exp10, int64_t mantissa)
+{
+    uint8_t d[8] = {0};
+    put_bits(d, 12, 8, id);
+    put_bits(d, 20, 6, (uint64_t)(int64_t)exp10);
+    put_bits(d, 26, 38, (uint64_t)mantissa);
+    send_sealed(CAEKF_MSG_CTRL_PARAM, d, -1);
+}
+
+static void send_reset(unsigned exp, unsigned n, unsigned token)
+{
+    uint8_t d[8] = {0};
+    put_bits(d, 16, 8, exp);
+    put_bits(d, 24, 8, n);
+    put_bits(d, 32, 8, token);
+    send_sealed(CAEKF_MSG_CTRL_RESET, d, -1);
+}
+
+/* ---- operations --------------------------------------------------------------------------------- */
+
+static uint16_t bench_step;
+static uint32_t last_u_bits;
+static int64_t last_y1, last_y4;
+
+static void send_step_frames(uint16_t step, uint32_t ubits, int64_t y1, int64_t y4, unsigned order, int omit,
+                             int dup_first)
+{
+    static const uint8_t perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    unsigned k;
+    for (k = 0; k < 3u; ++k) {
+        const unsigned which = perms[order % 6u][k];
+        uint8_t d[8] = {0};
+        unsigned msg;
+        if (omit && k == 2u) {
+            break;
+        }
+        put_bits(d, 12, 16, step);
+        if (which == 0u) {
+            msg = CAEKF_MSG_BENCH_U;
+            put_bits(d, 32, 32, ubits);
+        } else {
+            msg = (which == 1u) ? CAEKF_MSG_BENCH_Y1 : CAEKF_MSG_BENCH_Y4;
+            put_bits(d, 28, 36, (uint64_t)((which == 1u) ? y1 : y4));
+        }
+        send_sealed(msg, d, -1);
+        if (dup_first && k == 0u) {
+            send_sealed(msg, d, -1);
+        }
+    }
+}
+
+static int64_t sign_extend36(uint64_t v)
+{
+    v &= mask_of(36);
+    return (v >> 35) ? -(int64_t)((~v) & mask_of(36)) - 1 : (int64_t)v;
+}
+
+static void op_step(fz_reader_t *r)
+{
+    const uint8_t fl = fz_u8(r);
+    const uint16_t sv = fz_u16(r);
+    const uint32_t uraw = fz_u32(r);
+    const uint64_t y1raw = (uint64_t)fz_u32(r) | ((uint64_t)fz_u8(r) << 32);
+    const uint64_t y4raw = (uint64_t)fz_u32(r) | ((uint64_t)fz_u8(r) << 32);
+    switch (fl & 3u) {
+    case 0: bench_step = (uint16_t)(bench_step + 1u); break;
+    case 1: break;
+    case 2: bench_step = (uint16_t)(bench_step + (uint16_t)(int16_t)(int8_t)(sv & 0xFFu)); break;
+    default: bench_step = sv; break;
+    }
+    if (fl & 0x40u) {
+        last_u_bits = uraw; /* any float32, NaN and infinities included */
+    } else {
+        const float u = (float)((double)(int32_t)uraw * 1e-9); /* +-2.1 N */
+        memcpy(&last_u_bits, &u, sizeof u);
+    }
+    if (fl & 0x08u) { /* full 36-bit range: +-34 mm */
+        last_y1 = sign_extend36(y1raw);
+        last_y4 = sign_extend36(y4raw);
+    } else { /* +-2.1 mm in pm */
+        last_y1 = (int64_t)(int32_t)(uint32_t)y1raw;
+        last_y4 = (int64_t)(int32_t)(uint32_t)y4raw;
+    }
+    send_step_frames(bench_step, last_u_bits, last_y1, last_y4, (unsigned)(fl >> 2) & 7u, (fl & 0x20u) != 0u,
+                     (fl & 0x80u) != 0u);
+    H.now += 1000u; /* 1 kHz bench */
+}
+
+static void op_local_config(fz_reader_t *r)
+{
+    const unsigned exp = fz_u8(r) % 6u; /* 4 and 5: unknown experiments */
+    unsigned n = fz_u8(r) % 8u;
+    caekf_app_settings_t s;
+    caekf_settings_t es;
+    uint8_t bad = 0;
+    caekf_app_status_t st, want;
+    int rc;
+    (void)caekf_app_settings_default(&s);
+    fz_paper_settings(&s.est, 1);
+    while (n-- > 0u) {
+        const unsigned id = fz_u8(r) % ((unsigned)CAEKF_PARAM_COUNT);
+        caekf_scalar_t *f = model_real_field(&s.est, id);
+        const double typical = (f != NULL && *f != (caekf_scalar_t)0) ? (double)*f : 1.0;
+        (void)model_set(&s, id, fz_scalar(r, typical));
+    }
+    rc = model_experiment(&s, exp, &es);
+    st = caekf_app_configure(&app, &s, exp, &bad);
+    if (rc == -1) {
+        want = CAEKF_APP_ERR_EXPERIMENT;
+    } else if (rc == -2) {
+        want = CAEKF_APP_ERR_SETTINGS;
+        FZ_CHECK(bad == CAEKF_PARAM_HIGHQ_SCALE, "configure: highq_scale named");
+    } else if (caekf_settings_validate(&es, NULL) != CAEKF_OK) {
+        want = CAEKF_APP_ERR_SETTINGS;
+        FZ_CHECK(bad == CAEKF_ACK_BAD_PARAM_NONE || bad < CAEKF_PARAM_COUNT, "configure: bad param valid");
+    } else {
+        want = CAEKF_APP_OK;
+        FZ_CHECK(bad == CAEKF_ACK_BAD_PARAM_NONE, "configure: no bad param when accepted");
+        model_commit_accepted(&s, &es, exp);
+    }
+    FZ_CHECK(st == want, "caekf_app_configure status");
+    check_state();
+}
+
+static void op_paper_config(fz_reader_t *r)
+{
+    static const struct {
+        uint8_t id;
+        int8_t exp10;
+        int32_t mant;
+    } p[] = {{CAEKF_PARAM_M1, 0, 1},          {CAEKF_PARAM_M2, 0, 1},          {CAEKF_PARAM_M3, 0, 1},
+             {CAEKF_PARAM_M4, 0, 1},          {CAEKF_PARAM_K1, 3, 2},          {CAEKF_PARAM_K12, 4, 1},
+             {CAEKF_PARAM_K34, 4, 1},         {CAEKF_PARAM_K4, 4, 1},          {CAEKF_PARAM_C1, 0, 5},
+             {CAEKF_PARAM_C12, 0, 5},         {CAEKF_PARAM_C34, 0, 5},         {CAEKF_PARAM_C4, 0, 5},
+             {CAEKF_PARAM_GAP, -3, 1},        {CAEKF_PARAM_DT, -3, 1},         {CAEKF_PARAM_GAMMA0, 6, 75},
+             {CAEKF_PARAM_SIGMA_Q0, -6, 1},   {CAEKF_PARAM_SIGMA_V0, -5, 1},   {CAEKF_PARAM_SIGMA_GAMMA0, 6, 25},
+             {CAEKF_PARAM_SIGMA_QX_Q, -9, 1}, {CAEKF_PARAM_SIGMA_QX_V, -7, 1}, {CAEKF_PARAM_SIGMA_Q_GAMMA, 6, 1},
+             {CAEKF_PARAM_SIGMA_R, -7, 1},    {CAEKF_PARAM_GAMMA_MIN, 6, 1}};
+    const unsigned n = (unsigned)(sizeof p / sizeof p[0]);
+    const unsigned exp = fz_u8(r) % 4u;
+    const unsigned token = fz_u8(r);
+    unsigned i;
+    for (i = 0; i < n; ++i) {
+        send_param(p[i].id, p[i].exp10, p[i].mant);
+    }
+    send_reset(exp, n, token);
+}
+
+static void run_ops(fz_reader_t *r)
+{
+    unsigned ops = 0;
+    while (fz_more(r) && ops++ < MAX_OPS) {
+        const unsigned op = fz_u8(r) % (unsigned)OP_COUNT;
+        switch (op) {
+        case OP_RAW: {
+            caekf_can_frame_t f;
+            const uint8_t sel = fz_u8(r);
+            uint8_t dl;
+            if (sel < 200u) {
+                static const uint32_t extra[] = {0x000, 0x7FF, 0x0C3, 0x103, 0x0BF, 0x1C0,
+                                                 0x0C0u | CAEKF_CAN_ID_EXT_FLAG, 0x100u | CAEKF_CAN_ID_EXT_FLAG};
+                const unsigned k = sel % (NMSG + (unsigned)(sizeof extra / sizeof extra[0]));
+                f.id = (k < NMSG) ? k_can_id[k] : extra[k - NMSG];
+            } else {
+                f.id = fz_u32(r);
+            }
+            dl = fz_u8(r);
+            f.dlc = (dl < 0xE0u) ? 8u : (uint8_t)(dl & 0x0Fu);
+            for (dl = 0; dl < 8u; ++dl) {
+                f.data[dl] = fz_u8(r);
+            }
+            send_frame(&f);
+            break;
+        }
+        case OP_SEALED: {
+            const unsigned msg = fz_u8(r) % NMSG;
+            const uint8_t mode = fz_u8(r);
+            uint8_t d[8];
+            unsigned k;
+            d[0] = 0;
+            for (k = 1; k < 8u; ++k) {
+                d[k] = fz_u8(r);
+            }
+            send_sealed(msg, d, (mode < 0xC0u) ? -1 : (int)(mode & 0x0Fu));
+            break;
+        }
+        case OP_STEP:
+            op_step(r);
+            break;
+        case OP_PARAM: {
+            const unsigned id = fz_u8(r);
+            const int exp10 = (int)(int8_t)fz_u8(r);
+            const uint64_t mant = (uint64_t)fz_u32(r) | ((uint64_t)fz_u8(r) << 32);
+            send_param(id, exp10, (int64_t)mant);
+            break;
+        }
+        case OP_RESET: {
+            const unsigned exp = fz_u8(r) % 6u;
+            const uint8_t nmode = fz_u8(r);
+            const unsigned token = fz_u8(r);
+            send_reset(exp, (nmode < 0xC0u) ? (M.staging ? M.staged_count : 0u) : nmode, token);
+            break;
+        }
+        case OP_STATUS_REQ: {
+            uint8_t d[8] = {0};
+            d[2] = fz_u8(r);
+            send_sealed(CAEKF_MSG_CTRL_STATUS_REQ, d, -1);
+            break;
+        }
+        case OP_TIME: {
+            const uint16_t v = fz_u16(r);
+            H.now += (v & 0x8000u) ? ((uint32_t)(v & 0x7FFFu) << 12) : (uint32_t)v;
+            poll_once();
+            break;
+        }
+        case OP_HAL_FAULT: {
+            const uint8_t b = fz_u8(r);
+            H.rx_errors_pending = (int)(b & 7u);
+            if (b & 8u) {
+                H.tx_fail = !H.tx_fail;
+            }
+            poll_once();
+            break;
+        }
+        case OP_LOCAL_CONFIG:
+            op_local_config(r);
+            break;
+        case OP_BURST:
+            burst = !burst;
+            if (!burst) {
+                drain();
+            }
+            break;
+        case OP_PAPER_CONFIG:
+            op_paper_config(r);
+            break;
+        default: { /* OP_REPEAT_STEPS */
+            unsigned n = 1u + fz_u8(r) % 64u;
+            while (n-- > 0u) {
+                bench_step = (uint16_t)(bench_step + 1u);
+                send_step_frames(bench_step, last_u_bits, last_y1, last_y4, 0, 0, 0);
+                H.now += 1000u;
+            }
+            break;
+        }
+        }
+    }
+    burst = 0;
+    drain();
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static const uint8_t deltas[4] = {1, 2, 3, 15};
+    static const uint32_t timeouts[4] = {20000u, 1000u, 100000u, 1u};
+    static const uint8_t per_poll[4] = {64, 1, 2, 5};
+    static const uint32_t resyncs[4] = {500000u, 10000u, 0u, 0xFFFFFFFFu};
+    caekf_app_hal_t hal;
+    fz_reader_t r;
+    uint8_t c, init;
+    unsigned i;
+    r.p = data;
+    r.n = size;
+
+    for (i = 0; i < NMSG; ++i) {
+        const caekf_msg_info_t *info;
+        FZ_CHECK(caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->can_id == k_can_id[i] &&
+                     info->data_id == data_id_of(i) && (info->dir == CAEKF_DIR_TO_ESTIMATOR) == is_bench_msg(i),
+                 "message table as in caekf.dbc");
+    }
+    memset(&M, 0, sizeof M);
+    memset(&H, 0, sizeof H);
+    memset(&app, 0, sizeof app);
+    burst = 0;
+    bench_step = 0;
+    last_u_bits = 0;
+    last_y1 = 0;
+    last_y4 = 0;
+
+    c = fz_u8(&r);
+    (void)caekf_app_config_default(&M.cfg);
+    M.cfg.e2e_max_delta = deltas[c & 3u];
+    M.cfg.status_period_us = (c & 4u) ? ((c & 8u) ? 50000u : 1000000u) : 0u;
+    M.cfg.step_timeout_us = timeouts[(c >> 4) & 3u];
+    M.cfg.max_frames_per_poll = per_poll[(c >> 6) & 3u];
+    M.cfg.e2e_resync_us = resyncs[fz_u8(&r) & 3u];
+    init = fz_u8(&r);
+    H.now = (fz_u8(&r) & 1u) ? 0xFFFF0000u : 0x1000u; /* near the 32-bit wrap, or not */
+
+    hal.ctx = &H;
+    hal.receive = hal_receive;
+    hal.transmit = hal_transmit;
+    hal.now_us = hal_now;
+    FZ_CHECK(caekf_app_init(&app, &hal, &M.cfg) == CAEKF_APP_OK, "app init");
+    M.last_status_us = H.now;
+    M.experiment = CAEKF_EXPERIMENT_NONE;
+    (void)caekf_app_settings_default(&M.active);
+    check_state();
+    if (init & 0x80u) {
+        caekf_app_settings_t s;
+        caekf_settings_t es;
+        (void)caekf_app_settings_default(&s);
+        fz_paper_settings(&s.est, 1);
+        FZ_CHECK(model_experiment(&s, init & 3u, &es) == 0, "paper experiment");
+        FZ_CHECK(caekf_app_configure(&app, &s, init & 3u, NULL) == CAEKF_APP_OK, "paper settings configure");
+        model_commit_accepted(&s, &es, init & 3u);
+        check_state();
+    }
+    run_ops(&r);
+    if (getenv("CAEKF_FUZZ_TRACE") != NULL) { /* what an input reached, for writing seeds */
+        for (i = 0; i < (unsigned)CAEKF_CNT_COUNT; ++i) {
+            const char *name = "?";
+            (void)caekf_proto_counter_name(i, &name);
+            if (M.cnt[i] != 0u) {
+                fprintf(stderr, "%s=%lu ", name, (unsigned long)M.cnt[i]);
+            }
+        }
+        fprintf(stderr, "| configured=%d experiment=%u\n", M.configured, M.experiment);
+    }
+    return 0;
+}
