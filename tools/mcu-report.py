@@ -174,7 +174,8 @@ def icount(bdir, preset):
 
 
 def breakdown(bdir, preset, steps, top):
-    """{label: [(function, instructions), ...]} for the given 1-based steps (one QEMU run each)."""
+    """{label: [(function, instructions), ...] + [("total", all)]} for the given 1-based steps (one QEMU
+    run each); the list holds the top functions, the total all of them."""
     image = os.path.join(bdir, "tests", "target", "target_replay.elf")
     plugin = os.path.join(bdir, "tools", "qemu-icount", "libqemu-icount.so")
     res = {}
@@ -182,12 +183,15 @@ def breakdown(bdir, preset, steps, top):
         out = sh([sys.executable, os.path.join(ROOT, "tools", "qemu-icount", "icount-run.py"),
                   "--machine", MACHINE[preset], "--plugin", plugin, "--quiet", "--profile", str(top),
                   "--profile-interval", str(step - 1), image])
-        rows = []
+        rows, total = [], None
         for line in out.splitlines():
             m = re.match(r"profile:\s+(\d+)\s+\S+ %\s+(\S+)$", line)
             if m:
                 rows.append((m.group(2), int(m.group(1))))
-        res[f"{label} (step {step})"] = rows
+            m = re.match(r"profile: (\d+) instructions in ", line)
+            if m:
+                total = int(m.group(1))
+        res[f"{label} (step {step})"] = rows + [("total", total)]
     return res
 
 
@@ -305,12 +309,12 @@ def main():
             continue
         names = []
         for rows in bd.values():
-            names += [n for n, _ in rows if n not in names]
+            names += [n for n, _ in rows if n not in names and n != "total"]
         labels = list(bd)
         per = {lab: dict(bd[lab]) for lab in labels}
-        table(f"Instructions per function, {r['preset']} {r['opt']}", ["function", *labels],
-              [[n, *(per[lab].get(n, 0) for lab in labels)] for n in names] +
-              [["total", *(sum(per[lab].values()) for lab in labels)]])
+        table(f"Instructions per function, {r['preset']} {r['opt']} (the largest; total: all functions)",
+              ["function", *labels],
+              [[n, *(per[lab].get(n, "-") for lab in labels)] for n in names + ["total"]])
 
     rows = []
     for r in results:

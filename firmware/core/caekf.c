@@ -12,6 +12,7 @@
 #define INIT_MAGIC 0xCAEF0001u
 
 CAEKF_STATIC_ASSERT(IG == N - 1, gamma_is_last);
+CAEKF_STATIC_ASSERT(NQ == 4, scale_fv_is_written_for_4_q_columns);
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
@@ -20,13 +21,15 @@ static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
  * the v-columns (so those are left alone) and one ratio for all q-columns. */
 static void scale_fv(caekf_scalar_t fv[NQ][N], const caekf_scalar_t s[N])
 {
-    caekf_scalar_t rq = s[0] / s[NQ], rg = s[IG] / s[NQ];
-    int i, j;
+    const caekf_scalar_t rq = s[0] / s[NQ], rg = s[IG] / s[NQ];
+    int i;
     for (i = 0; i < NQ; ++i) {
-        for (j = 0; j < NQ; ++j) {
-            fv[i][j] *= rq;
-        }
-        fv[i][IG] *= rg;
+        caekf_scalar_t *f = fv[i];
+        f[0] *= rq;
+        f[1] *= rq;
+        f[2] *= rq;
+        f[3] *= rq;
+        f[IG] *= rg;
     }
 }
 
@@ -104,7 +107,7 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     caekf_status_t st = CAEKF_OK;
     uint32_t flags = 0;
     int iters = 0;
-    int i, j, finite;
+    int i, finite;
     const caekf_scalar_t *s;
     caekf_scalar_t s_q, s_v, nf;
 
@@ -170,7 +173,7 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     y_s[0] = y[0] / s_q;
     y_s[1] = y[1] / s_q;
     (void)caekf_correct_upper(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH, policy,
-                              est->scratch, &flags);
+                              &flags);
 
     /* Inequality constraint, eqs. (28)-(30). */
     if (est->cfg.constraint_enabled) {
@@ -188,10 +191,14 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
         goto done;
     }
     for (i = 0; i < N; ++i) { /* commit, filling the lower triangle */
+        const caekf_scalar_t *w = &est->P_work[i][i];
+        caekf_scalar_t *row = &est->P[i][i], *col = row, *const end = est->P[i] + N;
         est->z[i] = z[i];
-        for (j = i; j < N; ++j) {
-            est->P[i][j] = est->P_work[i][j];
-            est->P[j][i] = est->P_work[i][j];
+        *row = *w;
+        while (++row != end) {
+            col += N;
+            *row = *++w;
+            *col = *w;
         }
     }
     est->step_count++;
@@ -251,18 +258,14 @@ caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N
 
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2)
 {
-    int i, j;
+    caekf_status_t st;
     if (est == 0 || norm2 == 0) {
         return CAEKF_ERR_NULL;
     }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
-    }
     /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
-    for (i = 0; i < N; ++i) {
-        for (j = 0; j < N; ++j) {
-            est->P_work[i][j] = est->P[i][j] * est->scale[i] * est->scale[j];
-        }
+    st = caekf_get_covariance(est, est->P_work);
+    if (st != CAEKF_OK) {
+        return st;
     }
     return caekf_sym_norm2(&est->P_work[0][0], N, &est->scratch[0][0], norm2) == CAEKF_LA_OK ? CAEKF_OK
                                                                                        : CAEKF_ERR_NUMERIC;

@@ -118,31 +118,31 @@ void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t T, caekf_scalar_t fv[NQ
                               const caekf_scalar_t q_diag[N], caekf_gamma_policy_t policy, int contact)
 {
     caekf_scalar_t w[NQ];
-    int i, j;
+    int i;
     for (i = 0; i < NQ; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
         predict_fp_row(fv[i], P[0], P[i], T[i], c, contact ? -1 : (i & 2));
     }
     /* Upper triangle of T F^T + Q row by row, in place: row i only reads row i of T. w = T_i Fv^T
      * gives the v-columns; a q-row's q-columns are T_q + c w; the gamma column is T's. Off-diagonal
      * entries are flushed as they are final. */
-    for (i = 0; i < NQ; ++i) {
+    for (i = 0; i < IG; ++i) {
         caekf_scalar_t *t = T[i];
-        predict_w(t, fv, 0, w, contact);
-        t[i] = t[i] + c * w[i] + q_diag[i];
-        for (j = i + 1; j < NQ; ++j) {
-            t[j] = flush(t[j] + c * w[j]);
+        caekf_scalar_t d, *tj;
+        const caekf_scalar_t *wj;
+        predict_w(t, fv, i < NQ ? 0 : i - NQ, w, contact);
+        if (i < NQ) {
+            d = t[i] + c * w[i];
+            for (tj = t + i + 1, wj = w + i + 1; tj != t + NQ; ++tj, ++wj) {
+                *tj = flush(*tj + c * *wj);
+            }
+            tj = t + NQ;
+        } else {
+            d = w[i - NQ];
+            tj = t + i + 1;
         }
-        for (j = 0; j < NQ; ++j) {
-            t[NQ + j] = flush(w[j]);
-        }
-        t[IG] = flush(t[IG]);
-    }
-    for (i = NQ; i < IG; ++i) {
-        caekf_scalar_t *t = T[i];
-        predict_w(t, fv, i - NQ, w, contact);
-        t[i] = w[i - NQ] + q_diag[i];
-        for (j = i + 1; j < IG; ++j) {
-            t[j] = flush(w[j - NQ]);
+        t[i] = d + q_diag[i];
+        for (wj = w + (tj - t - NQ); tj != t + IG; ++tj, ++wj) {
+            *tj = flush(*wj);
         }
         t[IG] = flush(t[IG]);
     }
@@ -157,13 +157,14 @@ void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t T, caekf_scalar_t fv[NQ
 }
 
 int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r,
-                        int joseph, caekf_gamma_policy_t policy, caekf_mat_t scratch, uint32_t *flags)
+                        int joseph, caekf_gamma_policy_t policy, uint32_t *flags)
 {
     caekf_scalar_t Si[3];
     caekf_scalar_t G[N][CAEKF_NY];
     caekf_scalar_t hp1[N], hp4[N]; /* H P = rows q1, q4 of P (= its columns), from the upper triangle */
-    caekf_scalar_t gcol[N];
     caekf_scalar_t e0, e1;
+    /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma column is left as it is. */
+    const int jend = policy == CAEKF_GAMMA_FROZEN_PAPER ? IG : N;
     int i, j;
     /* Eq. (13): S = H P- H^T + R is the (q1, q4) block of P plus R. */
     if (caekf_sym2_inverse(P[CAEKF_IY1][CAEKF_IY1] + r, P[CAEKF_IY1][CAEKF_IY4], P[CAEKF_IY4][CAEKF_IY4] + r,
@@ -174,7 +175,6 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
     for (i = 0; i < N; ++i) {
         hp1[i] = P[CAEKF_IY1][i];
         hp4[i] = i < CAEKF_IY4 ? P[i][CAEKF_IY4] : P[CAEKF_IY4][i];
-        gcol[i] = P[i][IG];
         G[i][0] = hp1[i] * Si[0] + hp4[i] * Si[1];
         G[i][1] = hp1[i] * Si[1] + hp4[i] * Si[2];
     }
@@ -191,34 +191,30 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
         /* Eq. (15) on the upper triangle: P+ = P - G (H P). With the gamma gain zeroed, row gamma of
          * this product would stay stale; the upper triangle alone gives the Schmidt result
          * P_xg <- (I - G_x H_x) P_xg, P_gg unchanged. */
-        for (i = 0; i < N; ++i) {
+        for (i = 0; i < jend; ++i) {
             const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
-            caekf_scalar_t *p = P[i];
-            p[i] -= g0 * hp1[i] + g1 * hp4[i];
-            for (j = i + 1; j < N; ++j) {
-                p[j] = flush(p[j] - (g0 * hp1[j] + g1 * hp4[j]));
+            const caekf_scalar_t *h1 = hp1 + i, *h4 = hp4 + i;
+            caekf_scalar_t *p = P[i] + i, *const pend = P[i] + jend;
+            *p -= g0 * *h1 + g1 * *h4;
+            while (++p != pend) {
+                ++h1;
+                ++h4;
+                *p = flush(*p - (g0 * *h1 + g1 * *h4));
             }
         }
     } else {
-        /* Joseph: P+ = (I - G H) P (I - G H)^T + G R G^T, with A P computed first (in scratch). */
-        caekf_scalar_t(*AP)[N] = scratch;
-        caekf_mirror_upper(P);
-        for (i = 0; i < N; ++i) {
-            for (j = 0; j < N; ++j) {
-                AP[i][j] = P[i][j] - (G[i][0] * P[CAEKF_IY1][j] + G[i][1] * P[CAEKF_IY4][j]);
+        /* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,q1 q4} G^T + r G G^T.
+         * Row i of A P at q1 and q4 comes from the copies of H P (P is symmetric). */
+        for (i = 0; i < jend; ++i) {
+            const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
+            const caekf_scalar_t a1 = hp1[i] - (g0 * hp1[CAEKF_IY1] + g1 * hp4[CAEKF_IY1]);
+            const caekf_scalar_t a4 = hp4[i] - (g0 * hp1[CAEKF_IY4] + g1 * hp4[CAEKF_IY4]);
+            caekf_scalar_t *p = P[i];
+            for (j = i; j < jend; ++j) {
+                caekf_scalar_t v = p[j] - (g0 * hp1[j] + g1 * hp4[j]) - a1 * G[j][0] - a4 * G[j][1] +
+                                   r * (g0 * G[j][0] + g1 * G[j][1]);
+                p[j] = j > i ? flush(v) : v;
             }
-        }
-        for (i = 0; i < N; ++i) {
-            for (j = i; j < N; ++j) {
-                caekf_scalar_t v = AP[i][j] - AP[i][CAEKF_IY1] * G[j][0] - AP[i][CAEKF_IY4] * G[j][1] +
-                                   r * (G[i][0] * G[j][0] + G[i][1] * G[j][1]);
-                P[i][j] = j > i ? flush(v) : v;
-            }
-        }
-    }
-    if (policy == CAEKF_GAMMA_FROZEN_PAPER) {
-        for (i = 0; i < N; ++i) { /* eq. (27): only P_xx is corrected */
-            P[i][IG] = gcol[i];
         }
     }
     return 0;
@@ -227,7 +223,8 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
 int caekf_correct(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r, int joseph,
                   caekf_gamma_policy_t policy, caekf_mat_t scratch, uint32_t *flags)
 {
-    int st = caekf_correct_upper(z, P, y_s, r, joseph, policy, scratch, flags);
+    int st = caekf_correct_upper(z, P, y_s, r, joseph, policy, flags);
+    (void)scratch;
     if (st == 0) {
         caekf_mirror_upper(P);
     }
@@ -241,7 +238,7 @@ void caekf_constrain_upper(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zm
     caekf_scalar_t dz = zmin - z[IG];
     caekf_scalar_t col[IG]; /* P's gamma column, contiguous */
     int usable = s > CAEKF_EPS * CAEKF_EPS;
-    int i, j, k;
+    int i, k;
     if (!(z[IG] < zmin)) {
         return;
     }
@@ -255,13 +252,15 @@ void caekf_constrain_upper(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zm
          * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. */
         for (i = 0; i < IG; ++i) {
             const caekf_scalar_t a = col[i];
-            caekf_scalar_t *p = P[i];
+            const caekf_scalar_t *cj = col + i;
+            caekf_scalar_t *p = P[i] + i, *const pend = P[i] + IG;
             z[i] += a / s * dz;
-            p[i] -= a * a / s;
-            for (j = i + 1; j < IG; ++j) {
-                p[j] = flush(p[j] - a * col[j] / s);
+            *p -= a * a / s;
+            while (++p != pend) {
+                ++cj;
+                *p = flush(*p - a * *cj / s);
             }
-            p[IG] = 0;
+            *pend = 0;
         }
         P[IG][IG] = 0;
     } else {
@@ -288,17 +287,17 @@ void caekf_constrain(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zmin, ca
 static int screen_fails(caekf_mat_t P, caekf_scalar_t *nf)
 {
     caekf_scalar_t acc = 0;
-    int i, j;
+    int i;
     for (i = 0; i < N; ++i) {
-        const caekf_scalar_t *row = P[i];
-        const caekf_scalar_t *pjj = &P[i][i];
-        caekf_scalar_t pii = *pjj;
+        const caekf_scalar_t *pij = &P[i][i], *const pend = P[i] + N;
+        const caekf_scalar_t *pjj = pij;
+        const caekf_scalar_t pii = *pij;
         acc += pii * 0;
         if (!(pii >= 0)) {
             return 1;
         }
-        for (j = i + 1; j < N; ++j) {
-            caekf_scalar_t v = row[j];
+        while (++pij != pend) {
+            const caekf_scalar_t v = *pij;
             pjj += N + 1;
             acc += v * 0;
             if (v * v > pii * *pjj * (1 + CAEKF_EPS * 64)) {

@@ -36,12 +36,12 @@ void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t P_pred, caekf_scalar_t 
                               int contact);
 
 /* Eqs. (13)-(15), or (25)-(27) with the policy, for y_s = [q1, q4] / s_q. Standard or Joseph form.
- * Returns 0, or sets CAEKF_FLAG_SINGULAR_INNOVATION and leaves z, P untouched. scratch: N x N work. */
+ * Returns 0, or sets CAEKF_FLAG_SINGULAR_INNOVATION and leaves z, P untouched. scratch: unused (kept
+ * for the callers). */
 int caekf_correct(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r,
                   int joseph, caekf_gamma_policy_t policy, caekf_mat_t scratch, uint32_t *flags);
 int caekf_correct_upper(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY],
-                        caekf_scalar_t r, int joseph, caekf_gamma_policy_t policy, caekf_mat_t scratch,
-                        uint32_t *flags);
+                        caekf_scalar_t r, int joseph, caekf_gamma_policy_t policy, uint32_t *flags);
 
 /* Eqs. (28)-(30): if z_gamma < zmin, the perfect measurement D z = zmin (D = e_gamma, R = 0).
  * Processing it after the y-correction equals repeating the correction with [H; D] and

@@ -6,6 +6,8 @@
 
 static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
+static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0);
+
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol)
 {
     int i;
@@ -16,13 +18,14 @@ caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_sca
     for (i = 0; i < n * n; ++i) {
         amax = caekf_max(amax, CAEKF_FABS(a[i]));
     }
-    return caekf_lu_factor_tol(a, n, piv, rel_tol * amax);
+    return lu_factor_from(a, n, piv, rel_tol * amax, 0);
 }
 
-caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol)
+/* Partial-pivoting LU from elimination step k0 on (steps before it done, without row exchanges). */
+static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0)
 {
     int i, j, k;
-    for (k = 0; k < n; ++k) {
+    for (k = k0; k < n; ++k) {
         caekf_scalar_t *ak = a + k * n;
         caekf_scalar_t best = CAEKF_FABS(ak[k]);
         int p = k;
@@ -58,6 +61,40 @@ caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf
     return CAEKF_LA_OK;
 }
 
+caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scalar_t tol)
+{
+    int i, k;
+    /* While partial pivoting keeps the diagonal (no later row strictly larger in column k; A is
+     * diagonally dominant in practice) the row updates are written out; an exchange goes to the
+     * general loop from that step. */
+    for (k = 0; k < 4; ++k) {
+        const caekf_scalar_t *rk = a + 4 * k;
+        const caekf_scalar_t best = CAEKF_FABS(rk[k]);
+        for (i = k + 1; i < 4; ++i) {
+            if (CAEKF_FABS(a[4 * i + k]) > best) {
+                return lu_factor_from(a, 4, piv, tol, k);
+            }
+        }
+        if (!(best > tol)) { /* also refuses a NaN pivot */
+            return CAEKF_LA_SINGULAR;
+        }
+        piv[k] = k;
+        for (i = k + 1; i < 4; ++i) {
+            caekf_scalar_t *ri = a + 4 * i;
+            caekf_scalar_t l = ri[k] / rk[k];
+            ri[k] = l;
+            ri[3] -= l * rk[3]; /* columns k + 1 .. 3, each once */
+            if (k < 2) {
+                ri[2] -= l * rk[2];
+            }
+            if (k < 1) {
+                ri[1] -= l * rk[1];
+            }
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
 caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
                                  int nrhs, int ldb)
 {
@@ -65,33 +102,24 @@ caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[
     if (!size_ok(n) || nrhs < 1 || ldb < nrhs) {
         return CAEKF_LA_BAD_SIZE;
     }
-    for (i = 0; i < n; ++i) {
-        if (piv[i] != i) {
-            for (c = 0; c < nrhs; ++c) {
-                caekf_scalar_t t = b[i * ldb + c];
-                b[i * ldb + c] = b[piv[i] * ldb + c];
-                b[piv[i] * ldb + c] = t;
+    for (c = 0; c < nrhs; ++c) { /* column by column: each column sees the same operations */
+        caekf_scalar_t *x = b + c;
+        for (i = 0; i < n; ++i) {
+            caekf_scalar_t t = x[i * ldb];
+            x[i * ldb] = x[piv[i] * ldb];
+            x[piv[i] * ldb] = t;
+        }
+        for (i = 1; i < n; ++i) { /* forward: L has a unit diagonal */
+            for (j = 0; j < i; ++j) {
+                x[i * ldb] -= A_(lu, n, i, j) * x[j * ldb];
             }
         }
-    }
-    for (i = 1; i < n; ++i) { /* forward: L has a unit diagonal */
-        for (j = 0; j < i; ++j) {
-            caekf_scalar_t l = A_(lu, n, i, j);
-            for (c = 0; c < nrhs; ++c) {
-                b[i * ldb + c] -= l * b[j * ldb + c];
+        for (i = n - 1; i >= 0; --i) { /* backward */
+            caekf_scalar_t inv_d = (caekf_scalar_t)1 / A_(lu, n, i, i);
+            for (j = i + 1; j < n; ++j) {
+                x[i * ldb] -= A_(lu, n, i, j) * x[j * ldb];
             }
-        }
-    }
-    for (i = n - 1; i >= 0; --i) { /* backward */
-        caekf_scalar_t inv_d = (caekf_scalar_t)1 / A_(lu, n, i, i);
-        for (j = i + 1; j < n; ++j) {
-            caekf_scalar_t u = A_(lu, n, i, j);
-            for (c = 0; c < nrhs; ++c) {
-                b[i * ldb + c] -= u * b[j * ldb + c];
-            }
-        }
-        for (c = 0; c < nrhs; ++c) {
-            b[i * ldb + c] *= inv_d;
+            x[i * ldb] *= inv_d;
         }
     }
     return CAEKF_LA_OK;
@@ -161,20 +189,22 @@ caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_s
  * triangle and writes w's lower one (all the LDL^T below uses). */
 static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *d)
 {
-    int i, j;
+    int i, j, all_pos = 1;
     for (i = 0; i < n; ++i) {
         caekf_scalar_t aii = A_(a, n, i, i);
         if (!(aii >= 0) || !CAEKF_ISFINITE(aii)) {
             return CAEKF_LA_NOT_PSD;
         }
         d[i] = CAEKF_SQRT(aii);
+        all_pos &= d[i] > 0;
     }
     for (i = 0; i < n; ++i) {
         caekf_scalar_t *wi = w + i * n;
         const caekf_scalar_t *aji = a + i; /* a[j][i], j = 0.. */
+        const caekf_scalar_t di = d[i];
         for (j = 0; j <= i; ++j, aji += n) {
-            if (d[i] > 0 && d[j] > 0) {
-                wi[j] = *aji / (d[i] * d[j]);
+            if (all_pos || (di > 0 && d[j] > 0)) { /* the usual case tested once */
+                wi[j] = *aji / (di * d[j]);
             } else if (*aji != 0) {
                 return CAEKF_LA_NOT_PSD;
             } else {
@@ -188,7 +218,7 @@ static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_
 caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *w)
 {
     caekf_scalar_t d[CAEKF_LA_MAX_N];
-    int i, j, k;
+    int i, k;
     if (!size_ok(n)) {
         return CAEKF_LA_BAD_SIZE;
     }
@@ -211,20 +241,32 @@ caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t
             continue;
         }
         for (i = k + 1; i < n; ++i) {
-            caekf_scalar_t *wi = w + i * n;
+            caekf_scalar_t *wij = w + i * n + k + 1, *const wii = w + i * n + i;
             const caekf_scalar_t *wjk = w + (k + 1) * n + k; /* column k from row k + 1 */
-            caekf_scalar_t l = wi[k] / piv;
-            for (j = k + 1; j <= i; ++j, wjk += n) {
-                wi[j] -= l * *wjk;
-            }
+            const caekf_scalar_t l = wij[-1] / piv;
+            do { /* j = k + 1 .. i */
+                *wij -= l * *wjk;
+                wjk += n;
+            } while (wij++ != wii);
         }
     }
     return CAEKF_LA_OK;
 }
 
+/* Plane rotation of two strided vectors: x <- c x - s y, y <- s x + c y. */
+static void rotate(caekf_scalar_t *x, caekf_scalar_t *y, int stride, int n, caekf_scalar_t c, caekf_scalar_t s)
+{
+    int k;
+    for (k = 0; k < n; ++k, x += stride, y += stride) {
+        caekf_scalar_t xk = *x, yk = *y;
+        *x = c * xk - s * yk;
+        *y = s * xk + c * yk;
+    }
+}
+
 caekf_la_status_t caekf_sym_eigen(caekf_scalar_t *a, int n, caekf_scalar_t *v)
 {
-    int sweep, p, q, k;
+    int sweep, p, q;
     if (!size_ok(n)) {
         return CAEKF_LA_BAD_SIZE;
     }
@@ -261,22 +303,10 @@ caekf_la_status_t caekf_sym_eigen(caekf_scalar_t *a, int n, caekf_scalar_t *v)
                 }
                 c = 1 / CAEKF_SQRT(t * t + 1);
                 s = t * c;
-                for (k = 0; k < n; ++k) { /* A <- A J (columns p, q) */
-                    caekf_scalar_t akp = A_(a, n, k, p), akq = A_(a, n, k, q);
-                    A_(a, n, k, p) = c * akp - s * akq;
-                    A_(a, n, k, q) = s * akp + c * akq;
-                }
-                for (k = 0; k < n; ++k) { /* A <- J^T A (rows p, q) */
-                    caekf_scalar_t apk = A_(a, n, p, k), aqk = A_(a, n, q, k);
-                    A_(a, n, p, k) = c * apk - s * aqk;
-                    A_(a, n, q, k) = s * apk + c * aqk;
-                }
+                rotate(a + p, a + q, n, n, c, s);         /* A <- A J (columns p, q) */
+                rotate(a + p * n, a + q * n, 1, n, c, s); /* A <- J^T A (rows p, q) */
                 if (v != 0) {
-                    for (k = 0; k < n; ++k) {
-                        caekf_scalar_t vkp = A_(v, n, k, p), vkq = A_(v, n, k, q);
-                        A_(v, n, k, p) = c * vkp - s * vkq;
-                        A_(v, n, k, q) = s * vkp + c * vkq;
-                    }
+                    rotate(v + p, v + q, n, n, c, s);
                 }
             }
         }
@@ -312,7 +342,8 @@ caekf_la_status_t caekf_psd_repair(caekf_scalar_t *a, int n, caekf_scalar_t *v)
     if (!size_ok(n)) {
         return CAEKF_LA_BAD_SIZE;
     }
-    /* Negative or non-finite variances cannot be normalised: drop those rows and columns first. */
+    /* Negative or non-finite variances cannot be normalised: drop those rows and columns first
+     * (which leaves the other diagonal entries alone). */
     for (i = 0; i < n; ++i) {
         caekf_scalar_t aii = A_(a, n, i, i);
         if (!(aii > 0) || !CAEKF_ISFINITE(aii)) {
@@ -321,9 +352,7 @@ caekf_la_status_t caekf_psd_repair(caekf_scalar_t *a, int n, caekf_scalar_t *v)
                 A_(a, n, j, i) = 0;
             }
         }
-    }
-    for (i = 0; i < n; ++i) { /* in place: a <- D^-1/2 a D^-1/2 */
-        d[i] = CAEKF_SQRT(A_(a, n, i, i));
+        d[i] = CAEKF_SQRT(A_(a, n, i, i)); /* for a <- D^-1/2 a D^-1/2 in place */
     }
     for (i = 0; i < n; ++i) {
         for (j = 0; j < n; ++j) {

@@ -23,15 +23,4 @@
 
 static inline caekf_scalar_t caekf_max(caekf_scalar_t a, caekf_scalar_t b) { return a > b ? a : b; }
 
-/* 1 when all n values are finite. */
-static inline int caekf_all_finite(const caekf_scalar_t *v, int n)
-{
-    int i;
-    int ok = 1;
-    for (i = 0; i < n; ++i) {
-        ok &= CAEKF_ISFINITE(v[i]);
-    }
-    return ok;
-}
-
 #endif /* CAEKF_MATH_H */

@@ -1,6 +1,8 @@
 /* The contact model: eq. (16) contact law, eq. (19) residual and Jacobians, Newton, eq. (10) F. */
 #include "caekf/caekf_model.h"
 
+#include <stddef.h>
+
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 
@@ -11,25 +13,38 @@
 CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, model_has_four_bodies);
 CAEKF_STATIC_ASSERT(CAEKF_N == 2 * CAEKF_NQ + 1, augmented_state_is_q_v_gamma);
 
+/* Parameter checks in declaration order (count scalars from offset; pos: > 0, else >= 0). The last
+ * failing field is the one reported. A table keeps this small on the MCU. */
+static const struct {
+    unsigned char off, count, pos;
+    char name[4];
+} param_fields[] = {
+    {offsetof(caekf_model_params_t, m), CAEKF_NQ, 1, "m"},
+    {offsetof(caekf_model_params_t, k1), 1, 1, "k1"},
+    {offsetof(caekf_model_params_t, k12), 1, 1, "k12"},
+    {offsetof(caekf_model_params_t, k34), 1, 1, "k34"},
+    {offsetof(caekf_model_params_t, k4), 1, 1, "k4"},
+    {offsetof(caekf_model_params_t, c1), 1, 0, "c1"},
+    {offsetof(caekf_model_params_t, c12), 1, 0, "c12"},
+    {offsetof(caekf_model_params_t, c34), 1, 0, "c34"},
+    {offsetof(caekf_model_params_t, c4), 1, 0, "c4"},
+    {offsetof(caekf_model_params_t, gap), 1, 0, "gap"},
+    {offsetof(caekf_model_params_t, dt), 1, 1, "dt"},
+};
+CAEKF_STATIC_ASSERT(sizeof(caekf_model_params_t) < 256, param_offsets_fit_a_byte);
+
 int caekf_model_params_check(const caekf_model_params_t *p, const char **first_bad)
 {
     const char *bad = 0;
-    int i;
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
-            bad = "m";
+    unsigned i, k;
+    for (i = 0; i < sizeof param_fields / sizeof param_fields[0]; ++i) {
+        const caekf_scalar_t *x = (const caekf_scalar_t *)(const void *)((const char *)p + param_fields[i].off);
+        for (k = 0; k < param_fields[i].count; ++k) {
+            if (!CAEKF_ISFINITE(x[k]) || !(x[k] > 0 || (!param_fields[i].pos && x[k] == 0))) {
+                bad = param_fields[i].name;
+            }
         }
     }
-    if (!CAEKF_ISFINITE(p->k1) || !(p->k1 > 0)) bad = "k1";
-    if (!CAEKF_ISFINITE(p->k12) || !(p->k12 > 0)) bad = "k12";
-    if (!CAEKF_ISFINITE(p->k34) || !(p->k34 > 0)) bad = "k34";
-    if (!CAEKF_ISFINITE(p->k4) || !(p->k4 > 0)) bad = "k4";
-    if (!CAEKF_ISFINITE(p->c1) || !(p->c1 >= 0)) bad = "c1";
-    if (!CAEKF_ISFINITE(p->c12) || !(p->c12 >= 0)) bad = "c12";
-    if (!CAEKF_ISFINITE(p->c34) || !(p->c34 >= 0)) bad = "c34";
-    if (!CAEKF_ISFINITE(p->c4) || !(p->c4 >= 0)) bad = "c4";
-    if (!CAEKF_ISFINITE(p->gap) || !(p->gap >= 0)) bad = "gap";
-    if (!CAEKF_ISFINITE(p->dt) || !(p->dt > 0)) bad = "dt";
     if (first_bad != 0) {
         *first_bad = bad;
     }
@@ -81,23 +96,17 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t q[CAE
                               const caekf_scalar_t vprev[CAEKF_NQ], caekf_scalar_t u, caekf_scalar_t fc,
                               caekf_scalar_t r[CAEKF_NQ], caekf_scalar_t mag[CAEKF_NQ])
 {
-    int i, j;
+    int i;
     for (i = 0; i < CAEKF_NQ; ++i) {
-        caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        caekf_scalar_t s = inertia;
-        caekf_scalar_t a = CAEKF_FABS(inertia);
         /* K and C couple bodies (1,2) and (3,4) only (chain_matrix): the other terms are exact
          * zeros, which change neither sum. */
-        for (j = i & 2; j < (i & 2) + 2; ++j) {
-            caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
-            s += kq + cv;
-            if (mag != 0) {
-                a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
-            }
-        }
-        r[i] = s;
+        const int b = i & 2;
+        const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
+        const caekf_scalar_t kq0 = m->K[i][b] * q[b], cv0 = m->C[i][b] * v[b];
+        const caekf_scalar_t kq1 = m->K[i][b + 1] * q[b + 1], cv1 = m->C[i][b + 1] * v[b + 1];
+        r[i] = inertia + (kq0 + cv0) + (kq1 + cv1);
         if (mag != 0) {
-            mag[i] = a;
+            mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) + (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
         }
     }
     r[0] -= u;
@@ -162,7 +171,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
 /* A = M/dt + C + dt (K + K_c): the Jacobian of the momentum rows with respect to v_k once
  * q_k = q_{k-1} + dt v_k is substituted; K_c = f_c'(delta) n n^T with n = [0, 1, -1, 0]. Returns the
  * LU refusal threshold LU_REL_TOL * max|A_ij|: only the contact block differs from A0, and a maximum
- * does not depend on the order it is taken in (A holds no NaN: delta > 0 here). */
+ * does not depend on the order it is taken in (a NaN in the block makes the LU refuse either way). */
 static caekf_scalar_t newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta,
                                     caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ])
 {
@@ -231,7 +240,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
             break; /* bound reached: x_k keeps the last iterate */
         }
         if (c.delta > 0) { /* contact: the tangent changes A; else the constant LU */
-            if (caekf_lu_factor_tol(&A[0][0], CAEKF_NQ, piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
+            if (caekf_lu4_factor_tol(&A[0][0], piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
                 result = 2;
                 break;
             }
@@ -285,7 +294,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
         }
         return 0;
     }
-    if (caekf_lu_factor_tol(&A[0][0], CAEKF_NQ, piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
+    if (caekf_lu4_factor_tol(&A[0][0], piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
         return -1;
     }
     transition_rhs(m, &c, fv); /* solved in place */
@@ -296,7 +305,6 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 {
     caekf_contact_t none;
-    caekf_scalar_t amax;
     int i, j;
     if (caekf_model_params_check(p, 0) != 0) {
         return -1;
@@ -304,7 +312,6 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     m->p = *p;
     chain_matrix(m->K, p->k1, p->k12, p->k34, p->k4);
     chain_matrix(m->C, p->c1, p->c12, p->c34, p->c4);
-    amax = 0;
     m->A0_absmax_out = 0;
     for (i = 0; i < CAEKF_NQ; ++i) {
         m->m_dt[i] = p->m[i] / p->dt;
@@ -312,8 +319,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
             caekf_scalar_t a = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
             m->A0[i][j] = a;
             m->A0_lu[i][j] = a;
-            amax = caekf_max(amax, CAEKF_FABS(a));
-            if (i < B2 || i > B3 || j < B2 || j > B3) {
+            if ((i - B2) * (i - B3) > 0 || (j - B2) * (j - B3) > 0) { /* outside the contact block */
                 m->A0_absmax_out = caekf_max(m->A0_absmax_out, CAEKF_FABS(a));
             }
         }
@@ -323,7 +329,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     none.dfc_ddelta = 0;
     none.dfc_dgamma = 0;
     /* A0 = M/dt + C + dt K is positive definite for valid parameters; the check is belt and braces. */
-    if (caekf_lu_factor_tol(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL * amax) != CAEKF_LA_OK) {
+    if (caekf_lu_factor(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
     }
     transition_rhs(m, &none, m->fv0);

@@ -1,15 +1,20 @@
 /* Settings: defaults and validation. Init refuses anything this rejects, leaving the estimator as it was. */
 #include "caekf/caekf.h"
 
+#include <stddef.h>
+
 #include "caekf_math.h"
 
 caekf_status_t caekf_settings_default(caekf_settings_t *s)
 {
-    static const caekf_settings_t zero_settings; /* const: no mutable global */
+    unsigned char *bytes = (unsigned char *)s;
+    size_t i;
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
-    *s = zero_settings;
+    for (i = 0; i < sizeof *s; ++i) { /* all-bits zero: 0, 0.0 and the first enumerators */
+        bytes[i] = 0;
+    }
     s->q_gamma_scale = 1;
     s->mode = CAEKF_MODE_SWITCHED;
     s->switchoff = CAEKF_SWITCHOFF_CONSISTENT;
@@ -23,8 +28,35 @@ caekf_status_t caekf_settings_default(caekf_settings_t *s)
     return CAEKF_OK;
 }
 
-static int finite_nonneg(caekf_scalar_t x) { return CAEKF_ISFINITE(x) && x >= 0; }
-static int finite_pos(caekf_scalar_t x) { return CAEKF_ISFINITE(x) && x > 0; }
+/* Scalar checks in order, the first failing one is reported: kind 0 finite, 1 finite and >= 0,
+ * 2 finite and > 0. A table keeps this small on the MCU. */
+static const struct {
+    unsigned short off;
+    unsigned char kind;
+    const char *name;
+} scalar_fields[] = {
+    {offsetof(caekf_settings_t, gamma0), 0, "gamma0"},
+    {offsetof(caekf_settings_t, sigma_q0), 2, "sigma_q0"},
+    {offsetof(caekf_settings_t, sigma_v0), 2, "sigma_v0"},
+    {offsetof(caekf_settings_t, sigma_gamma0), 2, "sigma_gamma0"},
+    {offsetof(caekf_settings_t, sigma_qx_q), 1, "sigma_qx_q"},
+    {offsetof(caekf_settings_t, sigma_qx_v), 1, "sigma_qx_v"},
+    {offsetof(caekf_settings_t, sigma_q_gamma), 1, "sigma_q_gamma"},
+    {offsetof(caekf_settings_t, q_gamma_scale), 1, "q_gamma_scale"},
+    {offsetof(caekf_settings_t, sigma_r), 2, "sigma_r"},
+};
+
+static const char *scalar_bad(const caekf_settings_t *s)
+{
+    unsigned i;
+    for (i = 0; i < sizeof scalar_fields / sizeof scalar_fields[0]; ++i) {
+        caekf_scalar_t x = *(const caekf_scalar_t *)(const void *)((const char *)s + scalar_fields[i].off);
+        if (!CAEKF_ISFINITE(x) || !(scalar_fields[i].kind == 0 || x > 0 || (scalar_fields[i].kind == 1 && x == 0))) {
+            return scalar_fields[i].name;
+        }
+    }
+    return 0;
+}
 
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **first_bad)
 {
@@ -39,16 +71,10 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **f
         if (!CAEKF_ISFINITE(s->v0[i])) bad = "v0";
     }
     if (bad == 0) {
-        if (!CAEKF_ISFINITE(s->gamma0)) bad = "gamma0";
-        else if (!finite_pos(s->sigma_q0)) bad = "sigma_q0";
-        else if (!finite_pos(s->sigma_v0)) bad = "sigma_v0";
-        else if (!finite_pos(s->sigma_gamma0)) bad = "sigma_gamma0";
-        else if (!finite_nonneg(s->sigma_qx_q)) bad = "sigma_qx_q";
-        else if (!finite_nonneg(s->sigma_qx_v)) bad = "sigma_qx_v";
-        else if (!finite_nonneg(s->sigma_q_gamma)) bad = "sigma_q_gamma";
-        else if (!finite_nonneg(s->q_gamma_scale)) bad = "q_gamma_scale";
-        else if (!finite_pos(s->sigma_r)) bad = "sigma_r";
-        else if (s->mode != CAEKF_MODE_CANONICAL && s->mode != CAEKF_MODE_SWITCHED) bad = "mode";
+        bad = scalar_bad(s);
+    }
+    if (bad == 0) {
+        if (s->mode != CAEKF_MODE_CANONICAL && s->mode != CAEKF_MODE_SWITCHED) bad = "mode";
         else if (s->switchoff != CAEKF_SWITCHOFF_CONSISTENT && s->switchoff != CAEKF_SWITCHOFF_PAPER) bad = "switchoff";
         else if (s->cov_update != CAEKF_COV_STANDARD && s->cov_update != CAEKF_COV_JOSEPH) bad = "cov_update";
         else if (s->constraint_enabled != 0 && s->constraint_enabled != 1) bad = "constraint_enabled";
@@ -57,7 +83,7 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **f
         else if (!CAEKF_ISFINITE(s->gamma_min)) bad = "gamma_min";
         else if (s->constraint_enabled && s->gamma0 < s->gamma_min) bad = "gamma0 < gamma_min";
         else if (s->newton_max_iter < 1 || s->newton_max_iter > CAEKF_NEWTON_MAX_ITER) bad = "newton_max_iter";
-        else if (!finite_pos(s->newton_rtol) || s->newton_rtol >= 1) bad = "newton_rtol";
+        else if (!CAEKF_ISFINITE(s->newton_rtol) || !(s->newton_rtol > 0) || s->newton_rtol >= 1) bad = "newton_rtol";
     }
     if (first_bad != 0) {
         *first_bad = bad;
