@@ -22,7 +22,7 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$REPO"
 
 BOOTSTRAP_FLAGS=(--arm)
-STAGES=(host-double host-float host-asan pytest cortex-m4f cortex-m7)
+STAGES=(host-double host-float host-asan pytest cortex-m4f cortex-m7 fuzz)
 
 JOBS="${JOBS:-2}"
 VENV_PY="$REPO/.venv/bin/python"
@@ -63,6 +63,10 @@ stage_pytest() {
     # test_c_tools.py compares the numpy model with the C tools of this build.
     CAEKF_BUILD_DIR="$REPO/build/host-double" "$VENV_PY" -m pytest sim/tests
 }
+
+# libFuzzer harnesses (tests/fuzz: app frames, estimator settings and inputs), FUZZ_SECONDS (default
+# 20) each from the committed seeds, in build/fuzz with clang. Any finding fails the stage.
+stage_fuzz() { tools/fuzz.sh --seconds "${FUZZ_SECONDS:-20}" --jobs "$JOBS"; }
 
 # ---- driver -------------------------------------------------------------------------------
 log() { printf '[run-tests] %s\n' "$*"; }

@@ -58,6 +58,37 @@ static const char *scalar_bad(const caekf_settings_t *s)
     return 0;
 }
 
+static int finite_pos(caekf_scalar_t x) { return CAEKF_ISFINITE(x) && x > 0; }
+static caekf_scalar_t squared(caekf_scalar_t x) { return x * x; }
+
+/* Values caekf_init derives must be usable in this scalar type too: finite settings can still
+ * overflow or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in
+ * float, subnormal sigmas in double). */
+static const char *derived_bad(const caekf_settings_t *s)
+{
+    const caekf_model_params_t *m = &s->model;
+    caekf_scalar_t rq = s->sigma_q0 / s->sigma_v0;
+    int i;
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        if (!CAEKF_ISFINITE(s->q0[i] / s->sigma_q0)) return "q0";
+        if (!CAEKF_ISFINITE(s->v0[i] / s->sigma_v0)) return "v0";
+        if (!finite_pos(m->m[i] / m->dt)) return "m";
+    }
+    if (!CAEKF_ISFINITE(m->dt * (m->k1 + m->k12)) || !CAEKF_ISFINITE(m->dt * (m->k34 + m->k4))) return "dt";
+    if (!CAEKF_ISFINITE(s->gamma0 / s->sigma_gamma0)) return "gamma0";
+    if (!CAEKF_ISFINITE(s->gamma_min / s->sigma_gamma0)) return "gamma_min";
+    if (!CAEKF_ISFINITE(squared(s->sigma_qx_q / s->sigma_q0))) return "sigma_qx_q";
+    if (!CAEKF_ISFINITE(squared(s->sigma_qx_v / s->sigma_v0))) return "sigma_qx_v";
+    if (!CAEKF_ISFINITE(s->q_gamma_scale * squared(s->sigma_q_gamma / s->sigma_gamma0))) return "sigma_q_gamma";
+    if (!finite_pos(squared(s->sigma_r / s->sigma_q0))) return "sigma_r";
+    /* The scaled transition S^-1 F S multiplies by these ratios. */
+    if (!finite_pos(rq) || !finite_pos(1 / rq) || !finite_pos(m->dt / rq) ||
+        !finite_pos(s->sigma_gamma0 / s->sigma_v0)) {
+        return "sigma_v0";
+    }
+    return 0;
+}
+
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **first_bad)
 {
     const char *bad = 0;
@@ -84,6 +115,9 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **f
         else if (s->constraint_enabled && s->gamma0 < s->gamma_min) bad = "gamma0 < gamma_min";
         else if (s->newton_max_iter < 1 || s->newton_max_iter > CAEKF_NEWTON_MAX_ITER) bad = "newton_max_iter";
         else if (!CAEKF_ISFINITE(s->newton_rtol) || !(s->newton_rtol > 0) || s->newton_rtol >= 1) bad = "newton_rtol";
+    }
+    if (bad == 0) {
+        bad = derived_bad(s);
     }
     if (first_bad != 0) {
         *first_bad = bad;

@@ -28,6 +28,7 @@
 #define QLEN 256u
 #define TXCAP 4096u
 #define MAX_OPS 2000u
+#define MAX_FRAMES 3000u /* per input: keeps one execution well under a second with the sanitizers */
 #define ACK_BAD_ANY 0x1FFu /* expectation: any valid parameter id or NONE */
 
 enum {
@@ -100,7 +101,7 @@ static uint8_t crc8_j1850(uint16_t data_id, const uint8_t d[8])
     for (i = 0; i < sizeof buf; ++i) {
         crc ^= buf[i];
         for (b = 0; b < 8u; ++b) {
-            crc = (uint8_t)((crc & 0x80u) ? ((crc << 1) ^ 0x1Du) : (crc << 1));
+            crc = (uint8_t)((crc & 0x80u) ? (((unsigned)crc << 1) ^ 0x1Du) : ((unsigned)crc << 1));
         }
     }
     return (uint8_t)(crc ^ 0xFFu);
@@ -734,8 +735,11 @@ static void poll_once(void)
 
 static int burst; /* frames queue up without polling while set */
 
+static unsigned frames_sent;
+
 static void send_frame(const caekf_can_frame_t *f)
 {
+    frames_sent++;
     queue_frame(f);
     if (!burst) {
         poll_once();
@@ -917,7 +921,7 @@ static void op_paper_config(fz_reader_t *r)
 static void run_ops(fz_reader_t *r)
 {
     unsigned ops = 0;
-    while (fz_more(r) && ops++ < MAX_OPS) {
+    while (fz_more(r) && ops++ < MAX_OPS && frames_sent < MAX_FRAMES) {
         const unsigned op = fz_u8(r) % (unsigned)OP_COUNT;
         switch (op) {
         case OP_RAW: {
@@ -1040,6 +1044,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(&H, 0, sizeof H);
     memset(&app, 0, sizeof app);
     burst = 0;
+    frames_sent = 0;
     bench_step = 0;
     last_u_bits = 0;
     last_y1 = 0;

@@ -17,8 +17,8 @@
  *   step: non-finite u/y -> ERR_INPUT, flags == INPUT_REJECTED, instance byte for byte unchanged;
  *         finite inputs -> OK, ERR_NUMERIC or ERR_SINGULAR only;
  *         OK -> z and P finite, P exactly symmetric, step_count + 1, last_flags == report flags, flags
- *         consistent (see check_flags), gamma >= gamma_min when constrained, gamma bit-for-bit
- *         unchanged while frozen and unconstrained;
+ *         consistent (see check_flags), gamma >= gamma_min when constrained, gamma unchanged while
+ *         frozen and unconstrained (with the paper switch-off, P's gamma column too);
  *         ERR_NUMERIC / ERR_SINGULAR -> NUMERIC_ROLLBACK flagged, z, P and step_count unchanged.
  *   caekf_get_cov_norm2 does not change z or P.
  */
@@ -28,14 +28,14 @@
 #define N CAEKF_N
 #define NQ CAEKF_NQ
 #define IG CAEKF_IG
-#define MAX_STEPS_PER_INPUT 4096L
+#define MAX_STEPS_PER_INPUT 2048L
 
-/* Known core issues, tolerated (1) until fixed in firmware/core; set to 0 to make them findings again.
- * INIT_SCALING: caekf_settings_validate accepts settings whose scaled state or noise terms are not
- * finite (e.g. a subnormal sigma_gamma0 makes gamma0 / sigma_gamma0 infinite; in float, sigma ratios
- * beyond ~1e19 overflow the squared ratios of Q and R), so the instance rolls back every step. */
+/* INIT_SCALING (fixed): caekf_settings_validate used to accept settings whose scaled state or noise
+ * terms are not finite (a subnormal sigma_gamma0; in float, sigma ratios beyond ~1e19). It now checks
+ * the derived values; set to 1 only to tolerate a regression while bisecting.
+ * Regression inputs: corpus/fuzz_estimator/crash-init-*. */
 #ifndef FZ_KNOWN_INIT_SCALING
-#define FZ_KNOWN_INIT_SCALING 1
+#define FZ_KNOWN_INIT_SCALING 0
 #endif
 
 /* ---- settings from bytes ---------------------------------------------------------------------- */
@@ -52,7 +52,8 @@ static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned i, double *typic
         &m->gap,     &m->dt,          &s->q0[0],       &s->q0[1],      &s->q0[2],      &s->q0[3],
         &s->v0[0],   &s->v0[1],       &s->v0[2],       &s->v0[3],      &s->gamma0,     &s->sigma_q0,
         &s->sigma_v0, &s->sigma_gamma0, &s->sigma_qx_q, &s->sigma_qx_v, &s->sigma_q_gamma, &s->q_gamma_scale,
-        &s->sigma_r, &s->gamma_min,   &s->newton_rtol, &m->gap,        &s->gamma0,     &s->gamma_min};
+        &s->sigma_r, &s->gamma_min,   &s->newton_rtol,
+        &m->gap,     &s->gamma0,      &s->gamma_min}; /* the contact and constraint fields twice: more often */
     /* Typical magnitudes for fields whose current value may be 0. */
     static const double typ[N_REAL_FIELDS] = {1, 1, 1, 1, 2e3, 1e4, 1e4, 1e4, 5, 5, 5, 5, 1e-3, 1e-3,
                                               1e-3, 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2, 1e-2, 7.5e7, 1e-6,
@@ -241,14 +242,18 @@ static void one_step(caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], int nor
             FZ_CHECK(gamma >= est.cfg.gamma_min, "constrained: gamma >= gamma_min");
         }
         if ((rep.flags & CAEKF_FLAG_GAMMA_FROZEN) && !(rep.flags & CAEKF_FLAG_CONSTRAINT_APPLIED)) {
-            FZ_CHECK(memcmp(&est.z[IG], &snapshot.z[IG], sizeof est.z[IG]) == 0,
-                     "frozen gamma carried over bit for bit");
+            /* Numerically equal (-0 may come back as +0: z + 0 * e). */
+            if (est.z[IG] != snapshot.z[IG]) {
+                fprintf(stderr, "step %lu flags 0x%x: z_gamma %.9g -> %.9g (u %.9g y %.9g %.9g)\n",
+                        (unsigned long)snapshot.step_count, (unsigned)rep.flags, (double)snapshot.z[IG],
+                        (double)est.z[IG], (double)u, (double)y[0], (double)y[1]);
+            }
+            FZ_CHECK(est.z[IG] == snapshot.z[IG], "frozen gamma carried over");
         }
         if ((rep.flags & CAEKF_FLAG_GAMMA_FROZEN) && est.cfg.switchoff == CAEKF_SWITCHOFF_PAPER &&
             !(rep.flags & (CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED))) {
             for (i = 0; i < N; ++i) {
-                FZ_CHECK(memcmp(&est.P[i][IG], &snapshot.P[i][IG], sizeof est.P[i][IG]) == 0,
-                         "paper switch-off: P's gamma column frozen");
+                FZ_CHECK(est.P[i][IG] == snapshot.P[i][IG], "paper switch-off: P's gamma column frozen");
             }
         }
     } else {

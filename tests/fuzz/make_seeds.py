@@ -206,6 +206,9 @@ def app_seeds(truth):
     e2e += app_truth_steps(truth, 200, 3)
     e2e += app_sealed(3, [0, 0, 0, 0, 0, 0, 0], counter=5) + app_sealed(3, [0] * 7, counter=5)  # jump, dup
     e2e += app_time(20000) + app_truth_steps(truth, 203, 3)  # silence > 10 ms: any counter again
+    # a corrupted frame is not a sign of life: silence still re-syncs the counter
+    e2e += app_time(8000) + app_raw(3, 0, [0x55] * 8) + app_time(8000)
+    e2e += app_sealed(3, [0, 0, 0, 0, 0, 0, 0], counter=11) + app_truth_steps(truth, 206, 2)
     s["e2e-rejections"] = e2e
     # configuration: refusals leave the running configuration alone
     cfg = app_header(status=1) + app_reset_n(1, 1)                                   # nothing configured yet
@@ -235,6 +238,9 @@ def app_seeds(truth):
     lc += bytes([OP_LOCAL_CONFIG, 1, 1, 31, 0, 6])  # highq_scale NaN
     lc += app_truth_steps(truth, 12800, 10)
     s["local-config-variants"] = lc
+    # accepted over CAN although the float build then fails every step (known core issue: scaled Q overflows)
+    s["can-config-scaling-overflow"] = app_header() + paper + app_param(23, -22, 1) + app_param(26, 22, 1) + \
+        app_reset_n(3, 12) + app_truth_steps(truth, 12780, 10)
     return s
 
 

@@ -119,6 +119,35 @@ static void test_bad_settings_are_refused(void)
         TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &bad));
         TEST_ASSERT_EQUAL_STRING("k34", bad);
     }
+    /* Finite settings whose scaled values overflow or underflow in this scalar type (fuzz findings). */
+    {
+        caekf_settings_t b = good;
+#if CAEKF_USE_FLOAT
+        b.sigma_q0 = 1e-22f;
+        b.sigma_qx_q = 1e22f;
+#else
+        b.sigma_q0 = 1e-300;
+        b.sigma_qx_q = 1e10;
+#endif
+        expect_refused(&b, "Q ratio overflows");
+        b = good;
+#if CAEKF_USE_FLOAT
+        b.sigma_r = 1e-22f;
+        b.sigma_q0 = 1e3f; /* (sigma_r / sigma_q0)^2 underflows to 0: R would vanish */
+#else
+        b.sigma_r = 1e-200;
+        b.sigma_q0 = 1e3;
+#endif
+        expect_refused(&b, "R underflows");
+        b = good;
+#if CAEKF_USE_FLOAT
+        b.sigma_v0 = 1e-22f;
+        b.v0[0] = 1e20f;
+#else
+        b.sigma_gamma0 = 1.9e-318; /* subnormal: gamma0 / sigma_gamma0 overflows */
+#endif
+        expect_refused(&b, "scaled state overflows");
+    }
     /* gamma_min above gamma0 is fine when the constraint is off. */
     {
         caekf_settings_t b = good;
