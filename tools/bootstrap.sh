@@ -79,7 +79,8 @@ pkg_installed() {
 install_apt_packages() {
     local pkgs=(cmake ninja-build gcc g++ make python3-venv python3-dev dpkg-dev clang libclang-rt-dev binutils)
     [ "$WANT_ARM" -eq 1 ] && pkgs+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
-    [ "$WANT_HIL" -eq 1 ] && pkgs+=(qemu-system-x86 busybox-static)
+    # busybox-static conflicts with an installed dynamic busybox: tools/vcan-vm/setup.sh handles it
+    [ "$WANT_HIL" -eq 1 ] && pkgs+=(qemu-system-x86 xz-utils)
 
     command -v dpkg-query >/dev/null 2>&1 || die "not a Debian/Ubuntu system (no dpkg-query)"
 

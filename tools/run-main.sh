@@ -1,16 +1,14 @@
 #!/usr/bin/env bash
-# tools/run-main.sh - build the host firmware and run the paper's experiments.
-# Skeleton: bootstrap, build the host-double preset, then hand over to tools/experiments.sh
-# (if present), passing along any arguments.
+# The main job: the HIL demo on the paper's scenario. The firmware application (caekf-host, the same
+# code as the MCU image) estimates on vcan0 while the Python bench drives it over CAN with the truth;
+# the four experiments of SCENARIO.md run back to back, the results are compared with caekf-replay,
+# Figs 3-6 are drawn and the summary table printed. Output: out/hil/ (or the directory given).
+# vcan0: native where the kernel has vcan, otherwise in a throw-away QEMU VM (tools/with-vcan.sh).
+#   tools/run-main.sh [OUT_DIR]
 set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$REPO"
 
-tools/bootstrap.sh
-cmake --preset host-double
-cmake --build --preset host-double
-
-if [ -x tools/experiments.sh ] || [ -f tools/experiments.sh ]; then
-    exec bash tools/experiments.sh "$@"
-fi
-echo "[run-main] tools/experiments.sh not written yet: built build/host-double only"
+tools/bootstrap.sh --hil
+tools/vcan-vm/setup.sh >/dev/null 2>&1 || tools/vcan-vm/setup.sh
+exec tools/hil-main.sh "$@"

@@ -21,8 +21,8 @@ set -uo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$REPO"
 
-BOOTSTRAP_FLAGS=(--arm)
-STAGES=(host-double host-float host-asan pytest cortex-m4f cortex-m7 fuzz)
+BOOTSTRAP_FLAGS=(--arm --hil)
+STAGES=(host-double host-float host-asan pytest cortex-m4f cortex-m7 fuzz hil)
 
 JOBS="${JOBS:-2}"
 VENV_PY="$REPO/.venv/bin/python"
@@ -67,6 +67,13 @@ stage_pytest() {
 # libFuzzer harnesses (tests/fuzz: app frames, estimator settings and inputs), FUZZ_SECONDS (default
 # 20) each from the committed seeds, in build/fuzz with clang. Any finding fails the stage.
 stage_fuzz() { tools/fuzz.sh --seconds "${FUZZ_SECONDS:-20}" --jobs "$JOBS"; }
+
+# The HIL suite (tests/hil): the firmware app on vcan0 driven over CAN by the Python bench, in one
+# vcan session (native vcan0, else one QEMU VM boot). Never skipped: no vcan0 is a failure.
+stage_hil() {
+    tools/vcan-vm/setup.sh
+    tools/hil-tests.sh
+}
 
 # ---- driver -------------------------------------------------------------------------------
 log() { printf '[run-tests] %s\n' "$*"; }

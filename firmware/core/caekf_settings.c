@@ -58,8 +58,20 @@ static const char *scalar_bad(const caekf_settings_t *s)
     return 0;
 }
 
-static int finite_pos(caekf_scalar_t x) { return CAEKF_ISFINITE(x) && x > 0; }
-static caekf_scalar_t squared(caekf_scalar_t x) { return x * x; }
+/* 1 when num/den (squared if `square`, times `factor`) is finite, and > 0 if `positive`. One
+ * out-of-line helper keeps the many checks below small in flash. */
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+static int ratio_ok(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t factor, int square, int positive)
+{
+    caekf_scalar_t r = num / den;
+    if (square) {
+        r *= r;
+    }
+    r *= factor;
+    return CAEKF_ISFINITE(r) && (!positive || r > 0);
+}
 
 /* Values caekf_init derives must be usable in this scalar type too: finite settings can still
  * overflow or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in
@@ -67,23 +79,22 @@ static caekf_scalar_t squared(caekf_scalar_t x) { return x * x; }
 static const char *derived_bad(const caekf_settings_t *s)
 {
     const caekf_model_params_t *m = &s->model;
-    caekf_scalar_t rq = s->sigma_q0 / s->sigma_v0;
     int i;
     for (i = 0; i < CAEKF_NQ; ++i) {
-        if (!CAEKF_ISFINITE(s->q0[i] / s->sigma_q0)) return "q0";
-        if (!CAEKF_ISFINITE(s->v0[i] / s->sigma_v0)) return "v0";
-        if (!finite_pos(m->m[i] / m->dt)) return "m";
+        if (!ratio_ok(s->q0[i], s->sigma_q0, 1, 0, 0)) return "q0";
+        if (!ratio_ok(s->v0[i], s->sigma_v0, 1, 0, 0)) return "v0";
+        if (!ratio_ok(m->m[i], m->dt, 1, 0, 1)) return "m";
     }
-    if (!CAEKF_ISFINITE(m->dt * (m->k1 + m->k12)) || !CAEKF_ISFINITE(m->dt * (m->k34 + m->k4))) return "dt";
-    if (!CAEKF_ISFINITE(s->gamma0 / s->sigma_gamma0)) return "gamma0";
-    if (!CAEKF_ISFINITE(s->gamma_min / s->sigma_gamma0)) return "gamma_min";
-    if (!CAEKF_ISFINITE(squared(s->sigma_qx_q / s->sigma_q0))) return "sigma_qx_q";
-    if (!CAEKF_ISFINITE(squared(s->sigma_qx_v / s->sigma_v0))) return "sigma_qx_v";
-    if (!CAEKF_ISFINITE(s->q_gamma_scale * squared(s->sigma_q_gamma / s->sigma_gamma0))) return "sigma_q_gamma";
-    if (!finite_pos(squared(s->sigma_r / s->sigma_q0))) return "sigma_r";
+    if (!ratio_ok(m->k1 + m->k12 + m->k34 + m->k4, 1, m->dt, 0, 1)) return "dt";
+    if (!ratio_ok(s->gamma0, s->sigma_gamma0, 1, 0, 0)) return "gamma0";
+    if (!ratio_ok(s->gamma_min, s->sigma_gamma0, 1, 0, 0)) return "gamma_min";
+    if (!ratio_ok(s->sigma_qx_q, s->sigma_q0, 1, 1, 0)) return "sigma_qx_q";
+    if (!ratio_ok(s->sigma_qx_v, s->sigma_v0, 1, 1, 0)) return "sigma_qx_v";
+    if (!ratio_ok(s->sigma_q_gamma, s->sigma_gamma0, s->q_gamma_scale, 1, 0)) return "sigma_q_gamma";
+    if (!ratio_ok(s->sigma_r, s->sigma_q0, 1, 1, 1)) return "sigma_r";
     /* The scaled transition S^-1 F S multiplies by these ratios. */
-    if (!finite_pos(rq) || !finite_pos(1 / rq) || !finite_pos(m->dt / rq) ||
-        !finite_pos(s->sigma_gamma0 / s->sigma_v0)) {
+    if (!ratio_ok(s->sigma_q0, s->sigma_v0, 1, 0, 1) || !ratio_ok(s->sigma_v0, s->sigma_q0, m->dt, 0, 1) ||
+        !ratio_ok(s->sigma_gamma0, s->sigma_v0, 1, 0, 1)) {
         return "sigma_v0";
     }
     return 0;

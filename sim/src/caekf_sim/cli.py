@@ -15,6 +15,7 @@ from typing import List, Optional
 COMMAND_MODULES = (
     "caekf_sim.commands.run",  # truth, estimate, experiments
     "caekf_sim.commands.report",  # plot, observability, filterpy-check, truth-diff
+    "caekf_sim.commands.bench",  # hil run, hil replay-log, bench (CAN HIL bench)
 )
 
 

@@ -1,0 +1,655 @@
+"""The HIL bench: configures the estimator over CAN and drives it with a recorded truth.
+
+One `Bench` per bus and process: it owns the bench's E2E alive counters (continuous over every
+experiment, so the four experiments run back to back without restarting caekf-host), the request
+tokens, and an optional journal of every frame sent and received (written as a `candump -L` log).
+
+Runs:
+- `run_lockstep`: send step k's three input frames, wait for its EST_STEP (the last estimate frame)
+  with a timeout, go on. `window` > 1 keeps up to that many steps in flight (pipelined lockstep:
+  the estimator handles frames in order, so the estimates are the same; only the bus round trips
+  overlap). A step whose EST_STEP does not come within `timeout` is counted and given up: the loop
+  never hangs.
+- `run_realtime`: send step k at t0 + k*dt whatever the estimator does (with flow control: at most
+  `max_in_flight` steps unanswered), record when each EST_STEP comes back, and report latency
+  percentiles and deadline misses (`latency_stats`).
+
+The hot loops touch only bytes: input frames are encoded and sealed for the whole run with numpy
+before it starts (`prepare`, `seal_steps`), received frames are appended as raw records and decoded
+after the run (`decode_run`), which also checks their E2E protection.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from array import array
+from dataclasses import dataclass, field
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import e2e
+from .codec import ESTIMATE_MESSAGES, RECORD, RECORD_SIZE, RESULT_SIGNALS, Codec, records_array
+from .transport import Transport, make_transport, open_bus
+
+STEP_MOD = 1 << 16
+E2E_FIELDS = ("E2E_CRC", "E2E_COUNTER")
+HIGHQ_SCALE = 1000.0  # Sec. 4.2: Q_gamma x 1000 (the estimator's default; sent explicitly)
+
+
+class BenchError(RuntimeError):
+    pass
+
+
+class ConfigRefused(BenchError):
+    def __init__(self, status: int, status_name: str, bad_param: str) -> None:
+        super().__init__(f"configuration refused: {status_name} ({status}), parameter {bad_param}")
+        self.status, self.status_name, self.bad_param = status, status_name, bad_param
+
+
+@dataclass
+class Ack:
+    token: int
+    status: int
+    status_name: str
+    bad_param: int
+    experiment: int
+    n_params_rx: int
+    state: int
+
+
+@dataclass
+class StepInputs:
+    """A run's inputs: t, u, y as given, their frames' payloads (unsealed) and what the
+    estimator decodes from them (u_seen: float32(u); y_seen: y rounded to the 1e-12 m LSB)."""
+
+    t: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    wire_steps: np.ndarray  # STEP field per row: sample number k = row + 1, modulo 2^16
+    payloads: Dict[str, np.ndarray]  # BENCH_U/Y1/Y4 -> (n, 8) uint8, E2E fields zero
+    u_seen: np.ndarray
+    y_seen: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+@dataclass
+class RunRecord:
+    """What one run sent and received (raw), decoded later by `decode_run`."""
+
+    start: int
+    stop: int
+    mode: str = "lockstep"
+    window: int = 1
+    chunks: List[bytes] = field(default_factory=list)
+    timeouts: int = 0
+    elapsed: float = 0.0
+    t_sent: Optional[np.ndarray] = None  # realtime: perf_counter after the step's frames went out
+    t_rx: Optional[np.ndarray] = None  # realtime: perf_counter when its EST_STEP was read
+    late_sends: int = 0  # realtime: steps the bench itself sent more than dt late
+    held: int = 0  # realtime: steps held back because max_in_flight were unanswered
+    aborted: bool = False  # lockstep: gave up after too many timeouts in a row
+    dt: float = float("nan")
+
+    @property
+    def n(self) -> int:
+        return self.stop - self.start
+
+
+@dataclass
+class Decoded:
+    """Estimates of rows [start, stop) as decoded from CAN; NaN where a frame never came."""
+
+    columns: Dict[str, np.ndarray]
+    complete: np.ndarray  # bool per row: all 12 estimate frames received
+    step_status: np.ndarray
+    bad_crc: int = 0
+    bad_dlc: int = 0
+    counter_duplicates: int = 0
+    counter_jumps: int = 0
+    counter_lost: int = 0
+    duplicated_steps: int = 0
+    foreign_steps: int = 0  # estimate frames whose STEP maps outside the run
+    frames: int = 0
+
+
+def _now() -> float:
+    return time.perf_counter()
+
+
+class Bench:
+    """Bench side of the caekf CAN protocol over one python-can bus."""
+
+    def __init__(self, transport: Transport, codec: Optional[Codec] = None, record_log: bool = False,
+                 channel: str = "vcan0") -> None:
+        self.codec = codec or Codec()
+        self.transport = transport
+        self.channel = channel
+        self.tx_counter: Dict[str, int] = {m.name: 0 for m in self.codec.messages.values() if m.to_estimator}
+        self.token = (os.getpid() * 7) & 0xFF
+        self.journal: Optional[List[Tuple[float, int, bytes]]] = [] if record_log else None
+        self.wall_offset = time.time() - _now()
+        self.rx_bad_crc = 0  # control frames from the estimator that failed the CRC
+        self._est_step_pat = RECORD.pack(self.codec.messages["EST_STEP"].frame_id, 8, bytes(8))[:5]
+        self._ack_id = self.codec.messages["EST_ACK"].frame_id
+        self._health_id = self.codec.messages["EST_HEALTH"].frame_id
+
+    @classmethod
+    def open(cls, interface: str = "socketcan", channel: str = "vcan0", fast: bool = True,
+             record_log: bool = False, codec: Optional[Codec] = None, **bus_kwargs) -> "Bench":
+        codec = codec or Codec()
+        bus = open_bus(interface, channel, **bus_kwargs)
+        return cls(make_transport(bus, codec.from_estimator_ids, fast=fast), codec, record_log, channel)
+
+    def close(self) -> None:
+        self.transport.close()
+        bus = getattr(self.transport, "bus", None)
+        if bus is not None:
+            bus.shutdown()
+
+    def __enter__(self) -> "Bench":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # --- frames ---------------------------------------------------------------------------
+
+    def frame(self, name: str, values: Mapping[str, float], counter: Optional[int] = None,
+              advance: bool = True, dlc: Optional[int] = None) -> bytes:
+        """One sealed record of `name` encoded by cantools. The counter is the message's next one
+        unless given; `advance` moves the message's counter past the one used."""
+        c = self.tx_counter[name] if counter is None else counter
+        data = self.codec.encode(name, values, c)
+        if advance:
+            self.tx_counter[name] = (c + 1) & 15
+        if dlc is not None:
+            return self.codec.record(name, data[:dlc], dlc)
+        return self.codec.record(name, data)
+
+    def send(self, blob: bytes) -> None:
+        self.transport.send(blob)
+        if self.journal is not None:
+            self.journal.append((_now(), 0, blob))
+
+    def recv(self, timeout: float) -> bytes:
+        blob = self.transport.recv(timeout)
+        if blob and self.journal is not None:
+            self.journal.append((_now(), 1, blob))
+        return blob
+
+    def drain(self) -> int:
+        n = 0
+        while True:
+            blob = self.recv(0.0)
+            if not blob:
+                return n
+            n += len(blob) // RECORD_SIZE
+
+    def _next_token(self) -> int:
+        self.token = (self.token + 1) & 0xFF
+        return self.token
+
+    def _control_frames(self, blob: bytes) -> Iterable[Tuple[int, bytes]]:
+        for off in range(0, len(blob), RECORD_SIZE):
+            fid, dlc, data = RECORD.unpack_from(blob, off)
+            if fid in (self._ack_id, self._health_id):
+                info = self.codec.by_id[fid]
+                if dlc != 8 or not e2e.crc_ok(info.data_id, data):
+                    self.rx_bad_crc += 1
+                    continue
+                yield fid, data
+
+    def _decode_ack(self, data: bytes) -> Ack:
+        d = self.codec.decode(self._ack_id, data)
+        st = int(d["ACK_STATUS"])
+        return Ack(int(d["TOKEN"]), st, self.codec.ack_status_names.get(st, str(st)), int(d["BAD_PARAM"]),
+                   int(d["EXPERIMENT"]), int(d["N_PARAMS_RX"]), int(d["STATE"]))
+
+    def _await_ack(self, token: int, timeout: float, health: bool = False):
+        """Wait for EST_ACK with this token (and, with health, the EST_HEALTH pages after it)."""
+        end = _now() + timeout
+        ack = None
+        pages: Dict[int, Dict[str, int]] = {}
+        while _now() < end:
+            blob = self.recv(max(0.001, end - _now()))
+            for fid, data in self._control_frames(blob):
+                if fid == self._ack_id and ack is None:
+                    a = self._decode_ack(data)
+                    if a.token == token:
+                        ack = a
+                elif fid == self._health_id and ack is not None and health:
+                    d = self.codec.decode(fid, data)
+                    page = int(d.pop("PAGE"))
+                    pages.setdefault(page, {k: int(v) for k, v in d.items() if k not in E2E_FIELDS})
+            if ack is not None and (not health or len(pages) >= self.codec.health_pages):
+                break
+        return ack, pages
+
+    # --- control ----------------------------------------------------------------------------
+
+    def status(self, timeout: float = 2.0, retries: int = 3) -> Dict[str, int]:
+        """CTRL_STATUS_REQ -> EST_ACK + every EST_HEALTH page: the estimator's counters."""
+        for _ in range(retries):
+            token = self._next_token()
+            self.send(self.frame("CTRL_STATUS_REQ", {"TOKEN": token}))
+            ack, pages = self._await_ack(token, timeout, health=True)
+            if ack is not None and len(pages) >= self.codec.health_pages:
+                out: Dict[str, int] = {}
+                for p in sorted(pages):
+                    out.update(pages[p])
+                out["_state"] = ack.state
+                out["_experiment"] = ack.experiment
+                return out
+        raise BenchError(f"no status reply from the estimator after {retries} requests "
+                         f"({timeout:g} s each): is caekf-host running on {self.channel}?")
+
+    def wait_for_estimator(self, timeout: float = 10.0) -> Dict[str, int]:
+        """Status requests until the estimator answers (it may still be starting)."""
+        end = _now() + timeout
+        while True:
+            try:
+                return self.status(timeout=0.5, retries=1)
+            except BenchError:
+                if _now() > end:
+                    raise BenchError(f"the estimator did not answer on {self.channel} within {timeout:g} s "
+                                     "(is caekf-host running on this interface?)") from None
+
+    def params_from_scenario(self, sc) -> List[Tuple[str, float]]:
+        """Every CTRL_PARAM the scenario defines (names = scenario keys), the initial state
+        (at rest: q0 = v0 = 0) and highq_scale, in PARAM_ID order."""
+        values: Dict[str, float] = {}
+        for name in self.codec.param_ids:
+            if hasattr(sc, name):
+                values[name] = float(getattr(sc, name))
+        for i in range(1, 5):
+            values.setdefault(f"q0_{i}", 0.0)
+            values.setdefault(f"v0_{i}", 0.0)
+        values.setdefault("highq_scale", HIGHQ_SCALE)
+        return sorted(values.items(), key=lambda kv: self.codec.param_ids[kv[0]])
+
+    def param_frame(self, name: str, value: float) -> bytes:
+        mant, exp10 = e2e.to_mantissa_exp10(value)
+        return self.frame("CTRL_PARAM", {"PARAM_ID": self.codec.param_ids[name], "PARAM_EXP10": exp10,
+                                         "PARAM_MANTISSA": mant})
+
+    def configure(self, experiment: str, params: Sequence[Tuple[str, float]] = (), timeout: float = 2.0,
+                  retries: int = 4) -> Ack:
+        """CTRL_PARAM x len(params), CTRL_RESET(experiment, N_PARAMS), EST_ACK; retried when the
+        answer is missing or INCOMPLETE (a parameter frame lost or rejected), raises on refusal."""
+        exp_id = self.codec.experiment_ids[experiment]
+        last = "no answer"
+        for _ in range(retries):
+            self.drain()
+            blob = b"".join(self.param_frame(n, v) for n, v in params)
+            token = self._next_token()
+            blob += self.frame("CTRL_RESET", {"EXPERIMENT": exp_id, "N_PARAMS": len(params), "TOKEN": token})
+            self.send(blob)
+            ack, _ = self._await_ack(token, timeout)
+            if ack is None:
+                last = f"no EST_ACK within {timeout:g} s"
+                continue
+            if ack.status == 0:
+                return ack
+            last = f"{ack.status_name} (n_params_rx {ack.n_params_rx} of {len(params)})"
+            if ack.status_name != "REFUSED_INCOMPLETE":
+                bad = {v: k for k, v in self.codec.param_ids.items()}.get(ack.bad_param, str(ack.bad_param))
+                raise ConfigRefused(ack.status, ack.status_name, bad)
+        raise BenchError(f"configuring {experiment} failed after {retries} attempts: {last}")
+
+    # --- inputs ---------------------------------------------------------------------------
+
+    def prepare(self, t, u, y, check: bool = True) -> StepInputs:
+        """Encode every step's input frames once (numpy, from the DBC); checked against cantools."""
+        t = np.asarray(t, dtype=float)
+        u = np.asarray(u, dtype=float)
+        y = np.asarray(y, dtype=float).reshape(-1, 2)
+        n = len(t)
+        steps = (np.arange(1, n + 1) % STEP_MOD).astype(np.int64)
+        cols = {"BENCH_U": ("U", u), "BENCH_Y1": ("Y1", y[:, 0]), "BENCH_Y4": ("Y4", y[:, 1])}
+        payloads = {}
+        seen = {}
+        for name, (sig, v) in cols.items():
+            payloads[name] = self.codec.pack(name, {"STEP": steps, sig: v}, counters=0)
+            payloads[name][:, 0] = 0
+            seen[name] = self.codec.unpack(name, payloads[name], [sig])[sig]
+        if check and n:
+            rows = sorted({0, n // 2, n - 1})
+            self.codec.self_check([(name, {"STEP": int(steps[r]), sig: float(v[r])})
+                                   for r in rows for name, (sig, v) in cols.items()])
+        return StepInputs(t, u, y, steps, payloads, seen["BENCH_U"],
+                          np.column_stack([seen["BENCH_Y1"], seen["BENCH_Y4"]]))
+
+    def seal_steps(self, inputs: StepInputs, start: int, stop: int, order=("BENCH_U", "BENCH_Y1", "BENCH_Y4"),
+                   extra: bytes = b"") -> List[bytes]:
+        """Sealed records of rows [start, stop), one bytes blob per step (its three frames, after
+        `extra`), with the bench's counters, which move on past them."""
+        n = stop - start
+        if n <= 0:
+            return []
+        recs = np.zeros((n, len(order), RECORD_SIZE), dtype=np.uint8)
+        for j, name in enumerate(order):
+            info = self.codec.messages[name]
+            c0 = self.tx_counter[name]
+            counters = (c0 + np.arange(n)) & 15
+            sealed = e2e.seal_np(info.data_id, counters, inputs.payloads[name][start:stop])
+            recs[:, j, 0:4] = np.frombuffer(RECORD.pack(info.frame_id, 8, bytes(8))[:4], np.uint8)
+            recs[:, j, 4] = 8
+            recs[:, j, 8:] = sealed
+            self.tx_counter[name] = int((c0 + n) & 15)
+        flat = recs.tobytes()
+        size = len(order) * RECORD_SIZE
+        if extra:
+            return [extra + flat[i:i + size] for i in range(0, len(flat), size)]
+        return [flat[i:i + size] for i in range(0, len(flat), size)]
+
+    # --- runs -----------------------------------------------------------------------------
+
+    def _step_of(self, chunk: bytes, p: int) -> int:
+        return (chunk[p + 9] >> 4) | (chunk[p + 10] << 4) | ((chunk[p + 11] & 0x0F) << 12)
+
+    def _last_est_step(self, chunk: bytes) -> int:
+        """STEP of the last EST_STEP record in a chunk, -1 if none."""
+        pat = self._est_step_pat
+        p = chunk.rfind(pat)
+        while p >= 0 and p % RECORD_SIZE:
+            p = chunk.rfind(pat, 0, p + len(pat) - 1)  # a match inside data bytes: look further back
+        return self._step_of(chunk, p) if p >= 0 else -1
+
+    def run_lockstep(self, inputs: StepInputs, start: int = 0, stop: Optional[int] = None, window: int = 1,
+                     timeout: float = 1.0, progress: Optional[bool] = None, extra_per_step: bytes = b"",
+                     record: Optional[RunRecord] = None, desc: str = "lockstep", batch_sched: bool = True,
+                     max_timeouts_in_a_row: int = 20) -> RunRecord:
+        """Send rows [start, stop) in lockstep (see the module docstring).
+
+        batch_sched: run the loop as SCHED_BATCH (Linux), so that each estimate frame arriving
+        does not preempt the estimator to wake the bench (on one CPU, e.g. the TCG VM, that
+        would cost a context switch per frame); the bench then reads a step's frames at once.
+        After max_timeouts_in_a_row timeouts in a row the estimator is taken to be gone: the rest
+        of the run is counted as timed out (rec.aborted) instead of waiting `timeout` per step."""
+        with _batch_scheduling(batch_sched):
+            return self._run_lockstep(inputs, start, stop, window, timeout, progress, extra_per_step, record, desc,
+                                      max_timeouts_in_a_row)
+
+    def _run_lockstep(self, inputs, start, stop, window, timeout, progress, extra_per_step, record, desc,
+                      max_timeouts_in_a_row):
+        stop = len(inputs) if stop is None else stop
+        rec = record or RunRecord(start, stop, "lockstep", window)
+        blobs = self.seal_steps(inputs, start, stop, extra=extra_per_step)
+        wire = inputs.wire_steps[start:stop].tolist()
+        n = len(blobs)
+        send, recv = self.transport.send, self.transport.recv
+        journal = self.journal
+        last_est_step = self._last_est_step
+        chunks = rec.chunks
+        window = max(1, int(window))
+        bar = _progress_bar(n, desc, progress)
+        done = sent = timeouts = streak = 0
+        max_streak = max(1, int(max_timeouts_in_a_row))
+        shown = 0
+        t0 = _now()
+        progress_at = t0
+        while done < n:
+            while sent < n and sent - done < window:
+                send(blobs[sent])
+                if journal is not None:
+                    journal.append((_now(), 0, blobs[sent]))
+                sent += 1
+            chunk = recv(timeout)
+            if chunk:
+                chunks.append(chunk)
+                if journal is not None:
+                    journal.append((_now(), 1, chunk))
+                s = last_est_step(chunk)
+                if s >= 0:
+                    d = (wire[sent - 1] - s) & 0xFFFF  # steps between the newest sent and this one
+                    if d < sent - done:
+                        done = sent - d
+                        streak = 0
+                        progress_at = _now()
+                        if bar is not None and done - shown >= 250:
+                            bar.update(done - shown)
+                            shown = done
+                        continue
+            if _now() - progress_at >= timeout:  # the oldest step in flight never came back
+                timeouts += 1
+                streak += 1
+                done += 1
+                progress_at = _now()
+                if streak >= max_streak:  # the estimator is gone: give up the rest, do not wait on
+                    rec.aborted = True
+                    timeouts += n - done
+                    done = n
+        rec.elapsed += _now() - t0
+        rec.timeouts += timeouts
+        # estimates still on their way (a timed-out step answered late): collect briefly
+        tail = recv(0.0)
+        if tail:
+            chunks.append(tail)
+            if journal is not None:
+                journal.append((_now(), 1, tail))
+        if bar is not None:
+            bar.update(n - shown)
+            bar.close()
+        return rec
+
+    def run_realtime(self, inputs: StepInputs, dt: float, start: int = 0, stop: Optional[int] = None,
+                     grace: float = 1.0, progress: Optional[bool] = None, desc: str = "realtime",
+                     batch_sched: bool = True, max_in_flight: int = 32) -> RunRecord:
+        """Send row k at t0 + k*dt and time each step's EST_STEP.
+
+        If the bench falls behind it sends the overdue steps at once, but never has more than
+        `max_in_flight` steps unanswered (an answer older than `grace` counts as lost): an
+        overloaded machine (the TCG VM at 1 kHz) then shows up as late sends, latency and deadline
+        misses, not as frames dropped by the estimator's full receive queue, which would make it
+        skip steps and leave the truth for the rest of the run. Sends held back are counted (held).
+        batch_sched as in run_lockstep: the bench does not preempt the estimator at each of its
+        frames, and EST_STEP is its last frame, so the latency measured to it does not suffer."""
+        with _batch_scheduling(batch_sched):
+            return self._run_realtime(inputs, dt, start, stop, grace, progress, desc, max(1, int(max_in_flight)))
+
+    def _run_realtime(self, inputs, dt, start, stop, grace, progress, desc, max_in_flight):
+        stop = len(inputs) if stop is None else stop
+        rec = RunRecord(start, stop, "realtime", 0, dt=dt)
+        blobs = self.seal_steps(inputs, start, stop)
+        wire = inputs.wire_steps[start:stop].tolist()
+        n = len(blobs)
+        t_sent = array("d", bytes(8 * n))
+        t_rx = array("d", bytes(8 * n))
+        send, recv, wait = self.transport.send, self.transport.recv, self.transport.wait_readable
+        journal = self.journal
+        pat = self._est_step_pat
+        chunks = rec.chunks
+        bar = _progress_bar(n, desc, progress)
+        shown = 0
+        sent = answered = late = held = oldest = 0
+        held_step = -1
+        t0 = _now() + 0.01
+        end = None
+        while True:
+            now = _now()
+            if sent < n:
+                due = t0 + sent * dt
+                while oldest < sent and (t_rx[oldest] != 0.0 or now - t_sent[oldest] > grace):
+                    oldest += 1  # answered, or given up on
+                if now >= due and sent - oldest >= max_in_flight:
+                    if held_step != sent:  # flow control: wait for answers instead of piling up
+                        held += 1
+                        held_step = sent
+                    wait_s = min(dt, 0.001)
+                elif now >= due:
+                    send(blobs[sent])
+                    ts = _now()
+                    t_sent[sent] = ts
+                    if journal is not None:
+                        journal.append((ts, 0, blobs[sent]))
+                    if ts - due > dt:
+                        late += 1
+                    sent += 1
+                    if bar is not None and sent - shown >= 250:
+                        bar.update(sent - shown)
+                        shown = sent
+                    continue
+                else:
+                    wait_s = due - now
+            else:
+                if end is None:
+                    end = now + grace
+                if answered >= n or now >= end:
+                    break
+                wait_s = end - now
+            if not wait(wait_s):
+                continue
+            chunk = recv(0.0)
+            if not chunk:
+                continue
+            tr = _now()
+            chunks.append(chunk)
+            if journal is not None:
+                journal.append((tr, 1, chunk))
+            p = chunk.find(pat) if sent else -1
+            while p >= 0:
+                if p % RECORD_SIZE == 0:
+                    s = self._step_of(chunk, p)
+                    i = sent - 1 - ((wire[sent - 1] - s) & 0xFFFF)
+                    if 0 <= i < n and t_rx[i] == 0.0:
+                        t_rx[i] = tr
+                        answered += 1
+                p = chunk.find(pat, p + 1)
+        rec.elapsed = _now() - t0
+        ts_arr = np.frombuffer(t_sent, dtype=float).copy()
+        tr_arr = np.frombuffer(t_rx, dtype=float).copy()
+        tr_arr[tr_arr == 0.0] = np.nan
+        rec.t_sent, rec.t_rx = ts_arr, tr_arr
+        rec.late_sends = late
+        rec.held = held
+        rec.timeouts = int(np.sum(np.isnan(tr_arr)))
+        if bar is not None:
+            bar.update(n - shown)
+            bar.close()
+        return rec
+
+    # --- decoding --------------------------------------------------------------------------
+
+    def decode_run(self, rec: RunRecord, inputs: StepInputs) -> Decoded:
+        """Decode and E2E-check every estimate frame of a run, placed by STEP into rows."""
+        n = rec.n
+        cols = {c: np.full(n, np.nan) for c in RESULT_SIGNALS}
+        have = np.zeros((len(ESTIMATE_MESSAGES), n), dtype=bool)
+        status = np.zeros(n, dtype=np.int64)
+        out = Decoded(cols, np.zeros(n, dtype=bool), status)
+        if not rec.chunks or n == 0:
+            return out
+        recs = records_array(b"".join(rec.chunks))
+        out.frames = len(recs)
+        ids = recs["id"].astype(np.int64)
+        data = recs["data"]
+        ok_dlc = recs["dlc"] == 8
+        out.bad_dlc = int(np.sum(~ok_dlc & np.isin(ids, self.codec.from_estimator_ids)))
+        first_wire = int(inputs.wire_steps[rec.start])
+        for j, name in enumerate(ESTIMATE_MESSAGES):
+            info = self.codec.messages[name]
+            sel = (ids == info.frame_id) & ok_dlc
+            if not sel.any():
+                continue
+            d = data[sel]
+            good = e2e.e2e_crc_np(info.data_id, d) == d[:, 0]
+            out.bad_crc += int(np.sum(~good))
+            d = d[good]
+            dup, jump, lost = e2e.counter_errors_np(d[:, 1] & 15)
+            out.counter_duplicates += dup
+            out.counter_jumps += jump
+            out.counter_lost += lost
+            sigs = [s for s in info.signals if s not in E2E_FIELDS]
+            vals = self.codec.unpack(name, d, sigs)
+            steps = vals["STEP"].astype(np.int64)
+            # rows in arrival order: unwrap STEP (mod 2^16) relative to the run's first step
+            k = np.empty(len(steps), dtype=np.int64)
+            k[0] = (steps[0] - first_wire) & 0xFFFF
+            if len(steps) > 1:
+                diff = (np.diff(steps) + 0x8000) % STEP_MOD - 0x8000
+                k[1:] = k[0] + np.cumsum(diff)
+            inside = (k >= 0) & (k < n)
+            out.foreign_steps += int(np.sum(~inside))
+            k_in = k[inside]
+            uniq, first_idx = np.unique(k_in, return_index=True)
+            if j == 0:
+                out.duplicated_steps += len(k_in) - len(uniq)
+            have[j, uniq] = True
+            for col, (msg, sig) in RESULT_SIGNALS.items():
+                if msg == name:
+                    cols[col][uniq] = vals[sig][inside][first_idx]
+            if name == "EST_STEP":
+                status[uniq] = vals["STEP_STATUS"][inside][first_idx]
+        out.complete = have.all(axis=0)
+        return out
+
+    # --- bus log --------------------------------------------------------------------------
+
+    def write_log(self, path, clear: bool = True) -> int:
+        """Write the journal as a `candump -L` log with python-can's CanutilsLogWriter."""
+        from .buslog import write_journal
+
+        if self.journal is None:
+            raise BenchError("this bench was opened without record_log")
+        n = write_journal(self.journal, path, self.channel, self.wall_offset)
+        if clear:
+            self.journal.clear()
+        return n
+
+
+class _batch_scheduling:
+    """Context manager: this process is SCHED_BATCH inside (no-op where unsupported)."""
+
+    def __init__(self, enable: bool) -> None:
+        self.enable = enable and hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_BATCH")
+        self.prev = None
+
+    def __enter__(self):
+        if self.enable:
+            try:
+                self.prev = os.sched_getscheduler(0)
+                os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+            except OSError:
+                self.prev = None
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.prev is not None:
+            try:
+                os.sched_setscheduler(0, self.prev, os.sched_param(0))
+            except OSError:
+                pass
+
+
+def _progress_bar(total: int, desc: str, progress: Optional[bool]):
+    """tqdm on a TTY (or when asked); None otherwise (no cost in the loops)."""
+    if progress is None:
+        progress = sys.stderr.isatty()
+    if not progress:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=total, desc=desc, unit="step", mininterval=0.5, leave=False)
+
+
+def latency_stats(rec: RunRecord) -> Dict[str, float]:
+    """Latency (EST_STEP read - input frames sent) percentiles in seconds, and deadline misses
+    (an estimate later than one period dt after its inputs, or never)."""
+    if rec.t_sent is None or rec.t_rx is None:
+        return {}
+    lat = rec.t_rx - rec.t_sent
+    got = np.isfinite(lat)
+    out = {"steps": float(rec.n), "answered": float(got.sum()), "late_sends": float(rec.late_sends),
+           "held": float(rec.held)}
+    if got.any():
+        lg = lat[got]
+        out.update(p50=float(np.percentile(lg, 50)), p99=float(np.percentile(lg, 99)), max=float(lg.max()),
+                   mean=float(lg.mean()))
+    out["misses"] = float(np.sum(~got) + np.sum(lat[got] > rec.dt))
+    return out

@@ -1,0 +1,330 @@
+"""HIL results: estimates decoded from CAN -> the caekf-replay CSV columns, the summary table,
+the figures (caekf_sim.plots) and the comparison with caekf-replay on the same inputs."""
+from __future__ import annotations
+
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .. import flags as fl
+from ..estimator import EstimateResult
+from .bench import Ack, Decoded, RunRecord, StepInputs, latency_stats
+from .codec import RESULT_SIGNALS, Codec
+
+PathLike = Union[str, Path]
+COUNTER_MOD = 1 << 24
+APP_FLAGS = {1 << 12: "saturated", 1 << 13: "step_gap", 1 << 14: "p_norm_unavailable"}
+# EST_HEALTH counters that mean something went wrong on the bus or in the estimator
+ERROR_COUNTERS = ("RX_UNKNOWN_ID", "RX_BAD_DLC", "RX_BAD_CRC", "RX_COUNTER_JUMP", "RX_DUPLICATE", "RX_LOST",
+                  "RX_BAD_VALUE", "RX_UNCONFIGURED", "RX_LATE", "RX_REPEATED", "RX_HAL_ERROR", "STEPS_FAILED",
+                  "STEPS_TIMED_OUT", "STEPS_SUPERSEDED", "STEPS_SKIPPED", "TX_ERRORS", "TX_SATURATED")
+CORE_FLAG_MASK = 0x0FFF
+
+
+def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")) -> EstimateResult:
+    """The complete rows of a decoded run as an EstimateResult (the caekf-replay columns)."""
+    m = dec.complete
+    c = dec.columns
+    x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
+    return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
+                          flags=c["flags"][m].astype(np.int64), newton_iters=c["newton_iters"][m].astype(np.int64),
+                          wall_time=wall_time)
+
+
+def health_delta(before: Dict[str, int], after: Dict[str, int]) -> Dict[str, int]:
+    return {k: (after[k] - before.get(k, 0)) % COUNTER_MOD for k in after if not k.startswith("_")}
+
+
+def describe_flags(bits: int) -> str:
+    names = fl.describe(bits & CORE_FLAG_MASK) + [n for b, n in APP_FLAGS.items() if bits & b]
+    return ",".join(names) or "-"
+
+
+@dataclass
+class HilRun:
+    """One experiment over CAN."""
+
+    experiment: str
+    inputs: StepInputs
+    record: RunRecord
+    decoded: Decoded
+    health_before: Dict[str, int] = field(default_factory=dict)
+    health_after: Dict[str, int] = field(default_factory=dict)
+    ack: Optional[Ack] = None
+
+    @property
+    def rows(self) -> slice:
+        return slice(self.record.start, self.record.stop)
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.inputs.t[self.rows]
+
+    @property
+    def result(self) -> EstimateResult:
+        return estimate_result(self.decoded, self.t, self.record.elapsed)
+
+    @property
+    def health(self) -> Dict[str, int]:
+        return health_delta(self.health_before, self.health_after) if self.health_after else {}
+
+    @property
+    def bus_errors(self) -> Dict[str, int]:
+        h = self.health
+        return {k: h[k] for k in ERROR_COUNTERS if h.get(k, 0)}
+
+    @property
+    def steps_per_second(self) -> float:
+        return self.record.n / self.record.elapsed if self.record.elapsed > 0 else float("nan")
+
+    @property
+    def latency(self) -> Dict[str, float]:
+        return latency_stats(self.record)
+
+
+def _fmt_errors(d: Dict[str, int]) -> str:
+    return ",".join(f"{k}={v}" for k, v in d.items()) or "none"
+
+
+SUMMARY_HEADER = ["experiment", "steps ok", "final gamma err", "min gamma", "max ||P||", "newton mean", "max",
+                  "flags seen", "timeouts", "estimator error counters", "steps/s"]
+
+
+def summary_row(run: HilRun, gamma_true: float) -> List[str]:
+    r = run.result
+    g = r.gamma
+    fin = g[np.isfinite(g)]
+    pn = r.p_norm[np.isfinite(r.p_norm)]
+    return [
+        run.experiment,
+        f"{int(run.decoded.complete.sum())}/{run.record.n}",
+        f"{100 * (g[-1] / gamma_true - 1):+.3f} %" if len(g) else "-",
+        f"{fin.min():.4g}" if fin.size else "-",
+        f"{pn.max():.3g}" if pn.size else "-",
+        f"{r.newton_iters.mean():.3f}" if len(g) else "-",
+        str(int(r.newton_iters.max())) if len(g) else "-",
+        describe_flags(int(np.bitwise_or.reduce(r.flags))) if len(g) else "-",
+        str(run.record.timeouts),
+        _fmt_errors(run.bus_errors) if run.health_after else "?",
+        f"{run.steps_per_second:.0f}",
+    ]
+
+
+def format_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    cells = [list(header)] + [list(r) for r in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def format_summary(runs: Sequence[HilRun], gamma_true: float) -> str:
+    lines = [format_table(SUMMARY_HEADER, [summary_row(r, gamma_true) for r in runs])]
+    for r in runs:
+        d = r.decoded
+        bench_side = (f"bench-side E2E of {d.frames} received frames: bad CRC {d.bad_crc}, bad DLC {d.bad_dlc}, "
+                      f"counter duplicates {d.counter_duplicates}, jumps {d.counter_jumps}")
+        lines.append(f"{r.experiment}: {r.record.mode}"
+                     + (f" (window {r.record.window})" if r.record.mode == "lockstep" else "")
+                     + f", {r.record.elapsed:.1f} s; {bench_side}")
+        lat = r.latency
+        if lat:
+            lines.append(format_latency(r.experiment, lat, r.record.dt))
+    return "\n".join(lines)
+
+
+def format_latency(name: str, lat: Dict[str, float], dt: float) -> str:
+    if "p50" not in lat:
+        return f"{name}: no estimate came back"
+    return (f"{name}: latency inputs sent -> EST_STEP read: p50 {1e6 * lat['p50']:.0f} us, "
+            f"p99 {1e6 * lat['p99']:.0f} us, max {1e6 * lat['max']:.0f} us; deadline (dt = "
+            f"{1e3 * dt:g} ms) misses {int(lat['misses'])} of {int(lat['steps'])}; answered "
+            f"{int(lat['answered'])}; bench sends later than dt: {int(lat['late_sends'])} (held back by flow control: "
+            f"{int(lat.get('held', 0))})")
+
+
+def write_outputs(runs: Sequence[HilRun], outdir: PathLike, gamma_true: float, gamma_min: float, truth=None,
+                  header: str = "", figures: bool = True) -> Tuple[str, List[Path]]:
+    """<experiment>.csv per run, summary.txt, and the figures whose experiments are present."""
+    from ..results import write_result_csv
+
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    results = {}
+    for r in runs:
+        res = r.result
+        write_result_csv(res, out / f"{r.experiment}.csv")
+        results[r.experiment] = res
+    text = (header + "\n" if header else "") + format_summary(runs, gamma_true)
+    (out / "summary.txt").write_text(text + "\n", encoding="utf-8")
+    pngs: List[Path] = []
+    if figures and truth is not None:
+        from ..plots import make_all
+
+        pngs = make_all(results, truth, gamma_true, gamma_min, out)
+    return text, pngs
+
+
+# --- comparison with caekf-replay ------------------------------------------------------------
+
+def write_seen_inputs(path: PathLike, inputs: StepInputs, start: int = 0, stop: Optional[int] = None) -> Path:
+    """t,u,y1,y4 exactly as the estimator decoded them from the frames (float32 u, y on the LSB)."""
+    stop = len(inputs) if stop is None else stop
+    arr = np.column_stack([inputs.t[start:stop], inputs.u_seen[start:stop], inputs.y_seen[start:stop]])
+    np.savetxt(path, arr, fmt="%.17g", delimiter=",", header="t,u,y1,y4", comments="")
+    return Path(path)
+
+
+def run_c_replay(replay_bin: PathLike, scenario: PathLike, in_csv: PathLike, experiment: str,
+                 out_csv: PathLike) -> EstimateResult:
+    from ..results import read_result_csv
+
+    subprocess.run([str(replay_bin), "--scenario", str(scenario), "--in", str(in_csv), "--out", str(out_csv),
+                    "--experiment", experiment], check=True, stdout=subprocess.DEVNULL)
+    return read_result_csv(out_csv)
+
+
+@dataclass
+class Agreement:
+    """CAN estimates vs caekf-replay's on the same inputs, column by column."""
+
+    rows: int
+    worst: Dict[str, float]  # max |can - replay| / allowed resolution (<= 1 passes)
+    mismatched: Dict[str, int]  # rows outside the resolution per column
+    flags_mismatch: int
+    newton_mismatch: int
+    missing: int
+
+    @property
+    def ok(self) -> bool:
+        return (self.missing == 0 and not any(self.mismatched.values()) and self.flags_mismatch == 0
+                and self.newton_mismatch == 0)
+
+    def text(self) -> str:
+        worst = ", ".join(f"{k} {v:.2f}" for k, v in self.worst.items())
+        bad = {k: v for k, v in self.mismatched.items() if v}
+        return (f"{self.rows} rows, missing {self.missing}; worst |CAN - replay| / resolution: {worst}; "
+                f"outside: {bad or 'none'}; flags differ {self.flags_mismatch}, Newton iterations differ "
+                f"{self.newton_mismatch}")
+
+
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agreement:
+    """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
+    the scaled integers (after clipping to the signal range: the estimator saturates and flags),
+    within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags
+    (core bits) and Newton iterations equal."""
+    n = len(ref.t)
+    cols = dec.columns
+    rows = min(n, len(dec.complete))
+    ref_cols = {"q1": ref.x[:, 0], "q2": ref.x[:, 1], "q3": ref.x[:, 2], "q4": ref.x[:, 3], "v1": ref.x[:, 4],
+                "v2": ref.x[:, 5], "v3": ref.x[:, 6], "v4": ref.x[:, 7], "gamma": ref.x[:, 8],
+                "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    have = dec.complete[:rows]
+    worst, mism = {}, {}
+    for col, want in ref_cols.items():
+        msg, sig = RESULT_SIGNALS[col]
+        lay = codec.messages[msg].signals[sig]
+        w = np.asarray(want[:rows], dtype=float)
+        got = cols[col][:rows]
+        if not lay.is_float:
+            lo = -(2 ** (lay.length - 1)) * lay.scale
+            hi = (2 ** (lay.length - 1) - 1) * lay.scale
+            w = np.clip(w, lo, hi)
+        else:
+            big = float(np.finfo(np.float32).max)
+            w = np.where(np.isfinite(w), np.clip(w, -big, big), w)
+        tol = lay.resolution(w)
+        both_nan = np.isnan(w) & np.isnan(got)
+        same_inf = np.isinf(w) & (w == got)
+        with np.errstate(invalid="ignore"):
+            ratio = np.where(both_nan | same_inf, 0.0, np.abs(got - w) / tol)
+        ratio = np.where(np.isnan(ratio), np.inf, ratio)[have]
+        worst[col] = float(ratio.max()) if ratio.size else 0.0
+        mism[col] = int(np.sum(ratio > 1.0))
+    fl_can = cols["flags"][:rows][have].astype(np.int64) & CORE_FLAG_MASK
+    fl_ref = ref.flags[:rows][have] & CORE_FLAG_MASK
+    it_can = cols["newton_iters"][:rows][have].astype(np.int64)
+    it_ref = np.clip(ref.newton_iters[:rows][have], 0, 255)
+    return Agreement(rows, worst, mism, int(np.sum(fl_can != fl_ref)), int(np.sum(it_can != it_ref)),
+                     int(rows - have.sum()) + (n - rows))
+
+
+# --- runs saved for later (bus work in the VM, reports on the host) -----------------------------
+
+RUNS_FILE = "runs.npz"
+_RECORD_FIELDS = ("start", "stop", "mode", "window", "timeouts", "elapsed", "late_sends", "held", "aborted", "dt")
+_DECODED_COUNTS = ("bad_crc", "bad_dlc", "counter_duplicates", "counter_jumps", "counter_lost", "duplicated_steps",
+                   "foreign_steps", "frames")
+
+
+def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
+    """Decoded runs in one binary file (no raw frames): what `load_runs` needs to write the CSVs,
+    the summary, the figures and the replay comparison elsewhere."""
+    import json
+
+    arrays: Dict[str, np.ndarray] = {}
+    meta = {"header": header, "runs": []}
+    if runs:
+        inp = runs[0].inputs
+        arrays.update(t=inp.t, u_seen=inp.u_seen, y_seen=inp.y_seen, wire_steps=inp.wire_steps)
+    for i, r in enumerate(runs):
+        rec, dec = r.record, r.decoded
+        meta["runs"].append({
+            "experiment": r.experiment,
+            "record": {k: getattr(rec, k) for k in _RECORD_FIELDS},
+            "decoded": {k: getattr(dec, k) for k in _DECODED_COUNTS},
+            "health_before": r.health_before, "health_after": r.health_after,
+        })
+        for col, v in dec.columns.items():
+            arrays[f"{i}.col.{col}"] = v
+        arrays[f"{i}.complete"] = dec.complete
+        arrays[f"{i}.step_status"] = dec.step_status
+        if rec.t_sent is not None:
+            arrays[f"{i}.t_sent"] = rec.t_sent
+            arrays[f"{i}.t_rx"] = rec.t_rx
+    arrays["meta"] = np.array(json.dumps(meta))
+    path = Path(path)
+    np.savez(path, **arrays)
+    return path
+
+
+def load_runs(path: PathLike) -> Tuple[List[HilRun], str]:
+    """(runs, header) saved by `save_runs`."""
+    import json
+
+    z = np.load(path, allow_pickle=False)
+    meta = json.loads(str(z["meta"]))
+    runs: List[HilRun] = []
+    if not meta["runs"]:
+        return runs, meta["header"]
+    n = len(z["t"])
+    inputs = StepInputs(z["t"], np.full(n, np.nan), np.full((n, 2), np.nan), z["wire_steps"], {}, z["u_seen"],
+                        z["y_seen"])
+    for i, m in enumerate(meta["runs"]):
+        rec = RunRecord(**m["record"])
+        if f"{i}.t_sent" in z:
+            rec.t_sent, rec.t_rx = z[f"{i}.t_sent"], z[f"{i}.t_rx"]
+        cols = {k.split(".", 2)[2]: z[k] for k in z.files if k.startswith(f"{i}.col.")}
+        dec = Decoded(cols, z[f"{i}.complete"], z[f"{i}.step_status"], **m["decoded"])
+        runs.append(HilRun(m["experiment"], inputs, rec, dec, m["health_before"], m["health_after"]))
+    return runs, meta["header"]
+
+
+def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scenario: PathLike, outdir: PathLike,
+                             codec: Codec) -> Tuple[str, bool]:
+    """caekf-replay of each run's experiment on the inputs the estimator decoded, compared (text, all ok)."""
+    out = Path(outdir)
+    lines, ok = [], True
+    if not runs:
+        return "", True
+    inp = write_seen_inputs(out / "inputs-seen.csv", runs[0].inputs, runs[0].record.start, runs[0].record.stop)
+    for r in runs:
+        ref = run_c_replay(replay_bin, scenario, inp, r.experiment, out / f"replay-{r.experiment}.csv")
+        agr = compare_with_replay(r.decoded, ref, codec)
+        lines.append(f"{r.experiment}: CAN == caekf-replay within resolution: {'yes' if agr.ok else 'NO'}; "
+                     + agr.text())
+        ok &= agr.ok
+    return "\n".join(lines), ok

@@ -1,0 +1,23 @@
+"""Paths and settings of the HIL suite (see conftest.py), and its report of measured numbers."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import List
+
+REPO = Path(__file__).resolve().parents[2]
+BUILD = Path(os.environ.get("CAEKF_BUILD_DIR", REPO / "build" / "host-double"))
+HOST_BIN = BUILD / "host" / "caekf_host" / "caekf-host"
+REPLAY_BIN = BUILD / "host" / "caekf-replay"
+TRUTH_BIN = BUILD / "host" / "caekf-truth"
+SCENARIO = REPO / "sim" / "scenarios" / "paper.toml"
+IFACE = os.environ.get("CAEKF_HIL_IFACE", "vcan0")
+HOST_STEP_TIMEOUT_MS = os.environ.get("CAEKF_HIL_STEP_TIMEOUT_MS", "1000")  # see conftest.estimator
+EXPERIMENTS = ("canonical", "switched", "switched-highq", "switched-highq-constrained")
+
+REPORT: List[str] = []  # measured numbers, printed at the end of the session (pytest_terminal_summary)
+
+
+def report(line: str) -> None:
+    REPORT.append(line)
+    print(line)

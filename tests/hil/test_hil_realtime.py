@@ -1,0 +1,57 @@
+"""(c) Real-time mode: the bench sends a step every dt (1 kHz = the scenario's dt, and 500 Hz for
+comparison) for 10 s whatever the estimator does, and times each step from its input frames going out
+to its EST_STEP (the last estimate frame) being read back.
+
+Latency percentiles and deadline misses (an estimate later than dt, or never) are measured and
+reported, not asserted: they depend on the machine. In the TCG VM bench, estimator and kernel share one
+emulated CPU and a strict request/answer round trip takes about 1 ms (lockstep runs ~950 steps/s), so
+1 kHz cannot be held there: the bench falls behind, catches up in bursts, and its flow control (at most
+32 steps unanswered) holds sends back rather than overflow the estimator's receive queue; all of that
+shows in the report (late sends, held, misses). What is asserted is what pacing must not break:
+- at least 95 % of the steps are answered by the end of the run plus 1 s: the estimator keeps up on
+  average or catches up, it does not drop steps under load (every frame it got in time is used);
+- every answer is finite, and the run equals caekf-replay up to the first step the estimator skipped
+  (a skipped step shifts it against the truth, flagged as a step gap; there are none when nothing is
+  lost, which is the normal case even in the VM).
+"""
+import numpy as np
+import pytest
+
+from hilcfg import report
+
+SECONDS = 10.0
+STEP_GAP = 1 << 13
+
+
+@pytest.mark.parametrize("rate_hz", [1000, 500])
+def test_realtime_pacing(bench, sc, inputs, replay, rate_hz):
+    from caekf_sim.bench import latency_stats
+    from caekf_sim.bench.results import compare_with_replay, format_latency, health_delta
+    from caekf_sim.estimator import EstimateResult
+
+    dt = 1.0 / rate_hz
+    rows = int(round(SECONDS / sc.dt))  # 10 s of scenario samples, sent every dt of wall time
+    bench.configure("switched", bench.params_from_scenario(sc))
+    before = bench.status()
+    rec = bench.run_realtime(inputs, dt, 0, rows)
+    h = health_delta(before, bench.status())
+    lat = latency_stats(rec)
+    report(format_latency(f"realtime {rate_hz} Hz, {rows} steps ({rec.elapsed:.1f} s)", lat, dt))
+    report(f"realtime {rate_hz} Hz: estimator counters: "
+           + ", ".join(f"{k}={v}" for k, v in h.items() if v and k not in ("TX_FRAMES", "RX_OK")))
+    assert lat["answered"] >= 0.95 * rows
+
+    dec = bench.decode_run(rec, inputs)
+    got = dec.complete
+    for col, v in dec.columns.items():
+        assert np.all(np.isfinite(v[got])), col
+    gaps = np.flatnonzero(got & (dec.columns["flags"].astype(np.int64) & STEP_GAP != 0))
+    good = gaps[0] if len(gaps) else rows
+    if good < rows:
+        report(f"realtime {rate_hz} Hz: first skipped step at row {good}: compared up to there")
+    ref = replay("switched")
+    head = EstimateResult(t=ref.t[:good], x=ref.x[:good], p_norm=ref.p_norm[:good], p_gg=ref.p_gg[:good],
+                          flags=ref.flags[:good], newton_iters=ref.newton_iters[:good])
+    dec.complete = dec.complete[:good]
+    agr = compare_with_replay(dec, head, bench.codec)
+    assert agr.mismatched == {k: 0 for k in agr.mismatched} and agr.flags_mismatch == 0, agr.text()
