@@ -13,36 +13,27 @@
 CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, model_has_four_bodies);
 CAEKF_STATIC_ASSERT(CAEKF_N == 2 * CAEKF_NQ + 1, augmented_state_is_q_v_gamma);
 
-/* Parameter checks in declaration order (count scalars from offset; pos: > 0, else >= 0). The last
- * failing field is the one reported. A table keeps this small on the MCU. */
-static const struct {
-    unsigned char off, count, pos;
-    char name[4];
-} param_fields[] = {
-    {offsetof(caekf_model_params_t, m), CAEKF_NQ, 1, "m"},
-    {offsetof(caekf_model_params_t, k1), 1, 1, "k1"},
-    {offsetof(caekf_model_params_t, k12), 1, 1, "k12"},
-    {offsetof(caekf_model_params_t, k34), 1, 1, "k34"},
-    {offsetof(caekf_model_params_t, k4), 1, 1, "k4"},
-    {offsetof(caekf_model_params_t, c1), 1, 0, "c1"},
-    {offsetof(caekf_model_params_t, c12), 1, 0, "c12"},
-    {offsetof(caekf_model_params_t, c34), 1, 0, "c34"},
-    {offsetof(caekf_model_params_t, c4), 1, 0, "c4"},
-    {offsetof(caekf_model_params_t, gap), 1, 0, "gap"},
-    {offsetof(caekf_model_params_t, dt), 1, 1, "dt"},
-};
-CAEKF_STATIC_ASSERT(sizeof(caekf_model_params_t) < 256, param_offsets_fit_a_byte);
+/* Parameters are checked scalar by scalar in declaration order: masses, springs and dt must be > 0,
+ * dampers and gap >= 0. The last failing one is reported, by its name below (one per scalar). The
+ * names packed in one string and a bit mask keep this small on the MCU. */
+#define PARAM_SLOT(field) (offsetof(caekf_model_params_t, field) / sizeof(caekf_scalar_t))
+#define PARAM_NONNEG (0x1Fu << PARAM_SLOT(c1)) /* c1, c12, c34, c4, gap */
+static const char param_names[] = "m\0m\0m\0m\0k1\0k12\0k34\0k4\0c1\0c12\0c34\0c4\0gap\0dt";
+CAEKF_STATIC_ASSERT(PARAM_SLOT(k1) == CAEKF_NQ && PARAM_SLOT(c1) == CAEKF_NQ + 4 && PARAM_SLOT(gap) == CAEKF_NQ + 8 &&
+                        PARAM_SLOT(dt) == CAEKF_NQ + 9 &&
+                        sizeof(caekf_model_params_t) == (CAEKF_NQ + 10) * sizeof(caekf_scalar_t),
+                    params_are_scalars_in_declared_order);
 
 int caekf_model_params_check(const caekf_model_params_t *p, const char **first_bad)
 {
-    const char *bad = 0;
-    unsigned i, k;
-    for (i = 0; i < sizeof param_fields / sizeof param_fields[0]; ++i) {
-        const caekf_scalar_t *x = (const caekf_scalar_t *)(const void *)((const char *)p + param_fields[i].off);
-        for (k = 0; k < param_fields[i].count; ++k) {
-            if (!CAEKF_ISFINITE(x[k]) || !(x[k] > 0 || (!param_fields[i].pos && x[k] == 0))) {
-                bad = param_fields[i].name;
-            }
+    const char *bad = 0, *name = param_names;
+    unsigned i;
+    for (i = 0; i <= PARAM_SLOT(dt); ++i) {
+        caekf_scalar_t x = *(const caekf_scalar_t *)(const void *)((const char *)p + i * sizeof(caekf_scalar_t));
+        if (!CAEKF_ISFINITE(x) || !(x > 0 || (((PARAM_NONNEG >> i) & 1u) && x == 0))) {
+            bad = name;
+        }
+        while (*name++ != 0) { /* on to the next name */
         }
     }
     if (first_bad != 0) {
@@ -51,16 +42,34 @@ int caekf_model_params_check(const caekf_model_params_t *p, const char **first_b
     return bad != 0;
 }
 
-/* Chain topology: ground -a- 1 -b- 2 | 3 -c- 4 -d- ground. */
-static void chain_matrix(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c,
-                         caekf_scalar_t d)
+/* Keeps a function called more than once out of line: inlined copies cost flash on the MCU. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
+static void zero(caekf_scalar_t *a, int n)
 {
-    int i, j;
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            out[i][j] = 0;
-        }
+    int i;
+    for (i = 0; i < n; ++i) {
+        a[i] = 0;
     }
+}
+
+static void copy(caekf_scalar_t *dst, const caekf_scalar_t *src, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        dst[i] = src[i];
+    }
+}
+
+/* Chain topology: ground -a- 1 -b- 2 | 3 -c- 4 -d- ground. */
+NOINLINE static void chain_matrix(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], caekf_scalar_t a, caekf_scalar_t b,
+                                  caekf_scalar_t c, caekf_scalar_t d)
+{
+    zero(&out[0][0], CAEKF_NQ * CAEKF_NQ);
     out[0][0] = a + b;
     out[0][1] = -b;
     out[1][0] = -b;
@@ -101,9 +110,10 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t q[CAE
         /* K and C couple bodies (1,2) and (3,4) only (chain_matrix): the other terms are exact
          * zeros, which change neither sum. */
         const int b = i & 2;
+        const caekf_scalar_t *k = &m->K[i][b], *c = &m->C[i][b], *qb = q + b, *vb = v + b;
         const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        const caekf_scalar_t kq0 = m->K[i][b] * q[b], cv0 = m->C[i][b] * v[b];
-        const caekf_scalar_t kq1 = m->K[i][b + 1] * q[b + 1], cv1 = m->C[i][b + 1] * v[b + 1];
+        const caekf_scalar_t kq0 = k[0] * qb[0], cv0 = c[0] * vb[0];
+        const caekf_scalar_t kq1 = k[1] * qb[1], cv1 = c[1] * vb[1];
         r[i] = inertia + (kq0 + cv0) + (kq1 + cv1);
         if (mag != 0) {
             mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) + (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
@@ -139,12 +149,8 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
     int i, j;
     caekf_scalar_t inv_dt = 1 / m->p.dt;
     caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
-    for (i = 0; i < CAEKF_N; ++i) {
-        for (j = 0; j < CAEKF_N; ++j) {
-            Jk[i][j] = 0;
-            Jprev[i][j] = 0;
-        }
-    }
+    zero(&Jk[0][0], CAEKF_N * CAEKF_N);
+    zero(&Jprev[0][0], CAEKF_N * CAEKF_N);
     for (i = 0; i < CAEKF_NQ; ++i) {
         Jk[i][i] = inv_dt;
         Jk[i][CAEKF_NQ + i] = -1;
@@ -175,22 +181,18 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
 static caekf_scalar_t newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta,
                                     caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ])
 {
-    int i, j;
+    int i;
     caekf_scalar_t kc = m->p.dt * dfc_ddelta;
     caekf_scalar_t amax = m->A0_absmax_out;
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            A[i][j] = m->A0[i][j];
+    copy(&A[0][0], &m->A0[0][0], CAEKF_NQ * CAEKF_NQ);
+    for (i = 0; i < 4; ++i) { /* the 2x2 contact block, row by row: + on its diagonal, - off it */
+        caekf_scalar_t *a = &A[B2 + i / 2][B2 + i % 2];
+        if (i / 2 == i % 2) {
+            *a += kc;
+        } else {
+            *a -= kc;
         }
-    }
-    A[B2][B2] += kc;
-    A[B2][B3] -= kc;
-    A[B3][B2] -= kc;
-    A[B3][B3] += kc;
-    for (i = B2; i <= B3; ++i) {
-        for (j = B2; j <= B3; ++j) {
-            amax = caekf_max(amax, CAEKF_FABS(A[i][j]));
-        }
+        amax = caekf_max(amax, CAEKF_FABS(*a));
     }
     return LU_REL_TOL * amax;
 }
@@ -261,21 +263,21 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
  * - n delta^1.5 dgamma_{k-1}, one column per component of x_{k-1}. */
 static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *c, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
+    const caekf_scalar_t d = c->dfc_ddelta, g = c->dfc_dgamma;
     int i, j;
+    zero(&fv[0][0], CAEKF_NQ * CAEKF_N);
     for (i = 0; i < CAEKF_NQ; ++i) {
         for (j = 0; j < CAEKF_NQ; ++j) {
             fv[i][j] = -m->K[i][j];
-            fv[i][CAEKF_NQ + j] = 0;
         }
         fv[i][CAEKF_NQ + i] = m->m_dt[i];
-        fv[i][CAEKF_IG] = 0;
     }
-    fv[B2][B2] -= c->dfc_ddelta;
-    fv[B2][B3] += c->dfc_ddelta;
-    fv[B3][B2] += c->dfc_ddelta;
-    fv[B3][B3] -= c->dfc_ddelta;
-    fv[B2][CAEKF_IG] = -c->dfc_dgamma;
-    fv[B3][CAEKF_IG] = c->dfc_dgamma;
+    fv[B2][B2] -= d;
+    fv[B2][B3] += d;
+    fv[B3][B2] += d;
+    fv[B3][B3] -= d;
+    fv[B2][CAEKF_IG] = -g;
+    fv[B3][CAEKF_IG] = g;
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
@@ -284,14 +286,9 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     caekf_contact_t c;
     caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ];
     int piv[CAEKF_NQ];
-    int i, j;
     caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
     if (!(c.delta > 0)) { /* linear step: the constant F */
-        for (i = 0; i < CAEKF_NQ; ++i) {
-            for (j = 0; j < CAEKF_N; ++j) {
-                fv[i][j] = m->fv0[i][j];
-            }
-        }
+        copy(&fv[0][0], &m->fv0[0][0], CAEKF_NQ * CAEKF_N);
         return 0;
     }
     if (caekf_lu4_factor_tol(&A[0][0], piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
@@ -304,7 +301,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
 
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 {
-    caekf_contact_t none;
+    const caekf_contact_t none = {0, 0, 0, 0};
     int i, j;
     if (caekf_model_params_check(p, 0) != 0) {
         return -1;
@@ -324,10 +321,6 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
             }
         }
     }
-    none.delta = 0;
-    none.fc = 0;
-    none.dfc_ddelta = 0;
-    none.dfc_dgamma = 0;
     /* A0 = M/dt + C + dt K is positive definite for valid parameters; the check is belt and braces. */
     if (caekf_lu_factor(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
@@ -351,8 +344,7 @@ int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
             F[i][j] = m->p.dt * F[CAEKF_NQ + i][j] + (i == j ? 1 : 0);
         }
     }
-    for (j = 0; j < CAEKF_N; ++j) {
-        F[CAEKF_IG][j] = (j == CAEKF_IG) ? 1 : 0;
-    }
+    zero(F[CAEKF_IG], CAEKF_N);
+    F[CAEKF_IG][CAEKF_IG] = 1;
     return 0;
 }
