@@ -1,0 +1,128 @@
+"""Fault injection on the HIL bus: frames of each fault class, and the fault-matrix table.
+
+Every builder returns sealed 16-byte records (see codec.RECORD) made with the bench's alive
+counters, to go in front of one step's valid input frames (Bench.run_lockstep extra_per_step);
+what each one must do to the estimator (caekf_app, EST_HEALTH counters) is said per function.
+"""
+from __future__ import annotations
+
+import math
+from typing import Dict, List, Sequence
+
+from .bench import Bench, StepInputs
+
+CAN_EFF_FLAG = 0x80000000
+NONFINITE = (math.nan, math.inf, -math.inf)
+
+
+def unchecked_frame(bench: Bench, name: str, values, advance: bool = True) -> bytes:
+    """A sealed record of `name` with values outside the DBC's [min|max] (cantools strict=False): for
+    values the protocol can carry but must refuse (PARAM_ID beyond the table, EXPERIMENT > 3, |EXP10| > 22)."""
+    from . import e2e
+
+    info = bench.codec.messages[name]
+    c = bench.tx_counter[name]
+    body = bench.codec.db.encode_message(name, {"E2E_CRC": 0, "E2E_COUNTER": c, **values}, strict=False)
+    if advance:
+        bench.tx_counter[name] = (c + 1) & 15
+    return bench.codec.record(name, e2e.seal(info.data_id, c, body))
+
+
+def bad_crc(bench: Bench, inputs: StepInputs, row: int) -> bytes:
+    """A copy of the step's BENCH_U with the CRC byte inverted (counter not used up): RX_BAD_CRC +1."""
+    step = int(inputs.wire_steps[row])
+    good = bench.frame("BENCH_U", {"STEP": step, "U": float(inputs.u[row])}, advance=False)
+    return good[:8] + bytes([good[8] ^ 0xFF]) + good[9:]
+
+
+def wrong_dlc(bench: Bench, inputs: StepInputs, row: int) -> bytes:
+    """The step's BENCH_Y1 cut to 6 bytes (DLC 6): RX_BAD_DLC +1."""
+    step = int(inputs.wire_steps[row])
+    return bench.frame("BENCH_Y1", {"STEP": step, "Y1": float(inputs.y[row, 0])}, advance=False, dlc=6)
+
+
+def unknown_ids(bench: Bench, inputs: StepInputs, row: int) -> bytes:
+    """Four frames with IDs the estimator does not receive: 0x123, 0x7FF, EST_GAMMA's ID sent by the
+    bench, and BENCH_U's number as an extended (29-bit) ID. caekf-host's CAN_RAW acceptance filter
+    drops them before the app: RX_UNKNOWN_ID +0, no effect."""
+    c = bench.codec
+    return (c.record(0x123, bytes(range(8))) + c.record(0x7FF, bytes(8)) + c.record("EST_GAMMA", bytes(8))
+            + c.record(c.messages["BENCH_U"].frame_id | CAN_EFF_FLAG, bytes(8)))
+
+
+UNKNOWN_IDS_PER_INJECTION = 4
+
+
+def counter_jump(bench: Bench, inputs: StepInputs, row: int) -> bytes:
+    """The step's BENCH_Y4 with its counter +5 (valid CRC): rejected, the receiver resynchronises on it
+    and the bench goes on from there (the valid BENCH_Y4 follows with the next counter): RX_COUNTER_JUMP +1."""
+    step = int(inputs.wire_steps[row])
+    jumped = (bench.tx_counter["BENCH_Y4"] + 5) & 15
+    return bench.frame("BENCH_Y4", {"STEP": step, "Y4": float(inputs.y[row, 1])}, counter=jumped)
+
+
+def duplicate(bench: Bench, inputs: StepInputs, row: int) -> bytes:
+    """A valid BENCH_Y1 of the step twice with the same counter (the first copy opens the step), then the
+    step's own BENCH_Y1 with the next counter: RX_DUPLICATE +1 and RX_REPEATED +1 (first value kept)."""
+    step = int(inputs.wire_steps[row])
+    f = bench.frame("BENCH_Y1", {"STEP": step, "Y1": float(inputs.y[row, 0])})
+    return f + f
+
+
+def nonfinite_u(bench: Bench, inputs: StepInputs, row: int, i: int) -> bytes:
+    """BENCH_U of the step with U = NaN, +Inf or -Inf (valid E2E): RX_BAD_VALUE +1; the valid one follows."""
+    step = int(inputs.wire_steps[row])
+    return unchecked_frame(bench, "BENCH_U", {"STEP": step, "U": NONFINITE[i % 3]})
+
+
+def out_of_range_param(bench: Bench, i: int, experiment_id: int) -> bytes:
+    """A configuration with a value outside its parameter's range, committed by CTRL_RESET(N_PARAMS=1):
+    even i: PARAM_ID beyond the table (37..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer parameter).
+    Refused with EST_ACK REFUSED_PARAM: CFG_REFUSED +1, the running estimator untouched."""
+    n_ids = len(bench.codec.param_ids)
+    if i % 2 == 0:
+        pid = n_ids + (i // 2) % (256 - n_ids)
+        p = unchecked_frame(bench, "CTRL_PARAM", {"PARAM_ID": pid, "PARAM_EXP10": 0, "PARAM_MANTISSA": 1})
+    else:
+        p = bench.param_frame("newton_max_iter", 2.5)
+    token = bench._next_token()
+    return p + bench.frame("CTRL_RESET", {"EXPERIMENT": experiment_id, "N_PARAMS": 1, "TOKEN": token})
+
+
+def flood(bench: Bench, per_step: int = 10) -> bytes:
+    """per_step unrelated frames (IDs 0x200.., not the estimator's): kernel-filtered like unknown IDs."""
+    return b"".join(bench.codec.record(0x200 + j, bytes([j & 0xFF] * 8)) for j in range(per_step))
+
+
+def reset_storm(bench: Bench, n: int, experiment_id: int) -> List[int]:
+    """n CTRL_RESET(N_PARAMS=0) in one burst, each re-initialising the estimator with its running
+    settings (CFG_ACCEPTED +n, n EST_ACK); returns their tokens."""
+    tokens = []
+    blob = b""
+    for _ in range(n):
+        t = bench._next_token()
+        tokens.append(t)
+        blob += bench.frame("CTRL_RESET", {"EXPERIMENT": experiment_id, "N_PARAMS": 0, "TOKEN": t})
+    bench.send(blob)
+    return tokens
+
+
+def format_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    w = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
+    line = lambda r: "| " + " | ".join(str(c).ljust(w[i]) for i, c in enumerate(r)) + " |"  # noqa: E731
+    return "\n".join([line(header), "|" + "|".join("-" * (x + 2) for x in w) + "|", *map(line, rows)])
+
+
+def count_acks(bench: Bench, chunks: Sequence[bytes]) -> Dict[str, int]:
+    """EST_ACK frames in received chunks, by ACK_STATUS name."""
+    from .codec import records_array
+
+    out: Dict[str, int] = {}
+    if not chunks:
+        return out
+    recs = records_array(b"".join(chunks))
+    ack_id = bench.codec.messages["EST_ACK"].frame_id
+    for r in recs[recs["id"] == ack_id]:
+        a = bench._decode_ack(bytes(r["data"]))
+        out[a.status_name] = out.get(a.status_name, 0) + 1
+    return out
