@@ -25,13 +25,15 @@ static void usage(FILE *f)
           "         [--experiment canonical|switched|switched-highq|switched-highq-constrained]\n"
           "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
           "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
-          "         [--summary]\n"
+          "         [--missing-y-predict] [--summary]\n"
           "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default) and writes\n"
           "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters (stdout by default).\n"
           "The experiment sets the defaults (default: switched); the explicit flags override them.\n"
           "p_norm is the 2-norm of P in physical units; p_gg its gamma variance.\n"
           "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
-          "refusing the input. --summary prints one line of statistics to stderr.\n"
+          "refusing the input. --missing-y-predict: a row whose y1 and y4 are both empty is a step without\n"
+          "measurement (caekf_predict, the firmware's bridge over lost steps). --summary prints one line of\n"
+          "statistics to stderr.\n"
           "flags bits:\n",
           f);
     for (b = 0; b < CAEKF_FLAG_COUNT; ++b) {
@@ -60,7 +62,7 @@ int main(int argc, char **argv)
     const char *scenario = NULL, *in = "-", *out = "-";
     const char *experiment = "switched", *mode = NULL, *constraint = NULL, *switchoff = NULL;
     double q_gamma_scale = -1;
-    int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0;
+    int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0;
     caekf_scenario_t sc;
     caekf_settings_t s;
     caekf_t est;
@@ -92,6 +94,7 @@ int main(int argc, char **argv)
         } else if (strcmp(a, "--joseph") == 0) joseph = 1;
         else if (strcmp(a, "--no-repair") == 0) no_repair = 1;
         else if (strcmp(a, "--allow-nonfinite") == 0) allow_nonfinite = 1;
+        else if (strcmp(a, "--missing-y-predict") == 0) allow_missing = 1;
         else if (strcmp(a, "--summary") == 0) want_summary = 1;
         else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
@@ -152,6 +155,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "caekf-replay: %s\n", csv.err);
         return 4;
     }
+    csv.allow_missing_y = allow_missing;
     memset(&sum, 0, sizeof sum);
     sum.gamma_min_seen = INFINITY;
     fputs("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters\n", fout);
@@ -160,7 +164,8 @@ int main(int argc, char **argv)
         caekf_report_t rep;
         y[0] = (caekf_scalar_t)m.y1;
         y[1] = (caekf_scalar_t)m.y4;
-        if (caekf_step(&est, (caekf_scalar_t)m.u, y, &rep) != CAEKF_OK) {
+        if ((m.has_y ? caekf_step(&est, (caekf_scalar_t)m.u, y, &rep)
+                     : caekf_predict(&est, (caekf_scalar_t)m.u, &rep)) != CAEKF_OK) {
             sum.rejected++;
         }
         (void)caekf_get_state(&est, x);

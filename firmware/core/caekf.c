@@ -98,7 +98,8 @@ static caekf_gamma_policy_t gamma_policy(const caekf_settings_t *cfg, int contac
     return cfg->switchoff == CAEKF_SWITCHOFF_PAPER ? CAEKF_GAMMA_FROZEN_PAPER : CAEKF_GAMMA_FROZEN_SCHMIDT;
 }
 
-caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], caekf_report_t *report)
+/* One step: prediction, then (with y) the correction and the constraint. y == NULL: no measurement. */
+static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t *y, caekf_report_t *report)
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_NY];
@@ -116,13 +117,13 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
         report->newton_iters = 0;
         report->delta = 0;
     }
-    if (est == 0 || y == 0) {
+    if (est == 0) {
         return CAEKF_ERR_NULL;
     }
     if (!is_init(est)) {
         return CAEKF_ERR_NOT_INIT;
     }
-    if (!CAEKF_ISFINITE(u) || !CAEKF_ISFINITE(y[0]) || !CAEKF_ISFINITE(y[1])) {
+    if (!CAEKF_ISFINITE(u) || (y != 0 && (!CAEKF_ISFINITE(y[0]) || !CAEKF_ISFINITE(y[1])))) {
         if (report != 0) {
             report->flags = CAEKF_FLAG_INPUT_REJECTED;
         }
@@ -169,15 +170,18 @@ caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y
     caekf_predict_covariance(est->P, est->P_work, est->fv, est->model.p.dt * s_v / s_q, est->q_diag, policy,
                              contact.delta > 0);
 
-    /* Correction, eqs. (13)-(15) / (25)-(27). */
-    y_s[0] = y[0] / s_q;
-    y_s[1] = y[1] / s_q;
-    (void)caekf_correct_upper(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH, policy,
-                              &flags);
-
-    /* Inequality constraint, eqs. (28)-(30). */
-    if (est->cfg.constraint_enabled) {
-        caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
+    if (y != 0) {
+        /* Correction, eqs. (13)-(15) / (25)-(27). */
+        y_s[0] = y[0] / s_q;
+        y_s[1] = y[1] / s_q;
+        (void)caekf_correct_upper(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH,
+                                  policy, &flags);
+        /* Inequality constraint, eqs. (28)-(30). */
+        if (est->cfg.constraint_enabled) {
+            caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
+        }
+    } else {
+        flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
     }
     finite = caekf_covariance_health(est->P_work, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
                                      est->cfg.cov_repair_enabled, est->scratch, &flags);
@@ -210,6 +214,24 @@ done:
         report->delta = contact.delta;
     }
     return st;
+}
+
+caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], caekf_report_t *report)
+{
+    if (y == 0) {
+        if (report != 0) {
+            report->flags = 0;
+            report->newton_iters = 0;
+            report->delta = 0;
+        }
+        return CAEKF_ERR_NULL;
+    }
+    return advance(est, u, y, report);
+}
+
+caekf_status_t caekf_predict(caekf_t *est, caekf_scalar_t u, caekf_report_t *report)
+{
+    return advance(est, u, 0, report);
 }
 
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
@@ -290,6 +312,6 @@ const char *caekf_flag_name(unsigned bit_index)
     static const char *const names[CAEKF_FLAG_COUNT] = {
         "newton_not_converged", "input_rejected",       "constraint_applied", "contact_active",
         "cov_repaired",         "singular_innovation",  "constraint_clamped", "numeric_rollback",
-        "gamma_frozen",         "cov_indefinite"};
+        "gamma_frozen",         "cov_indefinite",       "no_measurement"};
     return bit_index < CAEKF_FLAG_COUNT ? names[bit_index] : "unknown";
 }

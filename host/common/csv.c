@@ -72,7 +72,7 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
 {
     char buf[MAX_LINE];
     double v[4];
-    int col = 0, rc;
+    int col = 0, rc, missing = 0;
     char *p;
     do {
         rc = read_line(r, buf);
@@ -90,7 +90,10 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
         if (comma != NULL) {
             *comma = '\0';
         }
-        if (col < 4) {
+        if (col >= 2 && col < 4 && r->allow_missing_y && *p == '\0') {
+            v[col] = 0; /* no measurement in this row */
+            missing++;
+        } else if (col < 4) {
             errno = 0;
             v[col] = strtod(p, &end);
             while (*end == ' ') {
@@ -121,6 +124,10 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
     if (!isfinite(v[0])) {
         return fail(r, "column 1: t must be finite");
     }
+    if (missing == 1) {
+        return fail(r, "y1 and y4 must both be present or both be empty");
+    }
+    m->has_y = missing == 0;
     m->t = v[0];
     m->u = v[1];
     m->y1 = v[2];

@@ -11,11 +11,13 @@ typedef struct {
     unsigned long line;
     int columns;
     int allow_nonfinite;
+    int allow_missing_y;    /* empty y1 and y4 fields: a step without measurement */
     char err[256];
 } caekf_csv_t;
 
 typedef struct {
     double t, u, y1, y4;
+    int has_y; /* 0 only for rows with empty y1, y4 when allow_missing_y */
 } caekf_meas_t;
 
 /* Reads and checks the header. Returns 0 or -1 (message in r->err). */

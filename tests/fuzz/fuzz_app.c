@@ -254,6 +254,7 @@ typedef struct {
     double u, y1, y4;
     int have_closed, have_run;
     uint16_t last_closed, last_run;
+    double last_u; /* held over a gap's prediction-only steps */
     caekf_t est; /* shadow estimator */
     uint32_t last_status_us;
     /* transmit expectations of the current poll */
@@ -328,8 +329,13 @@ static void model_run_step(void)
     unsigned i;
     uint8_t zb[sizeof M.est.z], Pb[sizeof M.est.P];
     if (M.have_run && M.step != (uint16_t)(M.last_run + 1u)) {
+        uint16_t missing = (uint16_t)(M.step - M.last_run - 1u);
+        uint16_t k;
         gap = (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
-        M.cnt[CAEKF_CNT_STEPS_SKIPPED] += (uint16_t)(M.step - M.last_run - 1u);
+        M.cnt[CAEKF_CNT_STEPS_SKIPPED] += missing;
+        for (k = 0; k < missing && k < (uint16_t)CAEKF_APP_MAX_GAP_PREDICT; ++k) {
+            (void)caekf_predict(&M.est, (caekf_scalar_t)M.last_u, NULL); /* the app bridges gaps */
+        }
     }
     y[0] = (caekf_scalar_t)M.y1;
     y[1] = (caekf_scalar_t)M.y4;
@@ -347,6 +353,7 @@ static void model_run_step(void)
     }
     model_close_slot();
     M.last_run = M.step;
+    M.last_u = M.u;
     M.have_run = 1;
     memset(&e, 0, sizeof e);
     e.step = M.step;

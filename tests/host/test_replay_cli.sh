@@ -45,5 +45,17 @@ if "$replay" --scenario "$scenario" --in "$tmp/ok.csv" --out "$tmp/out.csv" --al
 else
     echo "FAIL good-input exit: $(cat "$tmp/err")"; fails=$((fails + 1))
 fi
+# Rows without measurement (both y empty) are prediction-only steps with --missing-y-predict (flag 1024).
+printf 't,u,y1,y4\n0.001,0.1,1e-6,0\n0.002,0.1,,\n0.003,0.1,2e-6,0\n' > "$tmp/gap.csv"
+if "$replay" --scenario "$scenario" --in "$tmp/gap.csv" --out "$tmp/out.csv" --missing-y-predict 2>"$tmp/err"; then
+    f2=$(sed -n 3p "$tmp/out.csv" | awk -F, '{print $13}')
+    if (( (f2 & 1024) != 0 )); then passes=$((passes + 1)); else echo "FAIL missing-y flags=$f2"; fails=$((fails + 1)); fi
+else
+    echo "FAIL missing-y exit: $(cat "$tmp/err")"; fails=$((fails + 1))
+fi
+expect_error missing-without-flag 4 'in.csv:3: column 3' 't,u,y1,y4\n0.001,0.1,1e-6,0\n0.002,0.1,,\n'
+printf 't,u,y1,y4\n0.001,0.1,,0\n' > "$tmp/half.csv"
+"$replay" --scenario "$scenario" --in "$tmp/half.csv" --missing-y-predict >/dev/null 2>"$tmp/err"
+if [[ $? -eq 4 ]] && grep -q "both be present" "$tmp/err"; then passes=$((passes + 1)); else echo "FAIL half-missing"; fails=$((fails + 1)); fi
 echo "$passes passed, $fails failed"
 [[ $fails -eq 0 ]]

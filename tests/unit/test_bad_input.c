@@ -157,11 +157,33 @@ static void test_bad_settings_are_refused(void)
     }
 }
 
+static void test_predict_only_moves_the_model_not_gamma(void)
+{
+    caekf_report_t rep;
+    caekf_scalar_t g0, g1, x0[CAEKF_N], x1[CAEKF_N];
+    run_into_contact();
+    memcpy(&copy, &est, sizeof est);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_INPUT, caekf_predict(&est, (caekf_scalar_t)NAN, &rep));
+    TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_INPUT_REJECTED, rep.flags);
+    TEST_ASSERT_TRUE(memcmp(&copy, &est, sizeof est) == 0);
+    (void)caekf_get_gamma(&est, &g0);
+    (void)caekf_get_state(&est, x0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&est, (caekf_scalar_t)0.3, &rep));
+    TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NO_MEASUREMENT);
+    TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE); /* in contact, yet gamma cannot move */
+    (void)caekf_get_gamma(&est, &g1);
+    (void)caekf_get_state(&est, x1);
+    TEST_ASSERT_TRUE(memcmp(&g0, &g1, sizeof g0) == 0);
+    TEST_ASSERT_TRUE(x1[0] != x0[0]); /* the model advanced one dt */
+    TEST_ASSERT_TRUE(est.P[0][0] > copy.P[0][0]); /* and its uncertainty grew by Q */
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_non_finite_inputs_are_rejected_and_change_nothing);
     RUN_TEST(test_null_and_uninitialised);
     RUN_TEST(test_bad_settings_are_refused);
+    RUN_TEST(test_predict_only_moves_the_model_not_gamma);
     return UNITY_END();
 }

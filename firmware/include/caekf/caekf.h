@@ -44,9 +44,10 @@ enum {
     CAEKF_FLAG_CONSTRAINT_CLAMPED = 1u << 6,   /* perfect measurement refused: gamma clamped (fallback) */
     CAEKF_FLAG_NUMERIC_ROLLBACK = 1u << 7,     /* non-finite result: the step was rolled back */
     CAEKF_FLAG_GAMMA_FROZEN = 1u << 8,         /* switched mode, contact inactive: gamma frozen */
-    CAEKF_FLAG_COV_INDEFINITE = 1u << 9        /* P failed the PSD test (repaired only if enabled) */
+    CAEKF_FLAG_COV_INDEFINITE = 1u << 9,       /* P failed the PSD test (repaired only if enabled) */
+    CAEKF_FLAG_NO_MEASUREMENT = 1u << 10       /* caekf_predict: time update only, no correction */
 };
-#define CAEKF_FLAG_COUNT 10
+#define CAEKF_FLAG_COUNT 11
 
 typedef enum { CAEKF_MODE_CANONICAL = 0, CAEKF_MODE_SWITCHED = 1 } caekf_mode_t;
 
@@ -137,6 +138,12 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s);
  * A non-finite intermediate result rolls the step back (CAEKF_ERR_NUMERIC). `report` may be NULL. */
 caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY],
                           caekf_report_t *report);
+
+/* Time update only, for a step whose measurement is missing (e.g. frames lost on the bus): the model
+ * still advances one dt with input u (the caller may hold the last known u), P grows by Q, gamma is
+ * unchanged. Keeping the estimator on the clock this way avoids blaming a time shift on gamma.
+ * Non-finite u is rejected with the state untouched. Flags include CAEKF_FLAG_NO_MEASUREMENT. */
+caekf_status_t caekf_predict(caekf_t *est, caekf_scalar_t u, caekf_report_t *report);
 
 /* Accessors in physical units. */
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N]);

@@ -205,6 +205,46 @@ static void test_step_gap_is_flagged_and_counted_but_the_16_bit_wrap_is_not_a_ga
     TEST_ASSERT_EQUAL_UINT32(2, counter(CAEKF_CNT_STEPS_SKIPPED));
 }
 
+/* Missing steps are bridged by prediction-only steps with the last input held: the app's estimate
+ * after a gap equals a reference estimator doing exactly that (and differs from simply stepping on). */
+static void test_step_gap_is_bridged_by_prediction_only_steps(void)
+{
+    caekf_app_settings_t base;
+    caekf_settings_t s;
+    static caekf_t ref, naive;
+    caekf_scalar_t y[2], x[CAEKF_N], xn[CAEKF_N];
+    const double u1 = 0.4, u2 = -0.2, y1 = 2e-7, y4 = -1e-9;
+    int k;
+    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_paper_settings(&base);
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_experiment_settings(&base, CAEKF_EXPERIMENT_SWITCHED, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&ref, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&naive, &s));
+    bench_step(&fake, 10, u1, y1, y4);
+    bench_step(&fake, 16, u2, y1, y4); /* steps 11..15 never arrive */
+    fixture_poll_all();
+    y[0] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y1, y1);
+    y[1] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y4, y4);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1), y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1), y, NULL));
+    for (k = 0; k < 5; k++) {
+        caekf_report_t rep;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1), &rep));
+        TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NO_MEASUREMENT);
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2), y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2), y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&ref, x));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&naive, xn));
+    TEST_ASSERT_EQUAL_UINT32(5, counter(CAEKF_CNT_STEPS_SKIPPED));
+    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAG_STEP_GAP, tx_step(1).flags & CAEKF_STEP_FLAG_STEP_GAP);
+    for (k = 0; k < 4; k++) {
+        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_Q1, (double)x[k]) == tx_value((caekf_msg_t)(CAEKF_MSG_EST_Q1 + k), 1, NULL));
+    }
+    /* The bridge matters: without it the velocities would differ. */
+    TEST_ASSERT_FALSE(wire(CAEKF_MSG_EST_V1, (double)xn[4]) == tx_value(CAEKF_MSG_EST_V1, 1, NULL));
+}
+
 static void test_frame_for_an_estimated_step_is_late(void)
 {
     fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
@@ -353,6 +393,7 @@ int main(void)
     RUN_TEST(test_newer_step_supersedes_a_partial_one);
     RUN_TEST(test_repeated_signal_keeps_the_first_value);
     RUN_TEST(test_step_gap_is_flagged_and_counted_but_the_16_bit_wrap_is_not_a_gap);
+    RUN_TEST(test_step_gap_is_bridged_by_prediction_only_steps);
     RUN_TEST(test_frame_for_an_estimated_step_is_late);
     RUN_TEST(test_nan_input_is_rejected_counted_and_the_estimator_untouched);
     RUN_TEST(test_each_reject_class_is_counted);

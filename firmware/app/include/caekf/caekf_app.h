@@ -39,6 +39,13 @@ typedef enum {
 } caekf_app_status_t;
 
 /* The app's only door to the outside. Called from caekf_app_poll only, never re-entered. */
+/* Steps missing between two estimated steps are bridged by prediction-only steps (caekf_predict with
+ * the last input held), at most this many per gap, so the estimator stays on the bench's clock
+ * instead of blaming the time shift on gamma. Bounds the work of one poll. */
+#ifndef CAEKF_APP_MAX_GAP_PREDICT
+#define CAEKF_APP_MAX_GAP_PREDICT 1000
+#endif
+
 typedef struct {
     void *ctx; /* handed back to every call */
     /* Non-blocking. 1: a frame was written to *frame; 0: nothing pending; negative: error (counted). */
@@ -92,6 +99,7 @@ typedef struct {
     caekf_app_slot_t slot;
     uint16_t last_closed_step;   /* last step estimated or dropped: frames up to it are late */
     uint16_t last_run_step;      /* last step estimated: a jump in STEP is a step gap */
+    double last_u;               /* input of that step, held over a gap's prediction-only steps */
     uint8_t have_closed, have_run;
 
     caekf_e2e_rx_t rx[CAEKF_MSG_COUNT];         /* receive side, used for bench messages */
