@@ -18,7 +18,9 @@ Checked:
 - every counter of EST_HEALTH moved by exactly what was injected (nothing lost: every fault is counted in
   a counter or, for kernel-filtered IDs, shown to have no effect at all);
 - exactly the expected steps were answered; every estimate equals caekf-replay on the inputs the estimator
-  actually saw (rows it got, segments split at the resets) within the CAN resolution;
+  actually saw (rows it got, segments split at the resets) within the CAN resolution, with the steps lost
+  between two estimated steps bridged as the app bridges them: one prediction-only step per lost step
+  (caekf_predict, the previous estimated step's decoded u held, y empty: caekf-replay --missing-y-predict);
 - per destructive episode (3 sampled per class): steps until the estimates match, within the CAN
   resolution, the counterfactual run without that episode (caekf-replay), and the difference left.
 The table is printed and written to <out>/fault-matrix.txt (tools/fault-matrix.sh).
@@ -217,12 +219,20 @@ def fault_run(bench, sc, inputs):
 # --- references (caekf-replay) ------------------------------------------------------------------------------
 
 def _replay_rows(binaries, inputs, rows, path):
-    """caekf-replay (switched, fresh initial state) on the given rows of the decoded inputs, in order."""
-    from caekf_sim.bench.results import run_c_replay
+    """caekf-replay (switched, fresh initial state) on the given rows of the decoded inputs, in order, with the
+    steps missing between them bridged as the app does (prediction-only, last decoded u held, y empty,
+    --missing-y-predict). Returns (result per step run, input row of each, prediction-only mask)."""
+    from caekf_sim.bench.results import replay_estimated
 
-    arr = np.column_stack([inputs.t[rows], inputs.u_seen[rows], inputs.y_seen[rows]])
-    np.savetxt(path.with_suffix(".in.csv"), arr, fmt="%.17g", delimiter=",", header="t,u,y1,y4", comments="")
-    return run_c_replay(binaries["replay"], SCENARIO, path.with_suffix(".in.csv"), "switched", path)
+    return replay_estimated(binaries["replay"], SCENARIO, "switched", inputs, rows, path)
+
+
+def _placed(rep):
+    """(ROWS, 11) with the replay's estimated (not prediction-only) steps on their rows, NaN elsewhere."""
+    res, src, pred = rep
+    x = np.full((ROWS, 11), np.nan)
+    x[src[~pred]] = _x(res)[~pred]
+    return x
 
 
 def _x(res):
@@ -237,13 +247,15 @@ def _seen_reference(fr, binaries, inputs, out_dir):
     x = np.full((ROWS, 11), np.nan)
     flags = np.zeros(ROWS, dtype=np.int64)
     iters = np.zeros(ROWS, dtype=np.int64)
+    n_pred = 0
     for s, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
         rows = np.arange(a, b)[~lost[a:b]]
-        res = _replay_rows(binaries, inputs, rows, out_dir / f"fault-matrix-seg{s}.csv")
-        x[rows] = _x(res)
-        flags[rows] = res.flags
-        iters[rows] = res.newton_iters
-    return x, flags, iters
+        res, src, pred = rep = _replay_rows(binaries, inputs, rows, out_dir / f"fault-matrix-seg{s}.csv")
+        x[rows] = _placed(rep)[rows]
+        flags[src[~pred]] = res.flags[~pred]
+        iters[src[~pred]] = res.newton_iters[~pred]
+        n_pred += int(pred.sum())
+    return x, flags, iters, n_pred
 
 
 def _diff_ratio(a, b):
@@ -270,10 +282,7 @@ def _counterfactual(fr, binaries, inputs, out_dir, ep_index):
     seg = max(i for i, a in enumerate(bounds[:-1]) if a <= row)
     a, b = bounds[seg], bounds[seg + 1]
     rows = np.arange(a, b)[~lost[a:b]]
-    res = _replay_rows(binaries, inputs, rows, out_dir / f"fault-matrix-cf{ep_index}.csv")
-    x = np.full((ROWS, 11), np.nan)
-    x[rows] = _x(res)
-    return x
+    return _placed(_replay_rows(binaries, inputs, rows, out_dir / f"fault-matrix-cf{ep_index}.csv"))
 
 
 def _sampled(idx_list):
@@ -288,7 +297,7 @@ def matrix(fault_run, binaries, inputs, out_dir):
 
     fr = fault_run
     dec = fr["dec"]
-    ref_x, ref_flags, ref_iters = _seen_reference(fr, binaries, inputs, out_dir)
+    ref_x, ref_flags, ref_iters, n_pred = _seen_reference(fr, binaries, inputs, out_dir)
     got = np.full((ROWS, 11), np.nan)
     for j, c in enumerate(("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma", "p_norm", "p_gg")):
         got[:, j] = dec.columns[c]
@@ -340,7 +349,7 @@ def matrix(fault_run, binaries, inputs, out_dir):
                 dq=float(dq_rows[last]), dg=float(dg_rows[last]), peak_q=float(dq_rows.max()),
                 peak_g=float(dg_rows.max())))
     # the whole run against the undisturbed one (caekf-replay on every input, no fault at all)
-    und = _x(_replay_rows(binaries, inputs, np.arange(ROWS), out_dir / "fault-matrix-undisturbed.csv"))
+    und = _placed(_replay_rows(binaries, inputs, np.arange(ROWS), out_dir / "fault-matrix-undisturbed.csv"))
     ok = answered & ~fr["lost"]
     dq_u = np.where(ok, np.nanmax(np.abs(ref_x[:, :4] - und[:, :4]), axis=1), np.nan)
     dg_u = np.where(ok, np.abs(ref_x[:, 8] - und[:, 8]) / np.abs(und[:, 8]), np.nan)
@@ -348,7 +357,7 @@ def matrix(fault_run, binaries, inputs, out_dir):
                  max_dg=float(np.nanmax(dg_u)), first=int(np.argmax(ok & (_diff_ratio(ref_x, und) > 1.0))),
                  g_run=float(ref_x[ROWS - 1, 8]), g_und=float(und[ROWS - 1, 8]))
     return dict(ratio=ratio, pr=pr, flags_bad=flags_bad, iters_bad=iters_bad, gap_flagged=gap_flagged,
-                recovery=rec_rows, answered=answered, whole=whole)
+                recovery=rec_rows, answered=answered, whole=whole, n_pred=n_pred)
 
 
 def _expected(fr):
@@ -428,7 +437,8 @@ def _table(fr, m):
                  f"{m['gap_flagged']} EST_STEP with STEP_GAP", s, d])
     s, d = _fmt_rec(rec.get("silence"))
     rows.append([f"bus silence {SILENCE_LEN} steps", f"{n['silence']} episodes ({n['silence'] * SILENCE_LEN} steps)",
-                 "STEPS_SKIPPED +100 each, STEP_GAP on the next estimate", s, d])
+                 "STEPS_SKIPPED +100 each, STEP_GAP on the next estimate (bridged: 100 prediction-only steps)",
+                 s, d])
     s, d = _fmt_rec(rec.get("storm"))
     sa = fr["storm_acks"]
     rows.append([f"reset storm ({STORM_LEN} CTRL_RESET) + re-config", f"{n['storm']} storms "
@@ -443,7 +453,8 @@ def _table(fr, m):
                         (f"{v['ack'].experiment}/{v['ack'].state}" if v["ack"] else "-")] for v in fr["validations"]])
     agree = (f"every answered step vs caekf-replay on the inputs seen: worst {float(ratio.max()):.2f} resolution "
              f"(q,v,gamma), P {float(np.nanmax(m['pr'])):.2f}, flags differ {m['flags_bad']}, Newton differ "
-             f"{m['iters_bad']}; answered {int(m['answered'].sum())}/{ROWS}")
+             f"{m['iters_bad']}; answered {int(m['answered'].sum())}/{ROWS}; lost steps bridged in the replay by "
+             f"{m['n_pred']} prediction-only steps (u held, --missing-y-predict) as the app does")
     w = m["whole"]
     agree += (f"\nwhole run vs undisturbed (caekf-replay on all {ROWS} inputs, no faults): equal (<= half an LSB) "
               f"up to row {w['first']}, max |dq| {w['max_dq']:.1e} m, max |dg|/g {w['max_dg']:.1e}; at the end "
@@ -470,6 +481,8 @@ def test_fault_matrix_counts(fault_run, matrix, out_dir):
     assert fr["storm_acks"].get("ACCEPTED", 0) == fr["n"]["storm"] * STORM_LEN
     assert fr["acks_in_run"].get("REFUSED_PARAM", 0) == fr["n"]["out_of_range"]
     assert matrix["gap_flagged"] == fr["n"]["reorder"] + fr["n"]["silence"]
+    # the replay bridged exactly the steps the app counted as skipped (each one prediction-only step)
+    assert matrix["n_pred"] == exp["STEPS_SKIPPED"]
 
 
 def test_fault_matrix_estimates_equal_replay_on_seen_inputs(fault_run, matrix):
