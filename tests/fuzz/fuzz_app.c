@@ -22,6 +22,7 @@
 #include "caekf/caekf_app.h"
 #include "fuzz_common.h"
 #include "fuzz_paper.h"
+#include "paper_params.h"
 
 #define N CAEKF_N
 #define NMSG ((unsigned)CAEKF_MSG_COUNT)
@@ -903,24 +904,13 @@ static void op_local_config(fz_reader_t *r)
 
 static void op_paper_config(fz_reader_t *r)
 {
-    static const struct {
-        uint8_t id;
-        int8_t exp10;
-        int32_t mant;
-    } p[] = {{CAEKF_PARAM_M1, 0, 1},          {CAEKF_PARAM_M2, 0, 1},          {CAEKF_PARAM_M3, 0, 1},
-             {CAEKF_PARAM_M4, 0, 1},          {CAEKF_PARAM_K1, 3, 2},          {CAEKF_PARAM_K12, 4, 1},
-             {CAEKF_PARAM_K34, 4, 1},         {CAEKF_PARAM_K4, 4, 1},          {CAEKF_PARAM_C1, 0, 5},
-             {CAEKF_PARAM_C12, 0, 5},         {CAEKF_PARAM_C34, 0, 5},         {CAEKF_PARAM_C4, 0, 5},
-             {CAEKF_PARAM_GAP, -3, 1},        {CAEKF_PARAM_DT, -3, 1},         {CAEKF_PARAM_GAMMA0, 6, 75},
-             {CAEKF_PARAM_SIGMA_Q0, -6, 1},   {CAEKF_PARAM_SIGMA_V0, -5, 1},   {CAEKF_PARAM_SIGMA_GAMMA0, 6, 25},
-             {CAEKF_PARAM_SIGMA_QX_Q, -9, 1}, {CAEKF_PARAM_SIGMA_QX_V, -7, 1}, {CAEKF_PARAM_SIGMA_Q_GAMMA, 6, 1},
-             {CAEKF_PARAM_SIGMA_R, -7, 1},    {CAEKF_PARAM_GAMMA_MIN, 6, 1}};
-    const unsigned n = (unsigned)(sizeof p / sizeof p[0]);
+    const caekf_paper_param_t *const p = caekf_paper_params;
+    const unsigned n = CAEKF_N_PAPER_PARAMS;
     const unsigned exp = fz_u8(r) % 4u;
     const unsigned token = fz_u8(r);
     unsigned i;
     for (i = 0; i < n; ++i) {
-        send_param(p[i].id, p[i].exp10, p[i].mant);
+        send_param(p[i].id, p[i].exp10, p[i].mantissa);
     }
     send_reset(exp, n, token);
 }

@@ -1,26 +1,11 @@
 #include "app_fixture.h"
 
+#include "paper_params.h"
 #include "unity.h"
 
 fake_hal_t fake;
 caekf_app_t app;
 
-/* (param, mantissa, exp10): the scenario's estimator values in their shortest decimal form. */
-static const struct {
-    unsigned id;
-    int64_t mantissa;
-    int exp10;
-} paper_params[] = {
-    {CAEKF_PARAM_M1, 1, 0},         {CAEKF_PARAM_M2, 1, 0},          {CAEKF_PARAM_M3, 1, 0},
-    {CAEKF_PARAM_M4, 1, 0},         {CAEKF_PARAM_K1, 2, 3},          {CAEKF_PARAM_K12, 1, 4},
-    {CAEKF_PARAM_K34, 1, 4},        {CAEKF_PARAM_K4, 1, 4},          {CAEKF_PARAM_C1, 5, 0},
-    {CAEKF_PARAM_C12, 5, 0},        {CAEKF_PARAM_C34, 5, 0},         {CAEKF_PARAM_C4, 5, 0},
-    {CAEKF_PARAM_GAP, 1, -3},       {CAEKF_PARAM_DT, 1, -3},         {CAEKF_PARAM_GAMMA0, 75, 6},
-    {CAEKF_PARAM_SIGMA_Q0, 1, -6},  {CAEKF_PARAM_SIGMA_V0, 1, -5},   {CAEKF_PARAM_SIGMA_GAMMA0, 25, 6},
-    {CAEKF_PARAM_SIGMA_QX_Q, 1, -9}, {CAEKF_PARAM_SIGMA_QX_V, 1, -7}, {CAEKF_PARAM_SIGMA_Q_GAMMA, 1, 6},
-    {CAEKF_PARAM_SIGMA_R, 1, -7},   {CAEKF_PARAM_GAMMA_MIN, 1, 6},
-};
-#define N_PAPER_PARAMS (sizeof paper_params / sizeof paper_params[0])
 
 void fixture_start(void)
 {
@@ -36,14 +21,14 @@ void fixture_paper_settings(caekf_app_settings_t *s)
 {
     unsigned i;
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_settings_default(s));
-    for (i = 0; i < N_PAPER_PARAMS; i++) {
+    for (i = 0; i < CAEKF_N_PAPER_PARAMS; i++) {
         caekf_msg_param_t p;
         double v;
-        p.param_id = (uint8_t)paper_params[i].id;
-        p.exp10 = (int8_t)paper_params[i].exp10;
-        p.mantissa = paper_params[i].mantissa;
+        p.param_id = (uint8_t)caekf_paper_params[i].id;
+        p.exp10 = (int8_t)caekf_paper_params[i].exp10;
+        p.mantissa = caekf_paper_params[i].mantissa;
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_param_value(&p, &v));
-        TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_settings_set(s, paper_params[i].id, v));
+        TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_settings_set(s, caekf_paper_params[i].id, v));
     }
     /* spot checks against the literal scenario values */
     TEST_ASSERT_TRUE(s->est.model.dt == (caekf_scalar_t)1.0e-3);
@@ -54,10 +39,10 @@ void fixture_paper_settings(caekf_app_settings_t *s)
 unsigned fixture_send_paper_params(fake_hal_t *f)
 {
     unsigned i;
-    for (i = 0; i < N_PAPER_PARAMS; i++) {
-        bench_param(f, paper_params[i].id, paper_params[i].exp10, paper_params[i].mantissa);
+    for (i = 0; i < CAEKF_N_PAPER_PARAMS; i++) {
+        bench_param(f, caekf_paper_params[i].id, caekf_paper_params[i].exp10, caekf_paper_params[i].mantissa);
     }
-    return (unsigned)N_PAPER_PARAMS;
+    return (unsigned)CAEKF_N_PAPER_PARAMS;
 }
 
 void fixture_configure(unsigned experiment)

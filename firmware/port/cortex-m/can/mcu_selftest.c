@@ -5,6 +5,8 @@
 #include <stddef.h>
 #include <string.h>
 
+#include "paper_params.h"
+
 #define PUMP_LIMIT 400u   /* main-loop passes allowed for the firmware to go idle */
 #define SELFTEST_TOKEN 0x5Au
 #define SELFTEST_EXPERIMENT CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED
@@ -19,23 +21,7 @@
         }                              \
     } while (0)
 
-/* The reference scenario's estimator settings (sim/scenarios/paper.toml) in their shortest decimal
- * form (mantissa * 10^exp10), as the bench sends them. */
-static const struct {
-    uint8_t id;
-    int8_t exp10;
-    int32_t mantissa;
-} paper_params[] = {
-    {CAEKF_PARAM_M1, 0, 1},         {CAEKF_PARAM_M2, 0, 1},          {CAEKF_PARAM_M3, 0, 1},
-    {CAEKF_PARAM_M4, 0, 1},         {CAEKF_PARAM_K1, 3, 2},          {CAEKF_PARAM_K12, 4, 1},
-    {CAEKF_PARAM_K34, 4, 1},        {CAEKF_PARAM_K4, 4, 1},          {CAEKF_PARAM_C1, 0, 5},
-    {CAEKF_PARAM_C12, 0, 5},        {CAEKF_PARAM_C34, 0, 5},         {CAEKF_PARAM_C4, 0, 5},
-    {CAEKF_PARAM_GAP, -3, 1},       {CAEKF_PARAM_DT, -3, 1},         {CAEKF_PARAM_GAMMA0, 6, 75},
-    {CAEKF_PARAM_SIGMA_Q0, -6, 1},  {CAEKF_PARAM_SIGMA_V0, -5, 1},   {CAEKF_PARAM_SIGMA_GAMMA0, 6, 25},
-    {CAEKF_PARAM_SIGMA_QX_Q, -9, 1}, {CAEKF_PARAM_SIGMA_QX_V, -7, 1}, {CAEKF_PARAM_SIGMA_Q_GAMMA, 6, 1},
-    {CAEKF_PARAM_SIGMA_R, -7, 1},   {CAEKF_PARAM_GAMMA_MIN, 6, 1},
-};
-#define N_PAPER_PARAMS ((unsigned)(sizeof paper_params / sizeof paper_params[0]))
+
 
 /* The estimate frames of one step, in the order the app sends them. */
 static const caekf_msg_t step_msgs[] = {
@@ -202,11 +188,11 @@ static int configure(caekf_mcu_selftest_t *t)
     caekf_msg_reset_t rst;
     caekf_msg_ack_t ack;
     unsigned i, n, acks = 0u;
-    for (i = 0u; i < N_PAPER_PARAMS; i++) {
+    for (i = 0u; i < CAEKF_N_PAPER_PARAMS; i++) {
         caekf_msg_param_t p;
-        p.param_id = paper_params[i].id;
-        p.exp10 = paper_params[i].exp10;
-        p.mantissa = paper_params[i].mantissa;
+        p.param_id = caekf_paper_params[i].id;
+        p.exp10 = caekf_paper_params[i].exp10;
+        p.mantissa = caekf_paper_params[i].mantissa;
         memset(d, 0, sizeof d);
         CHECK(t, caekf_proto_encode_param(&p, d) == CAEKF_PROTO_OK, "bench: encode CTRL_PARAM", i);
         if (bench_send(t, CAEKF_MSG_CTRL_PARAM, d)) {
@@ -214,7 +200,7 @@ static int configure(caekf_mcu_selftest_t *t)
         }
     }
     rst.experiment = (uint8_t)SELFTEST_EXPERIMENT;
-    rst.n_params = (uint8_t)N_PAPER_PARAMS;
+    rst.n_params = (uint8_t)CAEKF_N_PAPER_PARAMS;
     rst.token = SELFTEST_TOKEN;
     memset(d, 0, sizeof d);
     CHECK(t, caekf_proto_encode_reset(&rst, d) == CAEKF_PROTO_OK, "bench: encode CTRL_RESET", 0);
@@ -232,7 +218,7 @@ static int configure(caekf_mcu_selftest_t *t)
         CHECK(t, caekf_proto_decode_ack(out[i].data, &ack) == CAEKF_PROTO_OK, "configure: EST_ACK does not decode", i);
         CHECK(t, ack.status == (int8_t)CAEKF_ACK_ACCEPTED, "configure: configuration refused (ACK_STATUS)", ack.status);
         CHECK(t, ack.token == SELFTEST_TOKEN && ack.experiment == (uint8_t)SELFTEST_EXPERIMENT &&
-                     ack.n_params_rx == N_PAPER_PARAMS,
+                     ack.n_params_rx == CAEKF_N_PAPER_PARAMS,
               "configure: EST_ACK fields", ack.n_params_rx);
         acks++;
     }
