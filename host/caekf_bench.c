@@ -11,7 +11,6 @@
 #include "common/experiment.h"
 #include "common/scenario.h"
 
-#define MAX_ROWS 2000000
 
 static double now_s(void)
 {
@@ -22,13 +21,11 @@ static double now_s(void)
 
 int main(int argc, char **argv)
 {
-    static caekf_meas_t rows[MAX_ROWS];
+    static caekf_meas_t rows[CAEKF_CSV_MAX_ROWS];
     caekf_scenario_t sc;
-    caekf_csv_t csv;
     char err[512];
-    FILE *f;
-    long n = 0;
-    int e, rc, repeats = 3;
+    long n;
+    int e, repeats = 3;
     if (argc < 3) {
         fprintf(stderr, "usage: caekf-bench SCENARIO TRUTH_CSV [REPEATS]\n");
         return 2;
@@ -41,18 +38,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "caekf-bench: %s\n", err);
         return 3;
     }
-    if ((f = fopen(argv[2], "r")) == NULL) {
-        perror(argv[2]);
-        return 5;
-    }
-    if (caekf_csv_open(&csv, f, argv[2], 0) != 0) {
-        fprintf(stderr, "caekf-bench: %s\n", csv.err);
+    if ((n = caekf_csv_load(argv[2], rows, CAEKF_CSV_MAX_ROWS, err, sizeof err)) < 0) {
+        fprintf(stderr, "caekf-bench: %s\n", err);
         return 4;
     }
-    while (n < MAX_ROWS && (rc = caekf_csv_next(&csv, &rows[n])) == 1) {
-        n++;
-    }
-    fclose(f);
     printf("%-28s %-6s %10s %14s %12s\n", "experiment", "scalar", "steps", "steps/s (best)", "ns/step");
     for (e = 0; e < CAEKF_EXP_COUNT; ++e) {
         caekf_settings_t s;

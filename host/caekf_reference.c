@@ -11,9 +11,11 @@ CAEKF_STATIC_ASSERT(CAEKF_USE_FLOAT == 0, reference_is_double);
 
 int main(int argc, char **argv)
 {
+    static caekf_meas_t rows[CAEKF_CSV_MAX_ROWS];
     caekf_scenario_t sc;
     char err[512];
     FILE *out;
+    long n, k;
     int e;
     if (argc != 4) {
         fprintf(stderr, "usage: caekf-reference SCENARIO TRUTH_CSV OUT_HEADER\n");
@@ -22,6 +24,10 @@ int main(int argc, char **argv)
     if (caekf_scenario_load(argv[1], &sc, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-reference: %s\n", err);
         return 3;
+    }
+    if ((n = caekf_csv_load(argv[2], rows, CAEKF_CSV_MAX_ROWS, err, sizeof err)) < 0) {
+        fprintf(stderr, "caekf-reference: %s\n", err);
+        return 4;
     }
     if ((out = fopen(argv[3], "w")) == NULL) {
         perror(argv[3]);
@@ -32,29 +38,16 @@ int main(int argc, char **argv)
     for (e = 0; e < CAEKF_EXP_COUNT; ++e) {
         caekf_settings_t s;
         caekf_t est;
-        caekf_csv_t csv;
-        caekf_meas_t m;
         double g;
-        int rc;
-        FILE *f = fopen(argv[2], "r");
-        if (f == NULL || caekf_csv_open(&csv, f, argv[2], 0) != 0) {
-            fprintf(stderr, "caekf-reference: cannot read %s\n", argv[2]);
-            return 4;
-        }
         (void)caekf_experiment_settings(&sc, (caekf_experiment_t)e, &s);
         if (caekf_init(&est, &s) != CAEKF_OK) {
             return 3;
         }
-        while ((rc = caekf_csv_next(&csv, &m)) == 1) {
+        for (k = 0; k < n; ++k) {
             double y[2];
-            y[0] = m.y1;
-            y[1] = m.y4;
-            (void)caekf_step(&est, m.u, y, NULL);
-        }
-        fclose(f);
-        if (rc < 0) {
-            fprintf(stderr, "caekf-reference: %s\n", csv.err);
-            return 4;
+            y[0] = rows[k].y1;
+            y[1] = rows[k].y4;
+            (void)caekf_step(&est, rows[k].u, y, NULL);
         }
         (void)caekf_get_gamma(&est, &g);
         fprintf(out, "    %.17g, /* %s */\n", g, caekf_experiment_name((caekf_experiment_t)e));

@@ -134,3 +134,37 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
     m->y4 = v[3];
     return 1;
 }
+
+long caekf_csv_load(const char *path, caekf_meas_t *rows, long max_rows, char *err, unsigned err_len)
+{
+    caekf_csv_t csv;
+    caekf_meas_t extra;
+    long n = 0;
+    int rc;
+    FILE *f = fopen(path, "r");
+    if (f == NULL) {
+        snprintf(err, err_len, "%s: cannot open: %s", path, strerror(errno));
+        return -1;
+    }
+    if (caekf_csv_open(&csv, f, path, 0) != 0) {
+        fclose(f);
+        snprintf(err, err_len, "%s", csv.err);
+        return -1;
+    }
+    while (n < max_rows && (rc = caekf_csv_next(&csv, &rows[n])) == 1) {
+        n++;
+    }
+    if (n == max_rows) {
+        rc = caekf_csv_next(&csv, &extra);
+        if (rc == 1) {
+            snprintf(csv.err, sizeof csv.err, "%s: more than %ld rows", path, max_rows);
+            rc = -1;
+        }
+    }
+    fclose(f);
+    if (rc < 0) {
+        snprintf(err, err_len, "%s", csv.err);
+        return -1;
+    }
+    return n;
+}

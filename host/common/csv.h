@@ -26,4 +26,10 @@ int caekf_csv_open(caekf_csv_t *r, FILE *f, const char *name, int allow_nonfinit
 /* Returns 1 with a row, 0 at end of input, -1 on a malformed row (message in r->err). */
 int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m);
 
+#define CAEKF_CSV_MAX_ROWS 2000000L /* whole-file loads: 33 min at 1 ms */
+
+/* Reads a whole measurement CSV file into rows[0..max_rows). Returns the row count, or -1 with a
+ * message (unreadable file, malformed row, more than max_rows rows) in err. */
+long caekf_csv_load(const char *path, caekf_meas_t *rows, long max_rows, char *err, unsigned err_len);
+
 #endif
