@@ -190,7 +190,11 @@ class SocketcanTransport(Transport):
             r, _, _ = select.select([self.sock], [], [], timeout)
             return self._recv_nowait() if r else b""
         self._set_timeout(timeout)
-        n = self.libc.recvmmsg(self.fd, self.rx.hdr, self.rx.n, MSG_WAITFORONE, None)
+        return self._recvmmsg(MSG_WAITFORONE)
+
+    def _recvmmsg(self, flags: int) -> bytes:
+        """One recvmmsg() batch as concatenated records; b"" when nothing came (timeout, EINTR)."""
+        n = self.libc.recvmmsg(self.fd, self.rx.hdr, self.rx.n, flags, None)
         if n < 0:
             e = ctypes.get_errno()
             if e in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
@@ -204,13 +208,7 @@ class SocketcanTransport(Transport):
 
     def _recv_nowait(self) -> bytes:
         if self.libc is not None:
-            n = self.libc.recvmmsg(self.fd, self.rx.hdr, self.rx.n, MSG_DONTWAIT, None)
-            if n < 0:
-                e = ctypes.get_errno()
-                if e in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
-                    return b""
-                raise OSError(e, os.strerror(e))
-            return self._rx_mv[: n * RECORD_SIZE].tobytes()
+            return self._recvmmsg(MSG_DONTWAIT)
         out = []
         for _ in range(256):
             try:
