@@ -98,8 +98,10 @@ static caekf_gamma_policy_t gamma_policy(const caekf_settings_t *cfg, int contac
     return cfg->switchoff == CAEKF_SWITCHOFF_PAPER ? CAEKF_GAMMA_FROZEN_PAPER : CAEKF_GAMMA_FROZEN_SCHMIDT;
 }
 
-/* One step: prediction, then (with y) the correction and the constraint. y == NULL: no measurement. */
-static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t *y, caekf_report_t *report)
+/* One step: prediction, then (with y) the correction and the constraint. y == NULL: no measurement
+ * (caekf_predict), which caekf_step (measured == 1) refuses as a caller error. */
+static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t *y, int measured,
+                              caekf_report_t *report)
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_NY];
@@ -117,7 +119,7 @@ static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar
         report->newton_iters = 0;
         report->delta = 0;
     }
-    if (est == 0) {
+    if (est == 0 || (measured && y == 0)) {
         return CAEKF_ERR_NULL;
     }
     if (!is_init(est)) {
@@ -218,20 +220,12 @@ done:
 
 caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], caekf_report_t *report)
 {
-    if (y == 0) {
-        if (report != 0) {
-            report->flags = 0;
-            report->newton_iters = 0;
-            report->delta = 0;
-        }
-        return CAEKF_ERR_NULL;
-    }
-    return advance(est, u, y, report);
+    return advance(est, u, y, 1, report);
 }
 
 caekf_status_t caekf_predict(caekf_t *est, caekf_scalar_t u, caekf_report_t *report)
 {
-    return advance(est, u, 0, report);
+    return advance(est, u, 0, 0, report);
 }
 
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
