@@ -5,8 +5,8 @@
  * mps2-an500 (Cortex-M7) with `-semihosting-config enable=on,target=native`; on a real part a
  * debugger must service the semihosting BKPTs, otherwise they fault.
  *
- * No heap: the port provides no _sbrk, so anything that needs malloc (newlib's stdio, printf of
- * floats, raise()) fails to link. Print with the caekf_console_* functions instead.
+ * No heap: the port provides no _sbrk, so anything that needs malloc - newlib's stdio, printf of
+ * floats, raise() - fails to link. Print with the caekf_console_* functions instead.
  */
 #ifndef CAEKF_PORT_H
 #define CAEKF_PORT_H

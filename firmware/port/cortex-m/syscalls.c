@@ -3,8 +3,8 @@
  *
  * Deliberately absent: _sbrk. newlib's malloc needs it, so an image that (even indirectly) uses
  * malloc - stdio buffers, printf("%f"), raise() - fails to link instead of carrying a heap.
- * abort() and __assert_func() are replaced here because newlib's versions reach malloc (through
- * raise() and fiprintf() respectively).
+ * abort() and __assert_func() are replaced here because newlib's versions reach malloc, through
+ * raise() and fiprintf() respectively.
  */
 #include <errno.h>
 #include <stdlib.h>
