@@ -25,11 +25,12 @@ static void usage(FILE *f)
           "         [--experiment canonical|switched|switched-highq|switched-highq-constrained]\n"
           "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
           "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
-          "         [--missing-y-predict] [--summary]\n"
+          "         [--gate NIS] [--missing-y-predict] [--summary]\n"
           "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default) and writes\n"
-          "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters (stdout by default).\n"
+          "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis (stdout by default).\n"
           "The experiment sets the defaults (default: switched); the explicit flags override them.\n"
-          "p_norm is the 2-norm of P in physical units; p_gg its gamma variance.\n"
+          "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
+          "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
           "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
           "refusing the input. --missing-y-predict: a row whose y1 and y4 are both empty is a step without\n"
           "measurement (caekf_predict, the firmware's bridge over lost steps). --summary prints one line of\n"
@@ -61,7 +62,7 @@ int main(int argc, char **argv)
 {
     const char *scenario = NULL, *in = "-", *out = "-";
     const char *experiment = "switched", *mode = NULL, *constraint = NULL, *switchoff = NULL;
-    double q_gamma_scale = -1;
+    double q_gamma_scale = -1, gate = -1;
     int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0;
     caekf_scenario_t sc;
     caekf_settings_t s;
@@ -89,6 +90,13 @@ int main(int argc, char **argv)
             q_gamma_scale = strtod(argv[++i], &end);
             if (*end != '\0' || !(q_gamma_scale >= 0) || !isfinite(q_gamma_scale)) {
                 fprintf(stderr, "caekf-replay: --q-gamma-scale needs a finite number >= 0\n");
+                return 2;
+            }
+        } else if (strcmp(a, "--gate") == 0 && has) {
+            char *end;
+            gate = strtod(argv[++i], &end);
+            if (*end != '\0' || !(gate >= 0) || !isfinite(gate)) {
+                fprintf(stderr, "caekf-replay: --gate needs a finite number >= 0\n");
                 return 2;
             }
         } else if (strcmp(a, "--joseph") == 0) joseph = 1;
@@ -134,6 +142,7 @@ int main(int argc, char **argv)
         else { fprintf(stderr, "caekf-replay: bad --switchoff '%s'\n", switchoff); return 2; }
     }
     if (q_gamma_scale >= 0) s.q_gamma_scale = (caekf_scalar_t)q_gamma_scale;
+    if (gate >= 0) s.gamma_gate_nis = (caekf_scalar_t)gate;
     if (joseph) s.cov_update = CAEKF_COV_JOSEPH;
     if (no_repair) s.cov_repair_enabled = 0;
     if (caekf_settings_validate(&s, &bad) != CAEKF_OK || caekf_init(&est, &s) != CAEKF_OK) {
@@ -158,7 +167,7 @@ int main(int argc, char **argv)
     csv.allow_missing_y = allow_missing;
     memset(&sum, 0, sizeof sum);
     sum.gamma_min_seen = INFINITY;
-    fputs("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters\n", fout);
+    fputs("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis\n", fout);
     while ((rc = caekf_csv_next(&csv, &m)) == 1) {
         caekf_scalar_t y[CAEKF_NY], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;
         caekf_report_t rep;
@@ -175,8 +184,8 @@ int main(int argc, char **argv)
         for (i = 0; i < CAEKF_N; ++i) {
             fprintf(fout, ",%.17g", (double)x[i]);
         }
-        fprintf(fout, ",%.17g,%.17g,%lu,%d\n", (double)pn, (double)P[CAEKF_IG][CAEKF_IG], (unsigned long)rep.flags,
-                rep.newton_iters);
+        fprintf(fout, ",%.17g,%.17g,%lu,%d,%.9g\n", (double)pn, (double)P[CAEKF_IG][CAEKF_IG],
+                (unsigned long)rep.flags, rep.newton_iters, (double)rep.nis);
         sum.rows++;
         sum.iters_sum += rep.newton_iters;
         if (rep.newton_iters > sum.iters_max) sum.iters_max = rep.newton_iters;

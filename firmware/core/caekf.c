@@ -112,12 +112,13 @@ static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar
     int iters = 0;
     int i, finite;
     const caekf_scalar_t *s;
-    caekf_scalar_t s_q, s_v, nf;
+    caekf_scalar_t s_q, s_v, nf, nis = 0;
 
     if (report != 0) {
         report->flags = 0;
         report->newton_iters = 0;
         report->delta = 0;
+        report->nis = 0;
     }
     if (est == 0 || (measured && y == 0)) {
         return CAEKF_ERR_NULL;
@@ -177,7 +178,7 @@ static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar
         y_s[0] = y[0] / s_q;
         y_s[1] = y[1] / s_q;
         (void)caekf_correct_upper(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH,
-                                  policy, &flags);
+                                  policy, est->cfg.gamma_gate_nis, &nis, &flags);
         /* Inequality constraint, eqs. (28)-(30). */
         if (est->cfg.constraint_enabled) {
             caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
@@ -214,6 +215,7 @@ done:
         report->flags = flags;
         report->newton_iters = iters;
         report->delta = contact.delta;
+        report->nis = nis;
     }
     return st;
 }
@@ -295,8 +297,8 @@ const char *caekf_status_str(caekf_status_t st)
     case CAEKF_ERR_SETTINGS: return "settings refused";
     case CAEKF_ERR_NOT_INIT: return "not initialised";
     case CAEKF_ERR_INPUT: return "non-finite input rejected";
-    case CAEKF_ERR_NUMERIC: return "non-finite result, step rolled back";
-    case CAEKF_ERR_SINGULAR: return "singular matrix, step rolled back";
+    case CAEKF_ERR_NUMERIC: return "non-finite result, rolled back";
+    case CAEKF_ERR_SINGULAR: return "singular matrix, rolled back";
     default: return "unknown status";
     }
 }
@@ -306,6 +308,6 @@ const char *caekf_flag_name(unsigned bit_index)
     static const char *const names[CAEKF_FLAG_COUNT] = {
         "newton_not_converged", "input_rejected",       "constraint_applied", "contact_active",
         "cov_repaired",         "singular_innovation",  "constraint_clamped", "numeric_rollback",
-        "gamma_frozen",         "cov_indefinite",       "no_measurement"};
+        "gamma_frozen",         "cov_indefinite",       "no_measurement",     "gamma_gated"};
     return bit_index < CAEKF_FLAG_COUNT ? names[bit_index] : "unknown";
 }

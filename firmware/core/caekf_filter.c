@@ -157,7 +157,8 @@ void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t T, caekf_scalar_t fv[NQ
 }
 
 int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r,
-                        int joseph, caekf_gamma_policy_t policy, uint32_t *flags)
+                        int joseph, caekf_gamma_policy_t policy, caekf_scalar_t gate, caekf_scalar_t *nis,
+                        uint32_t *flags)
 {
     caekf_scalar_t Si[3];
     caekf_scalar_t G[N][CAEKF_NY];
@@ -172,6 +173,16 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
         *flags |= CAEKF_FLAG_SINGULAR_INNOVATION;
         return -1;
     }
+    e0 = y_s[0] - z[CAEKF_IY1]; /* eq. (14) */
+    e1 = y_s[1] - z[CAEKF_IY4];
+    /* Normalised innovation squared e^T S^-1 e: chi-square with 2 degrees of freedom while the filter
+     * is consistent. Far above that, the linearisation behind the gamma gain no longer holds (e.g. the
+     * first measurement after a gap in contact): gamma is held this step as a consider state. */
+    *nis = e0 * (Si[0] * e0 + 2 * Si[1] * e1) + Si[2] * e1 * e1;
+    if (policy == CAEKF_GAMMA_LIVE && gate > 0 && *nis > gate) {
+        policy = CAEKF_GAMMA_FROZEN_SCHMIDT;
+        *flags |= CAEKF_FLAG_GAMMA_GATED;
+    }
     for (i = 0; i < N; ++i) {
         hp1[i] = P[CAEKF_IY1][i];
         hp4[i] = i < CAEKF_IY4 ? P[i][CAEKF_IY4] : P[CAEKF_IY4][i];
@@ -182,8 +193,6 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
         G[IG][0] = 0; /* eq. (26) with gamma frozen: a Schmidt ("consider") gain */
         G[IG][1] = 0;
     }
-    e0 = y_s[0] - z[CAEKF_IY1]; /* eq. (14) */
-    e1 = y_s[1] - z[CAEKF_IY4];
     for (i = 0; i < N; ++i) {
         z[i] += G[i][0] * e0 + G[i][1] * e1;
     }
@@ -218,17 +227,6 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
         }
     }
     return 0;
-}
-
-int caekf_correct(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r, int joseph,
-                  caekf_gamma_policy_t policy, caekf_mat_t scratch, uint32_t *flags)
-{
-    int st = caekf_correct_upper(z, P, y_s, r, joseph, policy, flags);
-    (void)scratch;
-    if (st == 0) {
-        caekf_mirror_upper(P);
-    }
-    return st;
 }
 
 void caekf_constrain_upper(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
@@ -271,13 +269,6 @@ void caekf_constrain_upper(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zm
     for (k = 0; k < 4 && z[IG] * s_gamma < gamma_min_phys; ++k) {
         z[IG] += CAEKF_FABS(z[IG]) * CAEKF_EPS + (caekf_scalar_t)1e-30;
     }
-}
-
-void caekf_constrain(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
-                     caekf_scalar_t gamma_min_phys, uint32_t *flags)
-{
-    caekf_constrain_upper(z, P, zmin, s_gamma, gamma_min_phys, flags);
-    caekf_mirror_upper(P);
 }
 
 /* Every valid covariance has P_ii >= 0 and P_ij^2 <= P_ii P_jj; failing either is the common way

@@ -2,7 +2,7 @@
  * The filter's building blocks on the scaled state z = S^-1 x and scaled covariance P (internal).
  * H selects z[0] (q1) and z[3] (q4): the structure is used instead of multiplying by H.
  * Within a step the work covariance is kept as its upper triangle only (the *_upper functions read
- * and write j >= i); caekf_correct and caekf_constrain are the same on full symmetric matrices.
+ * and write j >= i; caekf_mirror_upper completes a full symmetric matrix).
  */
 #ifndef CAEKF_FILTER_H
 #define CAEKF_FILTER_H
@@ -36,12 +36,12 @@ void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t P_pred, caekf_scalar_t 
                               int contact);
 
 /* Eqs. (13)-(15), or (25)-(27) with the policy, for y_s = [q1, q4] / s_q. Standard or Joseph form.
- * Returns 0, or sets CAEKF_FLAG_SINGULAR_INNOVATION and leaves z, P untouched. scratch: unused (kept
- * for the callers). */
-int caekf_correct(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r,
-                  int joseph, caekf_gamma_policy_t policy, caekf_mat_t scratch, uint32_t *flags);
+ * Returns 0, or sets CAEKF_FLAG_SINGULAR_INNOVATION and leaves z, P untouched. *nis: the normalised
+ * innovation squared; with gate > 0 and nis above it a live gamma is held for this correction
+ * (Schmidt gain, flag GAMMA_GATED). */
 int caekf_correct_upper(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY],
-                        caekf_scalar_t r, int joseph, caekf_gamma_policy_t policy, uint32_t *flags);
+                        caekf_scalar_t r, int joseph, caekf_gamma_policy_t policy, caekf_scalar_t gate,
+                        caekf_scalar_t *nis, uint32_t *flags);
 
 /* Eqs. (28)-(30): if z_gamma < zmin, the perfect measurement D z = zmin (D = e_gamma, R = 0).
  * Processing it after the y-correction equals repeating the correction with [H; D] and
@@ -50,8 +50,6 @@ int caekf_correct_upper(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, const caekf_sc
  * gamma column violates Cauchy-Schwarz), the documented fallback clamps gamma to zmin and leaves
  * the other states and P alone (flags CONSTRAINT_CLAMPED | SINGULAR_INNOVATION).
  * gamma_min_phys and s_gamma guarantee z * s_gamma >= gamma_min_phys after rounding. */
-void caekf_constrain(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
-                     caekf_scalar_t gamma_min_phys, uint32_t *flags);
 void caekf_constrain_upper(caekf_scalar_t z[CAEKF_N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
                            caekf_scalar_t gamma_min_phys, uint32_t *flags);
 

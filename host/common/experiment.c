@@ -58,5 +58,8 @@ caekf_status_t caekf_experiment_settings(const caekf_scenario_t *sc, caekf_exper
     s->mode = (e == CAEKF_EXP_CANONICAL) ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
     s->q_gamma_scale = (e == CAEKF_EXP_SWITCHED_HIGHQ || e == CAEKF_EXP_SWITCHED_HIGHQ_CONSTRAINED) ? 1000 : 1;
     s->constraint_enabled = (e == CAEKF_EXP_SWITCHED_HIGHQ_CONSTRAINED);
+    if (e == CAEKF_EXP_CANONICAL) {
+        s->gamma_gate_nis = 0; /* Table 1 as the paper has it */
+    }
     return caekf_settings_validate(s, 0);
 }

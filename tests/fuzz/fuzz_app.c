@@ -122,7 +122,8 @@ static int settings_equal(const caekf_settings_t *a, const caekf_settings_t *b)
            a->switchoff == b->switchoff && a->cov_update == b->cov_update &&
            a->constraint_enabled == b->constraint_enabled && SAME(a->gamma_min, b->gamma_min) &&
            a->cov_repair_enabled == b->cov_repair_enabled && a->psd_check_period == b->psd_check_period &&
-           a->newton_max_iter == b->newton_max_iter && SAME(a->newton_rtol, b->newton_rtol);
+           a->newton_max_iter == b->newton_max_iter && SAME(a->newton_rtol, b->newton_rtol) &&
+           SAME(a->gamma_gate_nis, b->gamma_gate_nis);
 }
 
 static int app_settings_equal(const caekf_app_settings_t *a, const caekf_app_settings_t *b)
@@ -161,6 +162,7 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_SIGMA_R: return &s->sigma_r;
     case CAEKF_PARAM_GAMMA_MIN: return &s->gamma_min;
     case CAEKF_PARAM_NEWTON_RTOL: return &s->newton_rtol;
+    case CAEKF_PARAM_GAMMA_GATE_NIS: return &s->gamma_gate_nis;
     default: return NULL;
     }
 }
@@ -209,6 +211,9 @@ static int model_experiment(const caekf_app_settings_t *b, unsigned exp, caekf_s
         out->mode = (exp == CAEKF_EXPERIMENT_CANONICAL) ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
         out->q_gamma_scale = (exp >= CAEKF_EXPERIMENT_SWITCHED_HIGHQ) ? (caekf_scalar_t)b->highq_scale : (caekf_scalar_t)1;
         out->constraint_enabled = (exp == CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED) ? 1 : 0;
+        if (exp == CAEKF_EXPERIMENT_CANONICAL) {
+            out->gamma_gate_nis = 0;
+        }
     }
     FZ_CHECK(ast == (rc == 0 ? CAEKF_APP_OK : rc == -1 ? CAEKF_APP_ERR_EXPERIMENT : CAEKF_APP_ERR_PARAM),
              "caekf_app_experiment_settings status");

@@ -53,11 +53,11 @@ static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned i, double *typic
         &s->v0[0],   &s->v0[1],       &s->v0[2],       &s->v0[3],      &s->gamma0,     &s->sigma_q0,
         &s->sigma_v0, &s->sigma_gamma0, &s->sigma_qx_q, &s->sigma_qx_v, &s->sigma_q_gamma, &s->q_gamma_scale,
         &s->sigma_r, &s->gamma_min,   &s->newton_rtol,
-        &m->gap,     &s->gamma0,      &s->gamma_min}; /* the contact and constraint fields twice: more often */
+        &s->gamma_gate_nis, &s->gamma0, &s->gamma_min}; /* the contact and constraint fields twice: more often */
     /* Typical magnitudes for fields whose current value may be 0. */
     static const double typ[N_REAL_FIELDS] = {1, 1, 1, 1, 2e3, 1e4, 1e4, 1e4, 5, 5, 5, 5, 1e-3, 1e-3,
                                               1e-3, 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2, 1e-2, 7.5e7, 1e-6,
-                                              1e-5, 2.5e7, 1e-9, 1e-7, 1e6, 1e3, 1e-7, 1e6, 1e-13, 1e-3,
+                                              1e-5, 2.5e7, 1e-9, 1e-7, 1e6, 1e3, 1e-7, 1e6, 1e-13, 25,
                                               1e8, 1e8};
     i %= N_REAL_FIELDS;
     *typical = (*f[i] != (caekf_scalar_t)0 && fz_is_finite_scalar(*f[i])) ? (double)*f[i] : typ[i];
@@ -139,7 +139,7 @@ static void dump_settings(const caekf_settings_t *s)
     fprintf(stderr,
             "settings: m %g %g %g %g k %g %g %g %g c %g %g %g %g gap %g dt %g\n"
             "  q0 %g %g %g %g v0 %g %g %g %g gamma0 %g sigma0 %g %g %g\n"
-            "  sigma_qx %g %g sigma_q_gamma %g q_gamma_scale %g sigma_r %g gamma_min %g rtol %g\n"
+            "  sigma_qx %g %g sigma_q_gamma %g q_gamma_scale %g sigma_r %g gamma_min %g rtol %g gate %g\n"
             "  mode %d switchoff %d cov_update %d constraint %d repair %d psd_period %d newton_max %d\n",
             (double)m->m[0], (double)m->m[1], (double)m->m[2], (double)m->m[3], (double)m->k1, (double)m->k12,
             (double)m->k34, (double)m->k4, (double)m->c1, (double)m->c12, (double)m->c34, (double)m->c4,
@@ -147,7 +147,7 @@ static void dump_settings(const caekf_settings_t *s)
             (double)s->q0[3], (double)s->v0[0], (double)s->v0[1], (double)s->v0[2], (double)s->v0[3],
             (double)s->gamma0, (double)s->sigma_q0, (double)s->sigma_v0, (double)s->sigma_gamma0,
             (double)s->sigma_qx_q, (double)s->sigma_qx_v, (double)s->sigma_q_gamma, (double)s->q_gamma_scale,
-            (double)s->sigma_r, (double)s->gamma_min, (double)s->newton_rtol, (int)s->mode, (int)s->switchoff,
+            (double)s->sigma_r, (double)s->gamma_min, (double)s->newton_rtol, (double)s->gamma_gate_nis, (int)s->mode, (int)s->switchoff,
             (int)s->cov_update, s->constraint_enabled, s->cov_repair_enabled, s->psd_check_period,
             s->newton_max_iter);
 }

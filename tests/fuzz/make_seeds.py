@@ -59,7 +59,7 @@ def est_header(exp=3, default=False, paper_switchoff=False, joseph=False, repair
 # real field indices of fuzz_estimator.c's real_field table; integer fields follow at 36..42
 F = {"m1": 0, "k1": 4, "c1": 8, "gap": 12, "dt": 13, "q0_1": 14, "q0_2": 15, "v0_1": 18, "gamma0": 22,
      "sigma_q0": 23, "sigma_v0": 24, "sigma_gamma0": 25, "sigma_qx_q": 26, "sigma_qx_v": 27,
-     "sigma_q_gamma": 28, "q_gamma_scale": 29, "sigma_r": 30, "gamma_min": 31, "newton_rtol": 32,
+     "sigma_q_gamma": 28, "q_gamma_scale": 29, "sigma_r": 30, "gamma_min": 31, "newton_rtol": 32, "gamma_gate_nis": 33,
      "mode": 36, "switchoff": 37, "cov_update": 38, "constraint": 39, "repair": 40, "psd_period": 41,
      "newton_max_iter": 42}
 

@@ -1,5 +1,5 @@
-"""Fault-injection matrix over the HIL bus: one run of the switched experiment, 0-13.5 s (through the first
-contact at 12.8 s), strict lockstep, with faults of every class spread over the run (seeded schedule).
+"""Fault-injection matrix over the HIL bus: one run of the switched experiment, 0-15 s (into the first
+contact, 12.8-17.2 s), strict lockstep, with faults of every class spread over the run (seeded schedule).
 
 Fault classes (sim/src/caekf_sim/bench/faults.py builds the frames):
   non-destructive -- the estimator still gets every step's valid inputs, so it must run every step and its
@@ -22,7 +22,12 @@ Checked:
   between two estimated steps bridged as the app bridges them: one prediction-only step per lost step
   (caekf_predict, the previous estimated step's decoded u held, y empty: caekf-replay --missing-y-predict);
 - per destructive episode (3 sampled per class): steps until the estimates match, within the CAN
-  resolution, the counterfactual run without that episode (caekf-replay), and the difference left.
+  resolution, the counterfactual run without that episode (caekf-replay), and the difference left;
+  every sampled episode with room to recover (MIN_WINDOW rows before the run or its segment ends) must
+  get back within |dq| <= 1e-7 m and |dgamma|/gamma <= 1 % of it and stay there, the bus silence during
+  the contact (12.95 s) included: its first estimates afterwards hold gamma (GAMMA_GATED, the innovation
+  gate) while positions and velocities re-converge;
+- the whole run ends within the same tolerance of the undisturbed run (no fault at all).
 The table is printed and written to <out>/fault-matrix.txt (tools/fault-matrix.sh).
 """
 from __future__ import annotations
@@ -35,7 +40,7 @@ import pytest
 
 from hilcfg import SCENARIO, report
 
-ROWS = 13500
+ROWS = 15000
 SEED = 20261121
 N_EACH = 105  # injections per non-destructive class
 N_FLOOD_EPISODES = 12
@@ -48,6 +53,8 @@ STORM_ROWS = (2500, 7500, 12300)
 STORM_LEN = 40
 VALIDATE_ROWS = (3500, 12850)
 RECOVERY_WINDOW = 3000
+MIN_WINDOW = 1000  # rows an episode needs after it for its recovery to be asserted
+GATED = 1 << 11  # CAEKF_FLAG_GAMMA_GATED
 Q_TOL = 1e-7  # practical recovery: positions within sigma_r (1e-7 m) ...
 G_TOL = 1e-2  # ... and gamma within 1 % of the run without the episode
 ND_KINDS = ("bad_crc", "wrong_dlc", "unknown_id", "counter_jump", "duplicate", "nan_inf", "out_of_range")
@@ -312,6 +319,7 @@ def matrix(fault_run, binaries, inputs, out_dir):
     iters_bad = int(np.sum(dec.columns["newton_iters"][answered].astype(np.int64)
                            != np.clip(ref_iters[answered], 0, 255)))
     gap_flagged = int(np.sum((fl[answered] & (1 << 13)) != 0))
+    gated = answered & ((fl & GATED) != 0)
 
     # per destructive episode, sampled: recovery against the counterfactual without it
     rec_rows = {}
@@ -356,7 +364,7 @@ def matrix(fault_run, binaries, inputs, out_dir):
     whole = dict(final_dq=float(dq_u[ROWS - 1]), final_dg=float(dg_u[ROWS - 1]), max_dq=float(np.nanmax(dq_u)),
                  max_dg=float(np.nanmax(dg_u)), first=int(np.argmax(ok & (_diff_ratio(ref_x, und) > 1.0))),
                  g_run=float(ref_x[ROWS - 1, 8]), g_und=float(und[ROWS - 1, 8]))
-    return dict(ratio=ratio, pr=pr, flags_bad=flags_bad, iters_bad=iters_bad, gap_flagged=gap_flagged,
+    return dict(ratio=ratio, pr=pr, flags_bad=flags_bad, iters_bad=iters_bad, gap_flagged=gap_flagged, gated=gated,
                 recovery=rec_rows, answered=answered, whole=whole, n_pred=n_pred)
 
 
@@ -402,6 +410,17 @@ def _fmt_rec(items):
     return rec, d
 
 
+def _spans(mask):
+    """'a-b, c-d' for the runs of True in mask."""
+    idx = np.nonzero(mask)[0]
+    if len(idx) == 0:
+        return "none"
+    cuts = np.nonzero(np.diff(idx) > 1)[0]
+    starts = np.r_[idx[0], idx[cuts + 1]]
+    ends = np.r_[idx[cuts], idx[-1]]
+    return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in zip(starts, ends))
+
+
 def _table(fr, m):
     n, h, ir = fr["n"], fr["h"], fr["inject_rows"]
     ratio = m["ratio"]
@@ -437,7 +456,8 @@ def _table(fr, m):
                  f"{m['gap_flagged']} EST_STEP with STEP_GAP", s, d])
     s, d = _fmt_rec(rec.get("silence"))
     rows.append([f"bus silence {SILENCE_LEN} steps", f"{n['silence']} episodes ({n['silence'] * SILENCE_LEN} steps)",
-                 "STEPS_SKIPPED +100 each, STEP_GAP on the next estimate (bridged: 100 prediction-only steps)",
+                 "STEPS_SKIPPED +100 each, STEP_GAP on the next estimate (bridged: 100 prediction-only steps); "
+                 f"GAMMA_GATED on {int(m['gated'].sum())} estimates (rows {_spans(m['gated'])})",
                  s, d])
     s, d = _fmt_rec(rec.get("storm"))
     sa = fr["storm_acks"]
@@ -508,3 +528,21 @@ def test_fault_matrix_config_validation(fault_run, matrix):
     # estimates go on unchanged: the steps after each refusal equal the replay without any refusal
     for r in VALIDATE_ROWS:
         assert float(matrix["ratio"][r:r + 200].max()) <= 1.0
+
+
+def test_fault_matrix_recovers(fault_run, matrix):
+    """Every sampled destructive episode with room to recover gets back to the run without it and stays,
+    the bus silence in contact included; the whole run ends where the undisturbed one does."""
+    fr = fault_run
+    rec = matrix["recovery"]
+    judged = []
+    for kind, items in rec.items():
+        for it in items:
+            if it["window"] >= MIN_WINDOW:
+                judged.append((kind, it["row"]))
+                assert it["steps_prac"] is not None, (kind, it)
+    assert ("silence", SILENCE_ROWS[-1]) in judged, "the silence during the contact must be judged"
+    # the gate is what carries that episode: gamma held on the first estimates after it
+    assert matrix["gated"][SILENCE_ROWS[-1] + SILENCE_LEN:SILENCE_ROWS[-1] + SILENCE_LEN + 50].any()
+    w = matrix["whole"]
+    assert w["final_dq"] <= Q_TOL and w["final_dg"] <= G_TOL, w

@@ -37,7 +37,7 @@ printf 't,u,y1,y4,extra\n0.001,0.1,1e-6,0,7\n0.002,nan,1e-6,0,7\n0.003,0.1,2e-6,
 if "$replay" --scenario "$scenario" --in "$tmp/ok.csv" --out "$tmp/out.csv" --allow-nonfinite 2>"$tmp/err"; then
     rows=$(($(wc -l < "$tmp/out.csv") - 1))
     flags2=$(sed -n 3p "$tmp/out.csv" | awk -F, '{print $13}')
-    if [[ $rows -eq 3 && $(head -1 "$tmp/out.csv") == t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters && $flags2 -eq 2 ]]; then
+    if [[ $rows -eq 3 && $(head -1 "$tmp/out.csv") == t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis && $flags2 -eq 2 ]]; then
         passes=$((passes + 1))
     else
         echo "FAIL good-input: rows=$rows flags(row2)=$flags2"; fails=$((fails + 1))

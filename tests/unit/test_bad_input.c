@@ -112,6 +112,8 @@ static void test_bad_settings_are_refused(void)
     REFUSE(newton_max_iter, CAEKF_NEWTON_MAX_ITER + 1);
     REFUSE(newton_rtol, 1);
     REFUSE(newton_rtol, 0);
+    REFUSE(gamma_gate_nis, -1);
+    REFUSE(gamma_gate_nis, nan);
     {
         const char *bad = NULL;
         caekf_settings_t b = good;

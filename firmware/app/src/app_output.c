@@ -4,6 +4,9 @@
 
 #include "app_internal.h"
 
+/* The estimator's flags share EST_STEP.FLAGS with the app's bits from 12 up. */
+CAEKF_STATIC_ASSERT(CAEKF_FLAG_COUNT <= 12 && CAEKF_STEP_FLAG_SATURATED == (1u << 12), core_flags_fit_below_app_flags);
+
 static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double value, uint16_t *app_flags)
 {
     caekf_can_frame_t f;

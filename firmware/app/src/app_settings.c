@@ -45,7 +45,7 @@ static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned id)
         &s->gamma0, &s->sigma_q0, &s->sigma_v0, &s->sigma_gamma0, &s->sigma_qx_q, &s->sigma_qx_v,
         &s->sigma_q_gamma, &s->sigma_r, &s->gamma_min,
         NULL, NULL, NULL, NULL, NULL, /* highq_scale, switchoff, cov_update, cov_repair, newton_max_iter */
-        &s->newton_rtol,
+        &s->newton_rtol, &s->gamma_gate_nis,
     };
     return fields[id];
 }
@@ -108,6 +108,9 @@ caekf_app_status_t caekf_app_experiment_settings(const caekf_app_settings_t *bas
     s.q_gamma_scale = (experiment >= CAEKF_EXPERIMENT_SWITCHED_HIGHQ) ? (caekf_scalar_t)base->highq_scale
                                                                        : (caekf_scalar_t)1;
     s.constraint_enabled = (experiment == CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED) ? 1 : 0;
+    if (experiment == CAEKF_EXPERIMENT_CANONICAL) {
+        s.gamma_gate_nis = 0; /* Table 1 as the paper has it */
+    }
     *out = s;
     return CAEKF_APP_OK;
 }

@@ -45,9 +45,10 @@ enum {
     CAEKF_FLAG_NUMERIC_ROLLBACK = 1u << 7,     /* non-finite result: the step was rolled back */
     CAEKF_FLAG_GAMMA_FROZEN = 1u << 8,         /* switched mode, contact inactive: gamma frozen */
     CAEKF_FLAG_COV_INDEFINITE = 1u << 9,       /* P failed the PSD test (repaired only if enabled) */
-    CAEKF_FLAG_NO_MEASUREMENT = 1u << 10       /* caekf_predict: time update only, no correction */
+    CAEKF_FLAG_NO_MEASUREMENT = 1u << 10,      /* caekf_predict: time update only, no correction */
+    CAEKF_FLAG_GAMMA_GATED = 1u << 11          /* innovation above gamma_gate_nis: gamma held this step */
 };
-#define CAEKF_FLAG_COUNT 11
+#define CAEKF_FLAG_COUNT 12
 
 typedef enum { CAEKF_MODE_CANONICAL = 0, CAEKF_MODE_SWITCHED = 1 } caekf_mode_t;
 
@@ -84,6 +85,12 @@ typedef struct {
     int psd_check_period;          /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
                                     * screen runs every step and triggers the full test at once) */
 
+    /* Innovation gate on the gamma correction (0: off). A step whose normalised innovation squared
+     * (chi-square, 2 degrees of freedom for a consistent filter) exceeds it still corrects q and v but
+     * holds gamma, as a consider state (flag GAMMA_GATED). Such innovations mean the linearisation that
+     * maps them onto gamma is void, e.g. the first measurements after a gap during contact. */
+    caekf_scalar_t gamma_gate_nis;
+
     int newton_max_iter;           /* 1..CAEKF_NEWTON_MAX_ITER */
     caekf_scalar_t newton_rtol;    /* residual tolerance relative to the size of the equation's terms */
 } caekf_settings_t;
@@ -93,6 +100,7 @@ typedef struct {
     uint32_t flags;       /* CAEKF_FLAG_* */
     int newton_iters;     /* Newton iterations of the prediction */
     caekf_scalar_t delta; /* predicted penetration delta(x_k-) [m] */
+    caekf_scalar_t nis;   /* normalised innovation squared of the correction (0 without one) */
 } caekf_report_t;
 
 /* The estimator instance (CMSIS-DSP style: caller-owned, no hidden state). Treat as opaque and read it

@@ -8,6 +8,7 @@ static const char *const param_names[CAEKF_PARAM_COUNT] = {
     "q0_1", "q0_2", "q0_3", "q0_4", "v0_1", "v0_2", "v0_3", "v0_4",
     "gamma0", "sigma_q0", "sigma_v0", "sigma_gamma0", "sigma_qx_q", "sigma_qx_v", "sigma_q_gamma", "sigma_r",
     "gamma_min", "highq_scale", "switchoff", "cov_update", "cov_repair", "newton_max_iter", "newton_rtol",
+    "gamma_gate_nis",
 };
 
 static const char *const counter_names[CAEKF_CNT_COUNT] = {

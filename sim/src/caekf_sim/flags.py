@@ -17,6 +17,8 @@ CONSTRAINT_CLAMPED = 1 << 6  # (C only) perfect measurement refused, gamma clamp
 NUMERIC_ROLLBACK = 1 << 7  # (C only) non-finite result rolled back
 GAMMA_FROZEN = 1 << 8  # switched mode, contact inactive: gamma and P_gg frozen
 COV_INDEFINITE = 1 << 9  # (C only) P failed the PSD test
+NO_MEASUREMENT = 1 << 10  # (C only) prediction-only step (caekf_predict, lost measurement)
+GAMMA_GATED = 1 << 11  # (C only) innovation above gamma_gate_nis: gamma held this step
 NON_FINITE = 1 << 16  # (numpy only) NaN/Inf in the state or P after the step
 
 NAMES = {
@@ -30,6 +32,8 @@ NAMES = {
     NUMERIC_ROLLBACK: "numeric_rollback",
     GAMMA_FROZEN: "gamma_frozen",
     COV_INDEFINITE: "cov_indefinite",
+    NO_MEASUREMENT: "no_measurement",
+    GAMMA_GATED: "gamma_gated",
     NON_FINITE: "non_finite",
 }
 

@@ -37,6 +37,9 @@ void paper_settings(caekf_settings_t *s, int experiment)
     s->mode = experiment == EXP_CANONICAL ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
     s->q_gamma_scale = (experiment >= EXP_SWITCHED_HIGHQ) ? 1000 : 1;
     s->constraint_enabled = experiment == EXP_SWITCHED_HIGHQ_CONSTRAINED;
+    if (experiment == EXP_CANONICAL) {
+        s->gamma_gate_nis = 0; /* Table 1 as published */
+    }
 }
 
 double paper_gamma_true(void) { return PAPER_gamma; }

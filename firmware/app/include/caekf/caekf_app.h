@@ -136,8 +136,9 @@ caekf_app_status_t caekf_app_settings_default(caekf_app_settings_t *s);
 caekf_app_status_t caekf_app_settings_set(caekf_app_settings_t *s, unsigned param_id, double value);
 /* Parameter id of a scenario key / DBC name (e.g. "sigma_r"). CAEKF_APP_ERR_PARAM if unknown. */
 caekf_app_status_t caekf_app_param_id(const char *name, unsigned *param_id);
-/* The estimator settings of one experiment: canonical (mode canonical), switched, switched-highq
- * (q_gamma_scale = highq_scale), switched-highq-constrained (and constraint_enabled). */
+/* The estimator settings of one experiment: canonical (mode canonical, gamma_gate_nis 0: Table 1 as
+ * published), switched, switched-highq (q_gamma_scale = highq_scale), switched-highq-constrained (and
+ * constraint_enabled). */
 caekf_app_status_t caekf_app_experiment_settings(const caekf_app_settings_t *base, unsigned experiment,
                                                  caekf_settings_t *out);
 

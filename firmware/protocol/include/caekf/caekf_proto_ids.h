@@ -36,6 +36,7 @@ typedef enum {
     CAEKF_PARAM_COV_REPAIR,      /* 0 or 1 */
     CAEKF_PARAM_NEWTON_MAX_ITER, /* integer */
     CAEKF_PARAM_NEWTON_RTOL,
+    CAEKF_PARAM_GAMMA_GATE_NIS,  /* innovation gate on the gamma correction, 0 = off */
     CAEKF_PARAM_COUNT
 } caekf_param_id_t;
 
@@ -85,7 +86,7 @@ typedef enum {
 #define CAEKF_HEALTH_PAGES (CAEKF_CNT_COUNT / 2)
 #define CAEKF_HEALTH_COUNTER_MASK 0xFFFFFFu /* counters travel modulo 2^24 */
 
-/* EST_STEP.FLAGS: bits 0..8 are the estimator's CAEKF_FLAG_*; the app adds these. */
+/* EST_STEP.FLAGS: bits 0..11 are the estimator's CAEKF_FLAG_*; the app adds these. */
 #define CAEKF_STEP_FLAG_SATURATED (1u << 12)         /* an output value was clipped to its signal range */
 #define CAEKF_STEP_FLAG_STEP_GAP (1u << 13)          /* steps before this one were never estimated */
 #define CAEKF_STEP_FLAG_PNORM_UNAVAILABLE (1u << 14) /* P_NORM could not be computed (sent as NaN) */
