@@ -41,7 +41,7 @@ typedef struct {
     double newton_sum;
     int newton_max;
     long newton_not_converged;
-    long repairs, indefinite, constraint_applied, contact;
+    long repairs, indefinite, constraint_applied, contact, gated;
     long psd_fail, asym_fail, nonfinite, status_fail, gamma_fail;
     double min_gamma, max_asym, min_pivot;
 } stats_t;
@@ -71,6 +71,7 @@ static void stats_merge(stats_t *into, const stats_t *s)
     into->repairs += s->repairs;
     into->indefinite += s->indefinite;
     into->constraint_applied += s->constraint_applied;
+    into->gated += s->gated;
     into->contact += s->contact;
     into->psd_fail += s->psd_fail;
     into->asym_fail += s->asym_fail;
@@ -162,6 +163,7 @@ static void check_step(caekf_t *est, stats_t *st, const caekf_report_t *rep, cae
     st->indefinite += (rep->flags & CAEKF_FLAG_COV_INDEFINITE) != 0u;
     st->constraint_applied += (rep->flags & CAEKF_FLAG_CONSTRAINT_APPLIED) != 0u;
     st->contact += (rep->flags & CAEKF_FLAG_CONTACT_ACTIVE) != 0u;
+    st->gated += (rep->flags & CAEKF_FLAG_GAMMA_GATED) != 0u;
 
     (void)caekf_get_covariance(est, Ps);
     for (i = 0; i < N; ++i) {
@@ -328,6 +330,7 @@ int main(int argc, char **argv)
     printf("  %-34s %ld (indefinite flagged %ld)\n", "repairs flagged", total.repairs, total.indefinite);
     printf("  %-34s %ld\n", "contact active (steps)", total.contact);
     printf("  %-34s %ld\n", "constraint applied (steps)", total.constraint_applied);
+    printf("  %-34s %ld\n", "gamma gated by the innovation test", total.gated);
     printf("  %-34s %ld\n", "Newton not converged (steps)", total.newton_not_converged);
     printf("  %-34s mean %.4f max %d\n", "Newton iterations, first lap", first.newton_sum / (double)first.steps,
            first.newton_max);
