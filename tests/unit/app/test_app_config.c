@@ -88,7 +88,26 @@ static void test_each_experiment_sets_mode_q_gamma_scale_and_constraint(void)
         TEST_ASSERT_EQUAL_INT(expect[e].mode, app.est.cfg.mode);
         TEST_ASSERT_TRUE(app.est.cfg.q_gamma_scale == (caekf_scalar_t)expect[e].scale);
         TEST_ASSERT_EQUAL_INT(expect[e].constrained, app.est.cfg.constraint_enabled);
+        /* canonical is Table 1 as published: no innovation gate; the others keep the configured one */
+        TEST_ASSERT_TRUE(app.est.cfg.gamma_gate_nis ==
+                         (e == CAEKF_EXPERIMENT_CANONICAL ? (caekf_scalar_t)0 : app.active.est.gamma_gate_nis));
+        TEST_ASSERT_TRUE(app.active.est.gamma_gate_nis > 0);
     }
+}
+
+static void test_innovation_gate_is_configured_and_validated_over_can(void)
+{
+    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    bench_param(&fake, CAEKF_PARAM_GAMMA_GATE_NIS, 0, -1); /* a gate must be >= 0 */
+    bench_reset(&fake, CAEKF_EXPERIMENT_SWITCHED, 1, 5);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().status);
+    TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_GAMMA_GATE_NIS, last_ack().bad_param);
+    bench_param(&fake, CAEKF_PARAM_GAMMA_GATE_NIS, 2, 1);
+    bench_reset(&fake, CAEKF_EXPERIMENT_SWITCHED, 1, 6);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().status);
+    TEST_ASSERT_TRUE(app.est.cfg.gamma_gate_nis == (caekf_scalar_t)100);
 }
 
 static void test_reset_reinitialises_and_forgets_the_step_history(void)
@@ -350,6 +369,7 @@ int main(void)
     RUN_TEST(test_missing_param_frame_refuses_as_incomplete);
     RUN_TEST(test_unknown_experiment_is_refused);
     RUN_TEST(test_bad_param_frames_are_refused_with_their_id);
+    RUN_TEST(test_innovation_gate_is_configured_and_validated_over_can);
     RUN_TEST(test_reset_without_any_settings_is_refused);
     RUN_TEST(test_params_stage_on_top_of_the_running_settings);
     RUN_TEST(test_constrained_experiment_refuses_gamma0_below_gamma_min);
