@@ -39,6 +39,7 @@ typedef struct {
     long poll_ms;
     double run_for_s; /* 0: until a signal */
     int quiet;
+    int kernel_filter;
 } options_t;
 
 static void usage(FILE *out)
@@ -55,6 +56,9 @@ static void usage(FILE *out)
             "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
             "  --poll-ms N             longest wait for a frame before the app checks timeouts (default 5)\n"
             "  --run-for SECONDS       exit by itself after this long (default: run until SIGINT/SIGTERM)\n"
+            "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
+            "                          buses; they are then not counted). Default: every frame reaches\n"
+            "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
             "  --quiet                 print only errors and the final counters\n");
 }
 
@@ -84,6 +88,7 @@ static int parse_args(int argc, char **argv, options_t *o)
     o->poll_ms = 5;
     o->run_for_s = 0.0;
     o->quiet = 0;
+    o->kernel_filter = 0;
     for (i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -94,6 +99,9 @@ static int parse_args(int argc, char **argv, options_t *o)
             return 1;
         } else if (strcmp(a, "--quiet") == 0) {
             o->quiet = 1;
+            takes_value = 0;
+        } else if (strcmp(a, "--kernel-filter") == 0) {
+            o->kernel_filter = 1;
             takes_value = 0;
         } else if (v == NULL) {
             bad = 1;
@@ -223,7 +231,7 @@ int main(int argc, char **argv)
     if (o.scenario != NULL && configure_from_scenario(&app, &o) != 0) {
         return 1;
     }
-    if (socketcan_open(&can, o.iface, err, sizeof err) != 0) {
+    if (socketcan_open(&can, o.iface, o.kernel_filter, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-host: %s\n", err);
         return 1;
     }
@@ -263,6 +271,9 @@ int main(int argc, char **argv)
     print_counters(&app);
     if (can.rx_dropped_foreign != 0u) {
         printf("  %-18s %lu\n", "(host) bad size", can.rx_dropped_foreign); /* not a classic CAN frame */
+    }
+    if (can.rx_rtr != 0u) {
+        printf("  %-18s %lu\n", "(host) RTR frames", can.rx_rtr); /* also in RX_HAL_ERROR */
     }
     socketcan_close(&can);
     return rc;

@@ -45,7 +45,7 @@ static int set_filters(int fd)
     return setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, (socklen_t)(n * sizeof filters[0]));
 }
 
-int socketcan_open(socketcan_t *s, const char *iface, char *err, unsigned err_len)
+int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *err, unsigned err_len)
 {
     struct sockaddr_can addr;
     struct ifreq ifr;
@@ -76,7 +76,7 @@ int socketcan_open(socketcan_t *s, const char *iface, char *err, unsigned err_le
         }
         return fail(err, err_len, "socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: %s%s", strerror(e), "");
     }
-    if (set_filters(s->fd) != 0) {
+    if (kernel_filter && set_filters(s->fd) != 0) {
         snprintf(err, err_len, "setsockopt(CAN_RAW_FILTER) failed: %s", strerror(errno));
         socketcan_close(s);
         return -1;
@@ -141,6 +141,10 @@ static int hal_receive(void *ctx, caekf_can_frame_t *frame)
     if ((size_t)n != sizeof cf) {
         s->rx_dropped_foreign++;
         return -EMSGSIZE;
+    }
+    if (cf.can_id & CAN_RTR_FLAG) { /* no caekf message is a remote frame (the MCU HAL refuses them too) */
+        s->rx_rtr++;
+        return -EBADMSG;
     }
     frame->id = (cf.can_id & CAN_EFF_FLAG) ? ((cf.can_id & CAN_EFF_MASK) | CAEKF_CAN_ID_EXT_FLAG)
                                            : (cf.can_id & CAN_SFF_MASK);

@@ -9,11 +9,15 @@ typedef struct {
     unsigned ifindex;
     int warned_down;         /* ENETDOWN reported once */
     unsigned long rx_dropped_foreign; /* reads that were not one classic CAN frame */
+    unsigned long rx_rtr;             /* remote frames refused (reported to the app as HAL errors) */
 } socketcan_t;
 
-/* Opens a CAN_RAW socket on `iface`, with kernel filters for exactly the messages the estimator
- * receives (standard data frames only). Returns 0, or -1 with a human-readable reason in err. */
-int socketcan_open(socketcan_t *s, const char *iface, char *err, unsigned err_len);
+/* Opens a CAN_RAW socket on `iface`. By default every data frame on the bus reaches the app, which
+ * counts each foreign one (RX_UNKNOWN_ID): nothing on the bus goes unseen. kernel_filter != 0 installs
+ * kernel acceptance filters for exactly the messages the estimator receives (standard data frames),
+ * as a busy real bus may need: foreign traffic is then dropped uncounted, like behind an MCU's
+ * hardware filter. Returns 0, or -1 with a human-readable reason in err. */
+int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *err, unsigned err_len);
 void socketcan_close(socketcan_t *s);
 
 /* Waits until a frame is readable or timeout_ms passed. 1 readable, 0 timeout or signal, -1 error. */

@@ -12,6 +12,7 @@ from typing import Dict, List, Sequence
 from .bench import Bench, StepInputs
 
 CAN_EFF_FLAG = 0x80000000
+CAN_RTR_FLAG = 0x40000000
 NONFINITE = (math.nan, math.inf, -math.inf)
 
 
@@ -43,8 +44,8 @@ def wrong_dlc(bench: Bench, inputs: StepInputs, row: int) -> bytes:
 
 def unknown_ids(bench: Bench, inputs: StepInputs, row: int) -> bytes:
     """Four frames with IDs the estimator does not receive: 0x123, 0x7FF, EST_GAMMA's ID sent by the
-    bench, and BENCH_U's number as an extended (29-bit) ID. caekf-host's CAN_RAW acceptance filter
-    drops them before the app: RX_UNKNOWN_ID +0, no effect."""
+    bench, and BENCH_U's number as an extended (29-bit) ID: RX_UNKNOWN_ID +4, no other effect (caekf-host
+    without --kernel-filter, its default, hands every frame to the app)."""
     c = bench.codec
     return (c.record(0x123, bytes(range(8))) + c.record(0x7FF, bytes(8)) + c.record("EST_GAMMA", bytes(8))
             + c.record(c.messages["BENCH_U"].frame_id | CAN_EFF_FLAG, bytes(8)))
@@ -77,7 +78,7 @@ def nonfinite_u(bench: Bench, inputs: StepInputs, row: int, i: int) -> bytes:
 
 def out_of_range_param(bench: Bench, i: int, experiment_id: int) -> bytes:
     """A configuration with a value outside its parameter's range, committed by CTRL_RESET(N_PARAMS=1):
-    even i: PARAM_ID beyond the table (37..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer parameter).
+    even i: PARAM_ID beyond the table (len(param_ids)..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer parameter).
     Refused with EST_ACK REFUSED_PARAM: CFG_REFUSED +1, the running estimator untouched."""
     n_ids = len(bench.codec.param_ids)
     if i % 2 == 0:
@@ -90,7 +91,7 @@ def out_of_range_param(bench: Bench, i: int, experiment_id: int) -> bytes:
 
 
 def flood(bench: Bench, per_step: int = 10) -> bytes:
-    """per_step unrelated frames (IDs 0x200.., not the estimator's): kernel-filtered like unknown IDs."""
+    """per_step unrelated frames (IDs 0x200.., not the estimator's): RX_UNKNOWN_ID +per_step, no other effect."""
     return b"".join(bench.codec.record(0x200 + j, bytes([j & 0xFF] * 8)) for j in range(per_step))
 
 
