@@ -82,21 +82,6 @@ static void test_constrained_highq_stays_above_gamma_min(void)
     TEST_ASSERT_DOUBLE_WITHIN(0.02, 1.0, (double)g / paper_gamma_true());
 }
 
-/* A deterministic SPD matrix L L^T + small diagonal. */
-static void spd(caekf_scalar_t P[N][N])
-{
-    double L[N][N];
-    int i, j, k;
-    for (i = 0; i < N; ++i)
-        for (j = 0; j < N; ++j) L[i][j] = j <= i ? 0.3 + 0.1 * ((i * 7 + j * 3) % 5) - (i == j ? 0 : 0.2) : 0;
-    for (i = 0; i < N; ++i)
-        for (j = 0; j < N; ++j) {
-            double s = (i == j) ? 0.05 : 0;
-            for (k = 0; k < N; ++k) s += L[i][k] * L[j][k];
-            P[i][j] = (caekf_scalar_t)s;
-        }
-}
-
 /* 3x3 inverse by cofactors, double. */
 static void inv3(double a[3][3], double r[3][3])
 {
@@ -121,7 +106,7 @@ static void test_sequential_perfect_measurement_equals_batch_eq29(void)
     const double r = 0.01, zmin = 2.0;
     uint32_t flags = 0;
     int i, j, k;
-    spd(P);
+    test_spd_matrix(P);
     for (i = 0; i < N; ++i) {
         z[i] = (caekf_scalar_t)(0.1 * i - 0.3);
         zd[i] = (double)z[i];
@@ -165,7 +150,7 @@ static void test_zero_gamma_variance_falls_back_to_clamp(void)
     caekf_scalar_t P[N][N], before[N][N], z[N];
     uint32_t flags = 0;
     int i;
-    spd(P);
+    test_spd_matrix(P);
     for (i = 0; i < N; ++i) {
         P[i][IG] = P[IG][i] = 0; /* just after a constraint: gamma's variance is exactly 0 */
         z[i] = (caekf_scalar_t)0.5;
@@ -186,7 +171,7 @@ static void test_inconsistent_gamma_column_falls_back_to_clamp(void)
     caekf_scalar_t P[N][N], z[N];
     uint32_t flags = 0;
     int i;
-    spd(P);
+    test_spd_matrix(P);
     P[IG][IG] = (caekf_scalar_t)1e-6; /* |P_ig|^2 > P_ii P_gg: no valid covariance, the gain would explode */
     for (i = 0; i < N; ++i) z[i] = 0;
     constrain_full(z, P, 1, 1, 1, &flags);

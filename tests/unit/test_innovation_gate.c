@@ -14,25 +14,14 @@
 void setUp(void) {}
 void tearDown(void) {}
 
-/* A valid covariance with position-gamma correlation, as in contact: P = L L^T. */
-static void make_cov(caekf_mat_t P)
+/* The prior of every correction below: a valid covariance correlating gamma with the positions (as in
+ * contact) and z_i = 0.1 i. */
+static void prior(caekf_scalar_t z[N], caekf_mat_t P)
 {
-    caekf_scalar_t L[N][N];
-    int i, j, k;
-    memset(L, 0, sizeof L);
+    int i;
+    test_spd_matrix(P);
     for (i = 0; i < N; ++i) {
-        for (j = 0; j <= i; ++j) {
-            L[i][j] = (caekf_scalar_t)(i == j ? 1.0 + 0.1 * i : 0.3 / (1 + i + j));
-        }
-    }
-    for (i = 0; i < N; ++i) {
-        for (j = 0; j < N; ++j) {
-            caekf_scalar_t s = 0;
-            for (k = 0; k < N; ++k) {
-                s += L[i][k] * L[j][k];
-            }
-            P[i][j] = s;
-        }
+        z[i] = (caekf_scalar_t)(0.1 * i);
     }
 }
 
@@ -55,12 +44,8 @@ typedef struct {
 static corr_t correct(const caekf_scalar_t y[2], caekf_gamma_policy_t policy, caekf_scalar_t gate)
 {
     corr_t c;
-    int i;
     memset(&c, 0, sizeof c);
-    make_cov(c.P);
-    for (i = 0; i < N; ++i) {
-        c.z[i] = (caekf_scalar_t)(0.1 * i);
-    }
+    prior(c.z, c.P);
     TEST_ASSERT_EQUAL_INT(0, caekf_correct_upper(c.z, c.P, y, (caekf_scalar_t)0.01, 0, policy, gate, &c.nis,
                                                  &c.flags));
     return c;
@@ -71,12 +56,8 @@ static void test_nis_is_the_normalised_innovation_squared(void)
     const caekf_scalar_t y[2] = {(caekf_scalar_t)0.7, (caekf_scalar_t)-0.4};
     caekf_mat_t P;
     caekf_scalar_t z[N];
-    int i;
     corr_t c = correct(y, CAEKF_GAMMA_LIVE, 0);
-    make_cov(P);
-    for (i = 0; i < N; ++i) {
-        z[i] = (caekf_scalar_t)(0.1 * i);
-    }
+    prior(z, P);
     TEST_ASSERT_DOUBLE_WITHIN(1e-5 * nis_of(P, z, y, (caekf_scalar_t)0.01), nis_of(P, z, y, (caekf_scalar_t)0.01),
                               (double)c.nis);
     TEST_ASSERT_EQUAL_UINT32(0, c.flags); /* gate 0: off */
@@ -89,11 +70,12 @@ static void test_innovation_above_the_gate_holds_gamma_as_a_consider_state(void)
     const corr_t gated = correct(y, CAEKF_GAMMA_LIVE, live.nis * (caekf_scalar_t)0.5);
     const corr_t schmidt = correct(y, CAEKF_GAMMA_FROZEN_SCHMIDT, 0);
     caekf_mat_t P0;
-    make_cov(P0);
+    caekf_scalar_t z0[N];
+    prior(z0, P0);
     TEST_ASSERT_TRUE(gated.flags & CAEKF_FLAG_GAMMA_GATED);
-    TEST_ASSERT_TRUE(live.z[IG] != (caekf_scalar_t)(0.1 * IG)); /* ungated, gamma does move */
+    TEST_ASSERT_TRUE(live.z[IG] != z0[IG]); /* ungated, gamma does move */
     /* Gated: gamma and its variance untouched, everything else exactly the Schmidt ("consider") update. */
-    TEST_ASSERT_TRUE(gated.z[IG] == (caekf_scalar_t)(0.1 * IG));
+    TEST_ASSERT_TRUE(gated.z[IG] == z0[IG]);
     TEST_ASSERT_TRUE(gated.P[IG][IG] == P0[IG][IG]);
     TEST_ASSERT_EQUAL_MEMORY(schmidt.z, gated.z, sizeof gated.z);
     TEST_ASSERT_EQUAL_MEMORY(schmidt.P, gated.P, sizeof gated.P);

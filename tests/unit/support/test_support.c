@@ -96,3 +96,17 @@ long run_paper(caekf_t *est, const caekf_settings_t *s, step_hook_t each, void *
     truth_close();
     return rc < 0 ? -1 : n;
 }
+
+void test_spd_matrix(caekf_scalar_t P[CAEKF_N][CAEKF_N])
+{
+    double L[CAEKF_N][CAEKF_N];
+    int i, j, k;
+    for (i = 0; i < CAEKF_N; ++i)
+        for (j = 0; j < CAEKF_N; ++j) L[i][j] = j <= i ? 0.3 + 0.1 * ((i * 7 + j * 3) % 5) - (i == j ? 0 : 0.2) : 0;
+    for (i = 0; i < CAEKF_N; ++i)
+        for (j = 0; j < CAEKF_N; ++j) {
+            double s = (i == j) ? 0.05 : 0;
+            for (k = 0; k < CAEKF_N; ++k) s += L[i][k] * L[j][k];
+            P[i][j] = (caekf_scalar_t)s;
+        }
+}

@@ -28,6 +28,9 @@ int test_file_open(const char *path);
 long test_file_read(void *buf, unsigned long n);
 void test_file_close(void);
 
+/* A deterministic SPD matrix L L^T + small diagonal, with every entry correlated (filter-level tests). */
+void test_spd_matrix(caekf_scalar_t P[CAEKF_N][CAEKF_N]);
+
 /* Runs `experiment` over the whole truth, calling `each` after every step (may be NULL). Returns the
  * number of steps, or -1 when the truth cannot be read. */
 typedef void (*step_hook_t)(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st,
