@@ -1,4 +1,4 @@
-/* caekf-replay: runs one estimator experiment over a recorded t,u,y1,y4 CSV. */
+/* caekf-replay: runs the estimator (a scenario, optionally a preset) over a recorded t,u,y1,y4 CSV. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -6,7 +6,6 @@
 
 #include "caekf/caekf.h"
 #include "common/csv.h"
-#include "common/experiment.h"
 #include "common/scenario.h"
 
 typedef struct {
@@ -21,22 +20,25 @@ typedef struct {
 static void usage(FILE *f)
 {
     unsigned b;
-    fputs("usage: caekf-replay --scenario FILE [--in CSV|-] [--out CSV|-]\n"
-          "         [--experiment canonical|switched|switched-highq|switched-highq-constrained]\n"
+    fputs("usage: caekf-replay --scenario FILE [--in CSV|-] [--out CSV|-] [--experiment PRESET]\n"
           "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
           "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
           "         [--gate NIS] [--missing-y-predict] [--summary]\n"
           "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default) and writes\n"
           "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis (stdout by default).\n"
-          "The experiment sets the defaults (default: switched); the explicit flags override them.\n"
+          "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
+          "preset named by --experiment, then the explicit flags. Presets:\n"
           "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
           "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
           "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
           "refusing the input. --missing-y-predict: a row whose y1 and y4 are both empty is a step without\n"
           "measurement (caekf_predict, the firmware's bridge over lost steps). --summary prints one line of\n"
-          "statistics to stderr.\n"
-          "flags bits:\n",
+          "statistics to stderr.\n",
           f);
+    for (b = 0; b < CAEKF_PRESET_COUNT; ++b) {
+        fprintf(f, "  %-28s %s\n", caekf_presets[b].name, caekf_presets[b].doc);
+    }
+    fputs("flags bits:\n", f);
     for (b = 0; b < CAEKF_FLAG_COUNT; ++b) {
         fprintf(f, "  %4u  %s\n", 1u << b, caekf_flag_name(b));
     }
@@ -61,7 +63,7 @@ static void print_flags(FILE *f, uint32_t flags)
 int main(int argc, char **argv)
 {
     const char *scenario = NULL, *in = "-", *out = "-";
-    const char *experiment = "switched", *mode = NULL, *constraint = NULL, *switchoff = NULL;
+    const char *experiment = NULL, *mode = NULL, *constraint = NULL, *switchoff = NULL;
     double q_gamma_scale = -1, gate = -1;
     int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0;
     caekf_scenario_t sc;
@@ -72,8 +74,9 @@ int main(int argc, char **argv)
     summary_t sum;
     FILE *fin, *fout;
     char err[512];
-    const char *bad = NULL;
-    int i, exp_id, rc;
+    const caekf_preset_t *preset = NULL;
+    caekf_setting_error_t bad;
+    int i, rc;
 
     for (i = 1; i < argc; ++i) {
         const char *a = argv[i];
@@ -116,16 +119,15 @@ int main(int argc, char **argv)
         fprintf(stderr, "caekf-replay: --scenario is required (see --help)\n");
         return 2;
     }
-    exp_id = caekf_experiment_from_name(experiment);
-    if (exp_id < 0) {
-        fprintf(stderr, "caekf-replay: unknown experiment '%s'\n", experiment);
+    if (experiment != NULL && (preset = caekf_preset_find(experiment)) == NULL) {
+        fprintf(stderr, "caekf-replay: unknown experiment '%s' (see --help)\n", experiment);
         return 2;
     }
-    if (caekf_scenario_load(scenario, &sc, err, sizeof err) != 0) {
+    if (caekf_scenario_load(scenario, &sc, err, sizeof err) != 0 ||
+        caekf_scenario_settings(&sc, preset, &s, scenario, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-replay: %s\n", err);
         return 3;
     }
-    (void)caekf_experiment_settings(&sc, (caekf_experiment_t)exp_id, &s);
     if (mode != NULL) {
         if (strcmp(mode, "canonical") == 0) s.mode = CAEKF_MODE_CANONICAL;
         else if (strcmp(mode, "switched") == 0) s.mode = CAEKF_MODE_SWITCHED;
@@ -145,8 +147,13 @@ int main(int argc, char **argv)
     if (gate >= 0) s.gamma_gate_nis = (caekf_scalar_t)gate;
     if (joseph) s.cov_update = CAEKF_COV_JOSEPH;
     if (no_repair) s.cov_repair_enabled = 0;
-    if (caekf_settings_validate(&s, &bad) != CAEKF_OK || caekf_init(&est, &s) != CAEKF_OK) {
-        fprintf(stderr, "caekf-replay: settings refused (%s)\n", bad ? bad : "model");
+    if (caekf_settings_validate(&s, &bad) != CAEKF_OK) {
+        (void)caekf_setting_error_text(&bad, &s, err, sizeof err);
+        fprintf(stderr, "caekf-replay: settings refused: %s\n", err);
+        return 3;
+    }
+    if (caekf_init(&est, &s) != CAEKF_OK) {
+        fprintf(stderr, "caekf-replay: estimator initialisation failed\n");
         return 3;
     }
 
@@ -204,7 +211,8 @@ int main(int argc, char **argv)
     }
     if (want_summary) {
         /* One row: experiment scalar rows rejected final_err_% min_gamma max_pnorm iters_mean iters_max flags */
-        fprintf(stderr, "%-28s %-6s %7ld %5ld %+10.4f %12.4e %12.4e %6.3f %4d ", experiment, CAEKF_SCALAR_NAME,
+        fprintf(stderr, "%-28s %-6s %7ld %5ld %+10.4f %12.4e %12.4e %6.3f %4d ",
+                experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
                 sum.rows, sum.rejected, 100.0 * (sum.gamma_last / sc.gamma - 1.0), sum.gamma_min_seen, sum.p_norm_max,
                 sum.rows ? (double)sum.iters_sum / (double)sum.rows : 0.0, sum.iters_max);
         print_flags(stderr, sum.flags_seen);

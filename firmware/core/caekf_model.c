@@ -14,32 +14,24 @@ CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, model_has_four_bodies);
 CAEKF_STATIC_ASSERT(CAEKF_N == 2 * CAEKF_NQ + 1, augmented_state_is_q_v_gamma);
 
 /* Parameters are checked scalar by scalar in declaration order: masses, springs and dt must be > 0,
- * dampers and gap >= 0. The last failing one is reported, by its name below (one per scalar). The
- * names packed in one string and a bit mask keep this small on the MCU. */
+ * dampers and gap >= 0. (caekf_settings_validate reports which one, from the schema's table.) */
 #define PARAM_SLOT(field) (offsetof(caekf_model_params_t, field) / sizeof(caekf_scalar_t))
 #define PARAM_NONNEG (0x1Fu << PARAM_SLOT(c1)) /* c1, c12, c34, c4, gap */
-static const char param_names[] = "m\0m\0m\0m\0k1\0k12\0k34\0k4\0c1\0c12\0c34\0c4\0gap\0dt";
 CAEKF_STATIC_ASSERT(PARAM_SLOT(k1) == CAEKF_NQ && PARAM_SLOT(c1) == CAEKF_NQ + 4 && PARAM_SLOT(gap) == CAEKF_NQ + 8 &&
                         PARAM_SLOT(dt) == CAEKF_NQ + 9 &&
                         sizeof(caekf_model_params_t) == (CAEKF_NQ + 10) * sizeof(caekf_scalar_t),
                     params_are_scalars_in_declared_order);
 
-int caekf_model_params_check(const caekf_model_params_t *p, const char **first_bad)
+int caekf_model_params_check(const caekf_model_params_t *p)
 {
-    const char *bad = 0, *name = param_names;
     unsigned i;
     for (i = 0; i <= PARAM_SLOT(dt); ++i) {
         caekf_scalar_t x = *(const caekf_scalar_t *)(const void *)((const char *)p + i * sizeof(caekf_scalar_t));
         if (!CAEKF_ISFINITE(x) || !(x > 0 || (((PARAM_NONNEG >> i) & 1u) && x == 0))) {
-            bad = name;
-        }
-        while (*name++ != 0) { /* on to the next name */
+            return 1;
         }
     }
-    if (first_bad != 0) {
-        *first_bad = bad;
-    }
-    return bad != 0;
+    return 0;
 }
 
 /* Keeps a function called more than once out of line: inlined copies cost flash on the MCU. */
@@ -303,7 +295,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 {
     const caekf_contact_t none = {0, 0, 0, 0};
     int i, j;
-    if (caekf_model_params_check(p, 0) != 0) {
+    if (caekf_model_params_check(p) != 0) {
         return -1;
     }
     m->p = *p;

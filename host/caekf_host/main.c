@@ -1,7 +1,7 @@
 /*
  * caekf-host: the caekf firmware application on Linux, bound to a SocketCAN interface.
  *
- *   caekf-host --iface vcan0 [--scenario FILE [--experiment NAME]] [options]
+ *   caekf-host --iface vcan0 [--scenario FILE [--preset NAME]] [options]
  *
  * It waits for frames (poll with a small timeout, no busy loop), lets the app handle them, and on
  * SIGINT/SIGTERM stops cleanly and prints the app's counters. Exit status: 0 after a signal or
@@ -32,7 +32,7 @@ static void on_signal(int sig)
 typedef struct {
     const char *iface;
     const char *scenario;
-    int experiment;
+    const char *preset;
     long step_timeout_ms;
     long status_period_ms;
     long max_delta;
@@ -45,12 +45,13 @@ typedef struct {
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: caekf-host [--iface NAME] [--scenario FILE [--experiment NAME|N]] [options]\n"
+            "usage: caekf-host [--iface NAME] [--scenario FILE [--preset NAME]] [options]\n"
             "  --iface NAME            SocketCAN interface (default vcan0; a real can0 works the same)\n"
             "  --scenario FILE         configure the estimator from a scenario file at start-up\n"
             "                          (otherwise it waits for CTRL_PARAM/CTRL_RESET from the bench)\n"
-            "  --experiment E          with --scenario: canonical, switched (default), switched-highq,\n"
-            "                          switched-highq-constrained, or 0..3\n"
+            "  --preset NAME           with --scenario: apply a named preset of the settings schema\n"
+            "                          (the paper's canonical, switched, switched-highq,\n"
+            "                          switched-highq-constrained); --experiment is a synonym\n"
             "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
             "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
             "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
@@ -81,7 +82,7 @@ static int parse_args(int argc, char **argv, options_t *o)
     int i;
     o->iface = "vcan0";
     o->scenario = NULL;
-    o->experiment = CAEKF_EXPERIMENT_SWITCHED;
+    o->preset = NULL;
     o->step_timeout_ms = 20;
     o->status_period_ms = 1000;
     o->max_delta = 1;
@@ -109,9 +110,8 @@ static int parse_args(int argc, char **argv, options_t *o)
             o->iface = v;
         } else if (strcmp(a, "--scenario") == 0) {
             o->scenario = v;
-        } else if (strcmp(a, "--experiment") == 0) {
-            o->experiment = host_experiment_parse(v);
-            bad = o->experiment < 0;
+        } else if (strcmp(a, "--preset") == 0 || strcmp(a, "--experiment") == 0) {
+            o->preset = v;
         } else if (strcmp(a, "--step-timeout-ms") == 0) {
             bad = parse_long(v, 1, 4000000, &o->step_timeout_ms);
         } else if (strcmp(a, "--status-period-ms") == 0) {
@@ -144,13 +144,6 @@ static double seconds_since(const struct timespec *t0)
     return (double)(t.tv_sec - t0->tv_sec) + 1e-9 * (double)(t.tv_nsec - t0->tv_nsec);
 }
 
-static const char *experiment_name(unsigned e)
-{
-    const char *name = "none";
-    (void)caekf_proto_experiment_name(e, &name);
-    return name;
-}
-
 static void print_counters(const caekf_app_t *app)
 {
     unsigned i;
@@ -171,10 +164,10 @@ static void report_config_changes(const caekf_app_t *app, uint32_t *seen_accepte
     (void)caekf_app_counter(app, CAEKF_CNT_CFG_ACCEPTED, &acc);
     (void)caekf_app_counter(app, CAEKF_CNT_CFG_REFUSED, &ref);
     if (acc != *seen_accepted) {
-        printf("caekf-host: configuration accepted, experiment %s\n", experiment_name(app->experiment));
+        printf("caekf-host: configuration accepted\n");
     }
     if (ref != *seen_refused) {
-        printf("caekf-host: configuration refused, still running experiment %s\n", experiment_name(app->experiment));
+        printf("caekf-host: configuration refused, the running one kept\n");
     }
     *seen_accepted = acc;
     *seen_refused = ref;
@@ -186,15 +179,15 @@ static int configure_from_scenario(caekf_app_t *app, const options_t *o)
     char err[ERR_LEN];
     uint8_t bad = 0;
     caekf_app_status_t st;
-    if (host_settings_from_scenario(o->scenario, &settings, err, sizeof err) != 0) {
+    if (host_settings_from_scenario(o->scenario, o->preset, &settings, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-host: %s\n", err);
         return -1;
     }
-    st = caekf_app_configure(app, &settings, (unsigned)o->experiment, &bad);
+    st = caekf_app_configure(app, &settings, &bad);
     if (st != CAEKF_APP_OK) {
-        const char *name = "unknown";
-        (void)caekf_proto_param_name(bad, &name);
-        fprintf(stderr, "caekf-host: %s: %s (parameter %s)\n", o->scenario, caekf_app_status_str(st), name);
+        const char *name = caekf_param_key(bad);
+        fprintf(stderr, "caekf-host: %s: %s (parameter %s)\n", o->scenario, caekf_app_status_str(st),
+                name != NULL ? name : "unknown");
         return -1;
     }
     return 0;
@@ -246,7 +239,7 @@ int main(int argc, char **argv)
         printf("caekf-host: ready on %s (ifindex %u), scalar %s, %s\n", o.iface, can.ifindex, CAEKF_SCALAR_NAME,
                o.scenario ? "configured from the scenario" : "waiting for CTRL_PARAM/CTRL_RESET");
         if (o.scenario) {
-            printf("caekf-host: experiment %s\n", experiment_name((unsigned)o.experiment));
+            printf("caekf-host: preset %s\n", o.preset != NULL ? o.preset : "none (scenario and defaults)");
         }
     }
     clock_gettime(CLOCK_MONOTONIC, &t0);

@@ -9,20 +9,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct {
-    const char *key;
-    size_t offset;
-} field_t;
-
-#define F(name) {#name, offsetof(caekf_scenario_t, name)}
-static const field_t fields[] = {
-    F(m1), F(m2), F(m3), F(m4), F(k1), F(k12), F(k34), F(k4), F(c1), F(c12), F(c34), F(c4),
-    F(gap), F(gamma), F(u_amp), F(u_freq), F(u_phase), F(dt), F(t_end), F(truth_substeps),
-    F(noise_std), F(seed), F(gamma0), F(sigma_q0), F(sigma_v0), F(sigma_gamma0), F(sigma_qx_q),
-    F(sigma_qx_v), F(sigma_q_gamma), F(sigma_r), F(gamma_min)};
-#undef F
-#define NFIELDS (sizeof fields / sizeof fields[0])
-
 static char *trim(char *s)
 {
     char *e;
@@ -36,26 +22,46 @@ static char *trim(char *s)
     return s;
 }
 
+#define NKEYS CAEKF_SCENARIO_KEY_COUNT
+
+static double *slot(caekf_scenario_t *sc, unsigned k)
+{
+    return (double *)(void *)((char *)sc + caekf_scenario_keys[k].offset);
+}
+
+
+static int fail(FILE *f, char *err, unsigned err_len, const char *fmt, const char *path, unsigned lineno,
+                const char *what)
+{
+    if (f != NULL) {
+        fclose(f);
+    }
+    snprintf(err, err_len, fmt, path, lineno, what);
+    return -1;
+}
+
 int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsigned err_len)
 {
     char line[512];
-    int seen[NFIELDS] = {0};
+    unsigned char seen[NKEYS];
     unsigned lineno = 0;
-    size_t i;
+    unsigned i;
     FILE *f = fopen(path, "r");
     if (f == NULL) {
         snprintf(err, err_len, "%s: cannot open: %s", path, strerror(errno));
         return -1;
     }
+    memset(seen, 0, sizeof seen);
     memset(sc, 0, sizeof *sc);
+    for (i = 0; i < NKEYS; ++i) {
+        *slot(sc, i) = caekf_scenario_keys[i].default_value;
+    }
     while (fgets(line, sizeof line, f) != NULL) {
         char *hash, *eq, *key, *val, *end;
         double v;
         ++lineno;
         if (strchr(line, '\n') == NULL && !feof(f)) {
-            snprintf(err, err_len, "%s:%u: line too long", path, lineno);
-            fclose(f);
-            return -1;
+            return fail(f, err, err_len, "%s:%u: line too long%s", path, lineno, "");
         }
         hash = strchr(line, '#');
         if (hash != NULL) {
@@ -67,50 +73,101 @@ int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsig
         }
         eq = strchr(key, '=');
         if (eq == NULL) {
-            snprintf(err, err_len, "%s:%u: expected 'key = value'", path, lineno);
-            fclose(f);
-            return -1;
+            return fail(f, err, err_len, "%s:%u: expected 'key = value'%s", path, lineno, "");
         }
         *eq = '\0';
         key = trim(key);
         val = trim(eq + 1);
-        errno = 0;
-        v = strtod(val, &end);
-        if (*val == '\0' || *end != '\0' || errno == ERANGE || !isfinite(v)) {
-            snprintf(err, err_len, "%s:%u: '%s' is not a finite number", path, lineno, val);
-            fclose(f);
-            return -1;
-        }
-        for (i = 0; i < NFIELDS; ++i) {
-            if (strcmp(key, fields[i].key) == 0) {
+        for (i = 0; i < NKEYS; ++i) {
+            if (strcmp(key, caekf_scenario_keys[i].key) == 0) {
                 break;
             }
         }
-        if (i == NFIELDS) {
-            snprintf(err, err_len, "%s:%u: unknown key '%s'", path, lineno, key);
-            fclose(f);
-            return -1;
+        if (i == NKEYS) {
+            return fail(f, err, err_len, "%s:%u: unknown key '%s'", path, lineno, key);
         }
         if (seen[i]) {
-            snprintf(err, err_len, "%s:%u: duplicate key '%s'", path, lineno, key);
-            fclose(f);
-            return -1;
+            return fail(f, err, err_len, "%s:%u: duplicate key '%s'", path, lineno, key);
+        }
+        errno = 0;
+        v = strtod(val, &end);
+        if (*val == '\0' || *end != '\0' || errno == ERANGE || !caekf_setting_rule_ok((unsigned)caekf_scenario_keys[i].rule_code, caekf_scenario_keys[i].lo,
+                                                                        caekf_scenario_keys[i].hi, v)) {
+            char what[160];
+            snprintf(what, sizeof what, "%s = %s: %s", key, val, caekf_scenario_keys[i].rule);
+            return fail(f, err, err_len, "%s:%u: %s", path, lineno, what);
         }
         seen[i] = 1;
-        *(double *)((char *)sc + fields[i].offset) = v;
+        sc->given[i] = 1;
+        *slot(sc, i) = v;
     }
     fclose(f);
-    for (i = 0; i < NFIELDS; ++i) {
-        if (!seen[i]) {
-            snprintf(err, err_len, "%s: missing key '%s'", path, fields[i].key);
+    for (i = 0; i < NKEYS; ++i) {
+        if (!seen[i] && caekf_scenario_keys[i].required) {
+            snprintf(err, err_len, "%s: missing key '%s' (it has no default)", path, caekf_scenario_keys[i].key);
             return -1;
         }
     }
-    if (!(sc->dt > 0) || !(sc->t_end > 0) || sc->truth_substeps < 1 || sc->noise_std < 0) {
-        snprintf(err, err_len, "%s: need dt > 0, t_end > 0, truth_substeps >= 1, noise_std >= 0", path);
+    return 0;
+}
+
+const caekf_preset_t *caekf_preset_find(const char *name)
+{
+    unsigned i;
+    for (i = 0; name != NULL && i < CAEKF_PRESET_COUNT; ++i) {
+        if (strcmp(caekf_presets[i].name, name) == 0) {
+            return &caekf_presets[i];
+        }
+    }
+    return NULL;
+}
+
+int caekf_scenario_settings(const caekf_scenario_t *sc, const caekf_preset_t *preset, caekf_settings_t *s,
+                            const char *path, char *err, unsigned err_len)
+{
+    caekf_setting_error_t e;
+    char text[200];
+    unsigned i;
+    (void)caekf_settings_default(s); /* the defaults of this build (newton_rtol scales with its epsilon) */
+    for (i = 0; i < NKEYS; ++i) {
+        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
+        if (k->param_id >= 0 && sc->given[i] && caekf_settings_set(s, (unsigned)k->param_id,
+                                                   *(const double *)(const void *)((const char *)sc + k->offset),
+                                                   &e) != CAEKF_OK) {
+            (void)caekf_setting_error_text(&e, s, text, sizeof text);
+            snprintf(err, err_len, "%s: %s", path, text);
+            return -1;
+        }
+    }
+    for (i = 0; preset != NULL && i < preset->n_values; ++i) {
+        (void)caekf_settings_set(s, preset->param_id[i], preset->value[i], NULL); /* checked by the generator */
+    }
+    if (caekf_settings_validate(s, &e) != CAEKF_OK) {
+        (void)caekf_setting_error_text(&e, s, text, sizeof text);
+        snprintf(err, err_len, "%s: %s%s%s", path, text, preset != NULL ? " (with preset " : "",
+                 preset != NULL ? preset->name : "");
+        if (preset != NULL && strlen(err) + 2 < err_len) {
+            strcat(err, ")");
+        }
         return -1;
     }
     return 0;
+}
+
+void caekf_scenario_model(const caekf_scenario_t *sc, double dt, caekf_model_params_t *p)
+{
+    caekf_settings_t s;
+    unsigned i;
+    (void)caekf_settings_default(&s);
+    for (i = 0; i < NKEYS; ++i) { /* the model's keys are among the wire settings */
+        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
+        if (k->param_id >= 0) {
+            (void)caekf_settings_set(&s, (unsigned)k->param_id,
+                                     *(const double *)(const void *)((const char *)sc + k->offset), NULL);
+        }
+    }
+    *p = s.model;
+    p->dt = (caekf_scalar_t)dt;
 }
 
 double caekf_scenario_input(const caekf_scenario_t *sc, double t)

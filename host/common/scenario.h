@@ -1,19 +1,26 @@
-/* The scenario file: flat `key = value` lines (valid TOML), shared with the Python simulator. */
+/* The scenario file: flat `key = value` lines (valid TOML), shared with the Python simulator. Its keys,
+ * defaults and ranges are the settings schema's (generated caekf_scenario_schema.h); presets too. */
 #ifndef CAEKF_HOST_SCENARIO_H
 #define CAEKF_HOST_SCENARIO_H
 
-typedef struct {
-    double m1, m2, m3, m4;
-    double k1, k12, k34, k4;
-    double c1, c12, c34, c4;
-    double gap, gamma, u_amp, u_freq, u_phase, dt, t_end;
-    double truth_substeps, noise_std, seed;
-    double gamma0, sigma_q0, sigma_v0, sigma_gamma0, sigma_qx_q, sigma_qx_v, sigma_q_gamma, sigma_r, gamma_min;
-} caekf_scenario_t;
+#include "caekf/caekf.h"
+#include "caekf_scenario_schema.h"
 
-/* Reads and checks a scenario file. Every key above is required; unknown keys, duplicates and
- * malformed lines are errors. On failure returns nonzero and writes a message with the line number. */
+/* Reads and checks a scenario file: every key must be known and given once, keys without a default
+ * are required, every value is checked against the schema's range. On failure returns nonzero and
+ * writes a one-line message naming the file, the line or key, and the rule. */
 int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsigned err_len);
+
+/* A preset by name (caekf_presets), or NULL. */
+const caekf_preset_t *caekf_preset_find(const char *name);
+
+/* Estimator settings: the schema's defaults, the scenario's values, then the preset's (may be NULL),
+ * validated. Returns 0, or nonzero with "path: m[2] = -1: must be > 0"-style text in err. */
+int caekf_scenario_settings(const caekf_scenario_t *sc, const caekf_preset_t *preset, caekf_settings_t *s,
+                            const char *path, char *err, unsigned err_len);
+
+/* The model of the scenario's plant with step dt (the truth integrates with dt / truth_substeps). */
+void caekf_scenario_model(const caekf_scenario_t *sc, double dt, caekf_model_params_t *p);
 
 /* Input force u(t) = u_amp sin(2 pi u_freq t + u_phase). */
 double caekf_scenario_input(const caekf_scenario_t *sc, double t);

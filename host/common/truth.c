@@ -4,7 +4,6 @@
 #include <stdint.h>
 
 #include "caekf/caekf_model.h"
-#include "experiment.h"
 
 #define CAEKF_PI 3.141592653589793238462643383279502884
 
@@ -37,7 +36,7 @@ int caekf_truth_run(const caekf_scenario_t *sc, int (*emit)(const caekf_truth_sa
     uint64_t rng = (uint64_t)sc->seed;
     long k;
     int s, i;
-    caekf_experiment_model(sc, h, &p);
+    caekf_scenario_model(sc, h, &p);
     if (caekf_model_init(&model, &p) != 0) {
         return -1;
     }

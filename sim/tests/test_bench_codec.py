@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from caekf_sim import schema
 from caekf_sim.bench import e2e
 from caekf_sim.bench.bench import Bench, RunRecord
 from caekf_sim.bench.codec import ESTIMATE_MESSAGES, RECORD, Codec, make_records, records_array
@@ -82,7 +83,7 @@ def test_layouts_and_resolution_from_the_dbc(codec):
     assert g.is_float and g.resolution(np.array([1e8]))[0] == pytest.approx(1e8 * 2.0 ** -24)
     assert codec.messages["EST_STEP"].frame_id == 0x18B and codec.messages["BENCH_U"].to_estimator
     assert len(codec.counter_names) == 24 and codec.health_pages == 12
-    assert codec.param_ids["gamma_min"] == 30 and codec.experiment_ids["switched-highq-constrained"] == 3
+    assert codec.param_ids == schema.param_ids()  # the DBC value table is the schema's
 
 
 def test_prepare_encodes_every_step_like_cantools(bench, codec):

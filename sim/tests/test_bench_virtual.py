@@ -80,15 +80,13 @@ class FakeEstimator(threading.Thread):
             ok = d["N_PARAMS"] == self.params
             n, self.params = self.params, 0
             if ok:
-                self.configured = int(d["EXPERIMENT"])
+                self.configured = n
                 self.slot = {}
             self.send("EST_ACK", {"TOKEN": d["TOKEN"], "ACK_STATUS": 0 if ok else -2, "BAD_PARAM": 255,
-                                  "EXPERIMENT": self.configured if self.configured is not None else 255,
                                   "N_PARAMS_RX": n, "STATE": 1})
         elif info.name == "CTRL_STATUS_REQ":
             self.counters["STATUS_REQUESTS"] += 1
             self.send("EST_ACK", {"TOKEN": d["TOKEN"], "ACK_STATUS": 1, "BAD_PARAM": 255,
-                                  "EXPERIMENT": self.configured if self.configured is not None else 255,
                                   "N_PARAMS_RX": 0, "STATE": 1})
             names = self.codec.counter_names
             for page in range(self.codec.health_pages):
@@ -152,10 +150,12 @@ def _inputs(bench, n=120):
 
 def test_configure_status_and_lockstep(rig, sc):
     bench, fake, _ = rig
-    ack = bench.configure("switched-highq", bench.params_from_scenario(sc))
-    assert ack.status == 0 and ack.experiment == 2 and ack.n_params_rx == len(bench.params_from_scenario(sc))
+    params = bench.params_from_scenario(sc, "switched-highq")
+    assert ("q_gamma_scale", 1000.0) in params and ("mode", 1.0) in params  # the preset travels as settings
+    ack = bench.configure("switched-highq", params)
+    assert ack.status == 0 and ack.n_params_rx == len(params) and fake.configured == len(params)
     st = bench.status()
-    assert st["STATUS_REQUESTS"] == 1 and st["_experiment"] == 2 and set(bench.codec.counter_names) <= set(st)
+    assert st["STATUS_REQUESTS"] == 1 and st["_state"] == 1 and set(bench.codec.counter_names) <= set(st)
     inp = _inputs(bench)
     for window in (1, 8):
         rec = bench.run_lockstep(inp, window=window, timeout=2.0, progress=False)
@@ -170,15 +170,15 @@ def test_configure_status_and_lockstep(rig, sc):
 @pytest.mark.parametrize("rig", [{"drop_param_once": True}], indirect=True)
 def test_configure_retries_an_incomplete_configuration(rig, sc):
     bench, fake, _ = rig
-    ack = bench.configure("canonical", bench.params_from_scenario(sc))
-    assert ack.status == 0 and ack.experiment == 0
-    assert fake.counters["RX_OK"] >= 2 * len(bench.params_from_scenario(sc))  # sent twice
+    ack = bench.configure("canonical", bench.params_from_scenario(sc, "canonical"))
+    assert ack.status == 0 and ack.n_params_rx == len(bench.params_from_scenario(sc, "canonical"))
+    assert fake.counters["RX_OK"] >= 2 * len(bench.params_from_scenario(sc, "canonical"))  # sent twice
 
 
 @pytest.mark.parametrize("rig", [{"silent_steps": {10, 11}}], indirect=True)
 def test_lockstep_counts_timeouts_and_goes_on(rig, sc):
     bench, fake, _ = rig
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     inp = _inputs(bench, 40)
     rec = bench.run_lockstep(inp, timeout=0.1, progress=False)
     dec = bench.decode_run(rec, inp)
@@ -199,7 +199,7 @@ def test_status_without_an_estimator_raises_not_hangs(codec):
 
 def test_realtime_answers_every_step(rig, sc):
     bench, fake, _ = rig
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     inp = _inputs(bench, 60)
     rec = bench.run_realtime(inp, 0.005, progress=False, grace=1.0)
     lat = latency_stats(rec)
@@ -210,7 +210,7 @@ def test_realtime_answers_every_step(rig, sc):
 def test_bus_log_written_read_and_replayed(rig, sc, tmp_path):
     bench, fake, channel = rig
     bench.journal = []
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     inp = _inputs(bench, 50)
     rec = bench.run_lockstep(inp, progress=False)
     bad = bench.frame("BENCH_Y1", {"STEP": 1, "Y1": 0.0}, advance=False)
@@ -222,7 +222,7 @@ def test_bus_log_written_read_and_replayed(rig, sc, tmp_path):
     assert len(lines) == n and lines[0].startswith("(") and f" {channel} " in lines[0]
     assert lines[0].endswith(" T") and any(line.endswith(" R") for line in lines)
     frames = read_log(path, bench.codec.from_estimator_ids)
-    assert sum(f.sent_by_bench for f in frames) == 50 * 3 + len(bench.params_from_scenario(sc)) + 3
+    assert sum(f.sent_by_bench for f in frames) == 50 * 3 + len(bench.params_from_scenario(sc, "switched")) + 3
     before = fake.counters["RX_BAD_CRC"]
     rep = replay_log(bench, path, timeout=2.0)
     assert rep.ok, rep.text()
@@ -275,7 +275,7 @@ def test_cli_hil_run_and_replay_log(rig, tmp_path, capsys):
 @pytest.mark.parametrize("rig", [{"silent_steps": set(range(6, 1000))}], indirect=True)
 def test_lockstep_gives_up_when_the_estimator_is_gone(rig, sc):
     bench, fake, _ = rig
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     inp = _inputs(bench, 400)
     t0 = time.monotonic()
     rec = bench.run_lockstep(inp, timeout=0.05, progress=False, max_timeouts_in_a_row=4)
@@ -314,7 +314,7 @@ def test_cli_hil_run_deferred_then_report(rig, tmp_path, capsys):
 @pytest.mark.parametrize("rig", [{"silent_steps": set(range(5, 41))}], indirect=True)
 def test_realtime_flow_control_holds_sends_instead_of_piling_up(rig, sc):
     bench, fake, _ = rig
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     inp = _inputs(bench, 60)
     t0 = time.monotonic()
     rec = bench.run_realtime(inp, 0.002, progress=False, grace=0.05, max_in_flight=4)

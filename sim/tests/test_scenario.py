@@ -1,8 +1,7 @@
-from pathlib import Path
-
 import pytest
 
-from caekf_sim.scenario import default_scenario_path, load_scenario, parse_flat, scenario_from_text
+from caekf_sim import schema
+from caekf_sim.scenario import ScenarioError, default_scenario_path, load_scenario, parse_flat, scenario_from_text
 
 PAPER = default_scenario_path()
 
@@ -10,16 +9,23 @@ PAPER = default_scenario_path()
 def test_paper_scenario_values_match_file():
     sc = load_scenario(PAPER)
     raw = parse_flat(PAPER.read_text())
-    for key, text in raw.items():
+    for key, (_, text) in raw.items():
         assert getattr(sc, key) == float(text), key
     assert isinstance(sc.truth_substeps, int) and sc.truth_substeps == 10
     assert isinstance(sc.seed, int)
     assert sc.n_steps == round(sc.t_end / sc.dt) == 60000
 
 
+def test_keys_without_value_take_the_schema_default():
+    sc = load_scenario(PAPER)
+    assert "gamma_gate_nis" not in parse_flat(PAPER.read_text())
+    assert sc.gamma_gate_nis == schema.SCHEMA.by_name("gamma_gate_nis").default_value() == 25.0
+    assert sc.q0_3 == 0.0 and sc.mode == schema.SCHEMA.by_name("mode").values.index("switched")
+
+
 def test_comments_and_blank_lines_are_ignored():
     raw = parse_flat("# header\n\na = 1.5   # trailing\n  b=2\n")
-    assert raw == {"a": "1.5", "b": "2"}
+    assert raw == {"a": (3, "1.5"), "b": (4, "2")}
 
 
 def _text_without(key: str) -> str:
@@ -27,29 +33,50 @@ def _text_without(key: str) -> str:
 
 
 def test_missing_key_is_an_error():
-    with pytest.raises(ValueError, match="missing.*gap"):
+    with pytest.raises(ScenarioError, match="missing key 'gap'"):
         scenario_from_text(_text_without("gap"))
 
 
-def test_unknown_key_is_an_error():
-    with pytest.raises(ValueError, match="unknown.*gamma_typo"):
-        scenario_from_text(PAPER.read_text() + "\ngamma_typo = 3\n")
+def test_unknown_key_is_an_error_with_its_line():
+    text = PAPER.read_text() + "\ngamma_typo = 3\n"
+    line = len(text.splitlines())
+    with pytest.raises(ScenarioError, match=f":{line}: unknown key 'gamma_typo'"):
+        scenario_from_text(text)
 
 
 def test_duplicate_key_is_an_error():
-    with pytest.raises(ValueError, match="duplicate"):
+    with pytest.raises(ScenarioError, match="duplicate"):
         scenario_from_text(PAPER.read_text() + "\ngap = 2e-3\n")
 
 
-def test_malformed_line_and_non_integer_substeps_are_errors():
-    with pytest.raises(ValueError, match="key = value"):
+@pytest.mark.parametrize("key,value,rule", [
+    ("m2", "-1", "must be finite and > 0"),
+    ("m2", "0", "must be finite and > 0"),
+    ("gap", "-1e-3", "must be finite and >= 0"),
+    ("k12", "nan", "not a finite number"),
+    ("sigma_r", "0", "must be finite and > 0"),
+    ("seed", "1.5", "must be an integer"),
+    ("truth_substeps", "2.5", "must be an integer"),
+    ("mode", "2", "must be one of 0 (canonical), 1 (switched)"),
+    ("newton_rtol", "1", "must be in (0, 1)"),
+])
+def test_values_are_checked_against_the_schema_rule(key, value, rule):
+    """One line: file, line, key = value and the rule, as the C reader says it."""
+    text = _text_without(key) + f"\n{key} = {value}\n"
+    line = len(text.splitlines())
+    with pytest.raises(ScenarioError) as err:
+        scenario_from_text(text, "f.toml")
+    msg = str(err.value)
+    assert msg.startswith(f"f.toml:{line}: ") and rule in msg and "\n" not in msg, msg
+
+
+def test_malformed_line_is_an_error():
+    with pytest.raises(ScenarioError, match="key = value"):
         parse_flat("just words\n")
-    with pytest.raises(ValueError, match="integer"):
-        scenario_from_text(_text_without("truth_substeps") + "\ntruth_substeps = 2.5\n")
 
 
-def test_shared_copy_is_identical_when_present():
-    shared = Path(__file__).resolve().parents[3] / "shared" / "scenarios" / "paper.toml"
-    if not shared.exists():
-        pytest.skip("shared/ not beside the repository")
-    assert load_scenario(shared) == load_scenario(PAPER)
+def test_replace_is_checked_too():
+    sc = load_scenario(PAPER)
+    assert sc.replace(t_end=1.0).n_steps == 1000
+    with pytest.raises(ScenarioError, match="t_end"):
+        sc.replace(t_end=-1.0)

@@ -11,18 +11,19 @@
  *     raised its counter;
  *   - the transmitted frames, in order: DLC 8, valid CRC, consecutive alive counters per message, the
  *     12 estimate frames of a step with EST_STEP last (STEP, status, flags, Newton iterations), EST_ACK
- *     fields (token, status, bad parameter, experiment, N_PARAMS_RX, state), EST_HEALTH bursts;
- *   - the running configuration (settings compared field by field, bit for bit), the experiment, the
- *     staging state, and the estimator (z, P, step count) against the shadow: a refused configuration
- *     or a rejected frame changes none of them;
+ *     fields (token, status, bad parameter: exactly the element caekf_settings_validate names,
+ *     N_PARAMS_RX, state; its unused bits 40..47 zero), EST_HEALTH bursts;
+ *   - the running configuration (settings compared field by field, bit for bit), the staging state,
+ *     and the estimator (z, P, step count) against the shadow: a refused configuration or a rejected
+ *     frame changes none of them. The wire carries no experiment: the schema's presets (the paper's
+ *     experiments) arrive as ordinary CTRL_PARAMs, and CTRL_RESET's unused bits 16..23 (once the
+ *     EXPERIMENT field) are filled with fuzz bytes the app must ignore;
  *   - after every accepted step: z and P finite, P exactly symmetric.
  *
  * Input: [cfg] [resync] [init] [time] then operations until the end (see the OP_* list below).
  */
 #include "caekf/caekf_app.h"
 #include "fuzz_common.h"
-#include "fuzz_paper.h"
-#include "paper_params.h"
 
 #define N CAEKF_N
 #define NMSG ((unsigned)CAEKF_MSG_COUNT)
@@ -30,20 +31,20 @@
 #define TXCAP 4096u
 #define MAX_OPS 2000u
 #define MAX_FRAMES 3000u /* per input: keeps one execution well under a second with the sanitizers */
-#define ACK_BAD_ANY 0x1FFu /* expectation: any valid parameter id or NONE */
+#define PRESET_NONE (-1)
 
 enum {
     OP_RAW = 0,       /* [id sel] ([id u32]) [dlc] [8 bytes]: a frame as it comes */
     OP_SEALED,        /* [msg] [counter mode] [7 payload bytes]: valid CRC over arbitrary payload */
     OP_STEP,          /* [flags] [step u16] [u u32] [y1 5 bytes] [y4 5 bytes]: a bench step */
     OP_PARAM,         /* [id] [exp10] [mantissa 5 bytes] */
-    OP_RESET,         /* [experiment] [n mode] [token] */
+    OP_RESET,         /* [unused bits 16..23] [n mode] [token] */
     OP_STATUS_REQ,    /* [token] */
     OP_TIME,          /* [u16]: advance the clock, poll */
     OP_HAL_FAULT,     /* [b]: receive errors pending, transmit failure toggle; poll */
-    OP_LOCAL_CONFIG,  /* [experiment] [n] n x ([param id] [value]): caekf_app_configure */
+    OP_LOCAL_CONFIG,  /* [preset] [n] n x ([param id] [value]): caekf_app_configure */
     OP_BURST,         /* toggles burst mode: frames queue up, then polls drain the queue */
-    OP_PAPER_CONFIG,  /* [experiment] [token]: the paper settings as CTRL_PARAM frames + CTRL_RESET */
+    OP_PAPER_CONFIG,  /* [preset] [token]: the paper settings and a preset's as CTRL_PARAMs + CTRL_RESET */
     OP_REPEAT_STEPS,  /* [n]: n more steps with the last inputs and consecutive STEP numbers */
     OP_COUNT
 };
@@ -128,16 +129,17 @@ static int settings_equal(const caekf_settings_t *a, const caekf_settings_t *b)
 
 static int app_settings_equal(const caekf_app_settings_t *a, const caekf_app_settings_t *b)
 {
-    return settings_equal(&a->est, &b->est) && SAME(a->highq_scale, b->highq_scale);
+    return settings_equal(&a->est, &b->est);
 }
 
-/* The real-valued parameters by id, in caekf.dbc's PARAM_ID order; NULL for the others. */
+/* The real-valued parameters by id (caekf.dbc's PARAM_ID table: arrays take consecutive ids); NULL for
+ * the others. */
 static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
 {
     caekf_model_params_t *m = &s->model;
     switch (id) {
-    case CAEKF_PARAM_M1: case CAEKF_PARAM_M2: case CAEKF_PARAM_M3: case CAEKF_PARAM_M4:
-        return &m->m[id - CAEKF_PARAM_M1];
+    case CAEKF_PARAM_M: case CAEKF_PARAM_M + 1: case CAEKF_PARAM_M + 2: case CAEKF_PARAM_M + 3:
+        return &m->m[id - CAEKF_PARAM_M];
     case CAEKF_PARAM_K1: return &m->k1;
     case CAEKF_PARAM_K12: return &m->k12;
     case CAEKF_PARAM_K34: return &m->k34;
@@ -148,10 +150,10 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_C4: return &m->c4;
     case CAEKF_PARAM_GAP: return &m->gap;
     case CAEKF_PARAM_DT: return &m->dt;
-    case CAEKF_PARAM_Q0_1: case CAEKF_PARAM_Q0_2: case CAEKF_PARAM_Q0_3: case CAEKF_PARAM_Q0_4:
-        return &s->q0[id - CAEKF_PARAM_Q0_1];
-    case CAEKF_PARAM_V0_1: case CAEKF_PARAM_V0_2: case CAEKF_PARAM_V0_3: case CAEKF_PARAM_V0_4:
-        return &s->v0[id - CAEKF_PARAM_V0_1];
+    case CAEKF_PARAM_Q0: case CAEKF_PARAM_Q0 + 1: case CAEKF_PARAM_Q0 + 2: case CAEKF_PARAM_Q0 + 3:
+        return &s->q0[id - CAEKF_PARAM_Q0];
+    case CAEKF_PARAM_V0: case CAEKF_PARAM_V0 + 1: case CAEKF_PARAM_V0 + 2: case CAEKF_PARAM_V0 + 3:
+        return &s->v0[id - CAEKF_PARAM_V0];
     case CAEKF_PARAM_GAMMA0: return &s->gamma0;
     case CAEKF_PARAM_SIGMA_Q0: return &s->sigma_q0;
     case CAEKF_PARAM_SIGMA_V0: return &s->sigma_v0;
@@ -161,13 +163,32 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_SIGMA_Q_GAMMA: return &s->sigma_q_gamma;
     case CAEKF_PARAM_SIGMA_R: return &s->sigma_r;
     case CAEKF_PARAM_GAMMA_MIN: return &s->gamma_min;
+    case CAEKF_PARAM_Q_GAMMA_SCALE: return &s->q_gamma_scale;
     case CAEKF_PARAM_NEWTON_RTOL: return &s->newton_rtol;
     case CAEKF_PARAM_GAMMA_GATE_NIS: return &s->gamma_gate_nis;
     default: return NULL;
     }
 }
 
-/* Sets a parameter as the model understands it, and checks caekf_app_settings_set agrees. 0 if set. */
+/* The integer, enum and bool parameters: writes v to the field of `id`; 0, or -1 if `id` is not one. */
+static int model_int_set(caekf_settings_t *s, unsigned id, int v)
+{
+    switch (id) {
+    case CAEKF_PARAM_SWITCHOFF: s->switchoff = v; return 0;
+    case CAEKF_PARAM_COV_UPDATE: s->cov_update = v; return 0;
+    case CAEKF_PARAM_COV_REPAIR_ENABLED: s->cov_repair_enabled = v; return 0;
+    case CAEKF_PARAM_NEWTON_MAX_ITER: s->newton_max_iter = v; return 0;
+    case CAEKF_PARAM_MODE: s->mode = v; return 0;
+    case CAEKF_PARAM_CONSTRAINT_ENABLED: s->constraint_enabled = v; return 0;
+    case CAEKF_PARAM_PSD_CHECK_PERIOD: s->psd_check_period = v; return 0;
+    default: return -1;
+    }
+}
+
+/* Sets a parameter as the model understands it, and checks caekf_app_settings_set agrees. 0 if set.
+ * Real parameters take any value (validation is the commit's business); integer, enum and bool ones
+ * need an integral value: the model accepts every integral value up to 1000 (psd_check_period's upper
+ * bound) and leaves the limit beyond that to the setter. */
 static int model_set(caekf_app_settings_t *s, unsigned id, double value)
 {
     caekf_app_settings_t other = *s;
@@ -177,16 +198,21 @@ static int model_set(caekf_app_settings_t *s, unsigned id, double value)
     if (id >= (unsigned)CAEKF_PARAM_COUNT) {
         ok = 0;
     } else if (f != NULL) {
-        *f = (caekf_scalar_t)value; /* any value: validation is the commit's business */
-        ok = 1;
-    } else if (id == (unsigned)CAEKF_PARAM_HIGHQ_SCALE) {
-        s->highq_scale = value;
+        *f = (caekf_scalar_t)value;
         ok = 1;
     } else {
-        /* Integer parameters: "an integral value in their range"; the app's setter decides the range. */
-        ok = (ast == CAEKF_APP_OK);
+        caekf_settings_t probe = s->est;
+        FZ_CHECK(model_int_set(&probe, id, 0) == 0, "every parameter id is a real or an integer setting");
+        if (!isfinite(value) || value != floor(value)) {
+            ok = 0;
+        } else if (fabs(value) <= 1000.0) {
+            ok = 1;
+        } else {
+            ok = (ast == CAEKF_APP_OK);
+            FZ_CHECK(!ok || fabs(value) < 2147483647.0, "an accepted integer fits an int");
+        }
         if (ok) {
-            *s = other;
+            (void)model_int_set(&s->est, id, (int)value);
         }
     }
     FZ_CHECK((ast == CAEKF_APP_OK) == ok, "caekf_app_settings_set agrees on acceptance");
@@ -196,31 +222,18 @@ static int model_set(caekf_app_settings_t *s, unsigned id, double value)
     return ok ? 0 : -1;
 }
 
-/* The experiments as caekf_app.h describes them. 0, or -1 unknown experiment, -2 unusable highq_scale. */
-static int model_experiment(const caekf_app_settings_t *b, unsigned exp, caekf_settings_t *out)
+/* A value as the bench sends it: mantissa * 10^exp10, shortest decimal form (fixture values are short
+ * decimals). */
+static void wire_decimal(double value, int *exp10, int64_t *mantissa)
 {
-    caekf_settings_t app_out;
-    const caekf_app_status_t ast = caekf_app_experiment_settings(b, exp, &app_out);
-    int rc = 0;
-    if (exp >= (unsigned)CAEKF_EXPERIMENT_COUNT) {
-        rc = -1;
-    } else if (!(b->highq_scale > 0.0) || isinf(b->highq_scale)) {
-        rc = -2;
-    } else {
-        *out = b->est;
-        out->mode = (exp == CAEKF_EXPERIMENT_CANONICAL) ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
-        out->q_gamma_scale = (exp >= CAEKF_EXPERIMENT_SWITCHED_HIGHQ) ? (caekf_scalar_t)b->highq_scale : (caekf_scalar_t)1;
-        out->constraint_enabled = (exp == CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED) ? 1 : 0;
-        if (exp == CAEKF_EXPERIMENT_CANONICAL) {
-            out->gamma_gate_nis = 0;
-        }
+    double m = value;
+    int e = 0;
+    while (m != 0.0 && m != (double)(int64_t)m && e > -22) {
+        m *= 10.0;
+        e--;
     }
-    FZ_CHECK(ast == (rc == 0 ? CAEKF_APP_OK : rc == -1 ? CAEKF_APP_ERR_EXPERIMENT : CAEKF_APP_ERR_PARAM),
-             "caekf_app_experiment_settings status");
-    if (rc == 0) {
-        FZ_CHECK(settings_equal(out, &app_out), "caekf_app_experiment_settings result");
-    }
-    return rc;
+    *exp10 = e;
+    *mantissa = (int64_t)m;
 }
 
 /* ---- the model ---------------------------------------------------------------------------------- */
@@ -231,8 +244,8 @@ typedef struct {
     int8_t status;      /* EST_STEP: step status; EST_ACK: ack status */
     uint16_t flags;     /* EST_STEP: flags without bits 12 and 14 (saturation, P norm) */
     uint8_t iters;
-    uint8_t token, experiment, n_rx, state;
-    uint16_t bad_param; /* EST_ACK: expected BAD_PARAM, or ACK_BAD_ANY */
+    uint8_t token, n_rx, state;
+    uint16_t bad_param; /* EST_ACK: expected BAD_PARAM */
     uint8_t page;
 } expect_t;
 
@@ -245,7 +258,6 @@ typedef struct {
     uint32_t cnt[CAEKF_CNT_COUNT];
     /* configuration */
     int configured;
-    unsigned experiment;
     caekf_app_settings_t active;
     int staging;
     unsigned staged_count;
@@ -470,12 +482,11 @@ static void model_param(const uint8_t d[8])
     }
 }
 
-/* Accepts `base` with `exp` into the model (the estimator is re-initialised, the step history forgotten). */
-static void model_commit_accepted(const caekf_app_settings_t *base, const caekf_settings_t *s, unsigned exp)
+/* Accepts `s` into the model (the estimator is re-initialised, the step history forgotten). */
+static void model_commit_accepted(const caekf_app_settings_t *s)
 {
-    FZ_CHECK(caekf_init(&M.est, s) == CAEKF_OK, "validated settings initialise");
-    M.active = *base;
-    M.experiment = exp;
+    FZ_CHECK(caekf_init(&M.est, &s->est) == CAEKF_OK, "validated settings initialise");
+    M.active = *s;
     M.configured = 1;
     M.open = 0;
     M.have = 0;
@@ -485,17 +496,14 @@ static void model_commit_accepted(const caekf_app_settings_t *base, const caekf_
 
 static void model_reset(const uint8_t d[8])
 {
-    const unsigned exp = (unsigned)get_bits(d, 16, 8);
     const unsigned n_params = (unsigned)get_bits(d, 24, 8);
     const unsigned token = (unsigned)get_bits(d, 32, 8);
     const unsigned received = M.staging ? M.staged_count : 0u;
     int status;
     unsigned bad = CAEKF_ACK_BAD_PARAM_NONE;
     expect_t e;
-    M.cnt[CAEKF_CNT_RX_OK]++;
-    if (exp >= (unsigned)CAEKF_EXPERIMENT_COUNT) {
-        status = CAEKF_ACK_REFUSED_EXPERIMENT;
-    } else if (M.staging && M.staged_error != 0) {
+    M.cnt[CAEKF_CNT_RX_OK]++; /* bits 16..23 are unused: whatever they hold, the frame is the same */
+    if (M.staging && M.staged_error != 0) {
         status = M.staged_error;
         bad = M.staged_bad;
     } else if (n_params != received) {
@@ -504,17 +512,13 @@ static void model_reset(const uint8_t d[8])
         status = CAEKF_ACK_REFUSED_NO_SETTINGS;
     } else {
         const caekf_app_settings_t base = received ? M.staged : M.active;
-        caekf_settings_t s;
-        const int rc = model_experiment(&base, exp, &s);
-        if (rc == -2) {
+        caekf_setting_error_t err;
+        if (caekf_settings_validate(&base.est, &err) != CAEKF_OK) {
             status = CAEKF_ACK_REFUSED_SETTINGS;
-            bad = CAEKF_PARAM_HIGHQ_SCALE;
-        } else if (caekf_settings_validate(&s, NULL) != CAEKF_OK) {
-            status = CAEKF_ACK_REFUSED_SETTINGS;
-            bad = ACK_BAD_ANY;
+            bad = err.param_id; /* BAD_PARAM names the element validation refused */
         } else {
             status = CAEKF_ACK_ACCEPTED;
-            model_commit_accepted(&base, &s, exp);
+            model_commit_accepted(&base);
         }
     }
     M.staging = 0; /* accepted or not, the staged values are spent */
@@ -524,7 +528,6 @@ static void model_reset(const uint8_t d[8])
     e.token = (uint8_t)token;
     e.status = (int8_t)status;
     e.bad_param = (uint16_t)bad;
-    e.experiment = (uint8_t)(M.configured ? M.experiment : CAEKF_EXPERIMENT_NONE);
     e.n_rx = (uint8_t)received;
     e.state = (uint8_t)(M.configured ? CAEKF_ACK_STATE_CONFIGURED : 0u);
     expect_push(&e);
@@ -552,7 +555,6 @@ static void model_status_req(const uint8_t d[8])
     e.token = (uint8_t)get_bits(d, 16, 8);
     e.status = (int8_t)CAEKF_ACK_STATUS;
     e.bad_param = CAEKF_ACK_BAD_PARAM_NONE;
-    e.experiment = (uint8_t)(M.configured ? M.experiment : CAEKF_EXPERIMENT_NONE);
     e.n_rx = (uint8_t)(M.staging ? M.staged_count : 0u);
     e.state = (uint8_t)((M.configured ? CAEKF_ACK_STATE_CONFIGURED : 0u) | (M.staging ? CAEKF_ACK_STATE_STAGED : 0u));
     expect_push(&e);
@@ -677,12 +679,8 @@ static void check_tx(void)
         if (m == CAEKF_MSG_EST_ACK) {
             FZ_CHECK(f->data[2] == e->token, "ACK token");
             FZ_CHECK((int8_t)f->data[3] == e->status, "ACK status");
-            if (e->bad_param == ACK_BAD_ANY) {
-                FZ_CHECK(f->data[4] == CAEKF_ACK_BAD_PARAM_NONE || f->data[4] < CAEKF_PARAM_COUNT, "ACK bad param");
-            } else {
-                FZ_CHECK(f->data[4] == e->bad_param, "ACK bad param");
-            }
-            FZ_CHECK(f->data[5] == e->experiment, "ACK experiment");
+            FZ_CHECK(f->data[4] == e->bad_param, "ACK bad param");
+            FZ_CHECK(f->data[5] == 0u, "ACK bits 40..47 unused (zero)");
             FZ_CHECK(f->data[6] == e->n_rx, "ACK N_PARAMS_RX");
             FZ_CHECK(f->data[7] == e->state, "ACK state");
         } else if (m == CAEKF_MSG_EST_HEALTH) {
@@ -724,7 +722,6 @@ static void check_state(void)
         FZ_CHECK(app_settings_equal(&app.staged, &M.staged), "staged settings");
     }
     if (M.configured) {
-        FZ_CHECK(app.experiment == M.experiment, "running experiment unchanged unless accepted");
         FZ_CHECK(app_settings_equal(&app.active, &M.active), "running settings unchanged unless accepted");
         FZ_CHECK(settings_equal(&app.est.cfg, &M.est.cfg), "estimator settings");
         FZ_CHECK(memcmp(app.est.z, M.est.z, sizeof app.est.z) == 0, "estimator state == shadow");
@@ -792,10 +789,10 @@ static void send_param(unsigned id, int exp10, int64_t mantissa)
     send_sealed(CAEKF_MSG_CTRL_PARAM, d, -1);
 }
 
-static void send_reset(unsigned exp, unsigned n, unsigned token)
+static void send_reset(unsigned unused, unsigned n, unsigned token)
 {
     uint8_t d[8] = {0};
-    put_bits(d, 16, 8, exp);
+    put_bits(d, 16, 8, unused); /* unused bits: the app must ignore them */
     put_bits(d, 24, 8, n);
     put_bits(d, 32, 8, token);
     send_sealed(CAEKF_MSG_CTRL_RESET, d, -1);
@@ -873,51 +870,55 @@ static void op_step(fz_reader_t *r)
 
 static void op_local_config(fz_reader_t *r)
 {
-    const unsigned exp = fz_u8(r) % 6u; /* 4 and 5: unknown experiments */
+    const unsigned preset = fz_u8(r) % 6u; /* 4 and 5: no preset, the recommended defaults */
     unsigned n = fz_u8(r) % 8u;
     caekf_app_settings_t s;
-    caekf_settings_t es;
+    caekf_setting_error_t err;
     uint8_t bad = 0;
     caekf_app_status_t st, want;
-    int rc;
     (void)caekf_app_settings_default(&s);
-    fz_paper_settings(&s.est, 1);
+    fz_paper_settings(&s.est, preset < CAEKF_N_FIXTURE_PRESETS ? (int)preset : PRESET_NONE);
     while (n-- > 0u) {
         const unsigned id = fz_u8(r) % ((unsigned)CAEKF_PARAM_COUNT);
         caekf_scalar_t *f = model_real_field(&s.est, id);
         const double typical = (f != NULL && *f != (caekf_scalar_t)0) ? (double)*f : 1.0;
         (void)model_set(&s, id, fz_scalar(r, typical));
     }
-    rc = model_experiment(&s, exp, &es);
-    st = caekf_app_configure(&app, &s, exp, &bad);
-    if (rc == -1) {
-        want = CAEKF_APP_ERR_EXPERIMENT;
-    } else if (rc == -2) {
+    st = caekf_app_configure(&app, &s, &bad);
+    if (caekf_settings_validate(&s.est, &err) != CAEKF_OK) {
         want = CAEKF_APP_ERR_SETTINGS;
-        FZ_CHECK(bad == CAEKF_PARAM_HIGHQ_SCALE, "configure: highq_scale named");
-    } else if (caekf_settings_validate(&es, NULL) != CAEKF_OK) {
-        want = CAEKF_APP_ERR_SETTINGS;
-        FZ_CHECK(bad == CAEKF_ACK_BAD_PARAM_NONE || bad < CAEKF_PARAM_COUNT, "configure: bad param valid");
+        FZ_CHECK(bad == err.param_id, "configure: names the element validation refused");
     } else {
         want = CAEKF_APP_OK;
         FZ_CHECK(bad == CAEKF_ACK_BAD_PARAM_NONE, "configure: no bad param when accepted");
-        model_commit_accepted(&s, &es, exp);
+        model_commit_accepted(&s);
     }
     FZ_CHECK(st == want, "caekf_app_configure status");
     check_state();
 }
 
+/* The paper's settings and then a preset's (what the bench does to select one of the paper's
+ * experiments) as CTRL_PARAM frames, and CTRL_RESET with their number. */
 static void op_paper_config(fz_reader_t *r)
 {
-    const caekf_paper_param_t *const p = caekf_paper_params;
-    const unsigned n = CAEKF_N_PAPER_PARAMS;
-    const unsigned exp = fz_u8(r) % 4u;
+    const caekf_fixture_param_t *const p = caekf_paper_params;
+    const unsigned preset = fz_u8(r) % (CAEKF_N_FIXTURE_PRESETS + 1u); /* the last: none */
     const unsigned token = fz_u8(r);
-    unsigned i;
+    unsigned i, n = CAEKF_N_PAPER_PARAMS;
     for (i = 0; i < n; ++i) {
         send_param(p[i].id, p[i].exp10, p[i].mantissa);
     }
-    send_reset(exp, n, token);
+    if (preset < CAEKF_N_FIXTURE_PRESETS) {
+        const caekf_fixture_preset_t *pr = &caekf_fixture_presets[preset];
+        for (i = 0; i < pr->n; ++i) {
+            int exp10;
+            int64_t mant;
+            wire_decimal(pr->value[i], &exp10, &mant);
+            send_param(pr->id[i], exp10, mant);
+        }
+        n += pr->n;
+    }
+    send_reset(0, n, token);
 }
 
 static void run_ops(fz_reader_t *r)
@@ -969,10 +970,10 @@ static void run_ops(fz_reader_t *r)
             break;
         }
         case OP_RESET: {
-            const unsigned exp = fz_u8(r) % 6u;
+            const unsigned unused = fz_u8(r);
             const uint8_t nmode = fz_u8(r);
             const unsigned token = fz_u8(r);
-            send_reset(exp, (nmode < 0xC0u) ? (M.staging ? M.staged_count : 0u) : nmode, token);
+            send_reset(unused, (nmode < 0xC0u) ? (M.staging ? M.staged_count : 0u) : nmode, token);
             break;
         }
         case OP_STATUS_REQ: {
@@ -1068,17 +1069,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     hal.now_us = hal_now;
     FZ_CHECK(caekf_app_init(&app, &hal, &M.cfg) == CAEKF_APP_OK, "app init");
     M.last_status_us = H.now;
-    M.experiment = CAEKF_EXPERIMENT_NONE;
     (void)caekf_app_settings_default(&M.active);
     check_state();
-    if (init & 0x80u) {
+    if (init & 0x80u) { /* configured locally from the start: the paper's settings and preset init & 3 */
         caekf_app_settings_t s;
-        caekf_settings_t es;
         (void)caekf_app_settings_default(&s);
-        fz_paper_settings(&s.est, 1);
-        FZ_CHECK(model_experiment(&s, init & 3u, &es) == 0, "paper experiment");
-        FZ_CHECK(caekf_app_configure(&app, &s, init & 3u, NULL) == CAEKF_APP_OK, "paper settings configure");
-        model_commit_accepted(&s, &es, init & 3u);
+        fz_paper_settings(&s.est, (int)(init & 3u));
+        FZ_CHECK(caekf_settings_validate(&s.est, NULL) == CAEKF_OK, "paper settings with a preset are valid");
+        FZ_CHECK(caekf_app_configure(&app, &s, NULL) == CAEKF_APP_OK, "paper settings configure");
+        model_commit_accepted(&s);
         check_state();
     }
     run_ops(&r);
@@ -1090,7 +1089,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 fprintf(stderr, "%s=%lu ", name, (unsigned long)M.cnt[i]);
             }
         }
-        fprintf(stderr, "| configured=%d experiment=%u\n", M.configured, M.experiment);
+        fprintf(stderr, "| configured=%d mode=%d q_gamma_scale=%g constraint=%d\n", M.configured,
+                (int)M.active.est.mode, (double)M.active.est.q_gamma_scale, M.active.est.constraint_enabled);
     }
     return 0;
 }

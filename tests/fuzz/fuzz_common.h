@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "caekf/caekf.h"
+#include "caekf_fixture_settings.h" /* generated: the reference scenario's values and the presets */
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -119,5 +120,21 @@ static inline double fz_scalar(fz_reader_t *r, double nominal)
 }
 
 static inline int fz_is_finite_scalar(caekf_scalar_t x) { return isfinite(x) != 0; }
+
+/* The reference scenario's settings (sim/scenarios/paper.toml) with one of the schema's presets applied
+ * (index into caekf_fixture_presets: 0 canonical, 1 switched, 2 switched-highq, 3 switched-highq-
+ * constrained; any other value: none, the recommended defaults). Both come from the fixture the build
+ * generates from the schema and the scenario (caekf_fixture_settings.h), like the unit tests'. */
+static inline void fz_paper_settings(caekf_settings_t *s, int preset)
+{
+    unsigned i;
+    (void)caekf_settings_default(s);
+    for (i = 0; i < CAEKF_N_PAPER_PARAMS; ++i) {
+        (void)caekf_settings_set(s, caekf_paper_params[i].id, caekf_paper_params[i].value, NULL);
+    }
+    for (i = 0; preset >= 0 && preset < (int)CAEKF_N_FIXTURE_PRESETS && i < caekf_fixture_presets[preset].n; ++i) {
+        (void)caekf_settings_set(s, caekf_fixture_presets[preset].id[i], caekf_fixture_presets[preset].value[i], NULL);
+    }
+}
 
 #endif /* CAEKF_FUZZ_COMMON_H */

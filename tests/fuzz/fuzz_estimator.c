@@ -7,12 +7,14 @@
  *     [ctrl] [u] [y1] [y4]   one step, or 1 + 8 * (ctrl & 0x3F) steps with the same inputs if ctrl bit 7
  *                            (bit 6: also read the P norm); ctrl == 0x7E: re-initialise instead, with
  *                            [n_overrides] n x ([field] [value...]) on top of the current settings.
- * Header: bits 0-1 experiment (paper settings), bit 2 start from caekf_settings_default instead,
+ * Header: bits 0-1 preset (paper settings with the schema's preset: 0 canonical, 1 switched,
+ * 2 switched-highq, 3 switched-highq-constrained), bit 2 start from caekf_settings_default instead,
  * bit 3 paper switch-off, bit 4 Joseph update, bit 5 covariance repair off, bit 6 PSD check every step.
  *
  * Invariants (any violation aborts, i.e. is a finding):
- *   init: returns OK or ERR_SETTINGS, exactly as caekf_settings_validate says (first_bad set iff
- *         refused); a refusal leaves the instance byte for byte as it was; an accepted init starts
+ *   init: returns OK or ERR_SETTINGS, exactly as caekf_settings_validate says (its error names a
+ *         refused element iff refused: a known reason, a parameter id inside the named setting's ids,
+ *         the element's index); a refusal leaves the instance byte for byte as it was; an accepted init starts
  *         from P = I with a finite scaled state and finite derived noise terms.
  *   step: non-finite u/y -> ERR_INPUT, flags == INPUT_REJECTED, instance byte for byte unchanged;
  *         finite inputs -> OK, ERR_NUMERIC or ERR_SINGULAR only;
@@ -23,7 +25,6 @@
  *   caekf_get_cov_norm2 does not change z or P.
  */
 #include "fuzz_common.h"
-#include "fuzz_paper.h"
 
 #define N CAEKF_N
 #define NQ CAEKF_NQ
@@ -88,9 +89,9 @@ static void apply_overrides(fz_reader_t *r, caekf_settings_t *s)
         } else {
             const int v = fz_int(r);
             switch (field % (N_REAL_FIELDS + N_INT_FIELDS) - N_REAL_FIELDS) {
-            case 0: s->mode = (caekf_mode_t)v; break;
-            case 1: s->switchoff = (caekf_switchoff_t)v; break;
-            case 2: s->cov_update = (caekf_cov_update_t)v; break;
+            case 0: s->mode = v; break;
+            case 1: s->switchoff = v; break;
+            case 2: s->cov_update = v; break;
             case 3: s->constraint_enabled = v; break;
             case 4: s->cov_repair_enabled = v; break;
             case 5: s->psd_check_period = v; break;
@@ -154,12 +155,23 @@ static void dump_settings(const caekf_settings_t *s)
 
 static int try_init(const caekf_settings_t *s)
 {
-    const char *bad = (const char *)1;
+    caekf_setting_error_t err;
     caekf_status_t v, st;
     int i, j;
-    v = caekf_settings_validate(s, &bad);
+    memset(&err, 0xA5, sizeof err);
+    v = caekf_settings_validate(s, &err);
     FZ_CHECK(v == CAEKF_OK || v == CAEKF_ERR_SETTINGS, "validate returns OK or ERR_SETTINGS");
-    FZ_CHECK((v == CAEKF_OK) == (bad == NULL), "first_bad set iff refused");
+    FZ_CHECK((v == CAEKF_OK) == (err.reason == CAEKF_SETTING_OK), "an error reason iff refused");
+    if (v != CAEKF_OK) {
+        const caekf_setting_rule_t *rule;
+        FZ_CHECK(err.reason <= CAEKF_SETTING_OVER_CAPACITY, "validate: a reason validation gives");
+        FZ_CHECK(err.setting < CAEKF_SETTING_COUNT && err.param_id < CAEKF_PARAM_COUNT, "validate: names a setting");
+        rule = &caekf_setting_rules[err.setting];
+        FZ_CHECK(err.index < rule->count && err.param_id == rule->id + err.index,
+                 "validate: parameter id is the named setting's element");
+        FZ_CHECK(caekf_param_key(err.param_id) != NULL && caekf_setting_name(err.setting) != NULL,
+                 "validate: the refused element has a name");
+    }
     memcpy(&snapshot, &est, sizeof est);
     st = caekf_init(&est, s);
     FZ_CHECK(st == v, "init agrees with validate");

@@ -4,9 +4,10 @@
     tests/fuzz/make_seeds.py [--truth build/host-double/testdata/paper_truth.bin]
 
 The byte layouts are those documented at the top of fuzz_app.c and fuzz_estimator.c. Seeds cover the
-paths a random start finds slowly: a full configuration over CAN, steps from the reference truth (free
-flight and first contact), each rejection the protocol defines, configuration refusals, and for the
-estimator every experiment and option with truth inputs, non-finite inputs and refused settings.
+paths a random start finds slowly: a full configuration over CAN (the paper's settings and a preset of
+the schema as CTRL_PARAMs), steps from the reference truth (free flight and first contact), each
+rejection the protocol defines, configuration refusals, and for the estimator every preset (the paper's
+four experiments) and option with truth inputs, non-finite inputs and refused settings.
 Regression inputs (crash-*, named after the finding) live next to the seeds and are never rewritten.
 """
 import argparse
@@ -49,9 +50,9 @@ def est_step(u, y1, y4, ctrl=0):
     return bytes([ctrl]) + est_fine(u, 2e-9) + est_fine(y1, 1e-12) + est_fine(y4, 1e-12)
 
 
-def est_header(exp=3, default=False, paper_switchoff=False, joseph=False, repair_off=False, psd_every=False,
+def est_header(preset=3, default=False, paper_switchoff=False, joseph=False, repair_off=False, psd_every=False,
                overrides=b"", n_over=0):
-    h = exp | (4 if default else 0) | (8 if paper_switchoff else 0) | (16 if joseph else 0)
+    h = preset | (4 if default else 0) | (8 if paper_switchoff else 0) | (16 if joseph else 0)
     h |= (32 if repair_off else 0) | (64 if psd_every else 0)
     return bytes([h, n_over]) + overrides
 
@@ -82,9 +83,9 @@ def truth_steps(truth, start, n, every=1):
 
 def estimator_seeds(truth):
     s = {}
-    for exp in range(4):
-        s["exp%d-start" % exp] = est_header(exp) + truth_steps(truth, 0, 120)
-        s["exp%d-contact" % exp] = est_header(exp) + truth_steps(truth, 12760, 140)
+    for preset in range(4):  # canonical, switched, switched-highq, switched-highq-constrained
+        s["exp%d-start" % preset] = est_header(preset) + truth_steps(truth, 0, 120)
+        s["exp%d-contact" % preset] = est_header(preset) + truth_steps(truth, 12760, 140)
     s["paper-switchoff-contact"] = est_header(2, paper_switchoff=True) + truth_steps(truth, 12760, 140)
     s["joseph-contact"] = est_header(3, joseph=True) + truth_steps(truth, 12760, 140)
     s["repair-off-psd-every-step"] = est_header(2, paper_switchoff=True, repair_off=True, psd_every=True) + \
@@ -126,10 +127,10 @@ OP_RAW, OP_SEALED, OP_STEP, OP_PARAM, OP_RESET, OP_STATUS_REQ, OP_TIME, OP_HAL_F
     OP_BURST, OP_PAPER_CONFIG, OP_REPEAT_STEPS = range(12)
 
 
-def app_header(max_delta_sel=0, status=0, timeout_sel=0, per_poll_sel=0, resync_sel=0, init_exp=None,
+def app_header(max_delta_sel=0, status=0, timeout_sel=0, per_poll_sel=0, resync_sel=0, init_preset=None,
                near_wrap=True):
     c = (max_delta_sel & 3) | ((status & 3) << 2) | ((timeout_sel & 3) << 4) | ((per_poll_sel & 3) << 6)
-    init = 0 if init_exp is None else (0x80 | init_exp)
+    init = 0 if init_preset is None else (0x80 | init_preset)
     return bytes([c, resync_sel, init, 1 if near_wrap else 0])
 
 
@@ -155,9 +156,10 @@ def app_param(pid, exp10, mant):
     return bytes([OP_PARAM, pid & 0xFF, exp10 & 0xFF]) + struct.pack("<q", mant)[:5]
 
 
-def app_reset_n(exp, token, raw_n=None):
-    # n mode < 0xC0: the harness sends the number actually staged; >= 0xC0: that byte itself
-    return bytes([OP_RESET, exp, 0x00 if raw_n is None else raw_n, token])
+def app_reset_n(token, raw_n=None, unused=0):
+    # n mode < 0xC0: the harness sends the number actually staged; >= 0xC0: that byte itself.
+    # `unused` goes into CTRL_RESET's unused bits 16..23 (once EXPERIMENT): the app must ignore it.
+    return bytes([OP_RESET, unused, 0x00 if raw_n is None else raw_n, token])
 
 
 def app_time(us):
@@ -177,13 +179,16 @@ def app_sealed(msg, payload7, counter=None):
 
 def app_seeds(truth):
     s = {}
+    # OP_PAPER_CONFIG [preset] [token]: preset 0..3 as in the schema, 4: none (recommended defaults)
     paper = bytes([OP_PAPER_CONFIG, 3, 7])
     s["paper-config-steps"] = app_header() + paper + app_truth_steps(truth, 0, 20) + bytes([OP_REPEAT_STEPS, 63])
     s["paper-config-contact"] = app_header() + paper + app_truth_steps(truth, 12780, 80)
-    for exp in range(4):
-        s["local-config-exp%d" % exp] = app_header(init_exp=exp) + app_truth_steps(truth, 12780, 30)
+    for preset in range(4):
+        s["local-config-exp%d" % preset] = app_header(init_preset=preset) + app_truth_steps(truth, 12780, 30)
+    s["paper-config-presets"] = app_header() + bytes([OP_PAPER_CONFIG, 4, 1]) + app_truth_steps(truth, 12780, 10) + \
+        b"".join(bytes([OP_PAPER_CONFIG, p, 2 + p]) + app_truth_steps(truth, 12790 + 10 * p, 10) for p in range(4))
     # frame order permutations, repeated and omitted frames, late and superseded steps, gaps
-    seq = app_header(init_exp=1)
+    seq = app_header(init_preset=1)
     for k in range(6):
         seq += app_step(*truth[100 + k], order=k)
     seq += app_step(*truth[106], dup=True)
@@ -197,7 +202,7 @@ def app_seeds(truth):
     seq += app_step(*truth[114], raw_u_bits=0x7F800000)                      # infinity
     s["assembly-rejections"] = seq
     # E2E: wrong DLC, bad CRC, unknown and extended IDs, duplicate and jumping counters, resync
-    e2e = app_header(init_exp=3, resync_sel=1)
+    e2e = app_header(init_preset=3, resync_sel=1)
     e2e += app_raw(3, 0xE5, [0] * 8)                       # BENCH_U with DLC 5
     e2e += app_raw(3, 0, [0x12] * 8)                       # BENCH_U, CRC wrong
     e2e += app_raw(8, 0, [0] * 8)                          # EST_GAMMA id: wrong direction
@@ -211,21 +216,28 @@ def app_seeds(truth):
     e2e += app_sealed(3, [0, 0, 0, 0, 0, 0, 0], counter=11) + app_truth_steps(truth, 206, 2)
     s["e2e-rejections"] = e2e
     # configuration: refusals leave the running configuration alone
-    cfg = app_header(status=1) + app_reset_n(1, 1)                                   # nothing configured yet
+    # parameter ids (the schema's): 13 dt, 29 sigma_r, 30 gamma_min, 31 q_gamma_scale, 32 switchoff,
+    # 37 gamma_gate_nis, 38 mode, 39 constraint_enabled, 40 psd_check_period; 41 = CAEKF_PARAM_COUNT
+    cfg = app_header(status=1) + app_reset_n(1)                                       # nothing configured yet
     cfg += paper + app_truth_steps(truth, 0, 5)
-    cfg += app_param(29, 0, 0) + app_reset_n(3, 2)                                    # sigma_r = 0: refused
-    cfg += app_param(31, 0, 0) + app_reset_n(2, 3)                                    # highq_scale = 0
-    cfg += app_param(32, -1, 5) + app_reset_n(2, 4)                                   # switchoff = 0.5
-    cfg += app_param(200, 0, 1) + app_reset_n(2, 5)                                   # unknown param id
-    cfg += app_param(13, 30, 1) + app_reset_n(2, 6)                                   # exp10 out of range
-    cfg += app_param(29, -8, 5) + app_reset_n(2, 7, raw_n=0xC5)                       # N_PARAMS mismatch
-    cfg += app_reset_n(5, 8)                                                          # unknown experiment
-    cfg += app_param(30, 6, 2) + app_reset_n(3, 9)                                    # gamma_min 2e6: ok
-    cfg += app_reset_n(0, 10)                                                         # re-init, canonical
+    cfg += app_param(29, 0, 0) + app_reset_n(2)                                       # sigma_r = 0: refused
+    cfg += app_param(31, 0, -1) + app_reset_n(3)                                      # q_gamma_scale = -1
+    cfg += app_param(32, -1, 5) + app_reset_n(4)                                      # switchoff = 0.5
+    cfg += app_param(200, 0, 1) + app_reset_n(5)                                      # unknown param id
+    cfg += app_param(41, 0, 1) + app_reset_n(13)                                      # first id past the schema
+    cfg += app_param(13, 30, 1) + app_reset_n(6)                                      # exp10 out of range
+    cfg += app_param(29, -8, 5) + app_reset_n(7, raw_n=0xC5)                          # N_PARAMS mismatch
+    cfg += app_param(38, -1, 5) + app_reset_n(14)                                     # mode = 0.5
+    cfg += app_param(38, 0, 4) + app_reset_n(15)                                      # mode = 4: no such mode
+    cfg += app_param(40, 0, 0) + app_reset_n(16)                                      # psd_check_period = 0
+    cfg += app_reset_n(8, unused=5)                                                   # unused bits set: re-init
+    cfg += app_param(30, 6, 2) + app_reset_n(9)                                       # gamma_min 2e6: ok
+    cfg += app_param(38, 0, 0) + app_param(31, 0, 1) + app_param(39, 0, 0) + app_param(37, 0, 0) + \
+        app_reset_n(10)                                                               # the canonical preset
     cfg += bytes([OP_STATUS_REQ, 11]) + app_truth_steps(truth, 5, 5)
     s["config-refusals"] = cfg
     # burst mode with one frame per poll, HAL faults, periodic health near the clock wrap
-    b = app_header(status=3, per_poll_sel=1, timeout_sel=2, init_exp=2)
+    b = app_header(status=3, per_poll_sel=1, timeout_sel=2, init_preset=2)
     b += bytes([OP_BURST]) + app_truth_steps(truth, 300, 6) + bytes([OP_BURST])
     b += bytes([OP_HAL_FAULT, 3]) + app_truth_steps(truth, 306, 3)
     b += bytes([OP_HAL_FAULT, 8]) + app_truth_steps(truth, 309, 3) + bytes([OP_HAL_FAULT, 8])
@@ -234,13 +246,14 @@ def app_seeds(truth):
     lc = app_header()
     lc += bytes([OP_LOCAL_CONFIG, 3, 2, 29, 1]) + struct.pack("<d", 1e-9) + bytes([13, 1]) + struct.pack("<d", 2e-3)
     lc += app_truth_steps(truth, 12780, 20)
-    lc += bytes([OP_LOCAL_CONFIG, 4, 0])  # unknown experiment
-    lc += bytes([OP_LOCAL_CONFIG, 1, 1, 31, 0, 6])  # highq_scale NaN
+    lc += bytes([OP_LOCAL_CONFIG, 4, 0])  # no preset: the recommended defaults
+    lc += bytes([OP_LOCAL_CONFIG, 1, 1, 31, 0, 6])  # q_gamma_scale NaN: refused, named
+    lc += bytes([OP_LOCAL_CONFIG, 3, 1, 38, 1]) + struct.pack("<d", 7.0)  # mode 7: refused, named
     lc += app_truth_steps(truth, 12800, 10)
     s["local-config-variants"] = lc
     # accepted over CAN although the float build then fails every step (known core issue: scaled Q overflows)
     s["can-config-scaling-overflow"] = app_header() + paper + app_param(23, -22, 1) + app_param(26, 22, 1) + \
-        app_reset_n(3, 12) + app_truth_steps(truth, 12780, 10)
+        app_reset_n(12) + app_truth_steps(truth, 12780, 10)
     return s
 
 

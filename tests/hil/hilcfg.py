@@ -13,7 +13,9 @@ TRUTH_BIN = BUILD / "host" / "caekf-truth"
 SCENARIO = REPO / "sim" / "scenarios" / "paper.toml"
 IFACE = os.environ.get("CAEKF_HIL_IFACE", "vcan0")
 HOST_STEP_TIMEOUT_MS = os.environ.get("CAEKF_HIL_STEP_TIMEOUT_MS", "1000")  # see conftest.estimator
-EXPERIMENTS = ("canonical", "switched", "switched-highq", "switched-highq-constrained")
+from caekf_sim.schema import preset_names
+
+EXPERIMENTS = tuple(preset_names())  # the paper's four experiments: presets of the settings schema
 
 REPORT: List[str] = []  # measured numbers, printed at the end of the session (pytest_terminal_summary)
 

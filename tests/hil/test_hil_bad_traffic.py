@@ -35,7 +35,7 @@ FLOOD_BAD_CRC = 2
 def bad_traffic_run(bench, sc, inputs):
     from caekf_sim.bench import RunRecord
 
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     before = bench.status()
     rec = RunRecord(0, ROWS)
     bench.run_lockstep(inputs, 0, K, record=rec)

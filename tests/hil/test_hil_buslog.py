@@ -15,7 +15,7 @@ def test_recorded_log_replays_to_the_same_estimates(bench, sc, inputs, out_dir):
     log_path = out_dir / "switched-2000.log"
     bench.journal = []
     try:
-        bench.configure("switched", bench.params_from_scenario(sc))
+        bench.configure("switched", bench.params_from_scenario(sc, "switched"))
         rec = bench.run_lockstep(inputs, 0, ROWS)
         # one corrupted frame in the log: replayed as recorded, rejected again
         bad = bench.frame("BENCH_U", {"STEP": 0, "U": 0.0}, advance=False)

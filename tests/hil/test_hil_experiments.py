@@ -4,7 +4,7 @@ Two kinds of checks on the same runs:
 - equality: every estimate decoded from CAN is caekf-replay's estimate for the same inputs (the values the
   estimator decoded: float32 u, y on the 1e-12 m LSB) as that signal encodes it: within half an LSB for
   the scaled integers, half a float32 ULP for the float signals; flags and Newton iterations equal.
-- the paper's claims (SCENARIO.md), from the CAN values alone.
+- the paper's claims (docs/scenario.md), from the CAN values alone.
 """
 import numpy as np
 import pytest

@@ -97,16 +97,17 @@ def _await_acks(bench, tokens, timeout=10.0):
 
 
 def _validation_cases(bench, sc):
-    """(name, CTRL_PARAM frames as (param, value) or raw, experiment id, expected ACK status name)."""
+    """(name, CTRL_PARAM frames as (param, value) or raw, expected ACK status name, expected BAD_PARAM)."""
     g0 = float(sc.gamma0)
     return [
-        ("negative mass m1 = -1", [("m1", -1.0)], 1, "REFUSED_SETTINGS"),
-        ("dt = 0", [("dt", 0.0)], 1, "REFUSED_SETTINGS"),
-        ("dt = -1e-3", [("dt", -1e-3)], 1, "REFUSED_SETTINGS"),
-        ("non-finite sigma_r (PARAM_EXP10 = 31: not a finite exact value)", "exp10", 1, "REFUSED_PARAM"),
-        (f"gamma_min = {2 * g0:g} > gamma0 (constrained)", [("gamma_min", 2 * g0)], 3, "REFUSED_SETTINGS"),
-        ("unknown experiment id 7", [], 7, "REFUSED_EXPERIMENT"),
-        ("unknown experiment id 200", [], 200, "REFUSED_EXPERIMENT"),
+        ("negative mass m1 = -1", [("m1", -1.0)], "REFUSED_SETTINGS", "m1"),
+        ("dt = 0", [("dt", 0.0)], "REFUSED_SETTINGS", "dt"),
+        ("dt = -1e-3", [("dt", -1e-3)], "REFUSED_SETTINGS", "dt"),
+        ("non-finite sigma_r (PARAM_EXP10 = 31: not a finite exact value)", "exp10", "REFUSED_PARAM", "sigma_r"),
+        (f"gamma_min = {2 * g0:g} > gamma0 (constrained)", [("constraint_enabled", 1.0), ("gamma_min", 2 * g0)],
+         "REFUSED_SETTINGS", "gamma0"),
+        ("unknown mode 7", [("mode", 7.0)], "REFUSED_SETTINGS", "mode"),
+        ("unknown parameter id 200", "id200", "REFUSED_PARAM", "200"),
     ]
 
 
@@ -114,24 +115,28 @@ def _validate(bench, sc, row):
     from caekf_sim.bench import faults
 
     out = []
-    for name, params, exp_id, want in _validation_cases(bench, sc):
+    for name, params, want, want_bad in _validation_cases(bench, sc):
         bench.drain()
         if params == "exp10":
             pid = bench.codec.param_ids["sigma_r"]
             blob = faults.unchecked_frame(bench, "CTRL_PARAM", {"PARAM_ID": pid, "PARAM_EXP10": 31,
                                                                  "PARAM_MANTISSA": 1})
             n = 1
+        elif params == "id200":
+            blob = faults.unchecked_frame(bench, "CTRL_PARAM", {"PARAM_ID": 200, "PARAM_EXP10": 0,
+                                                                 "PARAM_MANTISSA": 1})
+            n = 1
         else:
             blob = b"".join(bench.param_frame(p, v) for p, v in params)
             n = len(params)
         token = bench._next_token()
-        blob += faults.unchecked_frame(bench, "CTRL_RESET", {"EXPERIMENT": exp_id, "N_PARAMS": n, "TOKEN": token})
+        blob += bench.frame("CTRL_RESET", {"N_PARAMS": n, "TOKEN": token})
         bench.send(blob)
         ack, _ = bench._await_ack(token, 5.0)
         bad = None
         if ack is not None:
             bad = {v: k for k, v in bench.codec.param_ids.items()}.get(ack.bad_param, str(ack.bad_param))
-        out.append({"row": row, "case": name, "want": want, "ack": ack, "bad_param": bad})
+        out.append({"row": row, "case": name, "want": want, "want_bad": want_bad, "ack": ack, "bad_param": bad})
     return out
 
 
@@ -139,8 +144,7 @@ def _validate(bench, sc, row):
 def fault_run(bench, sc, inputs):
     from caekf_sim.bench import RunRecord, faults
 
-    exp_id = bench.codec.experiment_ids["switched"]
-    params = bench.params_from_scenario(sc)
+    params = bench.params_from_scenario(sc, "switched")
     bench.configure("switched", params)
     before = bench.status()
     rec = RunRecord(0, ROWS)
@@ -180,7 +184,7 @@ def fault_run(bench, sc, inputs):
             elif kind == "nan_inf":
                 blob = faults.nonfinite_u(bench, inputs, row, i)
             else:
-                blob = faults.out_of_range_param(bench, i, exp_id)
+                blob = faults.out_of_range_param(bench, i)
             run(row, row + 1, blob)
             cur = row + 1
         elif kind == "flood":
@@ -198,7 +202,7 @@ def fault_run(bench, sc, inputs):
             episodes.append(("silence", row, (row, row + SILENCE_LEN), row + SILENCE_LEN))
             cur = row + SILENCE_LEN
         elif kind == "storm":
-            tokens = faults.reset_storm(bench, STORM_LEN, exp_id)
+            tokens = faults.reset_storm(bench, STORM_LEN)
             got = _await_acks(bench, tokens)
             for a in got.values():
                 storm_acks[a.status_name] = storm_acks.get(a.status_name, 0) + 1
@@ -480,9 +484,9 @@ def _table(fr, m):
            "estimate difference at the end of the window vs the run without it (sampled episodes)"]
     from caekf_sim.bench.faults import format_table
 
-    vt = format_table(["at row", "nonsense configuration", "EST_ACK", "BAD_PARAM", "experiment/state after"],
+    vt = format_table(["at row", "nonsense configuration", "EST_ACK", "BAD_PARAM", "state after"],
                       [[str(v["row"]), v["case"], v["ack"].status_name if v["ack"] else "NO ACK", str(v["bad_param"]),
-                        (f"{v['ack'].experiment}/{v['ack'].state}" if v["ack"] else "-")] for v in fr["validations"]])
+                        (f"{v['ack'].state}" if v["ack"] else "-")] for v in fr["validations"]])
     agree = (f"every answered step vs caekf-replay on the inputs seen: worst {float(ratio.max()):.2f} resolution "
              f"(q,v,gamma), P {float(np.nanmax(m['pr'])):.2f}, flags differ {m['flags_bad']}, Newton differ "
              f"{m['iters_bad']}; answered {int(m['answered'].sum())}/{ROWS}; lost steps bridged in the replay by "
@@ -536,7 +540,8 @@ def test_fault_matrix_config_validation(fault_run, matrix):
     for v in fr["validations"]:
         assert v["ack"] is not None, v["case"]
         assert v["ack"].status_name == v["want"], (v["case"], v["ack"].status_name)
-        assert v["ack"].state & 1 and v["ack"].experiment == 1, v["case"]  # still configured, switched
+        assert v["bad_param"] == v["want_bad"], (v["case"], v["bad_param"])
+        assert v["ack"].state & 1, v["case"]  # still configured (the running settings untouched: below)
     # estimates go on unchanged: the steps after each refusal equal the replay without any refusal
     for r in VALIDATE_ROWS:
         assert float(matrix["ratio"][r:r + 200].max()) <= 1.0

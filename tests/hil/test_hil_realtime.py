@@ -32,7 +32,7 @@ def test_realtime_pacing(bench, sc, inputs, binaries, out_dir, rate_hz):
 
     dt = 1.0 / rate_hz
     rows = int(round(SECONDS / sc.dt))  # 10 s of scenario samples, sent every dt of wall time
-    bench.configure("switched", bench.params_from_scenario(sc))
+    bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     before = bench.status()
     rec = bench.run_realtime(inputs, dt, 0, rows)
     h = health_delta(before, bench.status())

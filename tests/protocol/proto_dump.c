@@ -89,12 +89,10 @@ static void cmd_names(const char *kind)
     const char *name;
     for (i = 0; i < 256u; i++) {
         caekf_proto_status_t st;
-        if (strcmp(kind, "param") == 0) {
-            st = caekf_proto_param_name(i, &name);
-        } else if (strcmp(kind, "counter") == 0) {
+        if (strcmp(kind, "counter") == 0) {
             st = caekf_proto_counter_name(i, &name);
         } else {
-            st = caekf_proto_experiment_name(i, &name);
+            st = CAEKF_PROTO_ERR_RANGE;
         }
         if (st != CAEKF_PROTO_OK) {
             break;
@@ -137,16 +135,15 @@ static int run(char *line)
         caekf_msg_step_t m;
         int st = caekf_proto_decode_step(d, &m);
         printf("%d %u %u %u %d\n", st, m.step, m.flags, m.newton_iters, m.status);
-    } else if (strcmp(a[0], "enc_reset") == 0 && n == 4) {
+    } else if (strcmp(a[0], "enc_reset") == 0 && n == 3) {
         caekf_msg_reset_t m;
-        m.experiment = (uint8_t)strtoul(a[1], NULL, 0);
-        m.n_params = (uint8_t)strtoul(a[2], NULL, 0);
-        m.token = (uint8_t)strtoul(a[3], NULL, 0);
+        m.n_params = (uint8_t)strtoul(a[1], NULL, 0);
+        m.token = (uint8_t)strtoul(a[2], NULL, 0);
         print_hex(caekf_proto_encode_reset(&m, d), d);
     } else if (strcmp(a[0], "dec_reset") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
         caekf_msg_reset_t m;
         int st = caekf_proto_decode_reset(d, &m);
-        printf("%d %u %u %u\n", st, m.experiment, m.n_params, m.token);
+        printf("%d %u %u\n", st, m.n_params, m.token);
     } else if ((strcmp(a[0], "enc_param") == 0 || strcmp(a[0], "param_value") == 0) && n == 4) {
         caekf_msg_param_t m;
         m.param_id = (uint8_t)strtoul(a[1], NULL, 0);
@@ -171,19 +168,18 @@ static int run(char *line)
         caekf_msg_status_req_t m;
         int st = caekf_proto_decode_status_req(d, &m);
         printf("%d %u\n", st, m.token);
-    } else if (strcmp(a[0], "enc_ack") == 0 && n == 7) {
+    } else if (strcmp(a[0], "enc_ack") == 0 && n == 6) {
         caekf_msg_ack_t m;
         m.token = (uint8_t)strtoul(a[1], NULL, 0);
         m.status = (int8_t)strtol(a[2], NULL, 0);
         m.bad_param = (uint8_t)strtoul(a[3], NULL, 0);
-        m.experiment = (uint8_t)strtoul(a[4], NULL, 0);
-        m.n_params_rx = (uint8_t)strtoul(a[5], NULL, 0);
-        m.state = (uint8_t)strtoul(a[6], NULL, 0);
+        m.n_params_rx = (uint8_t)strtoul(a[4], NULL, 0);
+        m.state = (uint8_t)strtoul(a[5], NULL, 0);
         print_hex(caekf_proto_encode_ack(&m, d), d);
     } else if (strcmp(a[0], "dec_ack") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
         caekf_msg_ack_t m;
         int st = caekf_proto_decode_ack(d, &m);
-        printf("%d %u %d %u %u %u %u\n", st, m.token, m.status, m.bad_param, m.experiment, m.n_params_rx, m.state);
+        printf("%d %u %d %u %u %u\n", st, m.token, m.status, m.bad_param, m.n_params_rx, m.state);
     } else if (strcmp(a[0], "enc_health") == 0 && n == 4) {
         caekf_msg_health_t m;
         m.page = (uint8_t)strtoul(a[1], NULL, 0);

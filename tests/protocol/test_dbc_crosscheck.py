@@ -94,12 +94,16 @@ def test_every_signal_has_a_comment_and_values_state_their_resolution(db):
 
 # --- name tables -------------------------------------------------------------------------------
 
-def test_param_and_experiment_names_match_value_tables(db, dump):
+def test_param_value_table_is_the_schema_and_covers_the_signal(db):
+    """The PARAM_ID value table is generated from the settings schema (codegen.py dbc --write)."""
+    from caekf_sim.schema import codegen
+
     params = db.get_message_by_name("CTRL_PARAM").get_signal_by_name("PARAM_ID")
-    assert dump.listing("names param") == [params.choices[i] for i in sorted(params.choices)]
+    schema = codegen.load()
+    keys = [k for s in schema.wire for k in s.keys]
+    assert [str(params.choices[i]) for i in sorted(params.choices)] == keys
+    assert sorted(params.choices) == list(range(len(keys)))
     assert max(params.choices) == params.maximum
-    exps = db.get_message_by_name("CTRL_RESET").get_signal_by_name("EXPERIMENT")
-    assert dump.listing("names experiment") == [exps.choices[i] for i in sorted(exps.choices)]
 
 
 def test_counter_names_match_health_pages(db, dump):
@@ -259,14 +263,14 @@ def test_step_frame(db, dump):
 
 def test_reset_frame(db, dump):
     rng = random.Random(RNG_SEED + 5)
-    cases = [dict(EXPERIMENT=rng.randrange(4), N_PARAMS=rng.randrange(256), TOKEN=rng.randrange(256))
-             for _ in range(100)]
-    roundtrip(db, dump, "CTRL_RESET", "enc_reset", "dec_reset", cases, ["EXPERIMENT", "N_PARAMS", "TOKEN"])
+    cases = [dict(N_PARAMS=rng.randrange(256), TOKEN=rng.randrange(256)) for _ in range(100)]
+    roundtrip(db, dump, "CTRL_RESET", "enc_reset", "dec_reset", cases, ["N_PARAMS", "TOKEN"])
 
 
 def test_param_frame(db, dump):
     rng = random.Random(RNG_SEED + 6)
-    cases = [dict(PARAM_ID=rng.randrange(37), PARAM_EXP10=rng.randrange(-22, 23),
+    n_ids = db.get_message_by_name("CTRL_PARAM").get_signal_by_name("PARAM_ID").maximum + 1
+    cases = [dict(PARAM_ID=rng.randrange(n_ids), PARAM_EXP10=rng.randrange(-22, 23),
                   PARAM_MANTISSA=rng.randrange(-2 ** 37, 2 ** 37)) for _ in range(200)]
     cases += [dict(PARAM_ID=36, PARAM_EXP10=-22, PARAM_MANTISSA=-2 ** 37),
               dict(PARAM_ID=0, PARAM_EXP10=22, PARAM_MANTISSA=2 ** 37 - 1)]
@@ -277,11 +281,11 @@ def test_status_req_ack_and_health_frames(db, dump):
     rng = random.Random(RNG_SEED + 7)
     roundtrip(db, dump, "CTRL_STATUS_REQ", "enc_status_req", "dec_status_req",
               [dict(TOKEN=t) for t in range(0, 256, 7)], ["TOKEN"])
-    acks = [dict(TOKEN=rng.randrange(256), ACK_STATUS=rng.choice([1, 0, -1, -2, -3, -4, -5, -6]),
-                 BAD_PARAM=rng.randrange(256), EXPERIMENT=rng.choice([0, 1, 2, 3, 255]), N_PARAMS_RX=rng.randrange(256),
+    acks = [dict(TOKEN=rng.randrange(256), ACK_STATUS=rng.choice([1, 0, -1, -2, -4, -5, -6]),
+                 BAD_PARAM=rng.randrange(256), N_PARAMS_RX=rng.randrange(256),
                  STATE=rng.randrange(256)) for _ in range(100)]
     roundtrip(db, dump, "EST_ACK", "enc_ack", "dec_ack", acks,
-              ["TOKEN", "ACK_STATUS", "BAD_PARAM", "EXPERIMENT", "N_PARAMS_RX", "STATE"])
+              ["TOKEN", "ACK_STATUS", "BAD_PARAM", "N_PARAMS_RX", "STATE"])
     health = db.get_message_by_name("EST_HEALTH")
     pages = {}
     for s in health.signals:

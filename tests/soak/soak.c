@@ -1,6 +1,6 @@
 /*
  * Soak: the reference scenario looped to millions of steps with the switched-highq-constrained
- * experiment (consistent switch-off), checking the estimator after every step.
+ * preset (consistent switch-off), checking the estimator after every step.
  *
  *   caekf-soak [--steps N] [--quiet]        (default 10^7 steps; --quiet: no per-lap lines)
  *

@@ -48,24 +48,21 @@ endif()
 
 set(_gen "${CMAKE_CURRENT_BINARY_DIR}/replay_data")
 add_custom_command(
-    OUTPUT "${_gen}/replay_inputs.bin" "${_gen}/replay_inputs.S" "${_gen}/replay_scenario.c"
+    OUTPUT "${_gen}/replay_inputs.bin" "${_gen}/replay_inputs.S"
     COMMAND "${Python3_EXECUTABLE}" "${_dir}/gen_replay_data.py"
-            --truth-bin "${CAEKF_REPLAY_TRUTH_BIN}" --scenario "${CAEKF_SCENARIO}"
-            --scalar "${CAEKF_SCALAR}" --out-dir "${_gen}"
-    DEPENDS "${_dir}/gen_replay_data.py" "${CAEKF_REPLAY_TRUTH_BIN}" "${CAEKF_SCENARIO}"
+            --truth-bin "${CAEKF_REPLAY_TRUTH_BIN}" --scalar "${CAEKF_SCALAR}" --out-dir "${_gen}"
+    DEPENDS "${_dir}/gen_replay_data.py" "${CAEKF_REPLAY_TRUTH_BIN}"
     COMMENT "Embedding the reference scenario's inputs (${CAEKF_SCALAR}) for target_replay"
     VERBATIM)
 set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS "${_gen}/replay_inputs.bin")
-# host/common/experiment.c checks enum ranges that are unsigned with the Arm EABI.
-set_source_files_properties("${PROJECT_SOURCE_DIR}/host/common/experiment.c" PROPERTIES
-    COMPILE_OPTIONS "-Wno-type-limits")
+# The settings: the reference scenario's values and the presets (the generated fixture, CAEKF_FIXTURE_DIR).
 
 caekf_target_image(target_replay
-    SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S" "${_gen}/replay_scenario.c"
-            "${PROJECT_SOURCE_DIR}/host/common/experiment.c"
+    SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S"
     LIBS caekf_core
-    INCLUDES "${PROJECT_SOURCE_DIR}/host" "${PROJECT_SOURCE_DIR}/host/common"
+    INCLUDES "${_gen}" "${CAEKF_FIXTURE_DIR}"
     DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"")
+add_dependencies(target_replay caekf_fixture_generated)
 
 if(EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}")
     set(_ref "${CMAKE_CURRENT_BINARY_DIR}/replay_host_reference.csv")

@@ -1,11 +1,12 @@
 /*
- * replay.c - the switched-highq-constrained experiment of the reference scenario on the MCU.
+ * replay.c - the reference scenario on the MCU with the switched-highq-constrained preset.
  *
  * Inputs: u, y1, y4 of every step (from caekf-truth, generated on the host), embedded as const data
  * in flash by replay_inputs.S (.incbin of a file written by gen_replay_data.py), in the build's
  * scalar type: 60,000 steps x 3 x 8 B = 1.44 MB (double, Cortex-M7) or 720 KB (float, Cortex-M4F),
- * within the 4 MB of the MPS2's SSRAM1. The scenario's numbers come from a generated initializer
- * (replay_scenario.c) and the settings from host/common/experiment.c, exactly as caekf-replay does.
+ * within the 4 MB of the MPS2's SSRAM1. The settings are the schema's defaults, the scenario's values
+ * and the preset's, from the fixture generated from the schema and paper.toml (caekf_fixture_settings.h,
+ * the unit tests' too): no scenario parser on the target.
  *
  * Each caekf_step() is bracketed by caekf_mark_begin()/caekf_mark_end() for tools/qemu-icount.
  * The stack is painted before caekf_init() and again before the first step; the high-water marks
@@ -15,7 +16,7 @@
  * (flags | newton_iters << 9 | not-ok << 15) is printed in hex for mcu-report's worst-case search.
  *
  * Output lines (parsed by check_replay.py and tools/mcu-report.py):
- *   replay: mcu=... scalar=... steps=N experiment=switched-highq-constrained
+ *   replay: mcu=... scalar=... steps=N preset=switched-highq-constrained
  *   S k x0 .. x8 p_gg flags iters        (k: 1-based step; values as 16-hex-digit binary64)
  *   C hhhh hhhh ...                      (class words, 64 per line, in step order)
  *   summary: gamma=... gamma_bits=... rejected=.. iters_max=.. flags_seen=0x..
@@ -28,14 +29,13 @@
 
 #include "caekf/caekf.h"
 #include "caekf_port.h"
-#include "common/experiment.h"
-#include "common/scenario.h"
+#include "caekf_fixture_settings.h" /* generated: the reference scenario's values and the presets */
 
 #ifndef REPLAY_EVERY
 #define REPLAY_EVERY 100u
 #endif
 
-extern const caekf_scenario_t caekf_replay_scenario;
+#define REPLAY_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
 extern const caekf_scalar_t caekf_replay_inputs[];     /* u, y1, y4 per step */
 extern const caekf_scalar_t caekf_replay_inputs_end[];
 
@@ -65,6 +65,20 @@ static void put_scalar_bits(double v)
 static caekf_scalar_t snap_x[CAEKF_N];
 static caekf_scalar_t snap_P[CAEKF_N][CAEKF_N];
 
+/* The schema's defaults, the scenario's values, then the preset's. */
+static void replay_settings(caekf_settings_t *s)
+{
+    const caekf_fixture_preset_t *p = &caekf_fixture_presets[REPLAY_PRESET];
+    unsigned i;
+    (void)caekf_settings_default(s);
+    for (i = 0u; i < CAEKF_N_PAPER_PARAMS; ++i) {
+        (void)caekf_settings_set(s, caekf_paper_params[i].id, caekf_paper_params[i].value, NULL);
+    }
+    for (i = 0u; i < p->n; ++i) {
+        (void)caekf_settings_set(s, p->id[i], p->value[i], NULL);
+    }
+}
+
 static void take_snapshot(snapshot_t *s, uint32_t k, const caekf_report_t *rep)
 {
     caekf_scalar_t *x = snap_x;
@@ -85,7 +99,8 @@ int main(void)
 {
     caekf_settings_t s;
     caekf_report_t rep;
-    const char *bad = NULL;
+    caekf_setting_error_t err;
+    const char *bad;
     uint32_t steps = (uint32_t)((size_t)(caekf_replay_inputs_end - caekf_replay_inputs) / 3u);
     uint32_t k, n_snap = 0u, rejected = 0u, flags_seen = 0u;
     int iters_max = 0;
@@ -96,14 +111,17 @@ int main(void)
 
     caekf_console_puts("replay: mcu=" CAEKF_REPLAY_MCU " scalar=" CAEKF_SCALAR_NAME " steps=");
     caekf_console_put_u32(steps);
-    caekf_console_puts(" experiment=switched-highq-constrained\n");
+    caekf_console_puts(" preset=");
+    caekf_console_puts(caekf_fixture_presets[REPLAY_PRESET].name);
+    caekf_console_putc('\n');
     if (steps > MAX_STEPS) {
         caekf_console_puts("replay: too many steps for the snapshot buffers\n");
         return 2;
     }
 
-    st = caekf_experiment_settings(&caekf_replay_scenario, CAEKF_EXP_SWITCHED_HIGHQ_CONSTRAINED, &s);
-    if (st != CAEKF_OK || caekf_settings_validate(&s, &bad) != CAEKF_OK) {
+    replay_settings(&s);
+    if (caekf_settings_validate(&s, &err) != CAEKF_OK) {
+        bad = caekf_param_key(err.param_id);
         caekf_console_puts("replay: settings refused: ");
         caekf_console_puts(bad != NULL ? bad : "?");
         caekf_console_putc('\n');

@@ -68,58 +68,62 @@ static void test_null_and_uninitialised(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_init(&blank, NULL));
 }
 
-/* Each mutation must be refused, leaving a running estimator byte-for-byte as it was. */
-static void expect_refused(caekf_settings_t *bad, const char *what)
+/* Each mutation must be refused, naming the right element, and leave a running estimator byte-for-byte
+ * as it was. */
+static void expect_refused(caekf_settings_t *bad, unsigned param_id, unsigned reason, const char *what)
 {
+    caekf_setting_error_t err;
     memcpy(&copy, &est, sizeof est);
     TEST_ASSERT_EQUAL_INT_MESSAGE(CAEKF_ERR_SETTINGS, caekf_init(&est, bad), what);
     TEST_ASSERT_TRUE_MESSAGE(memcmp(&copy, &est, sizeof est) == 0, what);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(CAEKF_ERR_SETTINGS, caekf_settings_validate(bad, &err), what);
+    TEST_ASSERT_EQUAL_UINT_MESSAGE(param_id, err.param_id, what);
+    TEST_ASSERT_EQUAL_UINT_MESSAGE(reason, err.reason, what);
 }
 
-#define REFUSE(field, value)                                                                                      \
+#define REFUSE(field, value, param_id)                                                                            \
     do {                                                                                                          \
         caekf_settings_t b = good;                                                                                \
         b.field = value;                                                                                          \
-        expect_refused(&b, #field " = " #value);                                                                  \
+        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value);                          \
     } while (0)
 
 static void test_bad_settings_are_refused(void)
 {
     const caekf_scalar_t nan = (caekf_scalar_t)NAN, inf = (caekf_scalar_t)INFINITY;
     run_into_contact();
-    REFUSE(model.dt, 0);
-    REFUSE(model.dt, -1e-3f);
-    REFUSE(model.dt, nan);
-    REFUSE(model.m[2], -1);
-    REFUSE(model.m[0], 0);
-    REFUSE(model.k12, 0);
-    REFUSE(model.k4, inf);
-    REFUSE(model.c34, -5);
-    REFUSE(model.gap, nan);
-    REFUSE(q0[1], inf);
-    REFUSE(gamma0, nan);
-    REFUSE(sigma_q0, 0);
-    REFUSE(sigma_gamma0, -1);
-    REFUSE(sigma_r, 0);
-    REFUSE(sigma_q_gamma, -1);
-    REFUSE(q_gamma_scale, nan);
-    REFUSE(gamma_min, 1e9f); /* above gamma0 with the constraint on */
-    REFUSE(mode, (caekf_mode_t)7);
-    REFUSE(switchoff, (caekf_switchoff_t)-1);
-    REFUSE(cov_update, (caekf_cov_update_t)2);
-    REFUSE(constraint_enabled, 2);
-    REFUSE(newton_max_iter, 0);
-    REFUSE(newton_max_iter, CAEKF_NEWTON_MAX_ITER + 1);
-    REFUSE(newton_rtol, 1);
-    REFUSE(newton_rtol, 0);
-    REFUSE(gamma_gate_nis, -1);
-    REFUSE(gamma_gate_nis, nan);
+    REFUSE(model.dt, 0, CAEKF_PARAM_DT);
+    REFUSE(model.dt, -1e-3f, CAEKF_PARAM_DT);
+    REFUSE(model.dt, nan, CAEKF_PARAM_DT);
+    REFUSE(model.m[2], -1, CAEKF_PARAM_M + 2);
+    REFUSE(model.m[0], 0, CAEKF_PARAM_M);
+    REFUSE(model.k12, 0, CAEKF_PARAM_K12);
+    REFUSE(model.k4, inf, CAEKF_PARAM_K4);
+    REFUSE(model.c34, -5, CAEKF_PARAM_C34);
+    REFUSE(model.gap, nan, CAEKF_PARAM_GAP);
+    REFUSE(q0[1], inf, CAEKF_PARAM_Q0 + 1);
+    REFUSE(v0[3], nan, CAEKF_PARAM_V0 + 3);
+    REFUSE(gamma0, nan, CAEKF_PARAM_GAMMA0);
+    REFUSE(sigma_q0, 0, CAEKF_PARAM_SIGMA_Q0);
+    REFUSE(sigma_gamma0, -1, CAEKF_PARAM_SIGMA_GAMMA0);
+    REFUSE(sigma_r, 0, CAEKF_PARAM_SIGMA_R);
+    REFUSE(sigma_q_gamma, -1, CAEKF_PARAM_SIGMA_Q_GAMMA);
+    REFUSE(q_gamma_scale, nan, CAEKF_PARAM_Q_GAMMA_SCALE);
+    REFUSE(mode, 7, CAEKF_PARAM_MODE);
+    REFUSE(switchoff, -1, CAEKF_PARAM_SWITCHOFF);
+    REFUSE(cov_update, 2, CAEKF_PARAM_COV_UPDATE);
+    REFUSE(constraint_enabled, 2, CAEKF_PARAM_CONSTRAINT_ENABLED);
+    REFUSE(cov_repair_enabled, -1, CAEKF_PARAM_COV_REPAIR_ENABLED);
+    REFUSE(psd_check_period, 0, CAEKF_PARAM_PSD_CHECK_PERIOD);
+    REFUSE(newton_max_iter, 0, CAEKF_PARAM_NEWTON_MAX_ITER);
+    REFUSE(newton_rtol, 1, CAEKF_PARAM_NEWTON_RTOL);
+    REFUSE(newton_rtol, 0, CAEKF_PARAM_NEWTON_RTOL);
+    REFUSE(gamma_gate_nis, -1, CAEKF_PARAM_GAMMA_GATE_NIS);
+    REFUSE(gamma_gate_nis, nan, CAEKF_PARAM_GAMMA_GATE_NIS);
     {
-        const char *bad = NULL;
         caekf_settings_t b = good;
-        b.model.k34 = -1;
-        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &bad));
-        TEST_ASSERT_EQUAL_STRING("k34", bad);
+        b.gamma_min = (caekf_scalar_t)1e9; /* above gamma0 with the constraint on */
+        expect_refused(&b, CAEKF_PARAM_GAMMA0, CAEKF_SETTING_BELOW_GAMMA_MIN, "gamma0 < gamma_min");
     }
     /* Finite settings whose scaled values overflow or underflow in this scalar type (fuzz findings). */
     {
@@ -131,7 +135,7 @@ static void test_bad_settings_are_refused(void)
         b.sigma_q0 = 1e-300;
         b.sigma_qx_q = 1e10;
 #endif
-        expect_refused(&b, "Q ratio overflows");
+        expect_refused(&b, CAEKF_PARAM_SIGMA_QX_Q, CAEKF_SETTING_NOT_SCALABLE, "Q ratio overflows");
         b = good;
 #if CAEKF_USE_FLOAT
         b.sigma_r = 1e-22f;
@@ -140,15 +144,16 @@ static void test_bad_settings_are_refused(void)
         b.sigma_r = 1e-200;
         b.sigma_q0 = 1e3;
 #endif
-        expect_refused(&b, "R underflows");
+        expect_refused(&b, CAEKF_PARAM_SIGMA_R, CAEKF_SETTING_NOT_SCALABLE, "R underflows");
         b = good;
 #if CAEKF_USE_FLOAT
         b.sigma_v0 = 1e-22f;
         b.v0[0] = 1e20f;
+        expect_refused(&b, CAEKF_PARAM_V0, CAEKF_SETTING_NOT_SCALABLE, "scaled state overflows");
 #else
         b.sigma_gamma0 = 1.9e-318; /* subnormal: gamma0 / sigma_gamma0 overflows */
+        expect_refused(&b, CAEKF_PARAM_GAMMA0, CAEKF_SETTING_NOT_SCALABLE, "scaled state overflows");
 #endif
-        expect_refused(&b, "scaled state overflows");
     }
     /* gamma_min above gamma0 is fine when the constraint is off. */
     {
@@ -157,6 +162,69 @@ static void test_bad_settings_are_refused(void)
         b.gamma_min = (caekf_scalar_t)1e9;
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&b, NULL));
     }
+}
+
+static void test_newton_bound_is_a_capacity(void)
+{
+    caekf_settings_t b = good;
+    caekf_setting_error_t err;
+    b.newton_max_iter = CAEKF_NEWTON_MAX_ITER + 1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_NEWTON_MAX_ITER, err.param_id);
+}
+
+#if CAEKF_HAS_SETTING_TEXT
+/* The refusal reads as the schema states the rule, with the element and its value. */
+static void test_refusal_text_names_element_value_and_rule(void)
+{
+    caekf_settings_t b = good;
+    caekf_setting_error_t err;
+    char text[120];
+    b.model.m[2] = -1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(2, err.index);
+    TEST_ASSERT_EQUAL_STRING("m", caekf_setting_name(err.setting));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_setting_error_text(&err, &b, text, sizeof text));
+    TEST_ASSERT_EQUAL_STRING("m[2] = -1: must be finite and > 0", text);
+    b = good;
+    b.sigma_r = 0;
+    (void)caekf_settings_validate(&b, &err);
+    (void)caekf_setting_error_text(&err, &b, text, sizeof text);
+    TEST_ASSERT_EQUAL_STRING("sigma_r = 0: must be finite and > 0", text);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&good, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_OK, err.reason);
+}
+#endif
+
+/* Set and get by parameter id: the id table, element addressing, integer checks. */
+static void test_set_by_id_reaches_every_element(void)
+{
+    caekf_settings_t b;
+    caekf_setting_error_t err;
+    double v = 0;
+    unsigned id;
+    (void)caekf_settings_default(&b);
+    for (id = 0; id < CAEKF_PARAM_COUNT; ++id) { /* every id reads back what was written */
+        double want = (id == CAEKF_PARAM_MODE || id == CAEKF_PARAM_SWITCHOFF || id == CAEKF_PARAM_COV_UPDATE ||
+                       id == CAEKF_PARAM_COV_REPAIR_ENABLED || id == CAEKF_PARAM_CONSTRAINT_ENABLED)
+                          ? 1.0
+                          : (double)(id + 2);
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_set(&b, id, want, &err));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_get(&b, id, &v));
+        TEST_ASSERT_TRUE(v == want);
+    }
+    TEST_ASSERT_TRUE(b.model.m[3] == 5 && b.q0[2] == CAEKF_PARAM_Q0 + 4 && b.v0[0] == CAEKF_PARAM_V0 + 2);
+    TEST_ASSERT_TRUE(b.gamma_gate_nis == CAEKF_PARAM_GAMMA_GATE_NIS + 2 && b.mode == CAEKF_MODE_SWITCHED);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, CAEKF_PARAM_COUNT, 1.0, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNKNOWN_ID, err.reason);
+    b.newton_max_iter = 7;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, CAEKF_PARAM_NEWTON_MAX_ITER, 2.5, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_NOT_INTEGER, err.reason);
+    TEST_ASSERT_EQUAL_INT(7, b.newton_max_iter); /* refused: nothing written */
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, CAEKF_PARAM_MODE, (double)NAN, &err));
+    TEST_ASSERT_EQUAL_STRING("sigma_q_gamma", caekf_param_key(CAEKF_PARAM_SIGMA_Q_GAMMA));
+    TEST_ASSERT_EQUAL_STRING("m3", caekf_param_key(CAEKF_PARAM_M + 2));
+    TEST_ASSERT_NULL(caekf_param_key(CAEKF_PARAM_COUNT));
 }
 
 static void test_predict_only_moves_the_model_not_gamma(void)
@@ -186,6 +254,11 @@ int main(void)
     RUN_TEST(test_non_finite_inputs_are_rejected_and_change_nothing);
     RUN_TEST(test_null_and_uninitialised);
     RUN_TEST(test_bad_settings_are_refused);
+    RUN_TEST(test_newton_bound_is_a_capacity);
+#if CAEKF_HAS_SETTING_TEXT
+    RUN_TEST(test_refusal_text_names_element_value_and_rule);
+#endif
+    RUN_TEST(test_set_by_id_reaches_every_element);
     RUN_TEST(test_predict_only_moves_the_model_not_gamma);
     return UNITY_END();
 }

@@ -138,7 +138,7 @@ static void compare_with_linear_kf(int mode)
     long n = 0;
     int i, j;
     paper_settings(&s, EXP_SWITCHED);
-    s.mode = (caekf_mode_t)mode;
+    s.mode = mode;
     s.model.gap = 1; /* 1 m: contact is never active */
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
     (void)caekf_get_gamma(&est, &gamma0);

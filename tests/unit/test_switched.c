@@ -1,6 +1,6 @@
 /* The switch-off of Sec. 3.2: gamma and P_gamma,gamma frozen bit for bit while contact is inactive;
  * the consistent variant keeps P a valid covariance (|corr| <= 1) over the whole scenario; the paper's
- * literal eqs. (23)-(27) do not (the trap documented in SCENARIO.md). */
+ * literal eqs. (23)-(27) do not: frozen cross-covariances let P turn indefinite. */
 #include <math.h>
 #include <string.h>
 

@@ -36,7 +36,6 @@ caekf_app_status_t caekf_app_init(caekf_app_t *app, const caekf_app_hal_t *hal, 
     memset(app, 0, sizeof *app);
     app->hal = *hal;
     app->cfg = *cfg;
-    app->experiment = (uint8_t)CAEKF_EXPERIMENT_NONE;
     app->staged_bad_param = (uint8_t)CAEKF_ACK_BAD_PARAM_NONE;
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         (void)caekf_e2e_rx_init(&app->rx[i]);
@@ -181,8 +180,6 @@ const char *caekf_app_status_str(caekf_app_status_t st)
         return "app configuration or HAL incomplete";
     case CAEKF_APP_ERR_SETTINGS:
         return "estimator settings refused";
-    case CAEKF_APP_ERR_EXPERIMENT:
-        return "unknown experiment";
     case CAEKF_APP_ERR_PARAM:
         return "bad parameter";
     case CAEKF_APP_ERR_INIT:

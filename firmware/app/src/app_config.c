@@ -48,9 +48,6 @@ static int8_t commit(caekf_app_t *app, const caekf_msg_reset_t *r, uint8_t *bad_
     const uint8_t received = app->staging ? app->staged_count : 0u;
     caekf_app_status_t st;
     *bad_param = (uint8_t)CAEKF_ACK_BAD_PARAM_NONE;
-    if (r->experiment >= (uint8_t)CAEKF_EXPERIMENT_COUNT) {
-        return (int8_t)CAEKF_ACK_REFUSED_EXPERIMENT;
-    }
     if (app->staging && app->staged_error != 0) {
         *bad_param = app->staged_bad_param;
         return app->staged_error;
@@ -61,7 +58,7 @@ static int8_t commit(caekf_app_t *app, const caekf_msg_reset_t *r, uint8_t *bad_
     if (received == 0u && !app->configured) {
         return (int8_t)CAEKF_ACK_REFUSED_NO_SETTINGS;
     }
-    st = caekf_app_configure(app, received ? &app->staged : &app->active, r->experiment, bad_param);
+    st = caekf_app_configure(app, received ? &app->staged : &app->active, bad_param);
     if (st == CAEKF_APP_OK) {
         return (int8_t)CAEKF_ACK_ACCEPTED;
     }
@@ -83,12 +80,9 @@ void caekf_app_handle_reset(caekf_app_t *app, const uint8_t data[CAEKF_CAN_DLC])
     caekf_app_send_ack(app, r.token, status, bad_param, received);
 }
 
-caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_settings_t *settings, unsigned experiment,
-                                       uint8_t *bad_param)
+caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_settings_t *settings, uint8_t *bad_param)
 {
-    caekf_settings_t s;
-    caekf_app_status_t st;
-    const char *first_bad = NULL;
+    caekf_setting_error_t err;
     caekf_app_settings_t copy;
     if (bad_param != NULL) {
         *bad_param = (uint8_t)CAEKF_ACK_BAD_PARAM_NONE;
@@ -100,24 +94,16 @@ caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_setting
         return CAEKF_APP_ERR_CONFIG;
     }
     copy = *settings; /* settings may alias app->staged or app->active */
-    st = caekf_app_experiment_settings(&copy, experiment, &s);
-    if (st != CAEKF_APP_OK) {
-        if (st == CAEKF_APP_ERR_PARAM && bad_param != NULL) {
-            *bad_param = (uint8_t)CAEKF_PARAM_HIGHQ_SCALE;
-        }
-        return (st == CAEKF_APP_ERR_PARAM) ? CAEKF_APP_ERR_SETTINGS : st;
-    }
-    if (caekf_settings_validate(&s, &first_bad) != CAEKF_OK) {
+    if (caekf_settings_validate(&copy.est, &err) != CAEKF_OK) {
         if (bad_param != NULL) {
-            *bad_param = caekf_app_bad_param(first_bad, &s);
+            *bad_param = err.param_id;
         }
         return CAEKF_APP_ERR_SETTINGS;
     }
-    if (caekf_init(&app->est, &s) != CAEKF_OK) {
+    if (caekf_init(&app->est, &copy.est) != CAEKF_OK) {
         return CAEKF_APP_ERR_INIT;
     }
     app->active = copy;
-    app->experiment = (uint8_t)experiment;
     app->configured = 1;
     caekf_app_assembly_reset(app);
     return CAEKF_APP_OK;

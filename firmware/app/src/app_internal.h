@@ -30,7 +30,5 @@ void caekf_app_send_ack(caekf_app_t *app, uint8_t token, int8_t status, uint8_t 
 void caekf_app_handle_status_req(caekf_app_t *app, const uint8_t data[CAEKF_CAN_DLC]);
 void caekf_app_send_health(caekf_app_t *app);
 
-/* The parameter a caekf_settings_validate complaint is about (app_settings.c). */
-uint8_t caekf_app_bad_param(const char *first_bad, const caekf_settings_t *s);
 
 #endif /* CAEKF_APP_INTERNAL_H */

@@ -17,6 +17,7 @@
 
 #include "caekf/caekf_config.h"
 #include "caekf/caekf_model.h"
+#include "caekf/caekf_settings_schema.h" /* generated from the settings schema at build time */
 
 #ifdef __cplusplus
 extern "C" {
@@ -76,9 +77,11 @@ typedef struct {
     caekf_scalar_t q_gamma_scale;  /* 1 for Sec. 4.1, 1000 for Sec. 4.2 */
     caekf_scalar_t sigma_r;        /* > 0 */
 
-    caekf_mode_t mode;
-    caekf_switchoff_t switchoff;
-    caekf_cov_update_t cov_update;
+    /* Enumerated settings are stored as int (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t), so
+     * the settings table addresses them the same way whatever size a compiler gives an enum. */
+    int mode;       /* caekf_mode_t */
+    int switchoff;  /* caekf_switchoff_t */
+    int cov_update; /* caekf_cov_update_t */
     int constraint_enabled;        /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
     caekf_scalar_t gamma_min;
     int cov_repair_enabled;        /* repair P when it loses PSD (always flagged); default on */
@@ -129,14 +132,75 @@ typedef struct {
     uint32_t init_magic;
 } caekf_t;
 
-/* Fills reasonable defaults (switched, consistent, standard update, constraint off, repair on) and
- * zero model parameters: the caller must fill the model and noise settings. */
-caekf_status_t caekf_settings_default(caekf_settings_t *s);
+/* Why a setting was refused (caekf_setting_error_t.reason). */
+typedef enum {
+    CAEKF_SETTING_OK = 0,
+    CAEKF_SETTING_OUT_OF_RANGE = 1,     /* breaks the schema's range rule of the setting */
+    CAEKF_SETTING_BELOW_GAMMA_MIN = 2,  /* gamma0 < gamma_min while constraint_enabled */
+    CAEKF_SETTING_NOT_SCALABLE = 3,     /* finite, but a value init derives from it is not (this scalar type) */
+    CAEKF_SETTING_OVER_CAPACITY = 4,    /* above a compile-time bound (newton_max_iter > CAEKF_NEWTON_MAX_ITER) */
+    CAEKF_SETTING_UNKNOWN_ID = 5,       /* caekf_settings_set: no such parameter id */
+    CAEKF_SETTING_NOT_INTEGER = 6       /* caekf_settings_set: an int, enum or bool setting got a fraction */
+} caekf_setting_reason_t;
 
-/* Validates the settings (finite values, dt > 0, positive masses and stiffnesses, non-negative
- * damping and gap, sigma0 > 0, sigma_r > 0, gamma0 >= gamma_min when constrained, known enums,
- * Newton bounds). Returns CAEKF_OK or CAEKF_ERR_SETTINGS; `first_bad` (may be NULL) names the field. */
-caekf_status_t caekf_settings_validate(const caekf_settings_t *s, const char **first_bad);
+/* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
+ * table) and the element of an array setting. No strings to parse. */
+typedef struct {
+    uint8_t reason;   /* caekf_setting_reason_t */
+    uint8_t param_id; /* CAEKF_PARAM_<NAME> + index */
+    uint8_t setting;  /* 0 .. CAEKF_SETTING_COUNT-1 */
+    uint8_t index;    /* element of an array setting, else 0 */
+} caekf_setting_error_t;
+
+/* A row of the generated settings table (caekf_settings_table.c): where a setting lives in
+ * caekf_settings_t and the range rule validation applies to each of its elements. */
+typedef struct {
+    uint16_t offset;  /* byte offset of element 0 in caekf_settings_t */
+    uint8_t id;       /* CTRL_PARAM id of element 0 */
+    uint8_t count;    /* elements */
+    uint8_t storage;  /* CAEKF_SETTING_REAL or CAEKF_SETTING_INT */
+    uint8_t rule;     /* CAEKF_RULE_* */
+    uint16_t lo, hi;  /* integer range of CAEKF_RULE_INT */
+} caekf_setting_rule_t;
+extern const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT];
+
+/* Fills the schema's defaults (switched, consistent, standard update, constraint off, repair on, gate
+ * 25) and zero for the settings without a default (the model, gamma0, sigma0s and noise): the caller
+ * must fill those. */
+caekf_status_t caekf_settings_default(caekf_settings_t *s);
+/* The generated part of it: writes every default the schema gives, touches nothing else. */
+void caekf_settings_schema_defaults(caekf_settings_t *s);
+
+/* Sets one element by its CTRL_PARAM id (the scenario keys and the wire use the same ids). Integer,
+ * enum and bool settings need an integral value. Ranges are checked by caekf_settings_validate, so a
+ * configuration can be assembled in any order. On refusal (CAEKF_ERR_SETTINGS, `err` says why; may be
+ * NULL) nothing is written. */
+caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double value, caekf_setting_error_t *err);
+
+/* Reads one element by its CTRL_PARAM id. */
+caekf_status_t caekf_settings_get(const caekf_settings_t *s, unsigned param_id, double *value);
+
+/* Validates every setting against the schema's range (finite values, positive masses, springs, dt and
+ * sigma0, sigma_r > 0, known enums, Newton bounds), then gamma0 >= gamma_min when constrained, then
+ * the values init derives in this scalar type. Returns CAEKF_OK or CAEKF_ERR_SETTINGS with the first
+ * refused element in `err` (may be NULL; reason CAEKF_SETTING_OK when valid). */
+caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err);
+
+/* The meaning of a range rule (CAEKF_RULE_*; lo and hi bound CAEKF_RULE_INT): 1 if v satisfies it. The
+ * one implementation in C: validation and the host's scenario reader both call it. */
+int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v);
+
+/* Host-side text of a refusal, e.g. "m[2] = -1: must be finite and > 0". Writes at most len bytes
+ * (always terminated); `s` gives the value (may be NULL). Built where CAEKF_HAS_SETTING_TEXT is 1 (host
+ * builds): it formats with snprintf, which would bring an allocator into an MCU image. */
+caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const caekf_settings_t *s, char *buf,
+                                        unsigned len);
+
+/* Names from the schema (NULL when out of range): a setting's name, its range rule as a message states
+ * it, and the scenario/wire key of a parameter id ("m3", "sigma_r"). */
+const char *caekf_setting_name(unsigned setting);
+const char *caekf_setting_rule_text(unsigned setting);
+const char *caekf_param_key(unsigned param_id);
 
 /* Validates and initialises. On refusal `est` is left unchanged. */
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s);

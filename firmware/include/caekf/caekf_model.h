@@ -48,9 +48,8 @@ typedef struct {
     caekf_scalar_t dfc_dgamma; /* delta^1.5 */
 } caekf_contact_t;
 
-/* Validation shared by the model and the estimator's settings. Returns 0 if valid, else nonzero and
- * the name of the first offending field in *first_bad (may be NULL). */
-int caekf_model_params_check(const caekf_model_params_t *p, const char **first_bad);
+/* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
+int caekf_model_params_check(const caekf_model_params_t *p);
 
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);

@@ -5,7 +5,7 @@
  *
  * It builds in the cortex-m4f / cortex-m7 presets (so size and stack are measured with the real
  * code paths), but it is linked with the port's QEMU mps2 linker script and QEMU's mps2 machines
- * have no bxCAN: it is not run there. app_selftest.c runs the same firmware code against a
+ * have no bxCAN: it is not run there. tests/unit/port/fw_selftest.c runs the same code against a
  * simulated bxCAN under QEMU instead. For a board:
  *   - a linker script for its memory (e.g. STM32F407: flash 0x08000000, 128 KB SRAM at 0x20000000;
  *     the mps2 script puts the stack at the top of 4 MB of RAM);

@@ -14,7 +14,6 @@ caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_
         return CAEKF_PROTO_ERR_NULL;
     }
     memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_RESET_EXPERIMENT, m->experiment);
     caekf_bits_put(data, F_RESET_N_PARAMS, m->n_params);
     caekf_bits_put(data, F_RESET_TOKEN, m->token);
     return CAEKF_PROTO_OK;
@@ -25,8 +24,6 @@ caekf_proto_status_t caekf_proto_decode_reset(const uint8_t data[CAEKF_CAN_DLC],
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    /* The experiment is not checked here: the app answers an unknown one with an EST_ACK refusal. */
-    m->experiment = (uint8_t)caekf_bits_get(data, F_RESET_EXPERIMENT);
     m->n_params = (uint8_t)caekf_bits_get(data, F_RESET_N_PARAMS);
     m->token = (uint8_t)caekf_bits_get(data, F_RESET_TOKEN);
     return CAEKF_PROTO_OK;
@@ -107,7 +104,6 @@ caekf_proto_status_t caekf_proto_encode_ack(const caekf_msg_ack_t *m, uint8_t da
     caekf_bits_put(data, F_ACK_TOKEN, m->token);
     caekf_bits_put_signed(data, F_ACK_STATUS, m->status);
     caekf_bits_put(data, F_ACK_BAD_PARAM, m->bad_param);
-    caekf_bits_put(data, F_ACK_EXPERIMENT, m->experiment);
     caekf_bits_put(data, F_ACK_N_PARAMS_RX, m->n_params_rx);
     caekf_bits_put(data, F_ACK_STATE, m->state);
     return CAEKF_PROTO_OK;
@@ -121,7 +117,6 @@ caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], c
     m->token = (uint8_t)caekf_bits_get(data, F_ACK_TOKEN);
     m->status = (int8_t)caekf_bits_get_signed(data, F_ACK_STATUS);
     m->bad_param = (uint8_t)caekf_bits_get(data, F_ACK_BAD_PARAM);
-    m->experiment = (uint8_t)caekf_bits_get(data, F_ACK_EXPERIMENT);
     m->n_params_rx = (uint8_t)caekf_bits_get(data, F_ACK_N_PARAMS_RX);
     m->state = (uint8_t)caekf_bits_get(data, F_ACK_STATE);
     return CAEKF_PROTO_OK;

@@ -11,7 +11,6 @@
 #define F_STEP_STATUS 56u, 8u
 
 /* CTRL_RESET */
-#define F_RESET_EXPERIMENT 16u, 8u
 #define F_RESET_N_PARAMS 24u, 8u
 #define F_RESET_TOKEN 32u, 8u
 
@@ -29,7 +28,6 @@
 #define F_ACK_TOKEN 16u, 8u
 #define F_ACK_STATUS 24u, 8u
 #define F_ACK_BAD_PARAM 32u, 8u
-#define F_ACK_EXPERIMENT 40u, 8u
 #define F_ACK_N_PARAMS_RX 48u, 8u
 #define F_ACK_STATE 56u, 8u
 

@@ -1,72 +1,56 @@
 """Read a scenario file (flat `key = value` lines, `#` comments) into a frozen dataclass.
 
-The format is deliberately a tiny subset of TOML so that Python 3.9 (no tomllib) and the
-C reader can both parse it without a TOML library.
+The keys, their defaults, types and valid ranges are the settings schema's (schema/settings.toml):
+`Scenario` is generated from it, field by field, so no setting is listed here. The format is a tiny
+subset of TOML that the C reader (host/common/scenario.c) parses the same way, with the same messages.
 """
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+import math
 from pathlib import Path
-from typing import Dict, Union
+from typing import Any, Dict, Union
+
+from .schema import SCHEMA
 
 PathLike = Union[str, Path]
 
 
-@dataclass(frozen=True)
-class Scenario:
-    """Every number of a scenario, SI units (see scenarios/paper.toml for the meaning)."""
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used; the message is one line naming the file, key and rule."""
 
-    # plant (truth)
-    m1: float
-    m2: float
-    m3: float
-    m4: float
-    k1: float
-    k12: float
-    k34: float
-    k4: float
-    c1: float
-    c12: float
-    c34: float
-    c4: float
-    gap: float
-    gamma: float
-    u_amp: float
-    u_freq: float
-    u_phase: float
+
+class _ScenarioBase:
+    """Methods of the generated Scenario dataclass."""
+
     dt: float
     t_end: float
-    truth_substeps: int
-    noise_std: float
-    seed: int
-    # estimator
-    gamma0: float
-    sigma_q0: float
-    sigma_v0: float
-    sigma_gamma0: float
-    sigma_qx_q: float
-    sigma_qx_v: float
-    sigma_q_gamma: float
-    sigma_r: float
-    gamma_min: float
 
     @property
     def n_steps(self) -> int:
         """Number of recorded samples N = round(t_end / dt); samples are k = 1..N."""
         return int(round(self.t_end / self.dt))
 
-    def replace(self, **changes: float) -> "Scenario":
-        """Copy with some values changed (handy for shortened test runs)."""
-        return dataclasses.replace(self, **changes)
+    def replace(self, **changes: float) -> Any:
+        """Copy with some values changed (handy for shortened test runs); checked like a file."""
+        values = {**dataclasses.asdict(self), **changes}  # type: ignore[call-overload]
+        return scenario_from_values(values, "replace()")
+
+    def values(self) -> Dict[str, float]:
+        """Every key's value, by scenario key."""
+        return dict(dataclasses.asdict(self))  # type: ignore[call-overload]
 
 
-_INT_KEYS = {f.name for f in dataclasses.fields(Scenario) if f.type in ("int", int)}
+_KEYS = SCHEMA.keys()
+_TYPES = {k: (float if s.type == "real" else int) for k, s, _ in _KEYS}
+Scenario: Any = dataclasses.make_dataclass(
+    "Scenario", [(k, _TYPES[k]) for k, _, _ in _KEYS], bases=(_ScenarioBase,), frozen=True,
+    namespace={"__doc__": "Every value of a scenario, SI units; the fields are the schema's keys."})
 
 
-def parse_flat(text: str) -> Dict[str, str]:
-    """Parse `key = value` lines; drop comments and blank lines; reject anything else."""
-    out: Dict[str, str] = {}
+def parse_flat(text: str, source: str = "<text>") -> Dict[str, "tuple[int, str]"]:
+    """Parse `key = value` lines into {key: (line number, text)}; drop comments and blank lines."""
+    out: Dict[str, "tuple[int, str]"] = {}
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()  # values are plain numbers, so '#' never occurs inside one
         if not line:
@@ -74,39 +58,60 @@ def parse_flat(text: str) -> Dict[str, str]:
         key, sep, value = line.partition("=")
         key, value = key.strip(), value.strip()
         if not sep or not key or not value:
-            raise ValueError(f"line {lineno}: expected 'key = value', got {raw!r}")
+            raise ScenarioError(f"{source}:{lineno}: expected 'key = value', got {raw.strip()!r}")
         if key in out:
-            raise ValueError(f"line {lineno}: duplicate key {key!r}")
-        out[key] = value
+            raise ScenarioError(f"{source}:{lineno}: duplicate key '{key}'")
+        out[key] = (lineno, value)
     return out
 
 
-def scenario_from_text(text: str) -> Scenario:
-    """Build a Scenario; every field must be present, unknown keys are an error (typo guard)."""
-    raw = parse_flat(text)
-    names = [f.name for f in dataclasses.fields(Scenario)]
-    missing = [n for n in names if n not in raw]
-    unknown = sorted(set(raw) - set(names))
-    if missing or unknown:
-        raise ValueError(f"scenario keys: missing {missing}, unknown {unknown}")
-    values = {}
-    for n in names:
-        v = raw[n]
-        if n in _INT_KEYS:
-            f = float(v)
-            if f != int(f):
-                raise ValueError(f"{n} must be an integer, got {v!r}")
-            values[n] = int(f)
+def _check(key: str, v: float, where: str) -> Any:
+    setting = next(s for k, s, _ in _KEYS if k == key)
+    if not setting.check(v):
+        raise ScenarioError(f"{where}: {key} = {v:g}: {setting.rule_text()}")
+    return int(v) if setting.type != "real" else float(v)
+
+
+def scenario_from_values(values: Dict[str, Any], source: str) -> Any:
+    """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked."""
+    unknown = sorted(set(values) - set(_TYPES))
+    if unknown:
+        raise ScenarioError(f"{source}: unknown key '{unknown[0]}'")
+    out: Dict[str, Any] = {}
+    for key, setting, _ in _KEYS:
+        if key in values:
+            out[key] = _check(key, float(values[key]), source)
+        elif setting.required:
+            raise ScenarioError(f"{source}: missing key '{key}' (it has no default)")
         else:
-            values[n] = float(v)
-    sc = Scenario(**values)
-    if sc.dt <= 0 or sc.t_end <= 0 or sc.truth_substeps < 1:
-        raise ValueError("need dt > 0, t_end > 0, truth_substeps >= 1")
-    return sc
+            out[key] = _check(key, setting.default_value(), source)
+    return Scenario(**out)
 
 
-def load_scenario(path: PathLike) -> Scenario:
-    return scenario_from_text(Path(path).read_text(encoding="utf-8"))
+def scenario_from_text(text: str, source: str = "<text>") -> Any:
+    """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required."""
+    values: Dict[str, float] = {}
+    for key, (lineno, value) in parse_flat(text, source).items():
+        if key not in _TYPES:
+            raise ScenarioError(f"{source}:{lineno}: unknown key '{key}'")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not math.isfinite(v):
+            raise ScenarioError(f"{source}:{lineno}: {key} = {value}: not a finite number")
+        _check(key, v, f"{source}:{lineno}")
+        values[key] = v
+    return scenario_from_values(values, source)
+
+
+def load_scenario(path: PathLike) -> Any:
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{p}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    return scenario_from_text(text, str(p))
 
 
 def default_scenario_path() -> Path:

@@ -94,11 +94,10 @@ void bench_param(fake_hal_t *f, unsigned param_id, int exp10, int64_t mantissa)
     bench_send(f, CAEKF_MSG_CTRL_PARAM, &fr);
 }
 
-void bench_reset(fake_hal_t *f, unsigned experiment, unsigned n_params, unsigned token)
+void bench_reset(fake_hal_t *f, unsigned n_params, unsigned token)
 {
     caekf_can_frame_t fr;
     caekf_msg_reset_t r;
-    r.experiment = (uint8_t)experiment;
     r.n_params = (uint8_t)n_params;
     r.token = (uint8_t)token;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_reset(&r, fr.data));

@@ -27,7 +27,7 @@ void bench_send(fake_hal_t *f, caekf_msg_t msg, caekf_can_frame_t *frame);
 void bench_value(fake_hal_t *f, caekf_msg_t msg, uint16_t step, double value);
 void bench_step(fake_hal_t *f, uint16_t step, double u, double y1, double y4);
 void bench_param(fake_hal_t *f, unsigned param_id, int exp10, int64_t mantissa);
-void bench_reset(fake_hal_t *f, unsigned experiment, unsigned n_params, unsigned token);
+void bench_reset(fake_hal_t *f, unsigned n_params, unsigned token);
 void bench_status_req(fake_hal_t *f, unsigned token);
 
 /* Index of the i-th transmitted frame of `msg` (0-based), or -1. */

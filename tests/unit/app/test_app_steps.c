@@ -58,7 +58,7 @@ static void test_complete_step_sends_twelve_protected_frames_status_last(void)
         CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3, CAEKF_MSG_EST_V4, CAEKF_MSG_EST_P_NORM,
         CAEKF_MSG_EST_P_GG, CAEKF_MSG_EST_STEP};
     unsigned i;
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 7, 0.25);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 7, 1e-7);
     fixture_poll_all();
@@ -90,9 +90,9 @@ static void test_estimates_equal_a_directly_stepped_estimator(void)
     caekf_settings_t s;
     static caekf_t ref;
     uint16_t k;
-    fixture_configure(CAEKF_EXPERIMENT_CANONICAL);
-    fixture_paper_settings(&base);
-    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_experiment_settings(&base, CAEKF_EXPERIMENT_CANONICAL, &s));
+    fixture_configure(CAEKF_FIXTURE_PRESET_CANONICAL);
+    fixture_paper_settings(&base, CAEKF_FIXTURE_PRESET_CANONICAL);
+    s = base.est;
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&ref, &s));
     for (k = 0; k < 40u; k++) {
         const double u = -0.01 * (double)k, y1 = -3.3e-9 * (double)k * (double)k, y4 = 1.1e-12 * (double)k;
@@ -125,7 +125,7 @@ static void test_estimates_equal_a_directly_stepped_estimator(void)
 
 static void test_frames_of_a_step_may_arrive_in_any_order(void)
 {
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_value(&fake, CAEKF_MSG_BENCH_Y4, 3, 0.0);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 3, 0.0);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 3, 0.0);
@@ -135,7 +135,7 @@ static void test_frames_of_a_step_may_arrive_in_any_order(void)
 
 static void test_partial_step_times_out_never_hangs_and_its_straggler_is_late(void)
 {
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 10, 0.0);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 10, 0.0);
     fixture_poll_all();
@@ -157,7 +157,7 @@ static void test_partial_step_times_out_never_hangs_and_its_straggler_is_late(vo
 
 static void test_newer_step_supersedes_a_partial_one(void)
 {
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 20, 0.0);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 20, 0.0);
     bench_step(&fake, 21, 0.0, 0.0, 0.0);
@@ -173,7 +173,7 @@ static void test_repeated_signal_keeps_the_first_value(void)
 {
     uint16_t step;
     static caekf_t before;
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     memcpy(&before, &app.est, sizeof before);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 30, 1e-6);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 30, -1e-6);
@@ -192,7 +192,7 @@ static void test_repeated_signal_keeps_the_first_value(void)
 
 static void test_step_gap_is_flagged_and_counted_but_the_16_bit_wrap_is_not_a_gap(void)
 {
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_step(&fake, 65534, 0.0, 0.0, 0.0);
     bench_step(&fake, 65535, 0.0, 0.0, 0.0);
     bench_step(&fake, 0, 0.0, 0.0, 0.0);
@@ -215,9 +215,9 @@ static void test_step_gap_is_bridged_by_prediction_only_steps(void)
     caekf_scalar_t y[2], x[CAEKF_N], xn[CAEKF_N];
     const double u1 = 0.4, u2 = -0.2, y1 = 2e-7, y4 = -1e-9;
     int k;
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
-    fixture_paper_settings(&base);
-    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_experiment_settings(&base, CAEKF_EXPERIMENT_SWITCHED, &s));
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
+    fixture_paper_settings(&base, CAEKF_FIXTURE_PRESET_SWITCHED);
+    s = base.est;
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&ref, &s));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&naive, &s));
     bench_step(&fake, 10, u1, y1, y4);
@@ -247,7 +247,7 @@ static void test_step_gap_is_bridged_by_prediction_only_steps(void)
 
 static void test_frame_for_an_estimated_step_is_late(void)
 {
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_step(&fake, 40, 0.0, 0.0, 0.0);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 40, 0.0);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 39, 0.0);
@@ -259,7 +259,7 @@ static void test_frame_for_an_estimated_step_is_late(void)
 static void test_nan_input_is_rejected_counted_and_the_estimator_untouched(void)
 {
     static caekf_t before;
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     memcpy(&before, &app.est, sizeof before);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 50, (double)NAN);
     bench_value(&fake, CAEKF_MSG_BENCH_Y1, 50, 0.0);
@@ -275,7 +275,7 @@ static void test_nan_input_is_rejected_counted_and_the_estimator_untouched(void)
 static void test_each_reject_class_is_counted(void)
 {
     caekf_can_frame_t f;
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     memset(&f, 0, sizeof f);
 
     f.id = 0x123; /* not in the DBC */
@@ -324,7 +324,7 @@ static void test_each_reject_class_is_counted(void)
 static void test_counter_resyncs_only_after_the_bench_went_quiet(void)
 {
     caekf_can_frame_t f;
-    fixture_configure(CAEKF_EXPERIMENT_SWITCHED);
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     (void)caekf_proto_encode_value(CAEKF_MSG_BENCH_U, 70, 0.0, f.data);
     bench_send(&fake, CAEKF_MSG_BENCH_U, &f);
     fixture_poll_all();
@@ -354,9 +354,9 @@ static void test_poll_takes_a_bounded_number_of_frames(void)
 static void test_out_of_range_estimate_is_saturated_and_flagged(void)
 {
     caekf_app_settings_t s;
-    fixture_paper_settings(&s);
-    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_settings_set(&s, CAEKF_PARAM_Q0_2, 0.5)); /* beyond +/-34 mm */
-    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_configure(&app, &s, CAEKF_EXPERIMENT_SWITCHED, NULL));
+    fixture_paper_settings(&s, CAEKF_FIXTURE_PRESET_SWITCHED);
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_settings_set(&s, CAEKF_PARAM_Q0 + 1, 0.5)); /* beyond +/-34 mm */
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_configure(&app, &s, NULL));
     bench_step(&fake, 1, 0.0, 0.0, 0.0);
     fixture_poll_all();
     TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAG_SATURATED, tx_step(0).flags & CAEKF_STEP_FLAG_SATURATED);

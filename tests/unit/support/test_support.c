@@ -2,49 +2,27 @@
 
 #include <string.h>
 
-#include "paper_scenario.h" /* generated from sim/scenarios/paper.toml: PAPER_<key> */
+#include "caekf_fixture_settings.h" /* generated from the schema and sim/scenarios/paper.toml */
 
 #ifndef CAEKF_TRUTH_BIN
 #error "CAEKF_TRUTH_BIN (path of the truth record) must be defined by the build"
 #endif
 
-void paper_settings(caekf_settings_t *s, int experiment)
+void paper_settings(caekf_settings_t *s, int preset)
 {
+    unsigned i;
     (void)caekf_settings_default(s);
-    s->model.m[0] = (caekf_scalar_t)PAPER_m1;
-    s->model.m[1] = (caekf_scalar_t)PAPER_m2;
-    s->model.m[2] = (caekf_scalar_t)PAPER_m3;
-    s->model.m[3] = (caekf_scalar_t)PAPER_m4;
-    s->model.k1 = (caekf_scalar_t)PAPER_k1;
-    s->model.k12 = (caekf_scalar_t)PAPER_k12;
-    s->model.k34 = (caekf_scalar_t)PAPER_k34;
-    s->model.k4 = (caekf_scalar_t)PAPER_k4;
-    s->model.c1 = (caekf_scalar_t)PAPER_c1;
-    s->model.c12 = (caekf_scalar_t)PAPER_c12;
-    s->model.c34 = (caekf_scalar_t)PAPER_c34;
-    s->model.c4 = (caekf_scalar_t)PAPER_c4;
-    s->model.gap = (caekf_scalar_t)PAPER_gap;
-    s->model.dt = (caekf_scalar_t)PAPER_dt;
-    s->gamma0 = (caekf_scalar_t)PAPER_gamma0;
-    s->sigma_q0 = (caekf_scalar_t)PAPER_sigma_q0;
-    s->sigma_v0 = (caekf_scalar_t)PAPER_sigma_v0;
-    s->sigma_gamma0 = (caekf_scalar_t)PAPER_sigma_gamma0;
-    s->sigma_qx_q = (caekf_scalar_t)PAPER_sigma_qx_q;
-    s->sigma_qx_v = (caekf_scalar_t)PAPER_sigma_qx_v;
-    s->sigma_q_gamma = (caekf_scalar_t)PAPER_sigma_q_gamma;
-    s->sigma_r = (caekf_scalar_t)PAPER_sigma_r;
-    s->gamma_min = (caekf_scalar_t)PAPER_gamma_min;
-    s->mode = experiment == EXP_CANONICAL ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
-    s->q_gamma_scale = (experiment >= EXP_SWITCHED_HIGHQ) ? 1000 : 1;
-    s->constraint_enabled = experiment == EXP_SWITCHED_HIGHQ_CONSTRAINED;
-    if (experiment == EXP_CANONICAL) {
-        s->gamma_gate_nis = 0; /* Table 1 as published */
+    for (i = 0; i < CAEKF_N_PAPER_PARAMS; ++i) {
+        (void)caekf_settings_set(s, caekf_paper_params[i].id, caekf_paper_params[i].value, 0);
+    }
+    for (i = 0; preset >= 0 && i < caekf_fixture_presets[preset].n; ++i) {
+        (void)caekf_settings_set(s, caekf_fixture_presets[preset].id[i], caekf_fixture_presets[preset].value[i], 0);
     }
 }
 
-double paper_gamma_true(void) { return PAPER_gamma; }
-double paper_gamma_min(void) { return PAPER_gamma_min; }
-long paper_steps(void) { return (long)(PAPER_t_end / PAPER_dt + 0.5); }
+double paper_gamma_true(void) { return CAEKF_PAPER_GAMMA; }
+double paper_gamma_min(void) { return CAEKF_PAPER_GAMMA_MIN; }
+long paper_steps(void) { return (long)(CAEKF_PAPER_T_END / CAEKF_PAPER_DT + 0.5); }
 
 int truth_open(void) { return test_file_open(CAEKF_TRUTH_BIN); }
 

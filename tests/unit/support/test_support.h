@@ -4,7 +4,15 @@
 
 #include "caekf/caekf.h"
 
-enum { EXP_CANONICAL = 0, EXP_SWITCHED = 1, EXP_SWITCHED_HIGHQ = 2, EXP_SWITCHED_HIGHQ_CONSTRAINED = 3 };
+#include "caekf_fixture_settings.h"
+
+/* The schema's presets (the paper's experiments), by their index in caekf_fixture_presets. */
+enum {
+    EXP_CANONICAL = CAEKF_FIXTURE_PRESET_CANONICAL,
+    EXP_SWITCHED = CAEKF_FIXTURE_PRESET_SWITCHED,
+    EXP_SWITCHED_HIGHQ = CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ,
+    EXP_SWITCHED_HIGHQ_CONSTRAINED = CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
+};
 
 typedef struct {
     double t, u, y1, y4;
@@ -12,8 +20,8 @@ typedef struct {
     double delta;
 } truth_rec_t;
 
-/* Settings of one of SCENARIO.md's experiments, from the generated paper scenario header. */
-void paper_settings(caekf_settings_t *s, int experiment);
+/* The reference scenario's settings with a preset applied (-1: none, the recommended defaults). */
+void paper_settings(caekf_settings_t *s, int preset);
 double paper_gamma_true(void);
 double paper_gamma_min(void);
 long paper_steps(void);

@@ -12,7 +12,7 @@
  * Per step the bench sends BENCH_U, BENCH_Y1 and BENCH_Y4 with the same STEP; when all three are in,
  * the app runs caekf_step and sends EST_GAMMA, EST_Q1..4, EST_V1..4, EST_P_NORM, EST_P_GG and last
  * EST_STEP. A partial step is dropped (and counted) when it times out or when a newer step starts.
- * Configuration: CTRL_PARAM frames stage settings, CTRL_RESET commits them with an experiment and is
+ * Configuration: CTRL_PARAM frames stage settings, CTRL_RESET commits them (re-initialising) and is
  * answered by EST_ACK; a refused configuration leaves the running one untouched.
  */
 #ifndef CAEKF_APP_H
@@ -33,7 +33,7 @@ typedef enum {
     CAEKF_APP_ERR_NULL = -1,       /* a required pointer was NULL */
     CAEKF_APP_ERR_CONFIG = -2,     /* app configuration or HAL incomplete */
     CAEKF_APP_ERR_SETTINGS = -3,   /* estimator settings refused: running configuration unchanged */
-    CAEKF_APP_ERR_EXPERIMENT = -4, /* unknown experiment */
+    /* -4 is retired */
     CAEKF_APP_ERR_PARAM = -5,      /* unknown parameter id or a value the parameter cannot take */
     CAEKF_APP_ERR_INIT = -6        /* caekf_init failed after validation passed */
 } caekf_app_status_t;
@@ -64,11 +64,10 @@ typedef struct {
     uint8_t max_frames_per_poll; /* bound on the frames one poll takes from the HAL (default 64) */
 } caekf_app_config_t;
 
-/* Settings the bench configures: the estimator's, plus the Q_gamma factor of the highq experiments.
- * The experiment decides mode, q_gamma_scale and constraint_enabled (see caekf_app_experiment_settings). */
+/* Settings the bench configures: the estimator's, by parameter id (CTRL_PARAM). Named presets are the
+ * bench's business: they arrive as ordinary settings. */
 typedef struct {
     caekf_settings_t est;
-    double highq_scale;
 } caekf_app_settings_t;
 
 /* The step being assembled from the bench's frames. */
@@ -87,7 +86,6 @@ typedef struct {
     caekf_t est;                 /* the running estimator */
     caekf_app_settings_t active; /* settings it was built from */
     uint8_t configured;
-    uint8_t experiment;          /* caekf_proto_experiment_t, or CAEKF_EXPERIMENT_NONE */
 
     /* CTRL_PARAM staging: starts from `active` (or defaults) at the first CTRL_PARAM after a reset. */
     caekf_app_settings_t staged;
@@ -125,22 +123,16 @@ caekf_app_status_t caekf_app_poll(caekf_app_t *app);
 /* What a CTRL_RESET does, for local configuration (e.g. a scenario file): validates, re-initialises
  * the estimator and forgets the step history. On refusal nothing changes; *bad_param (may be NULL)
  * receives the caekf_param_id_t of the first offending setting or CAEKF_ACK_BAD_PARAM_NONE. */
-caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_settings_t *settings, unsigned experiment,
-                                       uint8_t *bad_param);
+caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_settings_t *settings, uint8_t *bad_param);
 
 caekf_app_status_t caekf_app_counter(const caekf_app_t *app, unsigned counter_id, uint32_t *value);
 
 /* Settings helpers, shared by CTRL_PARAM and scenario readers. */
 caekf_app_status_t caekf_app_settings_default(caekf_app_settings_t *s);
-/* Sets one parameter. Integer parameters need an integral value in their range. */
+/* Sets one parameter (caekf_settings_set). Integer parameters need an integral value. */
 caekf_app_status_t caekf_app_settings_set(caekf_app_settings_t *s, unsigned param_id, double value);
 /* Parameter id of a scenario key / DBC name (e.g. "sigma_r"). CAEKF_APP_ERR_PARAM if unknown. */
 caekf_app_status_t caekf_app_param_id(const char *name, unsigned *param_id);
-/* The estimator settings of one experiment: canonical (mode canonical, gamma_gate_nis 0: Table 1 as
- * published), switched, switched-highq (q_gamma_scale = highq_scale), switched-highq-constrained (and
- * constraint_enabled). */
-caekf_app_status_t caekf_app_experiment_settings(const caekf_app_settings_t *base, unsigned experiment,
-                                                 caekf_settings_t *out);
 
 const char *caekf_app_status_str(caekf_app_status_t st);
 

@@ -106,14 +106,13 @@ typedef struct {
 } caekf_msg_step_t;
 
 typedef struct {
-    uint8_t experiment;   /* caekf_proto_experiment_t */
     uint8_t n_params;
     uint8_t token;
 } caekf_msg_reset_t;
 
 /* value = mantissa * 10^exp10 (see caekf_proto_param_value). */
 typedef struct {
-    uint8_t param_id;     /* caekf_param_id_t */
+    uint8_t param_id;     /* CAEKF_PARAM_* (+ element) */
     int8_t exp10;         /* 6-bit field: -32..31 on the wire, -22..22 usable */
     int64_t mantissa;     /* 38-bit signed field */
 } caekf_msg_param_t;
@@ -125,8 +124,7 @@ typedef struct {
 typedef struct {
     uint8_t token;
     int8_t status;        /* caekf_ack_status_t */
-    uint8_t bad_param;    /* caekf_param_id_t or CAEKF_ACK_BAD_PARAM_NONE */
-    uint8_t experiment;   /* caekf_proto_experiment_t or CAEKF_EXPERIMENT_NONE */
+    uint8_t bad_param;    /* CAEKF_PARAM_* (+ element) or CAEKF_ACK_BAD_PARAM_NONE */
     uint8_t n_params_rx;
     uint8_t state;        /* CAEKF_ACK_STATE_* */
 } caekf_msg_ack_t;
@@ -157,10 +155,9 @@ caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC]
  * multiplication rounds once. CAEKF_PROTO_ERR_VALUE if |exp10| > 22. */
 caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double *value);
 
-/* Names as in caekf.dbc (value tables and signal names). ERR_RANGE for an unknown value. */
-caekf_proto_status_t caekf_proto_param_name(unsigned param_id, const char **name);
+/* Counter names as in caekf.dbc (signal names). ERR_RANGE for an unknown value. Parameter names:
+ * caekf_param_key (the settings schema). */
 caekf_proto_status_t caekf_proto_counter_name(unsigned counter_id, const char **name);
-caekf_proto_status_t caekf_proto_experiment_name(unsigned experiment, const char **name);
 
 #ifdef __cplusplus
 }

@@ -29,13 +29,13 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import schema
 from . import e2e
 from .codec import ESTIMATE_MESSAGES, RECORD, RECORD_SIZE, RESULT_SIGNALS, Codec, records_array
 from .transport import Transport, make_transport, open_bus
 
 STEP_MOD = 1 << 16
 E2E_FIELDS = ("E2E_CRC", "E2E_COUNTER")
-HIGHQ_SCALE = 1000.0  # Sec. 4.2: Q_gamma x 1000 (the estimator's default; sent explicitly)
 
 
 class BenchError(RuntimeError):
@@ -54,7 +54,6 @@ class Ack:
     status: int
     status_name: str
     bad_param: int
-    experiment: int
     n_params_rx: int
     state: int
 
@@ -207,7 +206,7 @@ class Bench:
         d = self.codec.decode(self._ack_id, data)
         st = int(d["ACK_STATUS"])
         return Ack(int(d["TOKEN"]), st, self.codec.ack_status_names.get(st, str(st)), int(d["BAD_PARAM"]),
-                   int(d["EXPERIMENT"]), int(d["N_PARAMS_RX"]), int(d["STATE"]))
+                   int(d["N_PARAMS_RX"]), int(d["STATE"]))
 
     def _await_ack(self, token: int, timeout: float, health: bool = False):
         """Wait for EST_ACK with this token (and, with health, the EST_HEALTH pages after it)."""
@@ -242,7 +241,6 @@ class Bench:
                 for p in sorted(pages):
                     out.update(pages[p])
                 out["_state"] = ack.state
-                out["_experiment"] = ack.experiment
                 return out
         raise BenchError(f"no status reply from the estimator after {retries} requests "
                          f"({timeout:g} s each): is caekf-host running on {self.channel}?")
@@ -258,35 +256,32 @@ class Bench:
                     raise BenchError(f"the estimator did not answer on {self.channel} within {timeout:g} s "
                                      "(is caekf-host running on this interface?)") from None
 
-    def params_from_scenario(self, sc) -> List[Tuple[str, float]]:
-        """Every CTRL_PARAM the scenario defines (names = scenario keys), the initial state
-        (at rest: q0 = v0 = 0) and highq_scale, in PARAM_ID order."""
-        values: Dict[str, float] = {}
-        for name in self.codec.param_ids:
-            if hasattr(sc, name):
-                values[name] = float(getattr(sc, name))
-        for i in range(1, 5):
-            values.setdefault(f"q0_{i}", 0.0)
-            values.setdefault(f"v0_{i}", 0.0)
-        values.setdefault("highq_scale", HIGHQ_SCALE)
-        return sorted(values.items(), key=lambda kv: self.codec.param_ids[kv[0]])
+    def params_from_scenario(self, sc, preset: Optional[str] = None) -> List[Tuple[str, float]]:
+        """Every CTRL_PARAM setting of the scenario (its values over the schema's defaults) with the
+        named preset's values over them, in PARAM_ID order: a complete configuration, so nothing of an
+        earlier one carries over. The estimator knows no presets: they travel as ordinary settings."""
+        params = schema.wire_values(sc.values(), preset)
+        unknown = [k for k, _ in params if k not in self.codec.param_ids]
+        if unknown:
+            raise BenchError(f"the DBC has no PARAM_ID for {unknown[0]!r} (is it stale? run codegen.py dbc)")
+        return params
 
     def param_frame(self, name: str, value: float) -> bytes:
         mant, exp10 = e2e.to_mantissa_exp10(value)
         return self.frame("CTRL_PARAM", {"PARAM_ID": self.codec.param_ids[name], "PARAM_EXP10": exp10,
                                          "PARAM_MANTISSA": mant})
 
-    def configure(self, experiment: str, params: Sequence[Tuple[str, float]] = (), timeout: float = 2.0,
+    def configure(self, label: str, params: Sequence[Tuple[str, float]] = (), timeout: float = 2.0,
                   retries: int = 4) -> Ack:
-        """CTRL_PARAM x len(params), CTRL_RESET(experiment, N_PARAMS), EST_ACK; retried when the
-        answer is missing or INCOMPLETE (a parameter frame lost or rejected), raises on refusal."""
-        exp_id = self.codec.experiment_ids[experiment]
+        """CTRL_PARAM x len(params), CTRL_RESET(N_PARAMS), EST_ACK; retried when the answer is missing
+        or INCOMPLETE (a parameter frame lost or rejected), raises on refusal. `label` (a preset's name,
+        say) only names the configuration in messages."""
         last = "no answer"
         for _ in range(retries):
             self.drain()
             blob = b"".join(self.param_frame(n, v) for n, v in params)
             token = self._next_token()
-            blob += self.frame("CTRL_RESET", {"EXPERIMENT": exp_id, "N_PARAMS": len(params), "TOKEN": token})
+            blob += self.frame("CTRL_RESET", {"N_PARAMS": len(params), "TOKEN": token})
             self.send(blob)
             ack, _ = self._await_ack(token, timeout)
             if ack is None:
@@ -298,7 +293,7 @@ class Bench:
             if ack.status_name != "REFUSED_INCOMPLETE":
                 bad = {v: k for k, v in self.codec.param_ids.items()}.get(ack.bad_param, str(ack.bad_param))
                 raise ConfigRefused(ack.status, ack.status_name, bad)
-        raise BenchError(f"configuring {experiment} failed after {retries} attempts: {last}")
+        raise BenchError(f"configuring {label} failed after {retries} attempts: {last}")
 
     # --- inputs ---------------------------------------------------------------------------
 

@@ -20,10 +20,11 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from .. import schema
 from . import e2e
 from .codec import RECORD, RECORD_SIZE
 
@@ -158,6 +159,17 @@ def group_frames(frames: Sequence[LogFrame], codec) -> List[Group]:
     return groups
 
 
+def preset_of(params: Dict[int, float]) -> str:
+    """The preset a configuration's CTRL_PARAM values select (the wire carries no preset): the first
+    whose every value is among them, else "custom"."""
+    ids = schema.param_ids()
+    for p in schema.SCHEMA.presets:
+        keys = {schema.SCHEMA.by_name(n).keys[0]: v for n, v in p.values.items()}
+        if all(params.get(ids[k]) == v for k, v in keys.items()):
+            return p.name
+    return "custom"
+
+
 def replay_log(bench, path: PathLike, timeout: float = 2.0, progress: Optional[bool] = None,
                resync: float = E2E_RESYNC_S) -> ReplayReport:
     """Replay a candump -L log's bench frames into the estimator (see the module docstring)."""
@@ -172,7 +184,8 @@ def replay_log(bench, path: PathLike, timeout: float = 2.0, progress: Optional[b
     u_id = codec.messages["BENCH_U"].frame_id
     u_did = codec.messages["BENCH_U"].data_id
     reset_id = codec.messages["CTRL_RESET"].frame_id
-    exp_names = {v: k for k, v in codec.experiment_ids.items()}
+    param_id = codec.messages["CTRL_PARAM"].frame_id
+    segment_params: Dict[int, float] = {}
     bench.drain()
     time.sleep(resync)  # let the estimator's E2E receivers accept the log's counters
     bench.drain()
@@ -184,10 +197,14 @@ def replay_log(bench, path: PathLike, timeout: float = 2.0, progress: Optional[b
     for gi, g in enumerate(groups):
         for off in range(0, len(g.tx), RECORD_SIZE):
             fid, dlc, data = RECORD.unpack_from(g.tx, off)
-            if fid == reset_id and dlc == 8:
+            if fid == param_id and dlc == 8:
+                d = codec.decode(fid, data)
+                segment_params[int(d["PARAM_ID"])] = float(d["PARAM_MANTISSA"]) * 10.0 ** int(d["PARAM_EXP10"])
+            elif fid == reset_id and dlc == 8:
                 if seg_rx or seg_steps:
                     rep.segments.append((seg_name, b"".join(seg_rx), seg_steps))
-                seg_name = exp_names.get(data[2], str(data[2]))
+                seg_name = preset_of(segment_params)
+                segment_params = {}
                 seg_rx, seg_steps = [], []
             elif fid == u_id and dlc == 8 and e2e.crc_ok(u_did, data):
                 seg_steps.append((data[1] >> 4) | (data[2] << 4) | ((data[3] & 0x0F) << 12))

@@ -20,6 +20,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Uni
 
 import numpy as np
 
+from .. import schema
 from . import e2e
 
 PathLike = Union[str, Path]
@@ -28,7 +29,8 @@ RECORD = struct.Struct("<IB3x8s")  # struct can_frame (classic CAN)
 RECORD_SIZE = RECORD.size  # 16
 E2E_SIGNALS = ("E2E_CRC", "E2E_COUNTER")
 
-EXPERIMENTS = ("canonical", "switched", "switched-highq", "switched-highq-constrained")
+# The paper's four experiments: presets of the settings schema, sent as ordinary CTRL_PARAMs.
+EXPERIMENTS = tuple(schema.preset_names())
 
 # The estimate frames of one step, in the order the estimator sends them (EST_STEP last).
 ESTIMATE_MESSAGES = ("EST_GAMMA", "EST_Q1", "EST_Q2", "EST_Q3", "EST_Q4", "EST_V1", "EST_V2",
@@ -109,7 +111,6 @@ class Codec:
         self.to_estimator_ids = sorted(i.frame_id for i in self.messages.values() if i.to_estimator)
         self.from_estimator_ids = sorted(i.frame_id for i in self.messages.values() if not i.to_estimator)
         self.param_ids = self._choices("CTRL_PARAM", "PARAM_ID")
-        self.experiment_ids = self._choices("CTRL_RESET", "EXPERIMENT")
         self.ack_status_names = {v: k for k, v in self._choices("EST_ACK", "ACK_STATUS").items()}
         self.step_status_names = {v: k for k, v in self._choices("EST_STEP", "STEP_STATUS").items()}
         health = self.db.get_message_by_name("EST_HEALTH")

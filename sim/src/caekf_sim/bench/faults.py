@@ -18,7 +18,7 @@ NONFINITE = (math.nan, math.inf, -math.inf)
 
 def unchecked_frame(bench: Bench, name: str, values, advance: bool = True) -> bytes:
     """A sealed record of `name` with values outside the DBC's [min|max] (cantools strict=False): for
-    values the protocol can carry but must refuse (PARAM_ID beyond the table, EXPERIMENT > 3, |EXP10| > 22)."""
+    values the protocol can carry but must refuse (PARAM_ID beyond the table, |EXP10| > 22)."""
     from . import e2e
 
     info = bench.codec.messages[name]
@@ -76,7 +76,7 @@ def nonfinite_u(bench: Bench, inputs: StepInputs, row: int, i: int) -> bytes:
     return unchecked_frame(bench, "BENCH_U", {"STEP": step, "U": NONFINITE[i % 3]})
 
 
-def out_of_range_param(bench: Bench, i: int, experiment_id: int) -> bytes:
+def out_of_range_param(bench: Bench, i: int) -> bytes:
     """A configuration with a value outside its parameter's range, committed by CTRL_RESET(N_PARAMS=1):
     even i: PARAM_ID beyond the table (len(param_ids)..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer parameter).
     Refused with EST_ACK REFUSED_PARAM: CFG_REFUSED +1, the running estimator untouched."""
@@ -87,7 +87,7 @@ def out_of_range_param(bench: Bench, i: int, experiment_id: int) -> bytes:
     else:
         p = bench.param_frame("newton_max_iter", 2.5)
     token = bench._next_token()
-    return p + bench.frame("CTRL_RESET", {"EXPERIMENT": experiment_id, "N_PARAMS": 1, "TOKEN": token})
+    return p + bench.frame("CTRL_RESET", {"N_PARAMS": 1, "TOKEN": token})
 
 
 def flood(bench: Bench, per_step: int = 10) -> bytes:
@@ -95,7 +95,7 @@ def flood(bench: Bench, per_step: int = 10) -> bytes:
     return b"".join(bench.codec.record(0x200 + j, bytes([j & 0xFF] * 8)) for j in range(per_step))
 
 
-def reset_storm(bench: Bench, n: int, experiment_id: int) -> List[int]:
+def reset_storm(bench: Bench, n: int) -> List[int]:
     """n CTRL_RESET(N_PARAMS=0) in one burst, each re-initialising the estimator with its running
     settings (CFG_ACCEPTED +n, n EST_ACK); returns their tokens."""
     tokens = []
@@ -103,7 +103,7 @@ def reset_storm(bench: Bench, n: int, experiment_id: int) -> List[int]:
     for _ in range(n):
         t = bench._next_token()
         tokens.append(t)
-        blob += bench.frame("CTRL_RESET", {"EXPERIMENT": experiment_id, "N_PARAMS": 0, "TOKEN": t})
+        blob += bench.frame("CTRL_RESET", {"N_PARAMS": 0, "TOKEN": t})
     bench.send(blob)
     return tokens
 

@@ -31,9 +31,9 @@ def rows_for(sc, n_total: int, duration: Optional[float]) -> int:
 def run_experiment(bench: Bench, sc, inputs: StepInputs, experiment: str, rows: int, mode: str = "lockstep",
                    window: int = 1, timeout: float = 1.0, progress: Optional[bool] = None,
                    params=None) -> HilRun:
-    """Configure `experiment` from the scenario, snapshot the counters, run rows [0, rows),
+    """Configure the scenario with the preset `experiment`, snapshot the counters, run rows [0, rows),
     snapshot again, decode."""
-    ack = bench.configure(experiment, bench.params_from_scenario(sc) if params is None else params)
+    ack = bench.configure(experiment, bench.params_from_scenario(sc, experiment) if params is None else params)
     before = bench.status()
     if mode == "lockstep":
         rec = bench.run_lockstep(inputs, 0, rows, window=window, timeout=timeout, progress=progress,

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 from typing import Dict, List
 
+from .. import schema
 from . import add_scenario_arg, scenario_from_args
 
 REPO = Path(__file__).resolve().parents[4]
@@ -28,7 +29,7 @@ BUILD = REPO / "build" / "host-double"
 DEFAULT_HOST_BIN = BUILD / "host" / "caekf_host" / "caekf-host"
 DEFAULT_REPLAY_BIN = BUILD / "host" / "caekf-replay"
 DEFAULT_CBENCH_BIN = BUILD / "host" / "caekf-bench"
-EXPERIMENTS = ("canonical", "switched", "switched-highq", "switched-highq-constrained")
+EXPERIMENTS = tuple(schema.preset_names())  # the paper's experiments are the schema's presets
 
 
 def _bus_args(p: argparse.ArgumentParser) -> None:
@@ -134,7 +135,7 @@ def cmd_hil_run(args: argparse.Namespace) -> int:
         truth = load_truth(sc, args.truth)
         print(f"hil: truth loaded ({len(truth.t)} samples) after {time.perf_counter() - t_start:.1f} s", flush=True)
         st = bench.wait_for_estimator()
-        print(f"hil: estimator answers on {args.iface} (experiment {st['_experiment']}, steps done so far "
+        print(f"hil: estimator answers on {args.iface} (configured: {bool(st['_state'] & 1)}, steps done so far "
               f"{st.get('STEPS_DONE', 0)})", flush=True)
         runs = run_experiments(bench, sc, truth, args.experiments, args.duration, args.mode, args.window,
                                args.timeout, args.progress, log=lambda s: print(s, flush=True))
@@ -278,7 +279,7 @@ def _hil_rows(args, sc, truth) -> List[Dict]:
         inputs = bench.prepare(truth.t, truth.u, truth.y)
         n = min(args.hil_steps, len(inputs))
         for w in [int(x) for x in args.windows.split(",") if x]:
-            bench.configure("switched", bench.params_from_scenario(sc))
+            bench.configure("switched", bench.params_from_scenario(sc, "switched"))
             rec = bench.run_lockstep(inputs, 0, n, window=w, timeout=1.0, progress=False)
             dec = bench.decode_run(rec, inputs)
             rows.append({"implementation": f"HIL lockstep over CAN, window {w}", "experiment": "switched",

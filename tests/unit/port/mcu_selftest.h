@@ -1,14 +1,16 @@
 /*
  * mcu_selftest.h - the firmware (caekf_mcu_fw_*: bxCAN driver, filters, HAL, app) end to end against
- * the simulated bxCAN of bxcan_fake.h. Runs on the host (tests/unit/port) and as the target image
- * caekf_fw_selftest under QEMU, where no real bxCAN exists.
+ * the simulated bxCAN of bxcan_fake.h. A test, hence here and not in firmware/: it runs on the host
+ * (test_port_mcu_hal) and as the target image caekf_fw_selftest (fw_selftest.c) under QEMU, where no
+ * real bxCAN exists.
  *
  * The bench side writes frames into the fake's RX FIFO (3 deep, so the test keeps the firmware
  * polling while it feeds), and reads what the firmware sent from the fake's TX mailboxes:
  *   1. init: enter/leave initialisation acknowledged, 16-bit list filters for the protocol's IDs;
  *   2. frames the estimator must not see are dropped by the hardware filters (foreign ID, an
  *      estimator output ID, an extended and a remote frame with a bench ID);
- *   3. configuration over CAN: the paper's settings as CTRL_PARAM frames, CTRL_RESET, EST_ACK accepted;
+ *   3. configuration over CAN: the paper's settings and the switched-highq-constrained preset's as
+ *      CTRL_PARAM frames (the generated fixture), CTRL_RESET, EST_ACK accepted;
  *   4. `steps` bench steps: BENCH_U/Y1/Y4 in, then the 12 estimate frames of that STEP out, in
  *      order, EST_STEP last, every frame's E2E CRC and alive counter valid, step status >= 0;
  *   5. an RX overrun (4 frames into the 3-deep FIFO without polling) is counted by the driver.

@@ -5,11 +5,11 @@
 #include <stddef.h>
 #include <string.h>
 
-#include "paper_params.h"
+#include "caekf_fixture_settings.h" /* the reference scenario and the presets, generated from the schema */
 
 #define PUMP_LIMIT 400u   /* main-loop passes allowed for the firmware to go idle */
 #define SELFTEST_TOKEN 0x5Au
-#define SELFTEST_EXPERIMENT CAEKF_EXPERIMENT_SWITCHED_HIGHQ_CONSTRAINED
+#define SELFTEST_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
 #define APB1_HZ 42000000u /* STM32F4 at 168 MHz; only the BTR value depends on it */
 #define BITRATE 500000u
 
@@ -181,26 +181,57 @@ static int check_filters(caekf_mcu_selftest_t *t)
     return 0;
 }
 
+static int send_param(caekf_mcu_selftest_t *t, const caekf_msg_param_t *p)
+{
+    uint8_t d[CAEKF_CAN_DLC];
+    memset(d, 0, sizeof d);
+    CHECK(t, caekf_proto_encode_param(p, d) == CAEKF_PROTO_OK, "bench: encode CTRL_PARAM", p->param_id);
+    return bench_send(t, CAEKF_MSG_CTRL_PARAM, d);
+}
+
+/* A preset's value in the shortest decimal mantissa/exponent form the wire takes (presets are short
+ * decimals: 0, 1, 1000). */
+static int preset_param(caekf_mcu_selftest_t *t, unsigned i, caekf_msg_param_t *p)
+{
+    const caekf_fixture_preset_t *pr = &caekf_fixture_presets[SELFTEST_PRESET];
+    double m = pr->value[i], v = 0.0;
+    int exp10 = 0;
+    while (m != 0.0 && m != (double)(int64_t)m && exp10 > -18) {
+        m *= 10.0;
+        exp10--;
+    }
+    p->param_id = pr->id[i];
+    p->exp10 = (int8_t)exp10;
+    p->mantissa = (int64_t)m;
+    CHECK(t, caekf_proto_param_value(p, &v) == CAEKF_PROTO_OK && v == pr->value[i], "bench: preset value not exact",
+          pr->id[i]);
+    return 0;
+}
+
+/* The paper's settings and then the preset's, as CTRL_PARAM frames, and CTRL_RESET. */
 static int configure(caekf_mcu_selftest_t *t)
 {
     uint8_t d[CAEKF_CAN_DLC];
     const caekf_bxcan_frame_t *out = t->taken;
+    const unsigned n_params = CAEKF_N_PAPER_PARAMS + caekf_fixture_presets[SELFTEST_PRESET].n;
     caekf_msg_reset_t rst;
     caekf_msg_ack_t ack;
+    caekf_msg_param_t p;
     unsigned i, n, acks = 0u;
     for (i = 0u; i < CAEKF_N_PAPER_PARAMS; i++) {
-        caekf_msg_param_t p;
         p.param_id = caekf_paper_params[i].id;
         p.exp10 = caekf_paper_params[i].exp10;
         p.mantissa = caekf_paper_params[i].mantissa;
-        memset(d, 0, sizeof d);
-        CHECK(t, caekf_proto_encode_param(&p, d) == CAEKF_PROTO_OK, "bench: encode CTRL_PARAM", i);
-        if (bench_send(t, CAEKF_MSG_CTRL_PARAM, d)) {
+        if (send_param(t, &p)) {
             return 1;
         }
     }
-    rst.experiment = (uint8_t)SELFTEST_EXPERIMENT;
-    rst.n_params = (uint8_t)CAEKF_N_PAPER_PARAMS;
+    for (i = 0u; i < caekf_fixture_presets[SELFTEST_PRESET].n; i++) {
+        if (preset_param(t, i, &p) || send_param(t, &p)) {
+            return 1;
+        }
+    }
+    rst.n_params = (uint8_t)n_params;
     rst.token = SELFTEST_TOKEN;
     memset(d, 0, sizeof d);
     CHECK(t, caekf_proto_encode_reset(&rst, d) == CAEKF_PROTO_OK, "bench: encode CTRL_RESET", 0);
@@ -217,8 +248,8 @@ static int configure(caekf_mcu_selftest_t *t)
         }
         CHECK(t, caekf_proto_decode_ack(out[i].data, &ack) == CAEKF_PROTO_OK, "configure: EST_ACK does not decode", i);
         CHECK(t, ack.status == (int8_t)CAEKF_ACK_ACCEPTED, "configure: configuration refused (ACK_STATUS)", ack.status);
-        CHECK(t, ack.token == SELFTEST_TOKEN && ack.experiment == (uint8_t)SELFTEST_EXPERIMENT &&
-                     ack.n_params_rx == CAEKF_N_PAPER_PARAMS,
+        CHECK(t, ack.token == SELFTEST_TOKEN && ack.n_params_rx == n_params &&
+                     ack.bad_param == (uint8_t)CAEKF_ACK_BAD_PARAM_NONE,
               "configure: EST_ACK fields", ack.n_params_rx);
         acks++;
     }

@@ -1,11 +1,13 @@
 /*
- * app_selftest.c - image caekf_fw_selftest: the firmware of app_main.c (caekf_mcu_fw_*: bxCAN driver,
- * filters, HAL, app) run under QEMU against a bxCAN simulated in RAM (can/mcu_selftest.h), with the
- * SysTick microsecond clock of the real image. Exit status 0 when every check passed.
+ * fw_selftest.c - image caekf_fw_selftest: the firmware of app_main.c (caekf_mcu_fw_*: bxCAN driver,
+ * filters, HAL, app) run under QEMU against a bxCAN simulated in RAM (mcu_selftest.h), with the
+ * SysTick microsecond clock of the real image. Exit status 0 when every check passed. A test, hence
+ * in tests/unit/port, not in firmware/.
  *
  * First it checks the SysTick clock against the semihosting host clock (SYS_CLOCK, centiseconds):
- * over ~0.3 s both must agree within a factor of 2 (a wrong clock source or frequency is off by
- * 25x or more; QEMU's virtual clock follows real time without -icount).
+ * over ~0.3 s both must agree within a factor of 8 (a wrong clock source or frequency is off by
+ * 25x or more; QEMU's virtual clock follows real time without -icount, but a loaded host stretches
+ * the semihosting round trips, which has put a correct clock off by more than 2x).
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -55,7 +57,7 @@ static int check_clock(void)
         caekf_console_puts("  FAIL semihosting SYS_CLOCK unavailable\n");
         return 1;
     }
-    if ((us1 - us0) < host_us / 2u || (us1 - us0) > host_us * 2u) {
+    if ((us1 - us0) < host_us / 8u || (us1 - us0) > host_us * 8u) {
         caekf_console_puts("  FAIL SysTick microseconds disagree with the host clock\n");
         return 1;
     }

@@ -1,0 +1,44 @@
+# The settings schema and its generator (sim/src/caekf_sim/schema): every settings table, the scenario
+# reader's keys, the presets and the test fixtures are generated from the one description at build time.
+#
+#   caekf_codegen(<target> c-core    <outdir>)              core tables: caekf/caekf_settings_schema.h, ...
+#   caekf_codegen(<target> c-host    <outdir>)              scenario reader table and presets
+#   caekf_codegen(<target> c-fixture <outdir> <scenario>)   a scenario's values for tests
+#
+# <target> is a custom target that the consumers add as a dependency.
+include_guard(GLOBAL)
+
+get_filename_component(_caekf_repo "${CMAKE_CURRENT_LIST_DIR}/.." ABSOLUTE)
+set(CAEKF_SCHEMA "${_caekf_repo}/sim/src/caekf_sim/schema/settings.toml")
+set(CAEKF_CODEGEN "${_caekf_repo}/sim/src/caekf_sim/schema/codegen.py")
+# The project's venv when bootstrap made one (it has tomli where Python < 3.11), else the system's.
+if(EXISTS "${_caekf_repo}/.venv/bin/python")
+    set(CAEKF_PYTHON "${_caekf_repo}/.venv/bin/python")
+else()
+    find_package(Python3 3.9 REQUIRED COMPONENTS Interpreter)
+    set(CAEKF_PYTHON "${Python3_EXECUTABLE}")
+endif()
+
+function(caekf_codegen target kind outdir)
+    set(deps "${CAEKF_SCHEMA}" "${CAEKF_CODEGEN}")
+    set(args "")
+    if(kind STREQUAL "c-core")
+        set(outputs "${outdir}/caekf/caekf_settings_schema.h" "${outdir}/caekf_settings_table.c"
+                    "${outdir}/caekf_settings_names.c")
+    elseif(kind STREQUAL "c-host")
+        set(outputs "${outdir}/caekf_scenario_schema.h" "${outdir}/caekf_scenario_schema.c")
+    elseif(kind STREQUAL "c-fixture")
+        set(args "${ARGV3}")
+        list(APPEND deps "${ARGV3}")
+        set(outputs "${outdir}/caekf_fixture_settings.h")
+    else()
+        message(FATAL_ERROR "caekf_codegen: unknown kind '${kind}'")
+    endif()
+    add_custom_command(
+        OUTPUT ${outputs}
+        COMMAND "${CAEKF_PYTHON}" "${CAEKF_CODEGEN}" ${kind} "${outdir}" ${args}
+        DEPENDS ${deps}
+        COMMENT "Generating ${kind} from the settings schema"
+        VERBATIM)
+    add_custom_target(${target} DEPENDS ${outputs})
+endfunction()

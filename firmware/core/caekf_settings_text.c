@@ -1,0 +1,54 @@
+/* The text of a settings refusal, for host tools and logs. A separate object: an MCU image that never
+ * prints one does not link it (or the names). */
+#include <stdio.h>
+
+#include "caekf/caekf.h"
+
+caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const caekf_settings_t *s, char *buf,
+                                        unsigned len)
+{
+    const char *name, *why;
+    char element[48], value[40] = "";
+    double v;
+    if (err == 0 || buf == 0 || len == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (err->reason == CAEKF_SETTING_UNKNOWN_ID) {
+        snprintf(buf, len, "parameter id %u: no such setting", (unsigned)err->param_id);
+        return CAEKF_OK;
+    }
+    name = caekf_setting_name(err->setting);
+    if (name == 0) {
+        name = "?";
+    }
+    if (caekf_setting_rules[err->setting < CAEKF_SETTING_COUNT ? err->setting : 0].count > 1) {
+        snprintf(element, sizeof element, "%s[%u]", name, (unsigned)err->index);
+    } else {
+        snprintf(element, sizeof element, "%s", name);
+    }
+    if (s != 0 && caekf_settings_get(s, err->param_id, &v) == CAEKF_OK) {
+        snprintf(value, sizeof value, " = %.17g", v);
+    }
+    switch (err->reason) {
+    case CAEKF_SETTING_OK:
+        snprintf(buf, len, "settings valid");
+        return CAEKF_OK;
+    case CAEKF_SETTING_BELOW_GAMMA_MIN:
+        why = "must be >= gamma_min while constraint_enabled";
+        break;
+    case CAEKF_SETTING_NOT_SCALABLE:
+        why = "a value the estimator derives from it is not finite in " CAEKF_SCALAR_NAME;
+        break;
+    case CAEKF_SETTING_OVER_CAPACITY:
+        why = "exceeds the build's capacity (caekf_config.h)";
+        break;
+    case CAEKF_SETTING_NOT_INTEGER:
+        why = "must be an integer";
+        break;
+    default:
+        why = caekf_setting_rule_text(err->setting);
+        break;
+    }
+    snprintf(buf, len, "%s%s: %s", element, value, why != 0 ? why : "refused");
+    return CAEKF_OK;
+}

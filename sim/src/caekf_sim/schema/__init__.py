@@ -1,0 +1,51 @@
+"""The settings schema (settings.toml): every setting and preset of caekf, described once.
+
+The same loader serves the C generator (codegen.py, run by CMake) and the Python package, so the
+Python `Scenario`, its validation and the bench's CTRL_PARAM ids come from the same description as
+the firmware's tables.
+"""
+from __future__ import annotations
+
+from typing import Dict, List, Optional, Tuple
+
+from .codegen import Preset, Schema, SchemaError, Setting, load
+
+SCHEMA: Schema = load()
+
+__all__ = ["SCHEMA", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
+           "wire_values"]
+
+
+def param_ids() -> Dict[str, int]:
+    """CTRL_PARAM id of every wire key ("m3" -> 2)."""
+    return {k: s.id + i for s in SCHEMA.wire for i, k in enumerate(s.keys)}  # type: ignore[operator]
+
+
+def preset_names() -> List[str]:
+    return [p.name for p in SCHEMA.presets]
+
+
+def preset(name: str) -> Preset:
+    for p in SCHEMA.presets:
+        if p.name == name:
+            return p
+    raise KeyError(f"unknown preset {name!r}; choose from {', '.join(preset_names())}")
+
+
+def wire_values(values: Dict[str, float], preset_name: Optional[str] = None) -> List[Tuple[str, float]]:
+    """The CTRL_PARAM settings of a scenario (wire keys only) with a preset's values over them, in id
+    order: exactly what the estimator needs to be configured over the bus."""
+    ids = param_ids()
+    out: Dict[str, float] = {}
+    for key, setting, _ in SCHEMA.keys():
+        if key not in ids or key not in values:
+            continue
+        # A default relative to the build's epsilon (newton_rtol) is the estimator's own business: it is
+        # sent only when the scenario chose a value.
+        if isinstance(setting.default, str) and float(values[key]) == setting.default_value():
+            continue
+        out[key] = float(values[key])
+    if preset_name is not None:
+        for name, v in preset(preset_name).values.items():
+            out[SCHEMA.by_name(name).keys[0]] = v
+    return sorted(out.items(), key=lambda kv: ids[kv[0]])

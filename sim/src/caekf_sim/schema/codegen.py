@@ -1,0 +1,462 @@
+#!/usr/bin/env python3
+"""Generate every derived copy of the settings schema (settings.toml).
+
+Run by CMake at build time (the outputs live in the build tree and are never edited by hand):
+
+    codegen.py c-core   OUTDIR            caekf/caekf_settings_schema.h, caekf_settings_table.c
+    codegen.py c-host   OUTDIR            caekf_scenario_schema.h, caekf_scenario_schema.c (scenario
+                                          reader table, presets)
+    codegen.py c-fixture OUTDIR SCENARIO  caekf_fixture_settings.h (a scenario's values as parameter
+                                          ids, values and CTRL_PARAM mantissa/exponent, for tests)
+    codegen.py dbc DBC (--check|--write)  the DBC's PARAM_ID value table and range
+
+The committed DBC holds one generated line (VAL_ ... PARAM_ID); `dbc --check` fails when it is stale.
+Standard library only (tomllib; tomli before Python 3.11), so CMake can run it without the venv. The Python
+package reads the schema with the same loader (caekf_sim.schema).
+"""
+from __future__ import annotations
+
+import math
+import re
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.9/3.10 (Ubuntu 22.04): the same parser from PyPI
+    import tomli as tomllib
+
+SCHEMA_PATH = Path(__file__).with_name("settings.toml")
+TYPES = ("real", "int", "enum", "bool")
+KINDS = ("model", "noise", "estimator", "runtime", "truth")
+# C rule codes; the same numbers are written into caekf_settings_schema.h.
+RULES = {"finite": 0, "> 0": 1, ">= 0": 2, "(0, 1)": 3, "int": 4}
+RULE_MACROS = {"finite": "FINITE", "> 0": "POS", ">= 0": "NONNEG", "(0, 1)": "OPEN01", "int": "INT"}
+C_ENUMS = {"mode": ("caekf_mode_t", "CAEKF_MODE_"), "switchoff": ("caekf_switchoff_t", "CAEKF_SWITCHOFF_"),
+           "cov_update": ("caekf_cov_update_t", "CAEKF_COV_")}
+GENERATED = "GENERATED from sim/src/caekf_sim/schema/settings.toml by codegen.py: do not edit"
+
+
+class SchemaError(ValueError):
+    pass
+
+
+@dataclass(frozen=True)
+class Setting:
+    name: str
+    type: str
+    unit: str
+    kind: str
+    doc: str
+    id: Optional[int] = None
+    count: int = 1
+    keys: Tuple[str, ...] = ()
+    values: Tuple[str, ...] = ()
+    default: Any = None  # None: required
+    range: str = "finite"
+    lo: float = -math.inf
+    hi: float = math.inf
+    field: str = ""
+
+    @property
+    def required(self) -> bool:
+        return self.default is None
+
+    @property
+    def on_wire(self) -> bool:
+        return self.id is not None
+
+    def element(self, index: int) -> str:
+        return self.name if self.count == 1 else f"{self.name}[{index}]"
+
+    def rule_text(self) -> str:
+        """The rule as an error message states it ("must be > 0")."""
+        if self.type == "enum":
+            return "must be one of " + ", ".join(f"{i} ({v})" for i, v in enumerate(self.values))
+        if self.type == "bool":
+            return "must be 0 or 1"
+        if self.type == "int":
+            return f"must be an integer in [{int(self.lo)}, {int(self.hi)}]"
+        if self.range == "finite":
+            return "must be finite"
+        if self.range == "(0, 1)":
+            return "must be in (0, 1)"
+        return f"must be finite and {self.range}"
+
+    def check(self, v: float) -> bool:
+        """The range rule (C applies the same: caekf_settings_table.c)."""
+        if not math.isfinite(v):
+            return False
+        if self.type in ("int", "enum", "bool"):
+            return v == math.floor(v) and self.lo <= v <= self.hi
+        return {
+            "finite": True,
+            "> 0": v > 0,
+            ">= 0": v >= 0,
+            "(0, 1)": 0 < v < 1,
+        }[self.range]
+
+    def default_value(self, eps: float = sys.float_info.epsilon) -> float:
+        d = self.default
+        if isinstance(d, str):
+            if self.type == "enum":
+                return float(self.values.index(d))
+            k, unit = d.split()
+            assert unit == "eps"
+            return float(k) * eps
+        return float(d)
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    doc: str
+    values: Dict[str, float] = field(default_factory=dict)  # setting name -> numeric value
+
+
+@dataclass(frozen=True)
+class Schema:
+    settings: Tuple[Setting, ...]
+    presets: Tuple[Preset, ...]
+
+    def by_name(self, name: str) -> Setting:
+        for s in self.settings:
+            if s.name == name:
+                return s
+        raise KeyError(name)
+
+    @property
+    def wire(self) -> List[Setting]:
+        return [s for s in self.settings if s.on_wire]
+
+    @property
+    def param_count(self) -> int:
+        return sum(s.count for s in self.wire)
+
+    def keys(self) -> List[Tuple[str, Setting, int]]:
+        """Every scenario key with its setting and element index."""
+        return [(k, s, i) for s in self.settings for i, k in enumerate(s.keys)]
+
+
+def _parse_range(s: Setting, text: str) -> Tuple[str, float, float]:
+    if s.type == "enum":
+        return "int", 0, len(s.values) - 1
+    if s.type == "bool":
+        return "int", 0, 1
+    m = re.fullmatch(r"\[\s*(-?\d+)\s*,\s*(-?\d+)\s*\]", text)
+    if s.type == "int":
+        if not m:
+            raise SchemaError(f"{s.name}: an int needs a range '[lo, hi]'")
+        return "int", float(m.group(1)), float(m.group(2))
+    if text not in RULES or text == "int":
+        raise SchemaError(f"{s.name}: unknown range {text!r}")
+    return text, -math.inf, math.inf
+
+
+def load(path: Path = SCHEMA_PATH) -> Schema:
+    """Read and check the schema (unique names, ids and keys; ids dense from 0)."""
+    raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    settings: List[Setting] = []
+    for entry in raw.get("setting", []):
+        e = dict(entry)
+        name = e.pop("name")
+        count = int(e.pop("count", 1))
+        keys = tuple(e.pop("keys", [name] if count == 1 else []))
+        if len(keys) != count:
+            raise SchemaError(f"{name}: {count} elements but {len(keys)} keys")
+        typ = e.pop("type")
+        if typ not in TYPES:
+            raise SchemaError(f"{name}: unknown type {typ!r}")
+        kind = e.pop("kind")
+        if kind not in KINDS:
+            raise SchemaError(f"{name}: unknown kind {kind!r}")
+        s = Setting(name=name, type=typ, unit=e.pop("unit"), kind=kind, doc=e.pop("doc"),
+                    id=e.pop("id", None), count=count, keys=keys,
+                    values=tuple(e.pop("values", [])), default=e.pop("default", None),
+                    field=e.pop("field", name if kind != "truth" else ""))
+        rng = e.pop("range", "finite")
+        rule, lo, hi = _parse_range(s, rng)
+        s = Setting(**{**s.__dict__, "range": rule if rule == "int" else rng, "lo": lo, "hi": hi})
+        if e:
+            raise SchemaError(f"{name}: unknown attributes {sorted(e)}")
+        if (kind == "truth") == (s.id is not None):
+            raise SchemaError(f"{name}: truth settings have no id, all others need one")
+        settings.append(s)
+    names = [s.name for s in settings]
+    keys = [k for s in settings for k in s.keys]
+    for what, items in (("name", names), ("key", keys)):
+        dup = sorted({x for x in items if items.count(x) > 1})
+        if dup:
+            raise SchemaError(f"duplicate {what}s: {dup}")
+    next_id = 0
+    for s in sorted((s for s in settings if s.on_wire), key=lambda s: s.id or 0):
+        if s.id != next_id:
+            raise SchemaError(f"{s.name}: id {s.id}, expected {next_id} (ids are dense)")
+        next_id += s.count
+    presets = []
+    for pname, p in raw.get("preset", {}).items():
+        vals: Dict[str, float] = {}
+        for k, v in p["values"].items():
+            st = next((s for s in settings if s.name == k), None)
+            if st is None or not st.on_wire or st.count != 1:
+                raise SchemaError(f"preset {pname}: {k} is not a scalar wire setting")
+            vals[k] = float(st.values.index(v)) if st.type == "enum" else float(v)
+            if not st.check(vals[k]):
+                raise SchemaError(f"preset {pname}: {k} = {v}: {st.rule_text()}")
+        presets.append(Preset(name=pname, doc=p["doc"], values=vals))
+    return Schema(settings=tuple(settings), presets=tuple(presets))
+
+
+# ---- C --------------------------------------------------------------------------------------------
+
+def _macro(name: str) -> str:
+    return re.sub(r"[^A-Z0-9]", "_", name.upper())
+
+
+def _c_double(v: float) -> str:
+    if math.isinf(v):
+        return "HUGE_VAL" if v > 0 else "-HUGE_VAL"
+    return repr(float(v))
+
+
+def c_core(schema: Schema) -> Dict[str, str]:
+    wire = schema.wire
+    h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SETTINGS_SCHEMA_H", "#define CAEKF_SETTINGS_SCHEMA_H", "",
+         "/* CTRL_PARAM parameter ids: an array setting takes ids ID .. ID+count-1 (element i at ID+i). */"]
+    for s in wire:
+        h.append(f"#define CAEKF_PARAM_{_macro(s.name)} {s.id}u /* {s.doc} */")
+    h += [f"#define CAEKF_PARAM_COUNT {schema.param_count}u", f"#define CAEKF_SETTING_COUNT {len(wire)}u", "",
+          "/* Range rules of caekf_setting_rule_t.rule. */"]
+    for text, code in RULES.items():
+        h.append(f"#define CAEKF_RULE_{RULE_MACROS[text]} {code}u")
+    h += ["", "/* Storage of a setting in caekf_settings_t. */",
+          "#define CAEKF_SETTING_REAL 0u /* caekf_scalar_t */",
+          "#define CAEKF_SETTING_INT 1u  /* int or an enum (int-sized) */", "",
+          "#endif", ""]
+    c = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "", "#include <stddef.h>", ""]
+    for s in wire:
+        if s.type == "enum":
+            enum = C_ENUMS[s.name][1]
+            cond = " && ".join(f"{enum}{_macro(v)} == {i}" for i, v in enumerate(s.values))
+            c.append(f"CAEKF_STATIC_ASSERT({cond}, enum_{s.name}_matches_schema);")
+    c += ["", "/* One rule a setting, in parameter-id order (ids are dense: rule k covers ids id .. id+count-1). */",
+          "const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT] = {"]
+    for s in wire:
+        storage = "CAEKF_SETTING_REAL" if s.type == "real" else "CAEKF_SETTING_INT"
+        rule = RULE_MACROS[s.range]
+        lo = 0 if s.range != "int" else int(s.lo)
+        hi = 0 if s.range != "int" else int(s.hi)
+        c.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {s.field}), {s.id}u, {s.count}u, {storage}, "
+                 f"CAEKF_RULE_{rule}, {lo}u, {hi}u}}, /* {s.name} */")
+    c += ["};", "", "void caekf_settings_schema_defaults(caekf_settings_t *s)", "{"]
+    for s in wire:
+        if s.required:
+            continue
+        d = s.default
+        if isinstance(d, str) and d.endswith("eps"):
+            expr = f"(caekf_scalar_t){d.split()[0]} * CAEKF_EPS"
+        elif s.type == "real":
+            expr = f"(caekf_scalar_t){_c_double(float(d))}"
+        else:
+            expr = str(int(s.default_value()))
+        for i in range(s.count):
+            lhs = f"s->{s.field}" + (f"[{i}]" if s.count > 1 else "")
+            if s.type == "enum":
+                c.append(f"    {lhs} = {C_ENUMS[s.name][1]}{_macro(str(d))};")
+            else:
+                c.append(f"    {lhs} = {expr};")
+    c += ["}", ""]
+    # Names: only host tools and messages need them; a separate object the MCU links only if used.
+    n = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "",
+         "static const char *const setting_names[CAEKF_SETTING_COUNT] = {"]
+    n += [f'    "{s.name}",' for s in wire] + ["};", "",
+          "static const char *const param_keys[CAEKF_PARAM_COUNT] = {"]
+    n += [f'    "{k}",' for s in wire for k in s.keys] + ["};", "",
+          "static const char *const setting_rules[CAEKF_SETTING_COUNT] = {"]
+    n += [f'    "{s.rule_text()}",' for s in wire] + ["};", "", """const char *caekf_setting_name(unsigned setting)
+{
+    return setting < CAEKF_SETTING_COUNT ? setting_names[setting] : 0;
+}
+
+const char *caekf_setting_rule_text(unsigned setting)
+{
+    return setting < CAEKF_SETTING_COUNT ? setting_rules[setting] : 0;
+}
+
+const char *caekf_param_key(unsigned param_id)
+{
+    return param_id < CAEKF_PARAM_COUNT ? param_keys[param_id] : 0;
+}
+"""]
+    return {"caekf/caekf_settings_schema.h": "\n".join(h), "caekf_settings_table.c": "\n".join(c),
+            "caekf_settings_names.c": "\n".join(n)}
+
+
+def c_host(schema: Schema) -> Dict[str, str]:
+    keys = schema.keys()
+    h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SCENARIO_SCHEMA_H", "#define CAEKF_SCENARIO_SCHEMA_H", "",
+         f"#define CAEKF_SCENARIO_KEY_COUNT {len(keys)}u", "",
+         "/* Every scenario key, in schema order (array elements by their own keys). */",
+         "typedef struct {"]
+    h += [f"    double {k}; /* {s.unit or '-'}: {s.doc if i == 0 else s.element(i)} */" for k, s, i in keys]
+    h += ["    unsigned char given[CAEKF_SCENARIO_KEY_COUNT]; /* the file set key i (else: its default) */",
+          "} caekf_scenario_t;", "",
+          "typedef struct {",
+          "    const char *key;",
+          "    unsigned offset;      /* of the double in caekf_scenario_t */",
+          "    int param_id;         /* CTRL_PARAM id, or -1 for a truth-only key */",
+          "    int required;         /* no default: the file must give it */",
+          "    double default_value; /* when not required (newton_rtol: double epsilon based) */",
+          "    int is_integer;       /* int, enum or bool */",
+          "    const char *rule;     /* the range rule as a message states it */",
+          "    int rule_code;        /* CAEKF_RULE_* of caekf_settings_schema.h */",
+          "    double lo, hi;        /* integer range */",
+          "} caekf_scenario_key_t;", "",
+          "extern const caekf_scenario_key_t caekf_scenario_keys[CAEKF_SCENARIO_KEY_COUNT];", "",
+          "typedef struct {",
+          "    const char *name;",
+          "    const char *doc;",
+          "    unsigned n_values;",
+          "    unsigned param_id[8];",
+          "    double value[8];",
+          "} caekf_preset_t;", "",
+          f"#define CAEKF_PRESET_COUNT {len(schema.presets)}u",
+          "extern const caekf_preset_t caekf_presets[CAEKF_PRESET_COUNT];", "", "#endif", ""]
+    c = [f"/* {GENERATED}. */", '#include "caekf_scenario_schema.h"', "", "#include <math.h>", "#include <stddef.h>", "",
+         "const caekf_scenario_key_t caekf_scenario_keys[CAEKF_SCENARIO_KEY_COUNT] = {"]
+    for k, s, i in keys:
+        pid = -1 if s.id is None else s.id + i
+        dv = 0.0 if s.required else s.default_value()
+        rule = RULES[s.range]
+        lo = 0.0 if s.range != "int" else s.lo
+        hi = 0.0 if s.range != "int" else s.hi
+        c.append(f'    {{"{k}", (unsigned)offsetof(caekf_scenario_t, {k}), {pid}, {int(s.required)}, {dv!r}, '
+                 f'{int(s.type != "real")}, "{s.rule_text()}", {rule}, {lo!r}, {hi!r}}},')
+    c += ["};", "", "const caekf_preset_t caekf_presets[CAEKF_PRESET_COUNT] = {"]
+    for p in schema.presets:
+        if len(p.values) > 8:
+            raise SchemaError(f"preset {p.name}: more than 8 values")
+        ids = ", ".join(str(schema.by_name(k).id) for k in p.values)
+        vals = ", ".join(repr(v) for v in p.values.values())
+        c.append(f'    {{"{p.name}", "{p.doc}", {len(p.values)}u, {{{ids}}}, {{{vals}}}}},')
+    c += ["};", ""]
+    return {"caekf_scenario_schema.h": "\n".join(h), "caekf_scenario_schema.c": "\n".join(c)}
+
+
+def shortest_decimal(v: float) -> Tuple[int, int]:
+    """(mantissa, exp10) with v == mantissa * 10^exp10, from the shortest repr that round-trips."""
+    m = re.fullmatch(r"(-?)(\d+)(?:\.(\d*))?(?:e([+-]?\d+))?", repr(float(v)))
+    if m is None:
+        raise SchemaError(f"cannot write {v!r} as mantissa * 10^exp")
+    sign, whole, frac, exp = m.group(1), m.group(2), m.group(3) or "", int(m.group(4) or 0)
+    digits = (whole + frac).lstrip("0") or "0"
+    exp -= len(frac)
+    while digits != "0" and digits.endswith("0"):
+        digits, exp = digits[:-1], exp + 1
+    mant = int(digits) * (-1 if sign else 1)
+    return mant, (0 if mant == 0 else exp)
+
+
+def read_scenario_values(schema: Schema, path: Path, wire_only: bool = True) -> Dict[str, float]:
+    """The settings a scenario file gives (flat `key = value`), by key: the wire ones or all."""
+    raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    known = {k for k, s, _ in schema.keys() if s.on_wire or not wire_only}
+    unknown = sorted(set(raw) - {k for k, _, _ in schema.keys()})
+    if unknown:
+        raise SchemaError(f"{path}: unknown keys {unknown}")
+    return {k: float(v) for k, v in raw.items() if k in known}
+
+
+def c_fixture(schema: Schema, scenario: Path) -> Dict[str, str]:
+    given = read_scenario_values(schema, scenario)
+    ids = {k: s.id + i for k, s, i in schema.keys() if s.on_wire}  # type: ignore[operator]
+    rows = []
+    for k, v in given.items():
+        mant, e10 = shortest_decimal(v)
+        rows.append(f"    {{{ids[k]}u, {e10}, {mant}, {v!r}}}, /* {k} */")
+    name = scenario.stem
+    h = [f"/* {GENERATED}, and from {scenario.name}. */",
+         f"/* The wire settings {scenario.name} gives, as the bench sends them (CTRL_PARAM: value = mantissa",
+         " * 10^exp10, shortest decimal form) and as values. One table for every C test that configures the",
+         " * estimator or the app from this scenario. */",
+         "#ifndef CAEKF_FIXTURE_SETTINGS_H", "#define CAEKF_FIXTURE_SETTINGS_H", "", "#include <stdint.h>", "",
+         "typedef struct {", "    uint8_t id;", "    int8_t exp10;", "    int64_t mantissa;", "    double value;",
+         "} caekf_fixture_param_t;", "",
+         f"static const caekf_fixture_param_t caekf_{name}_params[] = {{"] + rows + [
+         "};",
+         f"#define CAEKF_N_{_macro(name)}_PARAMS ((unsigned)(sizeof caekf_{name}_params / sizeof caekf_{name}_params[0]))",
+         "", "/* The presets, as (id, value) lists. */",
+         "typedef struct {", "    const char *name;", "    unsigned n;", "    uint8_t id[8];", "    double value[8];",
+         "} caekf_fixture_preset_t;", "", "static const caekf_fixture_preset_t caekf_fixture_presets[] = {"]
+    for p in schema.presets:
+        pids = ", ".join(str(schema.by_name(k).id) for k in p.values)
+        vals = ", ".join(repr(v) for v in p.values.values())
+        h.append(f'    {{"{p.name}", {len(p.values)}u, {{{pids}}}, {{{vals}}}}},')
+    h += ["};", f"#define CAEKF_N_FIXTURE_PRESETS {len(schema.presets)}u", "",
+          f"/* Every value {scenario.name} gives, truth keys included. */"]
+    for k, v in read_scenario_values(schema, scenario, wire_only=False).items():
+        h.append(f"#define CAEKF_{_macro(name)}_{_macro(k)} ({v!r})")
+    h.append("")
+    for p in schema.presets:
+        h.append(f"#define CAEKF_FIXTURE_PRESET_{_macro(p.name)} {schema.presets.index(p)}u")
+    h += ["", "#endif", ""]
+    return {"caekf_fixture_settings.h": "\n".join(h)}
+
+
+# ---- DBC ------------------------------------------------------------------------------------------
+
+def dbc_lines(schema: Schema) -> Tuple[str, str]:
+    pairs = " ".join(f'{s.id + i} "{k}"' for s in schema.wire for i, k in enumerate(s.keys))  # type: ignore[operator]
+    return (f"VAL_ 193 PARAM_ID {pairs} ;", f"[0|{schema.param_count - 1}]")
+
+
+def dbc_update(schema: Schema, text: str) -> str:
+    val, rng = dbc_lines(schema)
+    out, n = re.subn(r"^VAL_ 193 PARAM_ID .*;$", val, text, flags=re.M)
+    if n != 1:
+        raise SchemaError("the DBC has no 'VAL_ 193 PARAM_ID' line")
+    out, n = re.subn(r"^( SG_ PARAM_ID : \d+\|\d+@1\+ \(1,0\) )\[0\|\d+\]", lambda m: m.group(1) + rng, out, flags=re.M)
+    if n != 1:
+        raise SchemaError("the DBC has no PARAM_ID signal")
+    return out
+
+
+def _write(outdir: Path, files: Dict[str, str]) -> None:
+    for rel, text in files.items():
+        p = outdir / rel
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(text, encoding="utf-8")  # always: the build tool compares timestamps
+
+
+def main(argv: Sequence[str]) -> int:
+    try:
+        schema = load()
+        if len(argv) >= 2 and argv[0] == "c-core":
+            _write(Path(argv[1]), c_core(schema))
+        elif len(argv) >= 2 and argv[0] == "c-host":
+            _write(Path(argv[1]), c_host(schema))
+        elif len(argv) >= 3 and argv[0] == "c-fixture":
+            _write(Path(argv[1]), c_fixture(schema, Path(argv[2])))
+        elif len(argv) == 3 and argv[0] == "dbc" and argv[2] in ("--check", "--write"):
+            path = Path(argv[1])
+            text = path.read_text(encoding="utf-8")
+            new = dbc_update(schema, text)
+            if argv[2] == "--write":
+                if new != text:
+                    path.write_text(new, encoding="utf-8")
+            elif new != text:
+                print(f"codegen: {path} is stale: run codegen.py dbc {path} --write", file=sys.stderr)
+                return 1
+        else:
+            print(__doc__, file=sys.stderr)
+            return 2
+    except (SchemaError, OSError, KeyError, tomllib.TOMLDecodeError) as exc:
+        print(f"codegen: {exc}", file=sys.stderr)
+        return 3
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
