@@ -637,7 +637,7 @@ static PyObject *est_run(EstObject *self, PyObject *args)
                                 CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED;
                 double a = r - (double)P[0][0], d = r - (double)P[3][3], c = (double)P[0][3];
                 double det = a * d - c * c;
-                logdet[k] = (st != CAEKF_OK || (rep.flags & skip) || !(det > 0)) ? NAN
+                logdet[k] = (st != CAEKF_OK || (rep.flags & skip) || !(det > 0)) ? (double)NAN
                                                                                 : 4.0 * log(r) - log(det);
             }
         }
