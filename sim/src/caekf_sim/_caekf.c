@@ -618,15 +618,18 @@ static PyObject *est_run(EstObject *self, PyObject *args)
                 x[k * CAEKF_N + i] = (double)xs[i];
             }
         }
-        if (pdiag != NULL || logdet != NULL) {
+        if (pdiag != NULL) {
+            /* The diagonal of caekf_get_covariance, the same expression (so the same bits), without the
+             * 72 off-diagonal products the loop does not keep. */
+            for (i = 0; i < CAEKF_N; ++i) {
+                pdiag[k * CAEKF_N + i] =
+                    (double)(self->est.P[i][i] * self->est.scale[i] * self->est.scale[i]);
+            }
+        }
+        if (logdet != NULL) {
             caekf_scalar_t P[CAEKF_N][CAEKF_N];
             (void)caekf_get_covariance(&self->est, P);
-            if (pdiag != NULL) {
-                for (i = 0; i < CAEKF_N; ++i) {
-                    pdiag[k * CAEKF_N + i] = (double)P[i][i];
-                }
-            }
-            if (logdet != NULL) {
+            {
                 /* The innovation covariance S = H P- H' + R of this step's correction, from the posterior:
                  * with R = r I and B = H P+ H' (q1, q4 block), B = A - A S^-1 A = A S^-1 R for A = H P- H',
                  * hence S = r^2 (r I - B)^-1 and log det S = 4 log r - log det(r I - B). Exact for the
