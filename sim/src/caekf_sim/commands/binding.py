@@ -1,4 +1,5 @@
-"""`caekf-sim bench-binding`: the C binding's speed beside caekf-bench, the numpy reference and FilterPy.
+"""`caekf-sim bench-binding` (the C binding's speed beside caekf-bench, numpy and FilterPy) and
+`caekf-sim tune` (noise settings from recorded runs, through the binding's fast run; caekf_sim.tune).
 
     caekf-sim bench-binding [--scenario F] [--truth CSV] [--repeats 3] [--step-calls N] [--py-steps N]
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 import argparse
 import re
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -37,6 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step-calls", type=int, default=60000, help="Estimator.step calls timed (default 60000)")
     p.add_argument("--py-steps", type=int, default=3000, help="steps for numpy and FilterPy (default 3000)")
     p.set_defaults(func=cmd_bench_binding)
+    register_tune(sub)
 
 
 def _truth(args, sc, tmp: Path):
@@ -160,3 +163,78 @@ def cmd_bench_binding(args: argparse.Namespace) -> int:
                          f"{1e6 / r['steps_per_s']:.3f}" if r["steps_per_s"] else "-", r["note"]] for r in rows]))
     return 0
 
+
+
+# --- tune ------------------------------------------------------------------------------------------
+
+def register_tune(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("tune", help="maximum-likelihood Q_x, Q_gamma, R from recorded runs; writes a scenario file")
+    add_scenario_arg(p)
+    p.add_argument("--runs", type=Path, nargs="*", default=[], metavar="CSV",
+                   help="recorded runs to tune on: t,u,y1,y4 CSVs (extra columns ignored; empty y = lost sample)")
+    p.add_argument("--candump", type=Path, nargs="*", default=[], metavar="LOG",
+                   help="candump -L logs of the CAN bench (one run per configuration in each log)")
+    p.add_argument("--holdout", type=Path, nargs="*", default=[], metavar="CSV_OR_LOG",
+                   help="held-out runs for the before/after report (*.log: candump, else CSV)")
+    p.add_argument("--params", default=",".join(("sigma_qx_q", "sigma_qx_v", "sigma_q_gamma", "sigma_r")),
+                   help="noise settings to tune, comma-separated (default: all four)")
+    p.add_argument("--experiment", default="switched",
+                   help="experiment whose settings the runs use (default switched)")
+    p.add_argument("--precision", choices=["double", "float"], default="double")
+    p.add_argument("--gamma-true", type=float, default=None,
+                   help="true gamma for the reported error (default: the scenario's gamma)")
+    p.add_argument("--burn-in", type=float, default=0.5, help="seconds of each run left out of the NIS (default 0.5)")
+    p.add_argument("--max-evals", type=int, default=400, help="objective evaluations at most (default 400)")
+    p.add_argument("--out", type=Path, default=None, help="write the tuned scenario here (same format as --scenario)")
+    p.add_argument("--debug", action="store_true", help="tracebacks instead of one-line errors")
+    p.set_defaults(func=cmd_tune)
+
+
+def _records(paths, dt: float):
+    from ..tune import read_candump_records, read_record_csv
+
+    out = []
+    for path in paths:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"no such file: {path}")
+        out += read_candump_records(path, dt) if str(path).endswith(".log") else [read_record_csv(path)]
+    return out
+
+
+def cmd_tune(args: argparse.Namespace) -> int:
+    from ..settings_adapter import scenario_toml
+    from ..tune import read_candump_records, report_text, tune
+
+    try:
+        sc = scenario_from_args(args)
+        params = [p.strip() for p in args.params.split(",") if p.strip()]
+        records = _records(args.runs, sc.dt)
+        for log in args.candump:
+            if not log.is_file():
+                raise FileNotFoundError(f"no such file: {log}")
+            records += read_candump_records(log, sc.dt)
+        if not records:
+            raise ValueError("nothing to tune on: give --runs CSV... and/or --candump LOG...")
+        holdout = _records(args.holdout, sc.dt)
+        t0 = time.perf_counter()
+        res = tune(sc, records, params, holdout, args.experiment, args.precision, args.gamma_true, args.burn_in,
+                   args.max_evals)
+    except (ValueError, OSError, KeyError) as exc:
+        if args.debug:
+            raise
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"caekf-sim tune: {msg}", file=sys.stderr)
+        return 2
+    print(f"tuned {', '.join(params)} on {len(records)} run(s), {sum(len(r) for r in records)} samples, "
+          f"{args.experiment} {args.precision}, in {time.perf_counter() - t0:.1f} s"
+          + (f"; {len(holdout)} held-out run(s)" if holdout else ""))
+    text = report_text(res, params)
+    print(text)
+    if args.out is not None:
+        src = args.scenario or _default()
+        header = (f"Tuned by caekf-sim tune from {Path(src).name} on {', '.join(r.name for r in records)}\n"
+                  f"(maximum likelihood of the innovations, {args.experiment}, {args.precision}).\n\n" + text)
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(scenario_toml(res.scenario, header), encoding="utf-8")
+        print(f"wrote {args.out}")
+    return 0
