@@ -240,3 +240,28 @@ def test_estimator_pickles_mid_run(truth_cols):
     b = pickle.loads(pickle.dumps(a))
     ra, rb = a.run(u[1000:], y[1000:]), b.run(u[1000:], y[1000:])
     assert np.array_equal(ra.x, rb.x) and b.step_count == 2000
+
+
+@pytest.mark.parametrize("experiment", ["canonical", "switched"])
+def test_log_det_s_is_the_innovation_covariance(experiment, truth_cols):
+    """run(log_det_s=True) derives log det S_k from the posterior P; check it against S = H P- H' + R
+    from the prior P- that caekf_predict gives on a copy of the estimator just before step k."""
+    n = 13500  # past the first contact (about 12.8 s)
+    u, y = truth_cols["u"][:n], np.column_stack([truth_cols["y1"], truth_cols["y4"]])[:n]
+    sc = load_scenario(default_scenario_path())
+    res = caekf_sim.run(sc, u, y, experiment=experiment, log_det_s=True)
+    est = caekf_sim.Estimator(sc, experiment=experiment)
+    checked = 0
+    for k in range(n):
+        if k in (0, 1, 500, 12790, 12800, 12900, 13400) or k % 1000 == 999:
+            prior = pickle.loads(pickle.dumps(est))
+            prior.predict(u[k])
+            P = prior.P
+            S = P[np.ix_([0, 3], [0, 3])] + sc.sigma_r ** 2 * np.eye(2)
+            assert np.isfinite(res.log_det_s[k]), k
+            assert res.log_det_s[k] == pytest.approx(np.log(np.linalg.det(S)), rel=1e-9, abs=1e-9), k
+            checked += 1
+        est.step(u[k], y[k])
+    assert checked >= 15
+    assert np.array_equal(est.x, res.x[-1])
+    assert (res.flags[12790:13400] & fl.CONTACT_ACTIVE).any()

@@ -96,9 +96,10 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
         for name, data in seg:
             vals = codec.unpack(name, np.frombuffer(data, dtype=np.uint8))
             wire = int(vals["STEP"][0])
-            if last is not None:  # unwrap the 16-bit counter (steps move by less than half its range)
-                d = (wire - last + 0x8000) % 0x10000 - 0x8000
-                base += d
+            if last is None:
+                base = wire
+            else:  # unwrap the 16-bit counter (steps move by less than half its range)
+                base += (wire - last + 0x8000) % 0x10000 - 0x8000
             last = wire
             sig = {"BENCH_U": "U", "BENCH_Y1": "Y1", "BENCH_Y4": "Y4"}[name]
             steps.setdefault(base, {})[sig] = float(vals[sig][0])
