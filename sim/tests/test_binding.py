@@ -265,3 +265,11 @@ def test_log_det_s_is_the_innovation_covariance(experiment, truth_cols):
     assert checked >= 15
     assert np.array_equal(est.x, res.x[-1])
     assert (res.flags[12790:13400] & fl.CONTACT_ACTIVE).any()
+
+
+def test_c_names_reachable():
+    from caekf_sim.binding import experiment_names, flag_name, status_str
+
+    assert experiment_names() == EXPERIMENTS
+    assert [flag_name(b) for b in range(12)] == [fl.NAMES[1 << b] for b in range(12)]
+    assert status_str(0) == "ok" and status_str(-4) != status_str(-5)

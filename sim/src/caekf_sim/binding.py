@@ -307,3 +307,18 @@ def run(scenario_or_settings: ScenarioOrSettings, u: np.ndarray, y: np.ndarray, 
     est = Estimator(scenario_or_settings, precision, experiment, **overrides)
     return est.run(u, y, t=t, has_y=has_y, missing_y=missing_y, p_diag=p_diag, p_norm=p_norm,
                    log_det_s=log_det_s)
+
+
+def status_str(status: int, precision: str = "double") -> str:
+    """caekf_status_str: the text of a caekf_status_t (Report.status, RunResult.status)."""
+    return _module(precision).status_str(int(status))
+
+
+def flag_name(bit: int, precision: str = "double") -> str:
+    """caekf_flag_name: the name of flag bit `bit` (0..CAEKF_FLAG_COUNT-1)."""
+    return _module(precision).flag_name(int(bit))
+
+
+def experiment_names(precision: str = "double") -> tuple:
+    """The experiments caekf-replay's settings builder knows (host/common/experiment.c)."""
+    return _module(precision).experiment_names()
