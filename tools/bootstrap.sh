@@ -14,7 +14,7 @@
 #      unity_internals.h). cmake/Unity.cmake picks it up from there.
 #   3. Python venv at .venv; `pip install -e ./sim[dev]` when sim/pyproject.toml
 #      exists, re-run only when that file, the interpreter or the C sources of the
-#      estimator binding (core, host/common/experiment.c, sim/src/caekf_sim/_caekf.c) changed.
+#      estimator binding (core, host/common experiment/scenario/truth, sim/src/caekf_sim/_caekf.c) changed.
 #
 # Environment knobs:
 #   CAEKF_SKIP_APT=1    skip step 1 (e.g. on a machine set up by other means)
@@ -306,7 +306,7 @@ setup_venv() {
     # its own C file: a change to any of them re-installs (and so rebuilds) it as well.
     want="$( { sha256sum "$pyproject" "$REPO/sim/CMakeLists.txt" "$REPO"/sim/src/caekf_sim/*.c \
                  "$REPO"/firmware/core/*.[ch] "$REPO"/firmware/core/sources.cmake "$REPO"/firmware/include/caekf/*.h \
-                 "$REPO"/host/common/experiment.[ch] "$REPO"/host/common/scenario.h 2>/dev/null \
+                 "$REPO"/host/common/experiment.[ch] "$REPO"/host/common/scenario.[ch] "$REPO"/host/common/truth.[ch] 2>/dev/null \
                  | sha256sum | cut -d' ' -f1; "$py" -V 2>&1; } | tr '\n' ' ')"
     if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
         log "venv: sim[dev] up to date"

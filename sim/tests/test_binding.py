@@ -273,3 +273,24 @@ def test_c_names_reachable():
     assert experiment_names() == EXPERIMENTS
     assert [flag_name(b) for b in range(12)] == [fl.NAMES[1 << b] for b in range(12)]
     assert status_str(0) == "ok" and status_str(-4) != status_str(-5)
+
+
+def test_truth_equals_caekf_truth(tmp_path):
+    """binding.truth runs caekf-truth's generator: the same samples, noise included, bit for bit."""
+    from caekf_sim.binding import truth
+    from caekf_sim.settings_adapter import scenario_toml
+
+    sc = load_scenario(default_scenario_path()).replace(t_end=13.5, noise_std=1e-7, seed=7)
+    path = tmp_path / "s.toml"
+    path.write_text(scenario_toml(sc))
+    out = tmp_path / "truth.csv"
+    subprocess.run([str(tool("caekf-truth", "double")), "--scenario", str(path), "--out", str(out), "--quiet"],
+                   check=True, timeout=300)
+    c = read_csv(out)
+    tr = truth(sc)
+    assert len(tr) == len(c["t"]) == 13500
+    for name, mine in (("t", tr.t), ("u", tr.u), ("y1", tr.y[:, 0]), ("y4", tr.y[:, 1]), ("delta", tr.delta)):
+        assert np.array_equal(mine, c[name]), name
+    for i in range(4):
+        assert np.array_equal(tr.q[:, i], c[f"q{i + 1}"]) and np.array_equal(tr.v[:, i], c[f"v{i + 1}"])
+    assert (tr.delta > 0).any() and not np.array_equal(tr.y[:, 0], tr.q[:, 0])

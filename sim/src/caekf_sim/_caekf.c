@@ -17,6 +17,9 @@
 
 #include "caekf/caekf.h"
 #include "common/experiment.h"
+#if !CAEKF_USE_FLOAT
+#include "common/truth.h" /* the truth is double only: host/common/truth.c, as caekf-truth runs it */
+#endif
 
 #define CB_CAT2(a, b) a##b
 #define CB_CAT(a, b) CB_CAT2(a, b)
@@ -792,6 +795,104 @@ static PyObject *mod_set_report_type(PyObject *m, PyObject *arg)
     Py_RETURN_NONE;
 }
 
+
+#if !CAEKF_USE_FLOAT
+/* ---- truth (double module only) -------------------------------------------------------------------- */
+
+typedef struct {
+    double *t, *u, *y, *q, *v, *delta;
+    int32_t *iters, *failed;
+    long n, k;
+} truth_ctx_t;
+
+static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
+{
+    truth_ctx_t *c = (truth_ctx_t *)vctx;
+    long k = c->k;
+    int i;
+    if (k >= c->n) {
+        return -1;
+    }
+    c->t[k] = s->t;
+    c->u[k] = s->u;
+    c->y[2 * k] = s->y1;
+    c->y[2 * k + 1] = s->y4;
+    for (i = 0; i < 4; ++i) {
+        c->q[4 * k + i] = s->q[i];
+        c->v[4 * k + i] = s->v[i];
+    }
+    c->delta[k] = s->delta;
+    c->iters[k] = s->newton_iters;
+    c->failed[k] = s->newton_failed;
+    c->k = k + 1;
+    return 0;
+}
+
+/* truth(scenario, t, u, y, q, v, delta, newton_iters, newton_failed) -> None: caekf_truth_run into the
+ * arrays (n = round(t_end / dt) rows; y n*2, q and v n*4 doubles, the counts int32), without the GIL. */
+static PyObject *mod_truth(PyObject *m, PyObject *args)
+{
+    PyObject *o[9];
+    Py_buffer b[8];
+    static const char *const names[8] = {"t", "u", "y", "q", "v", "delta", "newton_iters", "newton_failed"};
+    static const char fmts[8] = {'d', 'd', 'd', 'd', 'd', 'd', 'i', 'i'};
+    static const Py_ssize_t sizes[8] = {8, 8, 8, 8, 8, 8, 4, 4};
+    static const int per[8] = {1, 1, 2, 4, 4, 1, 1, 1};
+    caekf_scenario_t sc;
+    truth_ctx_t ctx;
+    long n;
+    int i, rc, ok = 1;
+    (void)m;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOO:truth", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8])) {
+        return NULL;
+    }
+    if (scenario_from_dict(o[0], &sc) != 0) {
+        return NULL;
+    }
+    if (!(sc.dt > 0) || !(sc.t_end > 0) || !(sc.truth_substeps >= 1)) {
+        PyErr_SetString(PyExc_ValueError, "truth needs dt > 0, t_end > 0, truth_substeps >= 1");
+        return NULL;
+    }
+    n = caekf_scenario_steps(&sc);
+    memset(b, 0, sizeof b);
+    for (i = 0; i < 8; ++i) {
+        if (get_buffer(o[i + 1], &b[i], names[i], fmts[i], sizes[i], (Py_ssize_t)n * per[i], 1, 0) != 0) {
+            ok = 0;
+            break;
+        }
+    }
+    if (!ok) {
+        for (i = 0; i < 8; ++i) {
+            if (b[i].obj != NULL) {
+                PyBuffer_Release(&b[i]);
+            }
+        }
+        return NULL;
+    }
+    ctx.t = (double *)b[0].buf;
+    ctx.u = (double *)b[1].buf;
+    ctx.y = (double *)b[2].buf;
+    ctx.q = (double *)b[3].buf;
+    ctx.v = (double *)b[4].buf;
+    ctx.delta = (double *)b[5].buf;
+    ctx.iters = (int32_t *)b[6].buf;
+    ctx.failed = (int32_t *)b[7].buf;
+    ctx.n = n;
+    ctx.k = 0;
+    Py_BEGIN_ALLOW_THREADS
+    rc = caekf_truth_run(&sc, truth_emit, &ctx);
+    Py_END_ALLOW_THREADS
+    for (i = 0; i < 8; ++i) {
+        PyBuffer_Release(&b[i]);
+    }
+    if (rc != 0 || ctx.k != n) {
+        PyErr_SetString(PyExc_ValueError, "truth refused the scenario's plant (caekf_model_init)");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+#endif
+
 static PyMethodDef mod_methods[] = {
     {"settings_default", mod_settings_default, METH_NOARGS, "caekf_settings_default as a dict."},
     {"settings_validate", mod_settings_validate, METH_O,
@@ -802,6 +903,9 @@ static PyMethodDef mod_methods[] = {
     {"status_str", mod_status_str, METH_O, "caekf_status_str."},
     {"flag_name", mod_flag_name, METH_O, "caekf_flag_name (bit index)."},
     {"_set_report_type", mod_set_report_type, METH_O, NULL},
+#if !CAEKF_USE_FLOAT
+    {"truth", mod_truth, METH_VARARGS, "caekf_truth_run (host/common/truth.c) into preallocated arrays."},
+#endif
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, CB_MODNAME,

@@ -17,17 +17,21 @@ process pools and on Dask workers.
 from __future__ import annotations
 
 import hashlib
+import math
 import importlib
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
 
 from .scenario import PathLike, Scenario, load_scenario
 from .settings_adapter import Settings, check_precision, settings_for
+
+if TYPE_CHECKING:
+    from .truth import Truth
 
 N = 9  # augmented state [q1..q4, v1..v4, gamma]
 IG = 8  # index of gamma
@@ -83,8 +87,9 @@ def source_hash(repo: PathLike) -> str:
     core = root / "firmware" / "core"
     listed = re.findall(r"\$\{CMAKE_CURRENT_LIST_DIR\}/(\S+\.c)", (core / "sources.cmake").read_text())
     files = [core / f for f in listed]
-    files += [root / "host/common/experiment.c", root / "host/common/experiment.h",
-              root / "sim/src/caekf_sim/_caekf.c"]
+    files += [root / "host/common" / f for f in ("experiment.c", "experiment.h", "scenario.c", "scenario.h",
+                                                   "truth.c", "truth.h")]
+    files += [root / "sim/src/caekf_sim/_caekf.c"]
     files += sorted(list((root / "firmware/include/caekf").glob("*.h")) + list(core.glob("*.h")),
                     key=lambda p: str(p))
     text = "".join(f"{p.relative_to(root).as_posix()}={hashlib.sha256(p.read_bytes()).hexdigest()}\n"
@@ -322,3 +327,20 @@ def flag_name(bit: int, precision: str = "double") -> str:
 def experiment_names(precision: str = "double") -> tuple:
     """The experiments caekf-replay's settings builder knows (host/common/experiment.c)."""
     return _module(precision).experiment_names()
+
+
+def truth(sc: Scenario) -> "Truth":
+    """The truth of scenario `sc` from caekf-truth's C generator (host/common/truth.c, double): the same
+    samples as `caekf-truth` writes, bit for bit, far faster than caekf_sim.truth.simulate (whose noise
+    generator differs: numpy's, not splitmix64). Returns caekf_sim.truth.Truth (t [s], u [N], y [m],
+    q [m], v [m/s], delta [m]); a pure function, picklable for process pools and Dask."""
+    from .settings_adapter import scenario_dict
+    from .truth import Truth
+
+    x = sc.t_end / sc.dt
+    n = int(math.floor(x + 0.5)) if x > 0 else 0  # caekf_scenario_steps: lround
+    t, u, delta = np.empty(n), np.empty(n), np.empty(n)
+    y, q, v = np.empty((n, 2)), np.empty((n, 4)), np.empty((n, 4))
+    iters, failed = np.empty(n, dtype=np.int32), np.empty(n, dtype=np.int32)
+    _module("double").truth(scenario_dict(sc), t, u, y, q, v, delta, iters, failed)
+    return Truth(t=t, u=u, y=y, q=q, v=v, delta=delta)
