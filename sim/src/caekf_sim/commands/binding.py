@@ -18,7 +18,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Dict, List
+from typing import Any, Dict, List
 
 import numpy as np
 
@@ -68,8 +68,8 @@ def _row(impl: str, precision: str, experiment: str, steps: int, seconds: float,
             "steps_per_s": steps / seconds if seconds > 0 else None, "note": note}
 
 
-def _c_bench_rows(scenario: Path, truth_csv: Path, repeats: int, experiments: List[str]) -> List[Dict]:
-    rows = []
+def _c_bench_rows(scenario: Path, truth_csv: Path, repeats: int, experiments: List[str]) -> List[Dict[str, Any]]:
+    rows: List[Dict[str, Any]] = []
     for precision in ("double", "float"):
         tool = REPO / "build" / f"host-{precision}" / "host" / "caekf-bench"
         if not tool.exists():
