@@ -108,9 +108,12 @@ def check_build(repo: PathLike) -> None:
                                "(rerun tools/bootstrap.sh or pip install ./sim)")
 
 
-def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: str,
+def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: Optional[str],
               overrides: Dict[str, Any]) -> Settings:
     if isinstance(what, Settings):
+        if experiment is not None:
+            raise ValueError("experiment applies to a scenario; these are settings already "
+                             "(caekf_sim.settings_for(scenario, experiment) makes them)")
         if precision is not None and check_precision(precision) != what.precision:
             raise ValueError(f"these settings were built for {what.precision}, not {precision} "
                              f"(use caekf_sim.settings_for(..., precision={precision!r}))")
@@ -121,7 +124,7 @@ def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: st
             raise FileNotFoundError(f"scenario file not found: {path}")
         what = load_scenario(path)
     if isinstance(what, Scenario):
-        return settings_for(what, experiment, precision or "double", **overrides)
+        return settings_for(what, experiment or "switched", precision or "double", **overrides)
     raise TypeError(f"expected a Scenario, Settings or scenario file path, got {type(what).__name__}")
 
 
@@ -170,8 +173,9 @@ class Estimator:
     Estimator(scenario_or_settings, precision="double", experiment="switched", **overrides)
 
     * `scenario_or_settings`: a Scenario, a scenario file path (sim/scenarios/paper.toml format) or
-      Settings. A scenario is mapped to settings by caekf-replay's rule for `experiment`; `overrides`
-      change single settings (e.g. gamma_gate_nis=0, sigma_r=1e-6).
+      Settings. A scenario is mapped to settings by caekf-replay's rule for `experiment` (canonical,
+      switched (default), switched-highq, switched-highq-constrained); `overrides` change single
+      settings (e.g. gamma_gate_nis=0, sigma_r=1e-6).
     * `precision`: "double" or "float" (default double, or the precision Settings were built for).
 
     Settings are checked by caekf_settings_validate; a refusal raises SettingsError("settings refused (NAME)"),
@@ -179,7 +183,7 @@ class Estimator:
     """
 
     def __init__(self, scenario_or_settings: ScenarioOrSettings, precision: Optional[str] = None,
-                 experiment: str = "switched", **overrides: Any) -> None:
+                 experiment: Optional[str] = None, **overrides: Any) -> None:
         s = _settings(scenario_or_settings, precision, experiment, overrides)
         c = _module(s.precision)
         d = s.to_c()
@@ -293,7 +297,7 @@ class Estimator:
 
 
 def run(scenario_or_settings: ScenarioOrSettings, u: np.ndarray, y: np.ndarray, *,
-        t: Optional[np.ndarray] = None, precision: Optional[str] = None, experiment: str = "switched",
+        t: Optional[np.ndarray] = None, precision: Optional[str] = None, experiment: Optional[str] = None,
         has_y: Optional[np.ndarray] = None, missing_y: str = "predict", p_diag: bool = True,
         p_norm: bool = False, log_det_s: bool = False, **overrides: Any) -> RunResult:
     """Run the C estimator over a whole record, the loop in C (no GIL held), from its initial estimate.

@@ -38,6 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--repeats", type=int, default=3, help="best of this many runs (default 3)")
     p.add_argument("--step-calls", type=int, default=60000, help="Estimator.step calls timed (default 60000)")
     p.add_argument("--py-steps", type=int, default=3000, help="steps for numpy and FilterPy (default 3000)")
+    p.add_argument("--debug", action="store_true", help="tracebacks instead of one-line errors")
     p.set_defaults(func=cmd_bench_binding)
     register_tune(sub)
 
@@ -97,6 +98,16 @@ def _best(fn, repeats: int) -> float:
 
 
 def cmd_bench_binding(args: argparse.Namespace) -> int:
+    try:
+        return _bench_binding(args)
+    except (ValueError, OSError, subprocess.CalledProcessError) as exc:
+        if getattr(args, "debug", False):
+            raise
+        print(f"caekf-sim bench-binding: {exc}", file=sys.stderr)
+        return 2
+
+
+def _bench_binding(args: argparse.Namespace) -> int:
     import caekf_sim
 
     from ..bench.results import format_table
