@@ -142,3 +142,18 @@ def test_truth_csv_is_a_record(tmp_path):
     write_truth_csv(tr, tmp_path / "t.csv")
     rec = read_record_csv(tmp_path / "t.csv")
     assert np.array_equal(rec.u, tr.u) and np.array_equal(rec.y, tr.y)
+
+
+def test_bench_binding_prints_its_table(recorded, tmp_path, capsys):
+    """The speed table runs end to end (no timing is asserted)."""
+    sc, (train, _) = recorded
+    from caekf_sim.truth import Truth
+
+    tr = truth(sc.replace(t_end=0.3))
+    write_truth_csv(Truth(tr.t, tr.u, tr.y, tr.q, tr.v, tr.delta), tmp_path / "t.csv")
+    assert main(["bench-binding", "--truth", str(tmp_path / "t.csv"), "--repeats", "1", "--step-calls", "100",
+                 "--py-steps", "20"]) == 0
+    out = capsys.readouterr().out
+    for row in ("caekf_sim.run", "Estimator.step, y = numpy row", "numpy AEKF", "FilterPy EKF"):
+        assert row in out
+    assert out.count("caekf_sim.run ") == 2  # double and float
