@@ -13,7 +13,8 @@
 #      .cache/downloads and unpacked to .cache/unity (src/unity.c, unity.h,
 #      unity_internals.h). cmake/Unity.cmake picks it up from there.
 #   3. Python venv at .venv; `pip install -e ./sim[dev]` when sim/pyproject.toml
-#      exists, re-run only when that file (or the interpreter) changed.
+#      exists, re-run only when that file, the interpreter or the C sources of the
+#      estimator binding (core, the settings schema, host/common scenario/truth, sim/src/caekf_sim/_caekf.c) changed.
 #
 # Environment knobs:
 #   CAEKF_SKIP_APT=1    skip step 1 (e.g. on a machine set up by other means)
@@ -301,7 +302,13 @@ setup_venv() {
         return 0
     fi
     local stamp="$VENV/.caekf-sim.stamp" want
-    want="$( { sha256sum "$pyproject" | cut -d' ' -f1; "$py" -V 2>&1; } | tr '\n' ' ')"
+    # The package builds the C estimator binding (sim/CMakeLists.txt) from the core, host/common and
+    # its own C file: a change to any of them re-installs (and so rebuilds) it as well.
+    want="$( { sha256sum "$pyproject" "$REPO/sim/CMakeLists.txt" "$REPO"/sim/src/caekf_sim/*.c \
+                 "$REPO"/firmware/core/*.[ch] "$REPO"/firmware/core/sources.cmake "$REPO"/firmware/include/caekf/*.h \
+                 "$REPO"/host/common/scenario.[ch] "$REPO"/host/common/truth.[ch] "$REPO"/cmake/CaekfCodegen.cmake \
+                 "$REPO"/sim/src/caekf_sim/schema/settings.toml "$REPO"/sim/src/caekf_sim/schema/codegen.py 2>/dev/null \
+                 | sha256sum | cut -d' ' -f1; "$py" -V 2>&1; } | tr '\n' ' ')"
     if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
         log "venv: sim[dev] up to date"
         return 0

@@ -1,3 +1,12 @@
-"""caekf-sim: the Python side of the caekf project (see README.md)."""
+"""caekf-sim: the Python side of the caekf project (see README.md).
+
+The shipped C estimator, from Python (caekf_sim.binding): Estimator, run, settings_for.
+"""
+
+from .binding import BindingError, Estimator, Report, RunResult, SettingsError, run
+from .settings_adapter import Settings, default_settings, settings_for
 
 __version__ = "0.1.0"
+
+__all__ = ["BindingError", "Estimator", "Report", "RunResult", "Settings", "SettingsError", "default_settings",
+           "run", "settings_for"]

@@ -65,10 +65,10 @@ def parse_flat(text: str, source: str = "<text>") -> Dict[str, "tuple[int, str]"
     return out
 
 
-def _check(key: str, v: float, where: str) -> Any:
+def _check(key: str, v: float, where: str, text: str = "") -> Any:
     setting = next(s for k, s, _ in _KEYS if k == key)
     if not setting.check(v):
-        raise ScenarioError(f"{where}: {key} = {v:g}: {setting.rule_text()}")
+        raise ScenarioError(f"{where}: {key} = {text or format(v, 'g')}: {setting.rule_text()}")
     return int(v) if setting.type != "real" else float(v)
 
 
@@ -100,7 +100,7 @@ def scenario_from_text(text: str, source: str = "<text>") -> Any:
             v = math.nan
         if not math.isfinite(v):
             raise ScenarioError(f"{source}:{lineno}: {key} = {value}: not a finite number")
-        _check(key, v, f"{source}:{lineno}")
+        _check(key, v, f"{source}:{lineno}", value)
         values[key] = v
     return scenario_from_values(values, source)
 

@@ -1,0 +1,864 @@
+/*
+ * The C estimator (firmware/core) as a CPython extension module. Compiled twice by sim/CMakeLists.txt from
+ * this one file: caekf_sim._caekf_double (CAEKF_USE_FLOAT=0) and caekf_sim._caekf_float (CAEKF_USE_FLOAT=1).
+ * This is the low-level layer; caekf_sim.binding wraps it (numpy arrays, settings objects, documentation).
+ *
+ * Nothing here re-implements the estimator: settings are filled and checked by caekf_settings_default /
+ * caekf_settings_validate (by parameter id: the schema's), scenarios map to settings through
+ * host/common/scenario.c (the code caekf-replay runs), and the loop of `Estimator._run` calls caekf_step / caekf_predict and the accessors
+ * exactly as caekf-replay does. Only the numpy-free plumbing (dicts, buffers) lives in this file.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "caekf/caekf.h"
+#include "common/scenario.h"
+#if !CAEKF_USE_FLOAT
+#include "common/truth.h" /* the truth is double only: host/common/truth.c, as caekf-truth runs it */
+#endif
+
+#define CB_CAT2(a, b) a##b
+#define CB_CAT(a, b) CB_CAT2(a, b)
+#define CB_STR2(a) #a
+#define CB_STR(a) CB_STR2(a)
+#define CB_MODNAME CB_STR(CAEKF_BIND_MODULE)
+
+#ifndef CAEKF_BIND_SOURCE_HASH
+#define CAEKF_BIND_SOURCE_HASH "unknown"
+#endif
+
+/* ---- settings as values by parameter id --------------------------------------------------------------
+ * Settings travel as a sequence of CAEKF_PARAM_COUNT numbers indexed by CTRL_PARAM id (the settings schema's
+ * ids): caekf_settings_set / caekf_settings_get do the addressing, so no setting is named in this file. */
+
+static PyObject *settings_error(const caekf_setting_error_t *err, const caekf_settings_t *s)
+{
+    char text[200];
+    (void)caekf_setting_error_text(err, s, text, sizeof text);
+    PyErr_Format(PyExc_ValueError, "settings refused: %s", text); /* caekf-replay's message */
+    return NULL;
+}
+
+/* Defaults (caekf_settings_default), then every value of `seq`. Values are only converted here; checking
+ * their ranges is caekf_settings_validate's job. */
+static int settings_from_values(PyObject *seq_obj, caekf_settings_t *s)
+{
+    PyObject *seq = PySequence_Fast(seq_obj, "settings must be a sequence of numbers by parameter id");
+    Py_ssize_t i, n;
+    int rc = 0;
+    (void)caekf_settings_default(s);
+    if (seq == NULL) {
+        return -1;
+    }
+    n = PySequence_Fast_GET_SIZE(seq);
+    if (n != (Py_ssize_t)CAEKF_PARAM_COUNT) {
+        PyErr_Format(PyExc_ValueError, "settings need %u values (one per parameter id), got %zd",
+                     (unsigned)CAEKF_PARAM_COUNT, n);
+        Py_DECREF(seq);
+        return -1;
+    }
+    for (i = 0; i < n && rc == 0; ++i) {
+        caekf_setting_error_t err;
+        double v = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+        if (v == -1.0 && PyErr_Occurred()) {
+            PyErr_Format(PyExc_TypeError, "setting %s needs a number", caekf_param_key((unsigned)i));
+            rc = -1;
+        } else if (caekf_settings_set(s, (unsigned)i, v, &err) != CAEKF_OK) {
+            (void)settings_error(&err, s);
+            rc = -1;
+        }
+    }
+    Py_DECREF(seq);
+    return rc;
+}
+
+static PyObject *settings_to_values(const caekf_settings_t *s)
+{
+    PyObject *t = PyTuple_New((Py_ssize_t)CAEKF_PARAM_COUNT);
+    unsigned i;
+    for (i = 0; t != NULL && i < CAEKF_PARAM_COUNT; ++i) {
+        double v = 0.0;
+        PyObject *f;
+        (void)caekf_settings_get(s, i, &v);
+        f = PyFloat_FromDouble(v);
+        if (f == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, (Py_ssize_t)i, f);
+    }
+    return t;
+}
+
+/* ---- scenario (host/common/scenario.h, keys from the schema) ------------------------------------------ */
+
+/* The keys `dict` gives are set and marked given; the others keep the schema's default (an error when the
+ * key has none and `need_all`). */
+static int scenario_from_dict(PyObject *dict, caekf_scenario_t *sc, int need_all)
+{
+    unsigned i;
+    memset(sc, 0, sizeof *sc);
+    if (!PyDict_Check(dict)) {
+        PyErr_SetString(PyExc_TypeError, "scenario must be a dict of scenario keys");
+        return -1;
+    }
+    for (i = 0; i < CAEKF_SCENARIO_KEY_COUNT; ++i) {
+        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
+        PyObject *v = PyDict_GetItemString(dict, k->key);
+        double d = k->default_value;
+        if (v != NULL) {
+            d = PyFloat_AsDouble(v);
+            if (d == -1.0 && PyErr_Occurred()) {
+                PyErr_Format(PyExc_TypeError, "scenario key %s needs a number", k->key);
+                return -1;
+            }
+            sc->given[i] = 1;
+        } else if (k->required && need_all) {
+            PyErr_Format(PyExc_KeyError, "scenario lacks '%s'", k->key);
+            return -1;
+        }
+        *(double *)(void *)((char *)sc + k->offset) = d;
+    }
+    return 0;
+}
+
+/* ---- buffers ---------------------------------------------------------------------------------------- */
+
+/* A C-contiguous buffer of `n` items of format `fmt` (one struct character) and item size `size`, or None
+ * when `optional`. Returns 0 (view->buf NULL for None) or -1 with an exception. */
+static int get_buffer(PyObject *obj, Py_buffer *view, const char *what, char fmt, Py_ssize_t size, Py_ssize_t n,
+                      int writable, int optional)
+{
+    const char *f;
+    memset(view, 0, sizeof *view);
+    if (obj == Py_None && optional) {
+        return 0;
+    }
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) != 0) {
+        PyErr_Clear();
+        PyErr_Format(PyExc_TypeError, "%s must be a C-contiguous%s array", what, writable ? " writable" : "");
+        return -1;
+    }
+    f = view->format ? view->format : "B";
+    if (*f == '<' || *f == '=' || *f == '@') {
+        ++f;
+    }
+    if (view->itemsize != size || f[0] != fmt || f[1] != '\0' || view->len != n * size) {
+        PyErr_Format(PyExc_ValueError, "%s must hold %zd items of format '%c' (got %zd of '%s')", what, n, fmt,
+                     view->itemsize ? view->len / view->itemsize : 0, view->format ? view->format : "B");
+        PyBuffer_Release(view);
+        view->buf = NULL;
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- Report: the caller's tuple subclass (a NamedTuple), shared by both modules ------------------------ */
+
+static PyTypeObject *report_type = NULL;
+
+static PyObject *make_report(caekf_status_t st, const caekf_report_t *rep)
+{
+    PyObject *t;
+    if (report_type == NULL) {
+        t = PyTuple_New(5);
+    } else {
+        t = report_type->tp_alloc(report_type, 5);
+    }
+    if (t == NULL) {
+        return NULL;
+    }
+    PyTuple_SET_ITEM(t, 0, PyLong_FromUnsignedLong((unsigned long)rep->flags));
+    PyTuple_SET_ITEM(t, 1, PyFloat_FromDouble((double)rep->nis));
+    PyTuple_SET_ITEM(t, 2, PyLong_FromLong(rep->newton_iters));
+    PyTuple_SET_ITEM(t, 3, PyFloat_FromDouble((double)rep->delta));
+    PyTuple_SET_ITEM(t, 4, PyLong_FromLong((long)st));
+    if (PyTuple_GET_ITEM(t, 0) == NULL || PyTuple_GET_ITEM(t, 1) == NULL || PyTuple_GET_ITEM(t, 2) == NULL ||
+        PyTuple_GET_ITEM(t, 3) == NULL || PyTuple_GET_ITEM(t, 4) == NULL) {
+        Py_DECREF(t);
+        return NULL;
+    }
+    return t;
+}
+
+/* ---- Estimator ------------------------------------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    caekf_t est;
+    caekf_settings_t settings;
+    int ready;
+} EstObject;
+
+static int est_init(EstObject *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *values;
+    caekf_setting_error_t err;
+    static char *kwlist[] = {"settings", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O:Estimator", kwlist, &values)) {
+        return -1;
+    }
+    if (settings_from_values(values, &self->settings) != 0) {
+        return -1;
+    }
+    if (caekf_settings_validate(&self->settings, &err) != CAEKF_OK) {
+        (void)settings_error(&err, &self->settings);
+        return -1;
+    }
+    if (caekf_init(&self->est, &self->settings) != CAEKF_OK) {
+        PyErr_SetString(PyExc_ValueError, "estimator initialisation failed");
+        return -1;
+    }
+    self->ready = 1;
+    return 0;
+}
+
+static int check_ready(EstObject *self)
+{
+    if (!self->ready) {
+        PyErr_SetString(PyExc_RuntimeError, "estimator not initialised");
+        return -1;
+    }
+    return 0;
+}
+
+/* y as two numbers: a tuple or list, or any buffer of two doubles (a numpy row). */
+static int parse_y(PyObject *obj, double y[2])
+{
+    if ((PyTuple_CheckExact(obj) || PyList_CheckExact(obj)) && PySequence_Fast_GET_SIZE(obj) == 2) {
+        y[0] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(obj, 0));
+        y[1] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(obj, 1));
+        if ((y[0] == -1.0 || y[1] == -1.0) && PyErr_Occurred()) {
+            PyErr_SetString(PyExc_TypeError, "y must be two numbers [q1, q4] in metres");
+            return -1;
+        }
+        return 0;
+    }
+    if (PyObject_CheckBuffer(obj)) {
+        Py_buffer v;
+        if (PyObject_GetBuffer(obj, &v, PyBUF_FORMAT | PyBUF_STRIDES) == 0) {
+            const char *f = v.format ? v.format : "B";
+            if (*f == '<' || *f == '=' || *f == '@') {
+                ++f;
+            }
+            if (v.ndim == 1 && v.shape[0] == 2 && f[0] == 'd' && f[1] == '\0') {
+                y[0] = *(const double *)v.buf;
+                y[1] = *(const double *)(const void *)((const char *)v.buf + v.strides[0]);
+                PyBuffer_Release(&v);
+                return 0;
+            }
+            PyBuffer_Release(&v);
+        } else {
+            PyErr_Clear();
+        }
+    }
+    {
+        PyObject *seq = PySequence_Fast(obj, "");
+        if (seq != NULL && PySequence_Fast_GET_SIZE(seq) == 2) {
+            y[0] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, 0));
+            y[1] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, 1));
+            Py_DECREF(seq);
+            if (!((y[0] == -1.0 || y[1] == -1.0) && PyErr_Occurred())) {
+                return 0;
+            }
+        } else {
+            Py_XDECREF(seq);
+        }
+    }
+    PyErr_Clear();
+    PyErr_SetString(PyExc_TypeError, "y must be two numbers [q1, q4] in metres");
+    return -1;
+}
+
+static PyObject *est_step(EstObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double u, yd[2];
+    caekf_scalar_t y[CAEKF_NY];
+    caekf_report_t rep;
+    caekf_status_t st;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "step(u, y) takes the input force u [N] and y = [q1, q4] [m]");
+        return NULL;
+    }
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    u = PyFloat_AsDouble(args[0]);
+    if (u == -1.0 && PyErr_Occurred()) {
+        PyErr_SetString(PyExc_TypeError, "u must be a number (force on body 1, N)");
+        return NULL;
+    }
+    if (parse_y(args[1], yd) != 0) {
+        return NULL;
+    }
+    y[0] = (caekf_scalar_t)yd[0];
+    y[1] = (caekf_scalar_t)yd[1];
+    st = caekf_step(&self->est, (caekf_scalar_t)u, y, &rep);
+    return make_report(st, &rep);
+}
+
+static PyObject *est_predict(EstObject *self, PyObject *arg)
+{
+    double u;
+    caekf_report_t rep;
+    caekf_status_t st;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    u = PyFloat_AsDouble(arg);
+    if (u == -1.0 && PyErr_Occurred()) {
+        PyErr_SetString(PyExc_TypeError, "u must be a number (force on body 1, N)");
+        return NULL;
+    }
+    st = caekf_predict(&self->est, (caekf_scalar_t)u, &rep);
+    return make_report(st, &rep);
+}
+
+static PyObject *est_state_into(EstObject *self, PyObject *arg)
+{
+    Py_buffer v;
+    caekf_scalar_t x[CAEKF_N];
+    int i;
+    if (check_ready(self) != 0 || get_buffer(arg, &v, "out", 'd', sizeof(double), CAEKF_N, 1, 0) != 0) {
+        return NULL;
+    }
+    (void)caekf_get_state(&self->est, x);
+    for (i = 0; i < CAEKF_N; ++i) {
+        ((double *)v.buf)[i] = (double)x[i];
+    }
+    PyBuffer_Release(&v);
+    Py_RETURN_NONE;
+}
+
+static PyObject *est_cov_into(EstObject *self, PyObject *arg)
+{
+    Py_buffer v;
+    caekf_scalar_t P[CAEKF_N][CAEKF_N];
+    int i, j;
+    if (check_ready(self) != 0 ||
+        get_buffer(arg, &v, "out", 'd', sizeof(double), CAEKF_N * CAEKF_N, 1, 0) != 0) {
+        return NULL;
+    }
+    (void)caekf_get_covariance(&self->est, P);
+    for (i = 0; i < CAEKF_N; ++i) {
+        for (j = 0; j < CAEKF_N; ++j) {
+            ((double *)v.buf)[i * CAEKF_N + j] = (double)P[i][j];
+        }
+    }
+    PyBuffer_Release(&v);
+    Py_RETURN_NONE;
+}
+
+static PyObject *est_gamma(EstObject *self, void *closure)
+{
+    caekf_scalar_t g = 0;
+    (void)closure;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    (void)caekf_get_gamma(&self->est, &g);
+    return PyFloat_FromDouble((double)g);
+}
+
+static PyObject *est_p_norm(EstObject *self, PyObject *unused)
+{
+    caekf_scalar_t n = 0;
+    (void)unused;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    (void)caekf_get_cov_norm2(&self->est, &n);
+    return PyFloat_FromDouble((double)n);
+}
+
+static PyObject *est_step_count(EstObject *self, void *closure)
+{
+    (void)closure;
+    return PyLong_FromUnsignedLong((unsigned long)self->est.step_count);
+}
+
+static PyObject *est_last_flags(EstObject *self, void *closure)
+{
+    (void)closure;
+    return PyLong_FromUnsignedLong((unsigned long)self->est.last_flags);
+}
+
+static PyObject *est_settings(EstObject *self, PyObject *unused)
+{
+    (void)unused;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    return settings_to_values(&self->settings);
+}
+
+static PyObject *est_reset(EstObject *self, PyObject *unused)
+{
+    (void)unused;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    if (caekf_init(&self->est, &self->settings) != CAEKF_OK) {
+        PyErr_SetString(PyExc_RuntimeError, "caekf_init refused settings it accepted before");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+/* The whole instance as bytes (caekf_t holds no pointers): pickling and copies within one build. */
+static PyObject *est_get_raw(EstObject *self, PyObject *unused)
+{
+    (void)unused;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    return PyBytes_FromStringAndSize((const char *)&self->est, (Py_ssize_t)sizeof self->est);
+}
+
+static PyObject *est_set_raw(EstObject *self, PyObject *arg)
+{
+    char *buf;
+    Py_ssize_t len;
+    if (check_ready(self) != 0 || PyBytes_AsStringAndSize(arg, &buf, &len) != 0) {
+        return NULL;
+    }
+    if (len != (Py_ssize_t)sizeof self->est) {
+        PyErr_SetString(PyExc_ValueError, "estimator state from another build of caekf");
+        return NULL;
+    }
+    memcpy(&self->est, buf, sizeof self->est);
+    Py_RETURN_NONE;
+}
+
+/* _run(u, y, has_y, x, p_diag, flags, newton_iters, nis, delta, status, p_norm, log_det_s)
+ *
+ * The replay loop of caekf-replay over n steps, from this estimator's current state, without the GIL.
+ * u: n doubles [N]; y: 2n doubles (q1, q4 per step) [m]; has_y: n bytes (0: caekf_predict) or None.
+ * Outputs (None to skip): x n*9 doubles, p_diag n*9 doubles (diagonal of P in physical units), flags n
+ * uint32, newton_iters n int32, nis n doubles, delta n doubles [m], status n int8, p_norm n doubles (2-norm
+ * of P, the costly Jacobi sweeps), log_det_s n doubles (log det of the innovation covariance, see below). */
+static PyObject *est_run(EstObject *self, PyObject *args)
+{
+    PyObject *o[12];
+    Py_buffer b[12];
+    Py_ssize_t n, k;
+    int i, ok = 1;
+    static const char *const names[12] = {"u", "y", "has_y", "x", "p_diag", "flags", "newton_iters", "nis",
+                                          "delta", "status", "p_norm", "log_det_s"};
+    static const char fmts[12] = {'d', 'd', '?', 'd', 'd', 'I', 'i', 'd', 'd', 'b', 'd', 'd'};
+    static const Py_ssize_t sizes[12] = {8, 8, 1, 8, 8, 4, 4, 8, 8, 1, 8, 8};
+    static const int per_step[12] = {1, CAEKF_NY, 1, CAEKF_N, CAEKF_N, 1, 1, 1, 1, 1, 1, 1};
+    const double *u, *y;
+    const unsigned char *has_y;
+    double *x, *pdiag, *nis, *delta, *pnorm, *logdet;
+    uint32_t *flags;
+    int32_t *iters;
+    signed char *status;
+    double r;
+
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOO:_run", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11])) {
+        return NULL;
+    }
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    memset(b, 0, sizeof b);
+    {
+        Py_buffer probe;
+        if (PyObject_GetBuffer(o[0], &probe, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) != 0) {
+            PyErr_Clear();
+            PyErr_SetString(PyExc_TypeError, "u must be a C-contiguous float64 array");
+            return NULL;
+        }
+        n = probe.itemsize > 0 ? probe.len / probe.itemsize : 0;
+        PyBuffer_Release(&probe);
+    }
+    for (i = 0; i < 12; ++i) {
+        if (get_buffer(o[i], &b[i], names[i], fmts[i], sizes[i], n * per_step[i], i >= 3, i >= 2) != 0) {
+            ok = 0;
+            break;
+        }
+    }
+    if (!ok) {
+        for (i = 0; i < 12; ++i) {
+            if (b[i].buf != NULL || b[i].obj != NULL) {
+                PyBuffer_Release(&b[i]);
+            }
+        }
+        return NULL;
+    }
+    u = (const double *)b[0].buf;
+    y = (const double *)b[1].buf;
+    has_y = (const unsigned char *)b[2].buf;
+    x = (double *)b[3].buf;
+    pdiag = (double *)b[4].buf;
+    flags = (uint32_t *)b[5].buf;
+    iters = (int32_t *)b[6].buf;
+    nis = (double *)b[7].buf;
+    delta = (double *)b[8].buf;
+    status = (signed char *)b[9].buf;
+    pnorm = (double *)b[10].buf;
+    logdet = (double *)b[11].buf;
+    r = (double)self->settings.sigma_r * (double)self->settings.sigma_r;
+
+    Py_BEGIN_ALLOW_THREADS
+    for (k = 0; k < n; ++k) {
+        caekf_report_t rep;
+        caekf_status_t st;
+        caekf_scalar_t xs[CAEKF_N];
+        int with_y = has_y == NULL || has_y[k] != 0;
+        if (with_y) {
+            caekf_scalar_t ys[CAEKF_NY];
+            ys[0] = (caekf_scalar_t)y[2 * k];
+            ys[1] = (caekf_scalar_t)y[2 * k + 1];
+            st = caekf_step(&self->est, (caekf_scalar_t)u[k], ys, &rep);
+        } else {
+            st = caekf_predict(&self->est, (caekf_scalar_t)u[k], &rep);
+        }
+        if (x != NULL) {
+            (void)caekf_get_state(&self->est, xs);
+            for (i = 0; i < CAEKF_N; ++i) {
+                x[k * CAEKF_N + i] = (double)xs[i];
+            }
+        }
+        if (pdiag != NULL) {
+            /* The diagonal of caekf_get_covariance, the same expression (so the same bits), without the
+             * 72 off-diagonal products the loop does not keep. */
+            for (i = 0; i < CAEKF_N; ++i) {
+                pdiag[k * CAEKF_N + i] =
+                    (double)(self->est.P[i][i] * self->est.scale[i] * self->est.scale[i]);
+            }
+        }
+        if (logdet != NULL) {
+            caekf_scalar_t P[CAEKF_N][CAEKF_N];
+            (void)caekf_get_covariance(&self->est, P);
+            {
+                /* The innovation covariance S = H P- H' + R of this step's correction, from the posterior:
+                 * with R = r I and B = H P+ H' (q1, q4 block), B = A - A S^-1 A = A S^-1 R for A = H P- H',
+                 * hence S = r^2 (r I - B)^-1 and log det S = 4 log r - log det(r I - B). Exact for the
+                 * standard and Joseph corrections and the switched filter's consider update (gain rows of
+                 * q are optimal); not for steps whose constraint or covariance repair changed P afterwards
+                 * (flags CONSTRAINT_APPLIED, COV_REPAIRED) nor steps without correction: NaN there. */
+                uint32_t skip = CAEKF_FLAG_NO_MEASUREMENT | CAEKF_FLAG_INPUT_REJECTED | CAEKF_FLAG_NUMERIC_ROLLBACK |
+                                CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED;
+                double a = r - (double)P[0][0], d = r - (double)P[3][3], c = (double)P[0][3];
+                double det = a * d - c * c;
+                logdet[k] = (st != CAEKF_OK || (rep.flags & skip) || !(det > 0)) ? (double)NAN
+                                                                                : 4.0 * log(r) - log(det);
+            }
+        }
+        if (pnorm != NULL) {
+            caekf_scalar_t pn = 0;
+            (void)caekf_get_cov_norm2(&self->est, &pn);
+            pnorm[k] = (double)pn;
+        }
+        if (flags != NULL) flags[k] = rep.flags;
+        if (iters != NULL) iters[k] = rep.newton_iters;
+        if (nis != NULL) nis[k] = (double)rep.nis;
+        if (delta != NULL) delta[k] = (double)rep.delta;
+        if (status != NULL) status[k] = (signed char)st;
+    }
+    Py_END_ALLOW_THREADS
+
+    for (i = 0; i < 12; ++i) {
+        if (b[i].obj != NULL) {
+            PyBuffer_Release(&b[i]);
+        }
+    }
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef est_methods[] = {
+    {"step", (PyCFunction)(void (*)(void))est_step, METH_FASTCALL,
+     "step(u, y) -> Report: caekf_step with input force u [N] and y = [q1, q4] [m]."},
+    {"predict", (PyCFunction)est_predict, METH_O,
+     "predict(u) -> Report: caekf_predict, a time update without measurement (u in N)."},
+    {"p_norm", (PyCFunction)est_p_norm, METH_NOARGS, "2-norm of P in physical units (caekf_get_cov_norm2)."},
+    {"_state_into", (PyCFunction)est_state_into, METH_O, NULL},
+    {"_cov_into", (PyCFunction)est_cov_into, METH_O, NULL},
+    {"_settings", (PyCFunction)est_settings, METH_NOARGS, NULL},
+    {"reset", (PyCFunction)est_reset, METH_NOARGS, "Back to the initial estimate (caekf_init, same settings)."},
+    {"_get_raw", (PyCFunction)est_get_raw, METH_NOARGS, NULL},
+    {"_set_raw", (PyCFunction)est_set_raw, METH_O, NULL},
+    {"_run", (PyCFunction)est_run, METH_VARARGS, NULL},
+    {NULL, NULL, 0, NULL}};
+
+static PyGetSetDef est_getset[] = {
+    {"gamma", (getter)est_gamma, NULL, "Contact stiffness estimate gamma [N/m^1.5].", NULL},
+    {"step_count", (getter)est_step_count, NULL, "Steps and predictions done since init.", NULL},
+    {"last_flags", (getter)est_last_flags, NULL, "Flags of the last step (CAEKF_FLAG_* bits).", NULL},
+    {NULL, NULL, NULL, NULL, NULL}};
+
+static PyTypeObject EstType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = CB_MODNAME ".Estimator",
+    .tp_basicsize = sizeof(EstObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE,
+    .tp_doc = "Low-level caekf_t instance; use caekf_sim.Estimator.",
+    .tp_methods = est_methods,
+    .tp_getset = est_getset,
+    .tp_init = (initproc)est_init,
+    .tp_new = PyType_GenericNew,
+};
+
+/* ---- module functions ------------------------------------------------------------------------------ */
+
+static PyObject *mod_settings_default(PyObject *m, PyObject *unused)
+{
+    caekf_settings_t s;
+    (void)m;
+    (void)unused;
+    (void)caekf_settings_default(&s);
+    return settings_to_values(&s);
+}
+
+/* None, or (param_id, text) of the first refused element. */
+static PyObject *mod_settings_validate(PyObject *m, PyObject *values)
+{
+    caekf_settings_t s;
+    caekf_setting_error_t err;
+    char text[200];
+    (void)m;
+    if (settings_from_values(values, &s) != 0) {
+        return NULL;
+    }
+    if (caekf_settings_validate(&s, &err) == CAEKF_OK) {
+        Py_RETURN_NONE;
+    }
+    (void)caekf_setting_error_text(&err, &s, text, sizeof text);
+    return Py_BuildValue("(is)", (int)err.param_id, text);
+}
+
+/* scenario_settings(dict, preset or None) -> values: caekf_scenario_settings (host/common/scenario.c), the
+ * rule caekf-replay runs: this build's defaults, the scenario's keys, the preset's values, validated. */
+static PyObject *mod_scenario_settings(PyObject *m, PyObject *args)
+{
+    PyObject *dict;
+    const char *name = NULL;
+    const caekf_preset_t *preset = NULL;
+    caekf_scenario_t sc;
+    caekf_settings_t s;
+    char err[300];
+    (void)m;
+    if (!PyArg_ParseTuple(args, "Oz:scenario_settings", &dict, &name)) {
+        return NULL;
+    }
+    if (name != NULL && (preset = caekf_preset_find(name)) == NULL) {
+        PyErr_Format(PyExc_ValueError, "unknown experiment '%s'", name);
+        return NULL;
+    }
+    if (scenario_from_dict(dict, &sc, 0) != 0) {
+        return NULL;
+    }
+    if (caekf_scenario_settings(&sc, preset, &s, "scenario", err, sizeof err) != 0) {
+        PyErr_SetString(PyExc_ValueError, err);
+        return NULL;
+    }
+    return settings_to_values(&s);
+}
+
+static PyObject *mod_preset_names(PyObject *m, PyObject *unused)
+{
+    PyObject *t = PyTuple_New(CAEKF_PRESET_COUNT);
+    unsigned i;
+    (void)m;
+    (void)unused;
+    for (i = 0; t != NULL && i < CAEKF_PRESET_COUNT; ++i) {
+        PyTuple_SET_ITEM(t, i, PyUnicode_FromString(caekf_presets[i].name));
+    }
+    return t;
+}
+
+static PyObject *mod_status_str(PyObject *m, PyObject *arg)
+{
+    long v = PyLong_AsLong(arg);
+    (void)m;
+    if (v == -1 && PyErr_Occurred()) {
+        return NULL;
+    }
+    return PyUnicode_FromString(caekf_status_str((caekf_status_t)v));
+}
+
+static PyObject *mod_flag_name(PyObject *m, PyObject *arg)
+{
+    long v = PyLong_AsLong(arg);
+    (void)m;
+    if (v == -1 && PyErr_Occurred()) {
+        return NULL;
+    }
+    return PyUnicode_FromString(caekf_flag_name((unsigned)v));
+}
+
+static PyObject *mod_set_report_type(PyObject *m, PyObject *arg)
+{
+    (void)m;
+    if (!PyType_Check(arg) || !PyType_IsSubtype((PyTypeObject *)arg, &PyTuple_Type)) {
+        PyErr_SetString(PyExc_TypeError, "report type must be a tuple subclass");
+        return NULL;
+    }
+    Py_INCREF(arg);
+    Py_XDECREF((PyObject *)report_type);
+    report_type = (PyTypeObject *)arg;
+    Py_RETURN_NONE;
+}
+
+
+#if !CAEKF_USE_FLOAT
+/* ---- truth (double module only) -------------------------------------------------------------------- */
+
+typedef struct {
+    double *t, *u, *y, *q, *v, *delta;
+    int32_t *iters, *failed;
+    long n, k;
+} truth_ctx_t;
+
+static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
+{
+    truth_ctx_t *c = (truth_ctx_t *)vctx;
+    long k = c->k;
+    int i;
+    if (k >= c->n) {
+        return -1;
+    }
+    c->t[k] = s->t;
+    c->u[k] = s->u;
+    c->y[2 * k] = s->y1;
+    c->y[2 * k + 1] = s->y4;
+    for (i = 0; i < 4; ++i) {
+        c->q[4 * k + i] = s->q[i];
+        c->v[4 * k + i] = s->v[i];
+    }
+    c->delta[k] = s->delta;
+    c->iters[k] = s->newton_iters;
+    c->failed[k] = s->newton_failed;
+    c->k = k + 1;
+    return 0;
+}
+
+/* truth(scenario, t, u, y, q, v, delta, newton_iters, newton_failed) -> None: caekf_truth_run into the
+ * arrays (n = round(t_end / dt) rows; y n*2, q and v n*4 doubles, the counts int32), without the GIL. */
+static PyObject *mod_truth(PyObject *m, PyObject *args)
+{
+    PyObject *o[9];
+    Py_buffer b[8];
+    static const char *const names[8] = {"t", "u", "y", "q", "v", "delta", "newton_iters", "newton_failed"};
+    static const char fmts[8] = {'d', 'd', 'd', 'd', 'd', 'd', 'i', 'i'};
+    static const Py_ssize_t sizes[8] = {8, 8, 8, 8, 8, 8, 4, 4};
+    static const int per[8] = {1, 1, 2, 4, 4, 1, 1, 1};
+    caekf_scenario_t sc;
+    truth_ctx_t ctx;
+    long n;
+    int i, rc, ok = 1;
+    (void)m;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOO:truth", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8])) {
+        return NULL;
+    }
+    if (scenario_from_dict(o[0], &sc, 1) != 0) {
+        return NULL;
+    }
+    if (!(sc.dt > 0) || !(sc.t_end > 0) || !(sc.truth_substeps >= 1)) {
+        PyErr_SetString(PyExc_ValueError, "truth needs dt > 0, t_end > 0, truth_substeps >= 1");
+        return NULL;
+    }
+    n = caekf_scenario_steps(&sc);
+    memset(b, 0, sizeof b);
+    for (i = 0; i < 8; ++i) {
+        if (get_buffer(o[i + 1], &b[i], names[i], fmts[i], sizes[i], (Py_ssize_t)n * per[i], 1, 0) != 0) {
+            ok = 0;
+            break;
+        }
+    }
+    if (!ok) {
+        for (i = 0; i < 8; ++i) {
+            if (b[i].obj != NULL) {
+                PyBuffer_Release(&b[i]);
+            }
+        }
+        return NULL;
+    }
+    ctx.t = (double *)b[0].buf;
+    ctx.u = (double *)b[1].buf;
+    ctx.y = (double *)b[2].buf;
+    ctx.q = (double *)b[3].buf;
+    ctx.v = (double *)b[4].buf;
+    ctx.delta = (double *)b[5].buf;
+    ctx.iters = (int32_t *)b[6].buf;
+    ctx.failed = (int32_t *)b[7].buf;
+    ctx.n = n;
+    ctx.k = 0;
+    Py_BEGIN_ALLOW_THREADS
+    rc = caekf_truth_run(&sc, truth_emit, &ctx);
+    Py_END_ALLOW_THREADS
+    for (i = 0; i < 8; ++i) {
+        PyBuffer_Release(&b[i]);
+    }
+    if (rc != 0 || ctx.k != n) {
+        PyErr_SetString(PyExc_ValueError, "truth refused the scenario's plant (caekf_model_init)");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+#endif
+
+static PyMethodDef mod_methods[] = {
+    {"settings_default", mod_settings_default, METH_NOARGS, "caekf_settings_default as values by parameter id."},
+    {"settings_validate", mod_settings_validate, METH_O,
+     "caekf_settings_validate: None, or (param_id, text) of the first element it refuses."},
+    {"scenario_settings", mod_scenario_settings, METH_VARARGS,
+     "caekf_scenario_settings (host/common/scenario.c): scenario dict + preset name or None -> values."},
+    {"preset_names", mod_preset_names, METH_NOARGS, "The presets of the settings schema."},
+    {"status_str", mod_status_str, METH_O, "caekf_status_str."},
+    {"flag_name", mod_flag_name, METH_O, "caekf_flag_name (bit index)."},
+    {"_set_report_type", mod_set_report_type, METH_O, NULL},
+#if !CAEKF_USE_FLOAT
+    {"truth", mod_truth, METH_VARARGS, "caekf_truth_run (host/common/truth.c) into preallocated arrays."},
+#endif
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, CB_MODNAME,
+                                    "caekf C estimator (" CAEKF_SCALAR_NAME "), see caekf_sim.binding.", -1,
+                                    mod_methods, NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC CB_CAT(PyInit_, CAEKF_BIND_MODULE)(void);
+PyMODINIT_FUNC CB_CAT(PyInit_, CAEKF_BIND_MODULE)(void)
+{
+    PyObject *m;
+    unsigned b;
+    if (PyType_Ready(&EstType) < 0) {
+        return NULL;
+    }
+    m = PyModule_Create(&moddef);
+    if (m == NULL) {
+        return NULL;
+    }
+    Py_INCREF(&EstType);
+    if (PyModule_AddObject(m, "Estimator", (PyObject *)&EstType) < 0) {
+        Py_DECREF(&EstType);
+        Py_DECREF(m);
+        return NULL;
+    }
+    PyModule_AddStringConstant(m, "SCALAR", CAEKF_SCALAR_NAME);
+    PyModule_AddStringConstant(m, "SOURCE_HASH", CAEKF_BIND_SOURCE_HASH);
+    PyModule_AddIntConstant(m, "N", CAEKF_N);
+    PyModule_AddIntConstant(m, "PARAM_COUNT", (long)CAEKF_PARAM_COUNT);
+    PyModule_AddIntConstant(m, "NY", CAEKF_NY);
+    PyModule_AddIntConstant(m, "FLAG_COUNT", CAEKF_FLAG_COUNT);
+    PyModule_AddIntConstant(m, "NEWTON_MAX_ITER", CAEKF_NEWTON_MAX_ITER);
+    PyModule_AddObject(m, "EPS", PyFloat_FromDouble((double)CAEKF_EPS));
+    for (b = 0; b < CAEKF_FLAG_COUNT; ++b) {
+        char name[64], *c;
+        PyOS_snprintf(name, sizeof name, "FLAG_%s", caekf_flag_name(b));
+        for (c = name; *c != '\0'; ++c) {
+            if (*c >= 'a' && *c <= 'z') {
+                *c = (char)(*c - 'a' + 'A');
+            }
+        }
+        PyModule_AddIntConstant(m, name, (long)(1u << b));
+    }
+    return m;
+}

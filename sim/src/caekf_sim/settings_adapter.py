@@ -1,0 +1,133 @@
+"""Estimator settings for the C binding, by the settings schema.
+
+A :class:`Settings` holds one value per CTRL_PARAM parameter id (the schema's ids; the C module sets them
+with caekf_settings_set), read and changed by the scenario keys (``s.sigma_r``, ``s.m3``,
+``s.replace(mode="canonical")``). No setting is listed here: the names, enum values and defaults are the
+schema's (caekf_sim.schema), and a scenario maps to settings through the C function caekf-replay runs
+(caekf_scenario_settings, host/common/scenario.c). TUNABLE_NOISE names the noise settings
+`caekf-sim tune` may change.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Dict, Mapping, Optional, Tuple
+
+from . import schema
+from .scenario import Scenario
+
+PRECISIONS = ("double", "float")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """caekf_settings_t of one precision as values by parameter id (SI units, enums as their numbers).
+
+    Read a value by its scenario key (``s.gamma0``, ``s.m2``); :meth:`as_dict` gives them all. Build one
+    with :func:`settings_for` (a scenario and an optional preset) or :func:`default_settings`.
+    ``precision`` records the build the values were made for (``newton_rtol`` defaults to 256 machine
+    epsilons of that scalar type).
+    """
+
+    values: Tuple[float, ...]
+    precision: str = "double"
+
+    def __getattr__(self, key: str) -> float:
+        ids = schema.param_ids()
+        if key in ids:
+            return self.values[ids[key]]
+        raise AttributeError(f"no setting {key!r}")
+
+    def as_dict(self) -> Dict[str, float]:
+        """Every setting by its scenario key."""
+        return {k: self.values[i] for k, i in schema.param_ids().items()}
+
+    def replace(self, **changes: Any) -> "Settings":
+        """Copy with some settings changed, by scenario key; enums by name or number. Unknown keys are a
+        one-line error; ranges are the C validation's business (at Estimator construction)."""
+        ids = schema.param_ids()
+        values = list(self.values)
+        for key, v in changes.items():
+            if key not in ids:
+                raise ValueError(f"unknown setting {key!r}")
+            setting = next(s for k, s, _ in schema.SCHEMA.keys() if k == key)
+            if isinstance(v, str):
+                if v not in setting.values:
+                    raise ValueError(f"{key} = {v!r}: {setting.rule_text()}")
+                v = setting.values.index(v)
+            values[ids[key]] = float(v)
+        return Settings(tuple(values), self.precision)
+
+    def to_c(self) -> Tuple[float, ...]:
+        """The values the C module reads (one per parameter id)."""
+        return self.values
+
+
+def field_names() -> Tuple[str, ...]:
+    """The settings' scenario keys, in parameter-id order."""
+    return tuple(schema.param_ids())
+
+
+def check_precision(precision: str) -> str:
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision must be 'double' or 'float', got {precision!r}")
+    return precision
+
+
+def scenario_dict(sc: Scenario) -> Dict[str, float]:
+    """The scenario as the C struct caekf_scenario_t holds it (all doubles)."""
+    return {k: float(v) for k, v in sc.values().items()}
+
+
+def settings_for(sc: Scenario, experiment: Optional[str] = None, precision: str = "double",
+                 **overrides: Any) -> Settings:
+    """Settings of scenario `sc` with a preset (the paper's canonical, switched, switched-highq,
+    switched-highq-constrained; None: the schema's defaults, the recommended estimator), as caekf-replay
+    builds them: the C function caekf_scenario_settings of the `precision` build, through the binding.
+    `overrides` then change single settings (e.g. gamma_gate_nis=0)."""
+    from .binding import _module  # the binding imports this module: import here, not at the top
+
+    c = _module(check_precision(precision))
+    # The keys a file would give: a default relative to the build's epsilon stays the build's own.
+    given = dict(schema.wire_values(sc.values()))
+    given.update({k: v for k, v in sc.values().items() if k not in schema.param_ids()})
+    s = Settings(tuple(c.scenario_settings(given, experiment)), precision)
+    return s.replace(**overrides) if overrides else s
+
+
+def default_settings(precision: str = "double", **values: Any) -> Settings:
+    """caekf_settings_default of the `precision` build (zero model: fill it through `values`)."""
+    from .binding import _module
+
+    s = Settings(tuple(_module(check_precision(precision)).settings_default()), precision)
+    return s.replace(**values) if values else s
+
+
+# --- noise tuning (caekf-sim tune) ------------------------------------------------------------------
+
+# The noise standard deviations tune may change: the same names in Settings and in the scenario file.
+TUNABLE_NOISE: Tuple[str, ...] = ("sigma_qx_q", "sigma_qx_v", "sigma_q_gamma", "sigma_r")
+
+
+def noise_of(sc: Scenario) -> Dict[str, float]:
+    return {n: float(getattr(sc, n)) for n in TUNABLE_NOISE}
+
+
+def scenario_with_noise(sc: Scenario, noise: Mapping[str, float]) -> Scenario:
+    """The scenario with some of TUNABLE_NOISE replaced (what `tune` writes)."""
+    bad = sorted(set(noise) - set(TUNABLE_NOISE))
+    if bad:
+        raise ValueError(f"not a tunable noise setting: {', '.join(bad)}")
+    return sc.replace(**{k: float(v) for k, v in noise.items()})
+
+
+def scenario_toml(sc: Scenario, header: str = "") -> str:
+    """The scenario as a flat `key = value` file, the format of sim/scenarios/paper.toml that the C
+    reader (host/common/scenario.c) and the bench load as they are. Values keep every bit (repr); a
+    default relative to the build's epsilon is left to the build."""
+    lines = [f"# {line}" if line else "#" for line in header.splitlines()]
+    wire = dict(schema.wire_values(sc.values()))
+    for k, v in sc.values().items():
+        if k in schema.param_ids() and k not in wire:
+            continue
+        lines.append(f"{k} = {int(v) if isinstance(v, int) else repr(float(v))}")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,278 @@
+"""Noise tuning from data: the Q_x, Q_gamma and R that make the C estimator's innovations consistent.
+
+Method: maximum likelihood of the innovation sequence (innovation-based estimation). For a filter whose
+noise settings are right, the innovations nu_k are zero-mean Gaussian with covariance S_k, so the
+settings that minimise
+
+    J = sum_k [ log det S_k + nu_k' S_k^-1 nu_k ] = sum_k [ log det S_k + NIS_k ]
+
+over the recorded runs are the maximum-likelihood ones. The C estimator reports NIS_k; log det S_k comes
+from the binding's run (`log_det_s=True`, derived from the posterior covariance, see _caekf.c). The search
+is Nelder-Mead over log10 of the chosen standard deviations (scipy.optimize), each evaluation one
+`caekf_sim.run` per record (the whole loop in C).
+
+Consistency is reported as the NIS statistics of a 2-dof chi-square: the mean NIS (2 for a consistent
+filter; its 95 % band for N steps is chi2(2N)/N) and the fraction of steps whose NIS lies in the
+per-step 95 % band [chi2.ppf(0.025, 2), chi2.ppf(0.975, 2)] (0.95 for a consistent filter).
+
+Records: t,u,y1,y4 CSVs (extra columns ignored, empty y1 and y4 = lost measurement, bridged by
+caekf_predict), and candump -L logs of the CAN bench (BENCH_U / BENCH_Y1 / BENCH_Y4 frames, one record
+per configuration, i.e. from each CTRL_RESET on).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import flags as fl
+from .binding import run
+from .scenario import Scenario
+from .settings_adapter import TUNABLE_NOISE, noise_of, scenario_with_noise, settings_for
+
+PathLike = Union[str, Path]
+NIS_DOF = 2
+
+
+@dataclass
+class Record:
+    """One recorded run: inputs [N] and measurements [m] per sample; NaN y rows are lost measurements."""
+
+    name: str
+    t: np.ndarray
+    u: np.ndarray
+    y: np.ndarray  # (n, 2)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+def read_record_csv(path: PathLike) -> Record:
+    """A t,u,y1,y4 CSV (header names the columns; extra ones ignored; empty fields are NaN)."""
+    path = Path(path)
+    with open(path, encoding="utf-8") as f:
+        header = [c.strip() for c in f.readline().split(",")]
+    missing = [c for c in ("t", "u", "y1", "y4") if c not in header]
+    if missing:
+        raise ValueError(f"{path}: no column(s) {', '.join(missing)} in the header")
+    cols = [header.index(c) for c in ("t", "u", "y1", "y4")]
+    data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=cols, ndmin=2, filling_values=np.nan)
+    if data.size == 0:
+        raise ValueError(f"{path}: no rows")
+    return Record(path.name, data[:, 0], data[:, 1], np.ascontiguousarray(data[:, 2:4]))
+
+
+def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = None) -> List[Record]:
+    """Records of a candump -L log of the bench: what the bench sent per STEP (u, y1, y4).
+
+    One record per configuration (a CTRL_RESET the bench sent starts the next). Frames with a bad E2E CRC
+    are dropped; a step without both y frames is a lost measurement (NaN), a step without u holds the last
+    u (as the firmware does). t = step * dt, the step counter unwrapped from its 16 bits.
+    """
+    from .bench.buslog import read_log
+    from .bench.codec import Codec
+    from .bench.e2e import crc_ok
+
+    codec = Codec(dbc) if dbc else Codec()
+    frames = read_log(path, codec.from_estimator_ids)
+    ids = {codec.messages[n].frame_id: n for n in ("BENCH_U", "BENCH_Y1", "BENCH_Y4", "CTRL_RESET")}
+    data_id = {fid: codec.messages[n].data_id for fid, n in ids.items()}
+    segments: List[List[Tuple[str, bytes]]] = [[]]
+    for f in frames:
+        if not f.sent_by_bench or f.frame_id not in ids or not crc_ok(data_id[f.frame_id], f.data):
+            continue
+        name = ids[f.frame_id]
+        if name == "CTRL_RESET":
+            if segments[-1]:
+                segments.append([])
+            continue
+        segments[-1].append((name, f.data))
+    out: List[Record] = []
+    for i, seg in enumerate(s for s in segments if s):
+        steps: Dict[int, Dict[str, float]] = {}
+        last, base = None, 0
+        for name, data in seg:
+            vals = codec.unpack(name, np.frombuffer(data, dtype=np.uint8))
+            wire = int(vals["STEP"][0])
+            if last is None:
+                base = wire
+            else:  # unwrap the 16-bit counter (steps move by less than half its range)
+                base += (wire - last + 0x8000) % 0x10000 - 0x8000
+            last = wire
+            sig = {"BENCH_U": "U", "BENCH_Y1": "Y1", "BENCH_Y4": "Y4"}[name]
+            steps.setdefault(base, {})[sig] = float(vals[sig][0])
+        ks = np.array(sorted(steps))
+        k0 = ks[0]
+        n = int(ks[-1] - k0 + 1)
+        u = np.full(n, np.nan)
+        y = np.full((n, 2), np.nan)
+        for k, v in steps.items():
+            j = k - k0
+            u[j] = v.get("U", np.nan)
+            if "Y1" in v and "Y4" in v:
+                y[j] = (v["Y1"], v["Y4"])
+        # hold the last known u over steps whose BENCH_U was lost
+        idx = np.where(np.isfinite(u), np.arange(n), 0)
+        np.maximum.accumulate(idx, out=idx)
+        u = np.where(np.isfinite(u[idx]), u[idx], 0.0)
+        out.append(Record(f"{Path(path).name}#{i + 1}", (k0 + np.arange(n)) * dt, u, y))
+    if not out:
+        raise ValueError(f"{path}: no BENCH_U/BENCH_Y1/BENCH_Y4 frames")
+    return out
+
+
+# --- consistency -----------------------------------------------------------------------------------
+
+def nis_band(p: float = 0.95) -> Tuple[float, float]:
+    from scipy.stats import chi2
+
+    return float(chi2.ppf((1 - p) / 2, NIS_DOF)), float(chi2.ppf((1 + p) / 2, NIS_DOF))
+
+
+@dataclass
+class Consistency:
+    """NIS statistics and gamma error of one run (or several, pooled)."""
+
+    steps: int  # steps with a correction
+    nis_mean: float
+    nis_mean_band: Tuple[float, float]  # 95 % band of the mean NIS of a consistent filter (chi2(2N)/N)
+    in_band: float  # fraction of steps whose NIS lies in the per-step 95 % band
+    nll: float  # mean of log det S + NIS per step (the tuning objective)
+    gamma_final_err: float  # relative error of the last gamma estimate (NaN without gamma_true)
+    gamma_rms_err: float  # RMS relative gamma error over the last quarter of the run
+
+    @property
+    def consistent(self) -> bool:
+        return self.nis_mean_band[0] <= self.nis_mean <= self.nis_mean_band[1]
+
+
+def _corrected(res) -> np.ndarray:
+    bad = fl.NO_MEASUREMENT | fl.INPUT_REJECTED | fl.NUMERIC_ROLLBACK
+    return (res.status == 0) & ((res.flags & bad) == 0)
+
+
+def consistency(results: Sequence, gamma_true: Optional[float] = None, burn_in: int = 0) -> Consistency:
+    """Pooled NIS consistency of runs (RunResult) after `burn_in` steps each, and gamma error."""
+    from scipy.stats import chi2
+
+    lo, hi = nis_band()
+    nis = np.concatenate([r.nis[burn_in:][_corrected(r)[burn_in:]] for r in results])
+    ld = np.concatenate([r.log_det_s[burn_in:] for r in results if r.log_det_s is not None]) \
+        if all(r.log_det_s is not None for r in results) else np.array([np.nan])
+    ok = np.isfinite(ld)
+    n = len(nis)
+    nll = float(np.mean(ld[ok]) + np.mean(nis)) if ok.any() and n else float("nan")
+    gf, gr = float("nan"), float("nan")
+    if gamma_true:
+        errs = [r.gamma / gamma_true - 1.0 for r in results]
+        gf = float(np.sqrt(np.mean([e[-1] ** 2 for e in errs])))
+        gr = float(np.sqrt(np.mean(np.concatenate([e[-max(1, len(e) // 4):] ** 2 for e in errs]))))
+    return Consistency(
+        steps=n,
+        nis_mean=float(np.mean(nis)) if n else float("nan"),
+        nis_mean_band=(float(chi2.ppf(0.025, NIS_DOF * n) / n), float(chi2.ppf(0.975, NIS_DOF * n) / n))
+        if n else (float("nan"), float("nan")),
+        in_band=float(np.mean((nis >= lo) & (nis <= hi))) if n else float("nan"),
+        nll=nll,
+        gamma_final_err=gf,
+        gamma_rms_err=gr,
+    )
+
+
+def run_records(sc: Scenario, records: Sequence[Record], experiment: str = "switched",
+                precision: str = "double", log_det_s: bool = True, **overrides) -> List:
+    s = settings_for(sc, experiment, precision, **overrides)
+    return [run(s, r.u, r.y, t=r.t, p_diag=False, log_det_s=log_det_s) for r in records]
+
+
+# --- tuning ----------------------------------------------------------------------------------------
+
+@dataclass
+class TuneResult:
+    noise_before: Dict[str, float]
+    noise_after: Dict[str, float]
+    scenario: Scenario  # the input scenario with noise_after
+    train_before: Consistency
+    train_after: Consistency
+    holdout_before: Optional[Consistency]
+    holdout_after: Optional[Consistency]
+    evaluations: int
+
+
+def tune(sc: Scenario, records: Sequence[Record], params: Sequence[str] = TUNABLE_NOISE,
+         holdout: Sequence[Record] = (), experiment: str = "switched", precision: str = "double",
+         gamma_true: Optional[float] = None, burn_in_s: float = 0.5, max_evals: int = 400,
+         decades: float = 4.0, **overrides) -> TuneResult:
+    """Maximum-likelihood noise for `params` (names from TUNABLE_NOISE) over `records`.
+
+    The search starts from the scenario's values and stays within `decades` orders of magnitude of
+    them. `gamma_true` (default: the scenario's gamma) is only used for the reported gamma error.
+    """
+    from scipy.optimize import minimize
+
+    bad = sorted(set(params) - set(TUNABLE_NOISE))
+    if bad or not params:
+        raise ValueError(f"tunable noise settings are {', '.join(TUNABLE_NOISE)}; got {', '.join(params) or 'none'}")
+    if not records:
+        raise ValueError("no records to tune on")
+    gamma_true = sc.gamma if gamma_true is None else gamma_true
+    burn_in = int(round(burn_in_s / sc.dt))
+    before = noise_of(sc)
+    x0 = np.log10([before[p] for p in params])
+    if not np.all(np.isfinite(x0)):
+        raise ValueError(f"start values of {', '.join(params)} must be > 0 (log-scale search)")
+    evals = 0
+
+    def scenario_at(x: np.ndarray) -> Scenario:
+        return scenario_with_noise(sc, {p: 10.0 ** v for p, v in zip(params, x)})
+
+    def objective(x: np.ndarray) -> float:
+        nonlocal evals
+        evals += 1
+        try:
+            res = run_records(scenario_at(x), records, experiment, precision, **overrides)
+        except ValueError:  # settings refused (e.g. an overflow in float): outside the feasible set
+            return 1e300
+        c = consistency(res, None, burn_in)
+        return c.nll if np.isfinite(c.nll) else 1e300
+
+    opt = minimize(objective, x0, method="Nelder-Mead",
+                   bounds=[(v - decades, v + decades) for v in x0],
+                   options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": max_evals, "initial_simplex":
+                            np.vstack([x0] + [x0 + np.eye(len(x0))[i] for i in range(len(x0))])})
+    tuned = scenario_at(opt.x)
+
+    def measure(s: Scenario, recs: Sequence[Record]) -> Optional[Consistency]:
+        return consistency(run_records(s, recs, experiment, precision, **overrides), gamma_true, burn_in) \
+            if recs else None
+
+    return TuneResult(
+        noise_before=before, noise_after=noise_of(tuned), scenario=tuned,
+        train_before=measure(sc, records), train_after=measure(tuned, records),  # type: ignore[arg-type]
+        holdout_before=measure(sc, holdout), holdout_after=measure(tuned, holdout), evaluations=evals)
+
+
+def report_text(r: TuneResult, params: Sequence[str]) -> str:
+    from .bench.results import format_table
+
+    lo, hi = nis_band()
+    lines = ["noise (std)        before        after"]
+    for p in TUNABLE_NOISE:
+        mark = "" if p in params else "  (kept)"
+        lines.append(f"{p:<16} {r.noise_before[p]:>12.4e} {r.noise_after[p]:>12.4e}{mark}")
+    rows = []
+    for label, c in (("train, before", r.train_before), ("train, after", r.train_after),
+                     ("held-out, before", r.holdout_before), ("held-out, after", r.holdout_after)):
+        if c is None:
+            continue
+        rows.append([label, str(c.steps), f"{c.nis_mean:.3f}", f"[{c.nis_mean_band[0]:.3f}, {c.nis_mean_band[1]:.3f}]",
+                     f"{100 * c.in_band:.1f} %", f"{c.nll:.4f}", f"{100 * c.gamma_final_err:.3f} %",
+                     f"{100 * c.gamma_rms_err:.3f} %"])
+    lines.append("")
+    lines.append(format_table(["runs", "steps", "mean NIS", "95 % band of mean", f"NIS in [{lo:.3f}, {hi:.2f}]",
+                               "mean log det S + NIS", "gamma err final", "gamma err RMS last 1/4"], rows))
+    lines.append(f"(consistent filter: mean NIS 2, 95 % of steps in the band; {r.evaluations} evaluations)")
+    return "\n".join(lines)
+
