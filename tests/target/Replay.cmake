@@ -59,7 +59,7 @@ set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS 
 
 caekf_target_image(target_replay
     SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S"
-    LIBS caekf_core
+    LIBS caekf_core_names caekf_core
     INCLUDES "${_gen}" "${CAEKF_FIXTURE_DIR}"
     DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"")
 add_dependencies(target_replay caekf_fixture_generated)
