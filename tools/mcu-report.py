@@ -18,8 +18,9 @@ which needs the host-double preset's test data, see tests/target/Replay.cmake):
   * with -O2 as well (build/<preset>-o2, library and replay image only) unless --no-o2;
   * with --breakdown N: instructions per function (the N largest) inside the median step, the max
     step and the worst-case step (one more QEMU run each, plugin option profile_interval).
-Goals checked (Cortex-M4F, -Os): worst case <= 8000 instructions/step, text <= 10 KB, static RAM
-<= 1 KB, stack <= 512 B.
+Goals checked (Cortex-M4F, -Os): worst case <= 8000 instructions/step, library text <= 10.5 KB (the
+estimator library: the settings' names live in <core>_names), static RAM + one instance <= 2 KB,
+stack <= 512 B.
 """
 import argparse
 import json
@@ -33,7 +34,7 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 MACHINE = {"cortex-m4f": "mps2-an386", "cortex-m7": "mps2-an500"}
 FLAG_CONSTRAINT_APPLIED = 1 << 2
 FLAG_CONTACT_ACTIVE = 1 << 3
-GOAL_ICOUNT, GOAL_TEXT, GOAL_RAM, GOAL_STACK = 8000, 10 * 1024, 1024, 512
+GOAL_ICOUNT, GOAL_TEXT, GOAL_RAM, GOAL_STACK = 8000, 10752, 2048, 512  # 10.5 KB text, 2 KB RAM
 
 
 def sh(cmd, **kw):
@@ -328,7 +329,7 @@ def main():
                      r["sizeof_caekf_t"], goal])
     table("Estimator memory (bytes; text includes rodata)",
           ["target", "opt", "lib text", "lib data", "lib bss", "core linked in replay t/d/b",
-           "libc+libm+libgcc in replay t/d/b", "sizeof(caekf_t)", "text<=10K / lib data+bss+instance<=1K"], rows)
+           "libc+libm+libgcc in replay t/d/b", "sizeof(caekf_t)", "text<=10.5K / lib data+bss+instance<=2K"], rows)
 
     rows = []
     for r in results:
