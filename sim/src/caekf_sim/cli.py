@@ -20,11 +20,17 @@ COMMAND_MODULES = (
 )
 
 
+# One exit-code table for every tool, C and Python (docs: README, Host tools).
+EXIT_USAGE, EXIT_BAD_INPUT, EXIT_IO, EXIT_NUMERIC = 2, 3, 4, 5
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="caekf-sim",
         description="Truth model, numpy AEKF, figures and checks for the caekf project.",
     )
+    parser.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
+    parser.add_argument("--version", action="version", version=f"caekf-sim {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMAND_MODULES:
@@ -37,9 +43,41 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("caekf-sim")
+    except Exception:  # not installed (running from the source tree)
+        return "unknown"
+
+
+def exit_code(exc: BaseException) -> int:
+    """The exit-code table: bad input 3 (scenario, settings, measurements), I/O 4, numerical failure 5."""
+    from .scenario import ScenarioError
+
+    if isinstance(exc, (ScenarioError, ValueError, KeyError, TypeError)):
+        return EXIT_BAD_INPUT
+    if isinstance(exc, (OSError, EOFError)):
+        return EXIT_IO
+    if isinstance(exc, (ArithmeticError, FloatingPointError, RuntimeError)):
+        return EXIT_NUMERIC
+    return 1
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     args = build_parser().parse_args(argv)
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("caekf-sim: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # one line, never a traceback, unless --debug
+        if args.debug:
+            raise
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"caekf-sim: {text}", file=sys.stderr)
+        return exit_code(exc)
 
 
 if __name__ == "__main__":

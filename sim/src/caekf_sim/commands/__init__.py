@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..scenario import Scenario, default_scenario_path, load_scenario
+from ..scenario import Scenario, ScenarioError, default_scenario_path, load_scenario
 
 
 def add_scenario_arg(p: argparse.ArgumentParser, t_end: bool = False) -> None:
@@ -18,8 +18,11 @@ def add_scenario_arg(p: argparse.ArgumentParser, t_end: bool = False) -> None:
 def scenario_from_args(args: argparse.Namespace) -> Scenario:
     path = args.scenario or default_scenario_path()
     if not Path(path).exists():
-        raise SystemExit(f"caekf-sim: scenario file not found: {path} (use --scenario)")
+        raise ScenarioError(f"scenario file not found: {path} (use --scenario)")
     sc = load_scenario(path)
     if getattr(args, "t_end", None) is not None:
-        sc = sc.replace(t_end=args.t_end)
+        try:
+            sc = sc.replace(t_end=args.t_end)
+        except ScenarioError as exc:
+            raise ScenarioError(f"--t-end {args.t_end:g}: {str(exc).rsplit(': ', 1)[-1]}") from None
     return sc
