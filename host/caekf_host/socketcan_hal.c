@@ -68,7 +68,7 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
             return fail(err, err_len,
                         "this kernel has no SocketCAN support: socket(PF_CAN, SOCK_RAW, CAN_RAW) failed with EAFNOSUPPORT "
                         "(%s). Load the modules (sudo modprobe can can_raw vcan) or use a kernel built with CONFIG_CAN, "
-                        "CONFIG_CAN_RAW and CONFIG_CAN_VCAN (the tools/vcan-vm VM has them)%s",
+                        "CONFIG_CAN_RAW and CONFIG_CAN_VCAN (tools/with-vcan.sh runs it in user-mode Linux)%s",
                         strerror(e), "");
         }
         if (e == EPROTONOSUPPORT) {

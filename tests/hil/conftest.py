@@ -46,7 +46,7 @@ def out_dir(tmp_path_factory) -> Path:
 def iface() -> str:
     if not os.path.exists(f"/sys/class/net/{IFACE}"):
         pytest.fail(f"HIL: CAN interface '{IFACE}' does not exist. This suite needs SocketCAN: run it with "
-                    "tools/hil-tests.sh (it boots a QEMU VM with vcan0 when this kernel has no CAN), or create "
+                    "tools/hil-tests.sh (it boots user-mode Linux with vcan0 when this kernel has no CAN), or create "
                     "it: sudo modprobe vcan && sudo ip link add dev vcan0 type vcan && sudo ip link set vcan0 up",
                     pytrace=False)
     return IFACE

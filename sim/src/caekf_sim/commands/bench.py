@@ -118,7 +118,7 @@ def _open_bench(args, record_log: bool = False):
 
     if args.interface == "socketcan" and not interface_exists(args.iface):
         raise SystemExit(f"caekf-sim hil: no CAN interface '{args.iface}' here. This kernel may have no "
-                         "SocketCAN: run through tools/with-vcan.sh (it boots a VM with vcan0), or pass "
+                         "SocketCAN: run through tools/with-vcan.sh (it boots user-mode Linux with vcan0), or pass "
                          "--iface/--interface for real hardware.")
     return Bench.open(args.interface, args.iface, fast=not args.slow_path, record_log=record_log)
 
@@ -303,7 +303,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from ..truth import Truth, read_truth_csv
 
     sc = scenario_from_args(args)
-    where = args.where or ("vcan VM (QEMU TCG, 1 vCPU)" if os.environ.get("VCAN_VM_GUEST") else "host")
+    where = args.where or ("user-mode Linux (1 CPU)" if os.environ.get("CAEKF_UML_GUEST") else "host")
     rows: List[Dict] = []
     with tempfile.TemporaryDirectory() as td:
         truth_csv = _truth_csv(args, sc, Path(td))
