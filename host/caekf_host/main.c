@@ -258,6 +258,7 @@ int main(int argc, char **argv)
             break;
         }
         (void)caekf_app_poll(&app);
+        (void)socketcan_flush(&can); /* the frames of this wake-up in one sendmmsg (TX errors counted) */
         if (!o.quiet) {
             report_config_changes(&app, &seen_accepted, &seen_refused);
         }
@@ -275,6 +276,10 @@ int main(int argc, char **argv)
     if (can.rx_rtr != 0u) {
         printf("  %-18s %lu\n", "(host) RTR frames", can.rx_rtr); /* also in RX_HAL_ERROR */
     }
+    if (can.tx_dropped != 0u) {
+        printf("  %-18s %lu\n", "(host) TX dropped", can.tx_dropped); /* also in TX_ERROR */
+    }
+    printf("caekf-host: %lu recvmmsg and %lu sendmmsg calls\n", can.syscalls_rx, can.syscalls_tx);
     socketcan_close(&can);
     return rc;
 }
