@@ -395,11 +395,13 @@ class Bench:
         t0 = _now()
         progress_at = t0
         while done < n:
-            while sent < n and sent - done < window:
-                send(blobs[sent])
+            if sent < n and sent - done < window:  # refill the window in one send (one sendmmsg)
+                k = min(n, done + window)
+                blob = blobs[sent] if k == sent + 1 else b"".join(blobs[sent:k])
+                send(blob)
                 if journal is not None:
-                    journal.append((_now(), 0, blobs[sent]))
-                sent += 1
+                    journal.append((_now(), 0, blob))
+                sent = k
             chunk = recv(timeout)
             if chunk:
                 chunks.append(chunk)
