@@ -82,6 +82,12 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
         }
         return fail(err, err_len, "socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: %s%s", strerror(e), "");
     }
+    { /* a deep receive queue rides out scheduling stalls of a loaded machine (FORCE needs root; else capped) */
+        int rcvbuf = 4 << 20;
+        if (setsockopt(s->fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof rcvbuf) != 0) {
+            (void)setsockopt(s->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+        }
+    }
     if (kernel_filter && set_filters(s->fd) != 0) {
         snprintf(err, err_len, "setsockopt(CAN_RAW_FILTER) failed: %s", strerror(errno));
         socketcan_close(s);
