@@ -107,6 +107,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log", type=Path, default=None, help="a candump -L log: its measured load")
     p.set_defaults(func=cmd_busload)
 
+    p = sub.add_parser("gen-c", help="C pack/unpack of the DBC (cantools generate_c_source) into firmware/protocol/gen")
+    p.add_argument("--check", action="store_true", help="only compare with the committed files; exit 1 if stale")
+    p.set_defaults(func=cmd_gen_c)
+
     p = sub.add_parser("bench", help="steps/s: C estimator, numpy, FilterPy, and HIL lockstep over CAN")
     add_scenario_arg(p)
     _bus_args(p)
@@ -280,6 +284,24 @@ def cmd_hil_replay_log(args: argparse.Namespace) -> int:
                 write_result_csv(res, path)
                 print(f"wrote {path} ({len(res.t)} steps)")
     return 0 if rep.ok else 1
+
+
+# --- gen-c -----------------------------------------------------------------------------------
+
+def cmd_gen_c(args: argparse.Namespace) -> int:
+    from .. import codegen
+
+    if args.check:
+        bad = codegen.stale()
+        if bad:
+            print(f"gen-c: firmware/protocol/gen/{', '.join(bad)} stale: the DBC or cantools changed; "
+                  "run caekf-sim gen-c and commit the result")
+            return 1
+        print("gen-c: firmware/protocol/gen is up to date with the DBC")
+        return 0
+    for p in codegen.write():
+        print(f"wrote {p}")
+    return 0
 
 
 # --- busload ---------------------------------------------------------------------------------
