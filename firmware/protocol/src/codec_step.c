@@ -45,17 +45,23 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
 #define GET_int(src, raw, bits) ((raw) = (src))
 #define GET_float(src, raw, bits) memcpy(&(bits), &(src), sizeof(uint32_t))
 
+/* One object for whichever message a call handles: the stack holds the largest struct, not all 14. */
+#define UNION_MEMBER(id, name, field, kind) struct caekf_can_##name##_t name;
+typedef union {
+    VALUE_MESSAGES(UNION_MEMBER)
+} value_frame_t;
+#undef UNION_MEMBER
+
 static int pack_value(caekf_msg_t msg, uint16_t step, int64_t raw, uint32_t bits, uint8_t data[CAEKF_CAN_DLC])
 {
+    value_frame_t m;
+    memset(&m, 0, sizeof m);
     switch (msg) {
-#define PACK_CASE(id, name, field, kind)                           \
-    case id: {                                                     \
-        struct caekf_can_##name##_t m;                             \
-        memset(&m, 0, sizeof m);                                   \
-        m.step = step;                                             \
-        SET_##kind(m.field, raw, bits);                            \
-        return caekf_can_##name##_pack(data, &m, CAEKF_CAN_DLC);   \
-    }
+#define PACK_CASE(id, name, field, kind)                                 \
+    case id:                                                             \
+        m.name.step = step;                                              \
+        SET_##kind(m.name.field, raw, bits);                             \
+        return caekf_can_##name##_pack(data, &m.name, CAEKF_CAN_DLC);
         VALUE_MESSAGES(PACK_CASE)
 #undef PACK_CASE
     default:
@@ -66,15 +72,15 @@ static int pack_value(caekf_msg_t msg, uint16_t step, int64_t raw, uint32_t bits
 static int unpack_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step, int64_t *raw,
                         uint32_t *bits)
 {
+    value_frame_t m;
+    int r;
     switch (msg) {
-#define UNPACK_CASE(id, name, field, kind)                                  \
-    case id: {                                                              \
-        struct caekf_can_##name##_t m;                                      \
-        int r = caekf_can_##name##_unpack(&m, data, CAEKF_CAN_DLC);         \
-        *step = m.step;                                                     \
-        GET_##kind(m.field, *raw, *bits);                                   \
-        return r;                                                           \
-    }
+#define UNPACK_CASE(id, name, field, kind)                                 \
+    case id:                                                               \
+        r = caekf_can_##name##_unpack(&m.name, data, CAEKF_CAN_DLC);       \
+        *step = m.name.step;                                               \
+        GET_##kind(m.name.field, *raw, *bits);                             \
+        return r;
         VALUE_MESSAGES(UNPACK_CASE)
 #undef UNPACK_CASE
     default:
