@@ -32,36 +32,19 @@ import numpy as np
 
 from .busload import frame_bits_worst
 from .codec import RECORD_SIZE, records_array
+from .transport import (MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVBUFFORCE, SO_RCVTIMEO,  # declared once
+                        _IOVec, _MMsgHdr)
 
 CLOCK_REALTIME = 0
 TIMER_ABSTIME = 1
 SO_TIMESTAMPNS = 35
 SCM_TIMESTAMPNS = SO_TIMESTAMPNS
-MSG_DONTWAIT = 0x40
-MSG_WAITFORONE = 0x10000
-SO_RCVBUFFORCE = 33
-SO_RCVTIMEO = 20
 CTRL_SIZE = 64  # one cmsghdr (16 bytes) + struct timespec (16), padded
 PathLike = Union[str, Path]
 
 
 class _Timespec(ctypes.Structure):
     _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
-
-
-class _IOVec(ctypes.Structure):
-    _fields_ = [("iov_base", ctypes.c_void_p), ("iov_len", ctypes.c_size_t)]
-
-
-class _MsgHdr(ctypes.Structure):
-    _fields_ = [("msg_name", ctypes.c_void_p), ("msg_namelen", ctypes.c_uint32),
-                ("msg_iov", ctypes.POINTER(_IOVec)), ("msg_iovlen", ctypes.c_size_t),
-                ("msg_control", ctypes.c_void_p), ("msg_controllen", ctypes.c_size_t),
-                ("msg_flags", ctypes.c_int)]
-
-
-class _MMsgHdr(ctypes.Structure):
-    _fields_ = [("msg_hdr", _MsgHdr), ("msg_len", ctypes.c_uint)]
 
 
 def _libc():
