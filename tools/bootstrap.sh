@@ -5,7 +5,7 @@
 # everything in place takes well under a second and touches nothing.
 #
 #   1. apt packages (host toolchain; --arm adds the Cortex-M toolchain and QEMU;
-#      --hil adds the QEMU/busybox pieces of the vcan VM). apt-get update runs only
+#      --hil adds user-mode Linux, whose kernel brings vcan where this one has none). apt-get update runs only
 #      when a package is missing and cannot be installed from the current lists.
 #   2. Unity (ThrowTheSwitch), offline: Debian's *source* package `cjson` ships an
 #      unmodified Unity under tests/unity/. It is fetched with `apt-get source` (a
@@ -80,8 +80,8 @@ pkg_installed() {
 install_apt_packages() {
     local pkgs=(cmake ninja-build gcc g++ make python3-venv python3-dev dpkg-dev clang libclang-rt-dev binutils)
     [ "$WANT_ARM" -eq 1 ] && pkgs+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
-    # busybox-static conflicts with an installed dynamic busybox: tools/vcan-vm/setup.sh handles it
-    [ "$WANT_HIL" -eq 1 ] && pkgs+=(qemu-system-x86 xz-utils)
+    # user-mode-linux ships vcan.ko/can.ko/can-raw.ko for its kernel; kmod gives insmod (tools/vcan-uml)
+    [ "$WANT_HIL" -eq 1 ] && pkgs+=(user-mode-linux kmod iproute2)
 
     command -v dpkg-query >/dev/null 2>&1 || die "not a Debian/Ubuntu system (no dpkg-query)"
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The HIL fault-injection matrix (tests/hil/test_hil_fault_matrix.py) in one vcan0 session (one QEMU VM
+# The HIL fault-injection matrix (tests/hil/test_hil_fault_matrix.py) in one vcan0 session (one user-mode Linux
 # boot when this kernel has no CAN), then its table (out/hil-tests/fault-matrix.txt).
 #
 #   tools/fault-matrix.sh [PYTEST ARGS...]

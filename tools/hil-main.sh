@@ -15,7 +15,7 @@
 # Writes OUT_DIR/{<experiment>.csv, summary.txt, fig3..fig6 PNGs, caekf-host.log, inputs-seen.csv,
 # replay-<experiment>.csv}.
 #
-# Environment: HIL_WINDOW (lockstep steps in flight, default 1), HIL_DURATION (seconds, default all),
+# Environment: HIL_WINDOW (lockstep steps in flight, default 32), HIL_DURATION (seconds, default all),
 # HIL_LOG=1 (also write OUT_DIR/bus.log, candump -L; ~3.6 M lines for the full run),
 # HIL_EXPERIMENTS (space-separated subset). Exit status: 0, or non-zero when a step timed out, the CAN
 # estimates differ from caekf-replay, or the bus could not be had.
@@ -43,7 +43,7 @@ if [ "${1:-}" = "--inside" ]; then # internal: the part that needs vcan0 (runs i
 	# only the bus work here: CSVs, the replay comparison and figures are text/float heavy and ~10x
 	# slower in the TCG VM, so `hil report` does them afterwards on this machine
 	"$py" -m caekf_sim.cli hil run --iface vcan0 --scenario "$scenario" --truth "$out/truth.csv" \
-		--outdir "$out" --mode lockstep --window "${HIL_WINDOW:-1}" --defer-outputs "${extra[@]}" || rc=$?
+		--outdir "$out" --mode lockstep --window "${HIL_WINDOW:-32}" --defer-outputs "${extra[@]}" || rc=$?
 	kill -TERM "$host" 2>/dev/null || true
 	wait "$host" || true
 	trap - EXIT

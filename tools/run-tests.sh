@@ -69,11 +69,8 @@ stage_pytest() {
 stage_fuzz() { tools/fuzz.sh --seconds "${FUZZ_SECONDS:-20}" --jobs "$JOBS"; }
 
 # The HIL suite (tests/hil): the firmware app on vcan0 driven over CAN by the Python bench, in one
-# vcan session (native vcan0, else one QEMU VM boot). Never skipped: no vcan0 is a failure.
-stage_hil() {
-    tools/vcan-vm/setup.sh
-    tools/hil-tests.sh
-}
+# vcan session (native vcan0, else one user-mode Linux boot). Never skipped: no vcan0 is a failure.
+stage_hil() { tools/hil-tests.sh; }
 
 # ---- driver -------------------------------------------------------------------------------
 log() { printf '[run-tests] %s\n' "$*"; }

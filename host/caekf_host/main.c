@@ -40,6 +40,7 @@ typedef struct {
     double run_for_s; /* 0: until a signal */
     int quiet;
     int kernel_filter;
+    int echo; /* probe: no estimator, BENCH_Y4 answered at once as an EST_STEP with its bytes */
 } options_t;
 
 static void usage(FILE *out)
@@ -60,6 +61,9 @@ static void usage(FILE *out)
             "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
             "                          buses; they are then not counted). Default: every frame reaches\n"
             "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
+            "  --echo                  timing probe: no estimator; every BENCH_Y4 (a step's last input frame)\n"
+            "                          is sent straight back with EST_STEP's ID and its own bytes, so the\n"
+            "                          bench measures the bus and the machine without the estimator\n"
             "  --quiet                 print only errors and the final counters\n");
 }
 
@@ -90,6 +94,7 @@ static int parse_args(int argc, char **argv, options_t *o)
     o->run_for_s = 0.0;
     o->quiet = 0;
     o->kernel_filter = 0;
+    o->echo = 0;
     for (i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -100,6 +105,9 @@ static int parse_args(int argc, char **argv, options_t *o)
             return 1;
         } else if (strcmp(a, "--quiet") == 0) {
             o->quiet = 1;
+            takes_value = 0;
+        } else if (strcmp(a, "--echo") == 0) {
+            o->echo = 1;
             takes_value = 0;
         } else if (strcmp(a, "--kernel-filter") == 0) {
             o->kernel_filter = 1;
@@ -193,6 +201,27 @@ static int configure_from_scenario(caekf_app_t *app, const options_t *o)
     return 0;
 }
 
+/* The echo probe: what the bench measures with the estimator replaced by a copy of its input. */
+static unsigned long echo_frames(const caekf_app_hal_t *hal, uint32_t in_id, uint32_t out_id)
+{
+    caekf_can_frame_t f;
+    unsigned long n = 0;
+    unsigned i;
+    for (i = 0; i < SOCKETCAN_BATCH; i++) {
+        int got = hal->receive(hal->ctx, &f);
+        if (got == 0) {
+            break;
+        }
+        if (got > 0 && f.id == in_id) {
+            f.id = out_id;
+            if (hal->transmit(hal->ctx, &f) == 0) {
+                n++;
+            }
+        }
+    }
+    return n;
+}
+
 int main(int argc, char **argv)
 {
     static caekf_app_t app; /* ~4 KB: static rather than on the stack */
@@ -204,6 +233,8 @@ int main(int argc, char **argv)
     struct timespec t0;
     char err[ERR_LEN];
     uint32_t seen_accepted = 0, seen_refused = 0;
+    const caekf_msg_info_t *echo_in = NULL, *echo_out = NULL;
+    unsigned long echoed = 0;
     int rc = parse_args(argc, argv, &o);
     if (rc != 0) {
         return rc == 1 ? 0 : 2;
@@ -242,6 +273,15 @@ int main(int argc, char **argv)
             printf("caekf-host: preset %s\n", o.preset != NULL ? o.preset : "none (scenario and defaults)");
         }
     }
+    if (o.echo && (caekf_proto_msg_info(CAEKF_MSG_BENCH_Y4, &echo_in) != CAEKF_PROTO_OK ||
+                   caekf_proto_msg_info(CAEKF_MSG_EST_STEP, &echo_out) != CAEKF_PROTO_OK)) {
+        fprintf(stderr, "caekf-host: --echo: message table incomplete\n");
+        return 1;
+    }
+    if (o.echo && !o.quiet) {
+        printf("caekf-host: ECHO PROBE: no estimator; 0x%03lX answered as 0x%03lX\n", (unsigned long)echo_in->can_id,
+               (unsigned long)echo_out->can_id);
+    }
     clock_gettime(CLOCK_MONOTONIC, &t0);
     rc = 0;
     while (!stop_signal) {
@@ -250,7 +290,12 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
-        (void)caekf_app_poll(&app);
+        if (o.echo) {
+            echoed += echo_frames(&hal, echo_in->can_id, echo_out->can_id);
+        } else {
+            (void)caekf_app_poll(&app);
+        }
+        (void)socketcan_flush(&can); /* the frames of this wake-up in one sendmmsg (TX errors counted) */
         if (!o.quiet) {
             report_config_changes(&app, &seen_accepted, &seen_refused);
         }
@@ -261,6 +306,9 @@ int main(int argc, char **argv)
     if (stop_signal && !o.quiet) {
         printf("caekf-host: stopping on %s\n", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
     }
+    if (o.echo) {
+        printf("caekf-host: echo probe answered %lu frames\n", echoed);
+    }
     print_counters(&app);
     if (can.rx_dropped_foreign != 0u) {
         printf("  %-18s %lu\n", "(host) bad size", can.rx_dropped_foreign); /* not a classic CAN frame */
@@ -268,6 +316,10 @@ int main(int argc, char **argv)
     if (can.rx_rtr != 0u) {
         printf("  %-18s %lu\n", "(host) RTR frames", can.rx_rtr); /* also in RX_HAL_ERROR */
     }
+    if (can.tx_dropped != 0u) {
+        printf("  %-18s %lu\n", "(host) TX dropped", can.tx_dropped); /* also in TX_ERROR */
+    }
+    printf("caekf-host: %lu recvmmsg and %lu sendmmsg calls\n", can.syscalls_rx, can.syscalls_tx);
     socketcan_close(&can);
     return rc;
 }

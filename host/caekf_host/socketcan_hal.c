@@ -1,6 +1,5 @@
 /* Linux CAN_RAW HAL. Errors name their cause and a fix: most first-time failures are a missing vcan
  * interface or a kernel without CAN. */
-#define _DEFAULT_SOURCE /* struct ifreq, SIOCGIFFLAGS */
 
 #include "socketcan_hal.h"
 
@@ -8,7 +7,6 @@
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
-#include <poll.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
@@ -27,6 +25,13 @@ static int fail(char *err, unsigned err_len, const char *fmt, const char *a, con
 {
     snprintf(err, err_len, fmt, a, b);
     return -1;
+}
+
+static uint32_t clock_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
 }
 
 static int set_filters(int fd)
@@ -49,6 +54,7 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
 {
     struct sockaddr_can addr;
     struct ifreq ifr;
+    unsigned i;
     memset(s, 0, sizeof *s);
     s->fd = -1;
     if (strlen(iface) >= IFNAMSIZ) {
@@ -68,13 +74,19 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
             return fail(err, err_len,
                         "this kernel has no SocketCAN support: socket(PF_CAN, SOCK_RAW, CAN_RAW) failed with EAFNOSUPPORT "
                         "(%s). Load the modules (sudo modprobe can can_raw vcan) or use a kernel built with CONFIG_CAN, "
-                        "CONFIG_CAN_RAW and CONFIG_CAN_VCAN (the tools/vcan-vm VM has them)%s",
+                        "CONFIG_CAN_RAW and CONFIG_CAN_VCAN (tools/with-vcan.sh runs it in user-mode Linux)%s",
                         strerror(e), "");
         }
         if (e == EPROTONOSUPPORT) {
             return fail(err, err_len, "CAN is there but not CAN_RAW (%s): sudo modprobe can_raw%s", strerror(e), "");
         }
         return fail(err, err_len, "socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: %s%s", strerror(e), "");
+    }
+    { /* a deep receive queue rides out scheduling stalls of a loaded machine (FORCE needs root; else capped) */
+        int rcvbuf = 4 << 20;
+        if (setsockopt(s->fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof rcvbuf) != 0) {
+            (void)setsockopt(s->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+        }
     }
     if (kernel_filter && set_filters(s->fd) != 0) {
         snprintf(err, err_len, "setsockopt(CAN_RAW_FILTER) failed: %s", strerror(errno));
@@ -98,6 +110,18 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
         socketcan_close(s);
         return fail(err, err_len, "interface '%s' is down: sudo ip link set %s up", iface, iface);
     }
+    for (i = 0; i < SOCKETCAN_BATCH; i++) {
+        s->rx_iov[i].iov_base = &s->rx[i];
+        s->rx_iov[i].iov_len = sizeof s->rx[i];
+        s->rx_msg[i].msg_hdr.msg_iov = &s->rx_iov[i];
+        s->rx_msg[i].msg_hdr.msg_iovlen = 1;
+        s->tx_iov[i].iov_base = &s->tx[i];
+        s->tx_iov[i].iov_len = sizeof s->tx[i];
+        s->tx_msg[i].msg_hdr.msg_iov = &s->tx_iov[i];
+        s->tx_msg[i].msg_hdr.msg_iovlen = 1;
+    }
+    s->timeout_ms = -1;
+    s->now_us = clock_us();
     return 0;
 }
 
@@ -111,73 +135,102 @@ void socketcan_close(socketcan_t *s)
 
 int socketcan_wait(socketcan_t *s, int timeout_ms)
 {
-    struct pollfd p;
-    int r;
-    p.fd = s->fd;
-    p.events = POLLIN;
-    p.revents = 0;
-    r = poll(&p, 1, timeout_ms);
-    if (r < 0) {
-        return (errno == EINTR) ? 0 : -1;
+    int n;
+    if (s->rx_i < s->rx_n) {
+        return 1; /* the last batch is not used up yet (the app takes at most max_frames_per_poll) */
     }
-    if (r > 0 && (p.revents & POLLERR)) {
-        int soerr = 0;
-        socklen_t len = sizeof soerr;
-        (void)getsockopt(s->fd, SOL_SOCKET, SO_ERROR, &soerr, &len); /* reading clears it */
+    s->rx_i = 0;
+    s->rx_n = 0;
+    if (timeout_ms != s->timeout_ms) { /* a blocking recvmmsg with SO_RCVTIMEO: no poll() per wake-up */
+        struct timeval tv;
+        tv.tv_sec = timeout_ms / 1000;
+        tv.tv_usec = (timeout_ms % 1000) * 1000;
+        if (setsockopt(s->fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) != 0) {
+            return -1;
+        }
+        s->timeout_ms = timeout_ms;
     }
-    return (r > 0 && (p.revents & POLLIN)) ? 1 : 0;
+    n = recvmmsg(s->fd, s->rx_msg, SOCKETCAN_BATCH, MSG_WAITFORONE, NULL);
+    s->syscalls_rx++;
+    s->now_us = clock_us();
+    if (n < 0) {
+        return (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) ? 0 : -1;
+    }
+    s->rx_n = (unsigned)n;
+    return n > 0 ? 1 : 0;
+}
+
+int socketcan_flush(socketcan_t *s)
+{
+    unsigned done = 0, tries = 0;
+    int rc;
+    while (done < s->tx_n && tries < 64u) {
+        int r = sendmmsg(s->fd, &s->tx_msg[done], s->tx_n - done, 0);
+        s->syscalls_tx++;
+        tries++;
+        if (r < 0) {
+            if (errno == ENOBUFS || errno == EAGAIN || errno == EINTR) {
+                continue; /* the interface queue is full for a moment */
+            }
+            if (errno == ENETDOWN && !s->warned_down) {
+                s->warned_down = 1;
+                fprintf(stderr, "caekf-host: transmit failed: the interface went down (ENETDOWN)\n");
+            }
+            break;
+        }
+        done += (unsigned)r;
+    }
+    rc = (done < s->tx_n) ? -1 : 0;
+    s->tx_dropped += s->tx_n - done;
+    s->tx_n = 0;
+    return rc;
 }
 
 static int hal_receive(void *ctx, caekf_can_frame_t *frame)
 {
     socketcan_t *s = (socketcan_t *)ctx;
-    struct can_frame cf;
-    ssize_t n;
-    unsigned len;
-    n = recv(s->fd, &cf, sizeof cf, MSG_DONTWAIT);
-    if (n < 0) {
-        return (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) ? 0 : -errno;
+    const struct can_frame *cf;
+    unsigned len, i;
+    if (s->rx_i >= s->rx_n) {
+        return 0; /* the batch is used up; the main loop waits for the next */
     }
-    if ((size_t)n != sizeof cf) {
+    i = s->rx_i++;
+    cf = &s->rx[i];
+    if (s->rx_msg[i].msg_len != sizeof *cf) {
         s->rx_dropped_foreign++;
         return -EMSGSIZE;
     }
-    if (cf.can_id & CAN_RTR_FLAG) { /* no caekf message is a remote frame (the MCU HAL refuses them too) */
+    if (cf->can_id & CAN_RTR_FLAG) { /* no caekf message is a remote frame (the MCU HAL refuses them too) */
         s->rx_rtr++;
         return -EBADMSG;
     }
-    frame->id = (cf.can_id & CAN_EFF_FLAG) ? ((cf.can_id & CAN_EFF_MASK) | CAEKF_CAN_ID_EXT_FLAG)
-                                           : (cf.can_id & CAN_SFF_MASK);
-    len = FRAME_LEN(cf);
+    frame->id = (cf->can_id & CAN_EFF_FLAG) ? ((cf->can_id & CAN_EFF_MASK) | CAEKF_CAN_ID_EXT_FLAG)
+                                            : (cf->can_id & CAN_SFF_MASK);
+    len = FRAME_LEN(*cf);
     frame->dlc = (uint8_t)len;
-    memcpy(frame->data, cf.data, sizeof frame->data);
+    memcpy(frame->data, cf->data, sizeof frame->data);
     return 1;
 }
 
 static int hal_transmit(void *ctx, const caekf_can_frame_t *frame)
 {
     socketcan_t *s = (socketcan_t *)ctx;
-    struct can_frame cf;
-    memset(&cf, 0, sizeof cf);
-    cf.can_id = frame->id & CAN_SFF_MASK;
-    FRAME_LEN(cf) = frame->dlc;
-    memcpy(cf.data, frame->data, sizeof cf.data);
-    if (write(s->fd, &cf, sizeof cf) != (ssize_t)sizeof cf) {
-        if (errno == ENETDOWN && !s->warned_down) {
-            s->warned_down = 1;
-            fprintf(stderr, "caekf-host: transmit failed: the interface went down (ENETDOWN)\n");
-        }
-        return -errno;
+    struct can_frame *cf;
+    if (s->tx_n >= SOCKETCAN_BATCH && socketcan_flush(s) != 0) {
+        return -EIO;
     }
+    cf = &s->tx[s->tx_n++];
+    memset(cf, 0, sizeof *cf);
+    cf->can_id = frame->id & CAN_SFF_MASK;
+    FRAME_LEN(*cf) = frame->dlc;
+    memcpy(cf->data, frame->data, sizeof cf->data);
     return 0;
 }
 
 static uint32_t hal_now_us(void *ctx)
 {
-    struct timespec ts;
-    (void)ctx;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
+    const socketcan_t *s = (const socketcan_t *)ctx;
+    return s->now_us; /* the time the frames being handled were taken from the socket */
 }
 
 void socketcan_hal(socketcan_t *s, caekf_app_hal_t *hal)
@@ -186,4 +239,5 @@ void socketcan_hal(socketcan_t *s, caekf_app_hal_t *hal)
     hal->receive = hal_receive;
     hal->transmit = hal_transmit;
     hal->now_us = hal_now_us;
+    s->now_us = clock_us();
 }

@@ -9,7 +9,7 @@ Environment:
   CAEKF_BUILD_DIR        build tree with caekf-host, caekf-replay, caekf-truth (default build/host-double)
   CAEKF_HIL_TRUTH        truth CSV made beforehand (default: caekf-truth is run here)
   CAEKF_HIL_OUT          where logs and CSVs of the run are kept (default: pytest's tmp dir)
-  CAEKF_HIL_WINDOW       lockstep window of the full runs (default 1: strict lockstep)
+  CAEKF_HIL_WINDOW       lockstep window of the full runs (default 32 steps in flight; 1 = strict lockstep)
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def out_dir(tmp_path_factory) -> Path:
 def iface() -> str:
     if not os.path.exists(f"/sys/class/net/{IFACE}"):
         pytest.fail(f"HIL: CAN interface '{IFACE}' does not exist. This suite needs SocketCAN: run it with "
-                    "tools/hil-tests.sh (it boots a QEMU VM with vcan0 when this kernel has no CAN), or create "
+                    "tools/hil-tests.sh (it boots user-mode Linux with vcan0 when this kernel has no CAN), or create "
                     "it: sudo modprobe vcan && sudo ip link add dev vcan0 type vcan && sudo ip link set vcan0 up",
                     pytrace=False)
     return IFACE
@@ -148,11 +148,11 @@ def replay(binaries, seen_inputs_csv, out_dir):
 
 @pytest.fixture(scope="session")
 def full_runs(bench, sc, inputs, out_dir):
-    """The four experiments back to back over the full 60 s, strict lockstep, one caekf-host."""
+    """The four experiments back to back over the full 60 s, lockstep (window CAEKF_HIL_WINDOW), one caekf-host."""
     from caekf_sim.bench.results import format_summary, save_runs
     from caekf_sim.bench.runner import run_experiment
 
-    window = int(os.environ.get("CAEKF_HIL_WINDOW", "1"))
+    window = int(os.environ.get("CAEKF_HIL_WINDOW", "32"))
     runs = {}
     for name in EXPERIMENTS:
         runs[name] = run_experiment(bench, sc, inputs, name, len(inputs), "lockstep", window=window, timeout=2.0)

@@ -50,7 +50,9 @@ def dump(tmp_path_factory):
     if cc is None:
         pytest.skip("no C compiler and CAEKF_PROTO_DUMP not set")
     out = tmp_path_factory.mktemp("proto_dump") / "caekf_proto_dump"
-    sources = sorted(str(p) for p in (REPO / "firmware" / "protocol" / "src").glob("*.c"))
-    subprocess.run([cc, "-std=c99", "-O1", "-Wall", "-Wextra", "-Werror", "-I", str(REPO / "firmware/protocol/include"),
-                    str(Path(__file__).with_name("proto_dump.c")), *sources, "-o", str(out)], check=True)
+    proto = REPO / "firmware" / "protocol"
+    sources = sorted(str(p) for d in ("src", "gen") for p in (proto / d).glob("*.c"))
+    subprocess.run([cc, "-std=c99", "-O1", "-Wall", "-Wextra", "-Werror", "-I", str(proto / "include"),
+                    "-I", str(proto / "gen"), str(Path(__file__).with_name("proto_dump.c")), *sources, "-o", str(out)],
+                   check=True)
     return Dump(str(out))

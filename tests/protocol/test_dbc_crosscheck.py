@@ -332,3 +332,13 @@ def test_param_values_arrive_as_the_exact_double(dump):
 def test_param_exponent_beyond_exact_range_is_refused(dump):
     assert dump.one("param_value 0 23 1").split()[0] == "-3"
     assert dump.one("param_value 0 -23 1").split()[0] == "-3"
+
+
+def test_generated_c_codec_is_current():
+    """firmware/protocol/gen is what `caekf-sim gen-c` makes of the DBC today (CI fails when stale)."""
+    pytest.importorskip("cantools")
+    from caekf_sim import codegen
+
+    bad = codegen.stale()
+    assert not bad, (f"firmware/protocol/gen/{', '.join(bad)} stale: the DBC or cantools changed; "
+                     "run `caekf-sim gen-c` and commit the result")

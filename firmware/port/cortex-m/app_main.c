@@ -1,6 +1,6 @@
 /*
  * app_main.c - the caekf firmware image for an STM32F4/F7 part with bxCAN (image caekf_fw):
- * board bring-up, SysTick microsecond clock, CAN1 at 500 kbit/s with the protocol's receive filters,
+ * board bring-up, SysTick microsecond clock, CAN1 at 1 Mbit/s with the protocol's receive filters,
  * the caekf app, and the main loop polling it.
  *
  * It builds in the cortex-m4f / cortex-m7 presets (so size and stack are measured with the real
@@ -27,8 +27,14 @@
 #ifndef CAEKF_FW_APB1_HZ
 #define CAEKF_FW_APB1_HZ 16000000u /* bxCAN's kernel clock */
 #endif
+/* Bit timing (caekf_bxcan_timing_compute: the most time quanta per bit, 8..25, that divide the clock,
+ * sample point nearest CAEKF_FW_SAMPLE_PERMILLE, SJW 1):
+ *   APB1 16 MHz (reset HSI, the default here), 1 Mbit/s: BRP 1, 16 tq = 1 + TS1 13 + TS2 2, sample 87.5 %
+ *   APB1 42 MHz (F4 at 168 MHz),               1 Mbit/s: BRP 3, 14 tq = 1 + TS1 11 + TS2 2, sample 85.7 %
+ *   APB1 54 MHz (F7 at 216 MHz),               1 Mbit/s: BRP 3, 18 tq = 1 + TS1 15 + TS2 2, sample 88.9 %
+ * (tests/unit/port/test_bxcan.c checks these). CiA 301 recommends 87.5 % at 1 Mbit/s (75-90 % usable). */
 #ifndef CAEKF_FW_BITRATE
-#define CAEKF_FW_BITRATE 500000u
+#define CAEKF_FW_BITRATE 1000000u
 #endif
 #ifndef CAEKF_FW_SAMPLE_PERMILLE
 #define CAEKF_FW_SAMPLE_PERMILLE 875u

@@ -1,10 +1,13 @@
-/* Codec of the per-step frames: INT36 and FLOAT32 value frames and EST_STEP. */
+/* Codec of the per-step frames (BENCH_U/Y1/Y4, EST_* value frames, EST_STEP) on the C pack/unpack that
+ * cantools generates from caekf.dbc (firmware/protocol/gen, `caekf-sim gen-c`): the bit layout comes
+ * from the DBC only. Here: cantools' scaling (round half to even of value / LSB, float32 bit patterns),
+ * range clipping, and the refusal of non-finite inputs; the E2E layer seals the frames afterwards. */
 #include <stddef.h>
 #include <string.h>
 
 #include "bitfield.h"
 #include "caekf/caekf_proto.h"
-#include "layout.h"
+#include "caekf_can.h"
 
 static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **info)
 {
@@ -18,11 +21,80 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
     return CAEKF_PROTO_OK;
 }
 
+/* One case per value message: its generated struct, pack/unpack and value field. */
+#define VALUE_MESSAGES(X)                                      \
+    X(CAEKF_MSG_BENCH_U, bench_u, u, float)                    \
+    X(CAEKF_MSG_BENCH_Y1, bench_y1, y1, int)                   \
+    X(CAEKF_MSG_BENCH_Y4, bench_y4, y4, int)                   \
+    X(CAEKF_MSG_EST_GAMMA, est_gamma, gamma, float)            \
+    X(CAEKF_MSG_EST_Q1, est_q1, q1, int)                       \
+    X(CAEKF_MSG_EST_Q2, est_q2, q2, int)                       \
+    X(CAEKF_MSG_EST_Q3, est_q3, q3, int)                       \
+    X(CAEKF_MSG_EST_Q4, est_q4, q4, int)                       \
+    X(CAEKF_MSG_EST_V1, est_v1, v1, int)                       \
+    X(CAEKF_MSG_EST_V2, est_v2, v2, int)                       \
+    X(CAEKF_MSG_EST_V3, est_v3, v3, int)                       \
+    X(CAEKF_MSG_EST_V4, est_v4, v4, int)                       \
+    X(CAEKF_MSG_EST_P_NORM, est_p_norm, p_norm, float)         \
+    X(CAEKF_MSG_EST_P_GG, est_p_gg, p_gamma_gamma, float)
+
+/* A value as the generated struct holds it: int64 raw for the scaled signals, the float32 itself
+ * (bit pattern copied, so no conversion can alter it) for the float signals. */
+#define SET_int(dst, raw, bits) ((dst) = (raw))
+#define SET_float(dst, raw, bits) memcpy(&(dst), &(bits), sizeof(uint32_t))
+#define GET_int(src, raw, bits) ((raw) = (src))
+#define GET_float(src, raw, bits) memcpy(&(bits), &(src), sizeof(uint32_t))
+
+/* One object for whichever message a call handles: the stack holds the largest struct, not all 14. */
+#define UNION_MEMBER(id, name, field, kind) struct caekf_can_##name##_t name;
+typedef union {
+    VALUE_MESSAGES(UNION_MEMBER)
+} value_frame_t;
+#undef UNION_MEMBER
+
+static int pack_value(caekf_msg_t msg, uint16_t step, int64_t raw, uint32_t bits, uint8_t data[CAEKF_CAN_DLC])
+{
+    value_frame_t m;
+    memset(&m, 0, sizeof m);
+    switch (msg) {
+#define PACK_CASE(id, name, field, kind)                                 \
+    case id:                                                             \
+        m.name.step = step;                                              \
+        SET_##kind(m.name.field, raw, bits);                             \
+        return caekf_can_##name##_pack(data, &m.name, CAEKF_CAN_DLC);
+        VALUE_MESSAGES(PACK_CASE)
+#undef PACK_CASE
+    default:
+        return -1;
+    }
+}
+
+static int unpack_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step, int64_t *raw,
+                        uint32_t *bits)
+{
+    value_frame_t m;
+    int r;
+    switch (msg) {
+#define UNPACK_CASE(id, name, field, kind)                                 \
+    case id:                                                               \
+        r = caekf_can_##name##_unpack(&m.name, data, CAEKF_CAN_DLC);       \
+        *step = m.name.step;                                               \
+        GET_##kind(m.name.field, *raw, *bits);                             \
+        return r;
+        VALUE_MESSAGES(UNPACK_CASE)
+#undef UNPACK_CASE
+    default:
+        return -1;
+    }
+}
+
 caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, double value, uint8_t data[CAEKF_CAN_DLC])
 {
     const caekf_msg_info_t *info;
     caekf_proto_status_t st;
     int clipped;
+    int64_t raw = 0;
+    uint32_t bits = 0u;
     if (data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
@@ -30,16 +102,13 @@ caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, do
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_STEP, step);
     if (info->layout == CAEKF_LAYOUT_INT36) {
-        int64_t raw;
         clipped = caekf_scaled_to_raw(value, info->lsb, 36u, &raw);
-        caekf_bits_put_signed(data, F_INT36_VALUE, raw);
     } else {
-        uint32_t bits;
         clipped = caekf_float32_bits(value, &bits);
-        caekf_bits_put(data, F_FLOAT32_VALUE, bits);
+    }
+    if (pack_value(msg, step, raw, bits, data) != (int)CAEKF_CAN_DLC) {
+        return CAEKF_PROTO_ERR_MSG;
     }
     return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
 }
@@ -49,6 +118,9 @@ caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t dat
 {
     const caekf_msg_info_t *info;
     caekf_proto_status_t st;
+    int64_t raw = 0;
+    uint32_t bits = 0u;
+    uint16_t s = 0u;
     double v;
     if (data == NULL || step == NULL || value == NULL) {
         return CAEKF_PROTO_ERR_NULL;
@@ -57,37 +129,45 @@ caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t dat
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
+    if (unpack_value(msg, data, &s, &raw, &bits) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
     if (info->layout == CAEKF_LAYOUT_INT36) {
-        v = (double)caekf_bits_get_signed(data, F_INT36_VALUE) * info->lsb; /* as cantools: raw * scale */
-    } else if (caekf_float32_value((uint32_t)caekf_bits_get(data, F_FLOAT32_VALUE), &v) != 0) {
+        v = (double)raw * info->lsb; /* as cantools: raw * scale */
+    } else if (caekf_float32_value(bits, &v) != 0) {
         return CAEKF_PROTO_ERR_VALUE; /* NaN or infinity never reaches the estimator */
     }
-    *step = (uint16_t)caekf_bits_get(data, F_STEP);
+    *step = s;
     *value = v;
     return CAEKF_PROTO_OK;
 }
 
 caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
+    struct caekf_can_est_step_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_STEP, m->step);
-    caekf_bits_put(data, F_FLAGS, m->flags);
-    caekf_bits_put(data, F_NEWTON_ITERS, m->newton_iters);
-    caekf_bits_put_signed(data, F_STEP_STATUS, m->status);
-    return CAEKF_PROTO_OK;
+    memset(&g, 0, sizeof g);
+    g.step = m->step;
+    g.flags = m->flags;
+    g.newton_iters = m->newton_iters;
+    g.step_status = m->status;
+    return caekf_can_est_step_pack(data, &g, CAEKF_CAN_DLC) == (int)CAEKF_CAN_DLC ? CAEKF_PROTO_OK : CAEKF_PROTO_ERR_MSG;
 }
 
 caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_step_t *m)
 {
+    struct caekf_can_est_step_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    m->step = (uint16_t)caekf_bits_get(data, F_STEP);
-    m->flags = (uint16_t)caekf_bits_get(data, F_FLAGS);
-    m->newton_iters = (uint8_t)caekf_bits_get(data, F_NEWTON_ITERS);
-    m->status = (int8_t)caekf_bits_get_signed(data, F_STEP_STATUS);
+    if (caekf_can_est_step_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    m->step = g.step;
+    m->flags = g.flags;
+    m->newton_iters = g.newton_iters;
+    m->status = g.step_status;
     return CAEKF_PROTO_OK;
 }

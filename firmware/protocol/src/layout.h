@@ -1,14 +1,7 @@
-/* Bit positions of every signal in caekf.dbc (start bit, length), little-endian. Private to the codec. */
+/* Bit positions of the control frames' signals in caekf.dbc (start bit, length), little-endian. Private to
+ * the codec. The per-step frames use the pack/unpack generated from the DBC (gen/caekf_can.h). */
 #ifndef CAEKF_PROTO_LAYOUT_H
 #define CAEKF_PROTO_LAYOUT_H
-
-/* Step frames (BENCH_*, EST_*) */
-#define F_STEP 12u, 16u
-#define F_INT36_VALUE 28u, 36u
-#define F_FLOAT32_VALUE 32u, 32u
-#define F_FLAGS 32u, 16u
-#define F_NEWTON_ITERS 48u, 8u
-#define F_STEP_STATUS 56u, 8u
 
 /* CTRL_RESET */
 #define F_RESET_N_PARAMS 24u, 8u

@@ -11,7 +11,7 @@
 #define SELFTEST_TOKEN 0x5Au
 #define SELFTEST_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
 #define APB1_HZ 42000000u /* STM32F4 at 168 MHz; only the BTR value depends on it */
-#define BITRATE 500000u
+#define BITRATE 1000000u /* the firmware's bit rate (app_main.c) */
 
 #define CHECK(t, cond, what, value)    \
     do {                               \
@@ -146,14 +146,14 @@ static unsigned frame_step(const uint8_t *d)
 static int check_init(caekf_mcu_selftest_t *t)
 {
     const caekf_bxcan_regs_t *r = &t->fake.regs;
-    const caekf_bxcan_timing_t expect = {6u, 11u, 2u, 1u};
+    const caekf_bxcan_timing_t expect = {3u, 11u, 2u, 1u};
     uint32_t btr = 0u;
     CHECK(t, (r->MSR & (CAEKF_BXCAN_MSR_INAK | CAEKF_BXCAN_MSR_SLAK)) == 0u, "init: controller not in normal mode", r->MSR);
     CHECK(t, (r->MCR & (CAEKF_BXCAN_MCR_TXFP | CAEKF_BXCAN_MCR_ABOM | CAEKF_BXCAN_MCR_INRQ | CAEKF_BXCAN_MCR_SLEEP)) ==
                  (CAEKF_BXCAN_MCR_TXFP | CAEKF_BXCAN_MCR_ABOM),
           "init: MCR options", r->MCR);
     (void)caekf_bxcan_timing_btr(&expect, &btr);
-    CHECK(t, r->BTR == btr, "init: BTR is not 500 kbit/s at 42 MHz (BRP 6, TS1 11, TS2 2, SJW 1)", r->BTR);
+    CHECK(t, r->BTR == btr, "init: BTR is not 1 Mbit/s at 42 MHz (BRP 3, TS1 11, TS2 2, SJW 1)", r->BTR);
     CHECK(t, t->fw.filter_banks == 2u && (r->FA1R & 3u) == 3u && (r->FM1R & 3u) == 3u && (r->FS1R & 3u) == 0u &&
                  (r->FFA1R & 3u) == 0u && (r->FMR & CAEKF_BXCAN_FMR_FINIT) == 0u,
           "init: filter banks 0..1 not active 16-bit lists for FIFO 0", r->FA1R);

@@ -129,6 +129,7 @@ static void test_timing_common_rates(void)
     expect_timing(42000000u, 500000u, 6u, 11u, 2u, 0x001A0005u);  /* F4 at 168 MHz: 14 tq, 85.7 % */
     expect_timing(42000000u, 1000000u, 3u, 11u, 2u, 0x001A0002u); /* F4, 1 Mbit/s */
     expect_timing(54000000u, 500000u, 6u, 15u, 2u, 0x001E0005u);  /* F7 at 216 MHz: 18 tq, 88.9 % */
+    expect_timing(54000000u, 1000000u, 3u, 15u, 2u, 0x001E0002u); /* F7, 1 Mbit/s (caekf_fw on an F7) */
     expect_timing(16000000u, 500000u, 2u, 13u, 2u, 0x001C0001u);  /* HSI reset clock: 16 tq, 87.5 % */
     expect_timing(16000000u, 1000000u, 1u, 13u, 2u, 0x001C0000u);
     expect_timing(9500000u, 500000u, 1u, 16u, 2u, 0x001F0000u);   /* 19 tq: the largest TS1 */

@@ -4,7 +4,7 @@
  *
  *   caekf_bxcan_config_t cfg;
  *   caekf_bxcan_config_default(&cfg);
- *   caekf_bxcan_timing_compute(42000000u, 500000u, 875u, &cfg.timing); // APB1 42 MHz, 500 kbit/s
+ *   caekf_bxcan_timing_compute(42000000u, 1000000u, 875u, &cfg.timing); // APB1 42 MHz, 1 Mbit/s
  *   static caekf_bxcan_t can;
  *   caekf_bxcan_init(&can, (caekf_bxcan_regs_t *)CAEKF_BXCAN1_BASE, &cfg);
  *   caekf_bxcan_filter_list16(can.regs, 0u, ids, n_ids, 0u, NULL);

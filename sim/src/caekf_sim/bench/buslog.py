@@ -257,11 +257,13 @@ def replay_log(bench, path: PathLike, timeout: float = 2.0, progress: Optional[b
 
 
 def _continue_counters(bench, frames: Sequence[LogFrame]) -> None:
-    """After a replay the estimator expects the log's counters to go on: so does the bench."""
-    by_id = {m.frame_id: m.name for m in bench.codec.messages.values() if m.to_estimator}
+    """After a replay the estimator expects the log's counters to go on: so does the bench. Only frames
+    the estimator accepted count: a frame with a bad CRC (recorded on purpose, say) moved no counter."""
+    by_id = {m.frame_id: m for m in bench.codec.messages.values() if m.to_estimator}
     for f in frames:
-        if f.sent_by_bench and f.frame_id in by_id and f.dlc == 8:
-            bench.tx_counter[by_id[f.frame_id]] = ((f.data[1] & 0x0F) + 1) & 0x0F
+        m = by_id.get(f.frame_id)
+        if f.sent_by_bench and m is not None and f.dlc == 8 and e2e.crc_ok(m.data_id, f.data):
+            bench.tx_counter[m.name] = ((f.data[1] & 0x0F) + 1) & 0x0F
 
 
 def segment_results(bench, rep: ReplayReport, dt: float):

@@ -33,11 +33,15 @@ def run_experiment(bench: Bench, sc, inputs: StepInputs, experiment: str, rows: 
                    params=None) -> HilRun:
     """Configure the scenario with the preset `experiment`, snapshot the counters, run rows [0, rows),
     snapshot again, decode."""
+    from .transport import SocketcanTransport
+
     ack = bench.configure(experiment, bench.params_from_scenario(sc, experiment) if params is None else params)
     before = bench.status()
     if mode == "lockstep":
         rec = bench.run_lockstep(inputs, 0, rows, window=window, timeout=timeout, progress=progress,
                                  desc=experiment)
+    elif mode == "realtime" and isinstance(bench.transport, SocketcanTransport):
+        rec = bench.run_paced(inputs, sc.dt, 0, rows)  # absolute deadlines, kernel timestamps
     elif mode == "realtime":
         rec = bench.run_realtime(inputs, sc.dt, 0, rows, progress=progress, desc=experiment)
     else:

@@ -121,8 +121,7 @@ class SocketcanTransport(Transport):
         self.bus = bus
         self.sock: socket.socket = bus.socket
         self.fd = self.sock.fileno()
-        filt = b"".join(struct.pack("=II", i, 0x7FF | 0x80000000 | 0x40000000) for i in rx_ids)
-        self.sock.setsockopt(socket.SOL_CAN_RAW, socket.CAN_RAW_FILTER, filt)
+        self.set_filter(rx_ids)
         for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):  # FORCE works as root (the VM), else capped
             try:
                 self.sock.setsockopt(socket.SOL_SOCKET, opt, rcvbuf)
@@ -140,6 +139,11 @@ class SocketcanTransport(Transport):
         else:
             self.name = "socketcan (CAN_RAW, send/recv)"
             self._buf = bytearray(RECORD_SIZE)
+
+    def set_filter(self, rx_ids: Iterable[int]) -> None:
+        """Kernel acceptance filter: exactly these standard data frames."""
+        filt = b"".join(struct.pack("=II", i, 0x7FF | 0x80000000 | 0x40000000) for i in rx_ids)
+        self.sock.setsockopt(socket.SOL_CAN_RAW, socket.CAN_RAW_FILTER, filt)
 
     def _set_timeout(self, timeout: float) -> None:
         if timeout == self._timeout:

@@ -21,6 +21,8 @@ import time
 from pathlib import Path
 from typing import Dict, List
 
+import numpy as np
+
 from .. import schema
 from . import add_scenario_arg, scenario_from_args
 
@@ -60,6 +62,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--outdir", type=Path, required=True)
     p.add_argument("--experiments", nargs="+", choices=EXPERIMENTS, default=list(EXPERIMENTS))
     p.add_argument("--mode", choices=["lockstep", "realtime"], default="lockstep")
+    p.add_argument("--realtime", dest="mode", action="store_const", const="realtime",
+                   help="= --mode realtime: pace the bench at dt with absolute deadlines; report per 60 s the "
+                        "deadline misses, frame-in -> estimate-out latency p50/p99/max and the bus load seen")
+    p.add_argument("--echo-probe", action="store_true",
+                   help="with --realtime: the estimator on the bus is caekf-host --echo (no configuration, "
+                        "timing only): what the machine and the bus cost without the estimator")
+    p.add_argument("--bitrate", type=float, default=1e6, help="bit rate for the bus load (default 1e6)")
     p.add_argument("--duration", type=float, default=None, help="seconds of the scenario to run (default all)")
     p.add_argument("--window", type=int, default=1,
                    help="lockstep: steps in flight (1 = strict lockstep; more overlaps round trips)")
@@ -92,6 +101,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     _progress_args(p)
     p.set_defaults(func=cmd_hil_replay_log)
 
+    p = sub.add_parser("busload", help="bus load per step at a rate: worst case from the DBC, and of a recorded log")
+    p.add_argument("--dbc", type=Path, default=None, help="DBC (default firmware/protocol/caekf.dbc)")
+    p.add_argument("--rate", type=float, default=1000.0, help="steps per second (default 1000)")
+    p.add_argument("--bitrate", type=float, default=1e6, help="(nominal) bit rate (default 1e6)")
+    p.add_argument("--log", type=Path, default=None, help="a candump -L log: its measured load")
+    p.set_defaults(func=cmd_busload)
+
+    p = sub.add_parser("gen-c", help="C pack/unpack of the DBC (cantools generate_c_source) into firmware/protocol/gen")
+    p.add_argument("--check", action="store_true", help="only compare with the committed files; exit 1 if stale")
+    p.set_defaults(func=cmd_gen_c)
+
     p = sub.add_parser("bench", help="steps/s: C estimator, numpy, FilterPy, and HIL lockstep over CAN")
     add_scenario_arg(p)
     _bus_args(p)
@@ -119,19 +139,65 @@ def _open_bench(args, record_log: bool = False):
 
     if args.interface == "socketcan" and not interface_exists(args.iface):
         raise SystemExit(f"caekf-sim hil: no CAN interface '{args.iface}' here. This kernel may have no "
-                         "SocketCAN: run through tools/with-vcan.sh (it boots a VM with vcan0), or pass "
+                         "SocketCAN: run through tools/with-vcan.sh (it boots user-mode Linux with vcan0), or pass "
                          "--iface/--interface for real hardware.")
     return Bench.open(args.interface, args.iface, fast=not args.slow_path, record_log=record_log)
+
+
+def cmd_hil_echo_probe(args: argparse.Namespace) -> int:
+    """--realtime --echo-probe: the paced run against caekf-host --echo; timing report only."""
+    from ..bench.realtime import format_paced, paced_stats, write_candump
+    from ..bench.runner import load_truth, rows_for
+
+    sc = scenario_from_args(args)
+    with _open_bench(args) as bench:
+        truth = load_truth(sc, args.truth)
+        inputs = bench.prepare(truth.t, truth.u, truth.y)
+        rows = rows_for(sc, len(inputs), args.duration)
+        rec = bench.run_paced(inputs, sc.dt, 0, rows, echo=True)
+    p = rec.paced
+    text = format_paced(f"ECHO PROBE (caekf-host --echo, no estimator), {rows} steps at {1 / sc.dt:g} Hz",
+                        paced_stats(p, args.bitrate), sc.dt, args.bitrate)
+    print(text)
+    args.outdir.mkdir(parents=True, exist_ok=True)
+    (args.outdir / "realtime-echo.txt").write_text(text + "\n", encoding="utf-8")
+    if args.log is not None:
+        n = write_candump(args.log, args.iface, p.frames_t_ns, p.frames)
+        print(f"hil: wrote {n} frames to {args.log} (candump -L, kernel timestamps)")
+    return 0
+
+
+def _realtime_report(runs, args, dt: float) -> str:
+    from ..bench.realtime import format_paced, paced_stats, write_candump
+
+    blocks = []
+    for i, r in enumerate(runs):
+        p = r.record.paced
+        if p is None:
+            continue
+        blocks.append(format_paced(f"realtime {r.experiment}, {r.record.n} steps at {1 / dt:g} Hz",
+                                   paced_stats(p, args.bitrate), dt, args.bitrate))
+        if args.log is not None:
+            path = args.log if len(runs) == 1 else args.log.with_name(f"{args.log.stem}-{r.experiment}{args.log.suffix}")
+            n = write_candump(path, args.iface, p.frames_t_ns, p.frames)
+            blocks.append(f"hil: wrote {n} frames to {path} (candump -L, kernel timestamps)")
+    return "\n".join(blocks)
 
 
 def cmd_hil_run(args: argparse.Namespace) -> int:
     from ..bench.results import RUNS_FILE, format_summary, save_runs
     from ..bench.runner import load_truth, run_experiments
 
+    if args.echo_probe:
+        if args.mode != "realtime":
+            raise SystemExit("caekf-sim hil run: --echo-probe needs --realtime")
+        return cmd_hil_echo_probe(args)
+
     sc = scenario_from_args(args)
     scenario_path = args.scenario or _default_scenario()
     t_start = time.perf_counter()
-    with _open_bench(args, record_log=args.log is not None) as bench:
+    paced_log = args.mode == "realtime" and args.interface == "socketcan"  # the recorder keeps the log
+    with _open_bench(args, record_log=args.log is not None and not paced_log) as bench:
         truth = load_truth(sc, args.truth)
         print(f"hil: truth loaded ({len(truth.t)} samples) after {time.perf_counter() - t_start:.1f} s", flush=True)
         st = bench.wait_for_estimator()
@@ -139,10 +205,15 @@ def cmd_hil_run(args: argparse.Namespace) -> int:
               f"{st.get('STEPS_DONE', 0)})", flush=True)
         runs = run_experiments(bench, sc, truth, args.experiments, args.duration, args.mode, args.window,
                                args.timeout, args.progress, log=lambda s: print(s, flush=True))
-        if args.log is not None:
+        if args.log is not None and not paced_log:
             n = bench.write_log(args.log)
             print(f"hil: wrote {n} frames to {args.log} (candump -L)")
     args.outdir.mkdir(parents=True, exist_ok=True)
+    if args.mode == "realtime":
+        rt = _realtime_report(runs, args, sc.dt)
+        if rt:
+            print(rt)
+            (args.outdir / "realtime.txt").write_text(rt + "\n", encoding="utf-8")
     header = (f"caekf HIL over CAN ({args.interface} {args.iface}), {args.mode}"
               + (f" window {args.window}" if args.mode == "lockstep" else "")
               + f", scenario {scenario_path}, {runs[0].record.n if runs else 0} steps per experiment")
@@ -214,6 +285,54 @@ def cmd_hil_replay_log(args: argparse.Namespace) -> int:
                 write_result_csv(res, path)
                 print(f"wrote {path} ({len(res.t)} steps)")
     return 0 if rep.ok else 1
+
+
+# --- gen-c -----------------------------------------------------------------------------------
+
+def cmd_gen_c(args: argparse.Namespace) -> int:
+    from .. import codegen
+
+    if args.check:
+        bad = codegen.stale()
+        if bad:
+            print(f"gen-c: firmware/protocol/gen/{', '.join(bad)} stale: the DBC or cantools changed; "
+                  "run caekf-sim gen-c and commit the result")
+            return 1
+        print("gen-c: firmware/protocol/gen is up to date with the DBC")
+        return 0
+    for p in codegen.write():
+        print(f"wrote {p}")
+    return 0
+
+
+# --- busload ---------------------------------------------------------------------------------
+
+def cmd_busload(args: argparse.Namespace) -> int:
+    import cantools
+
+    from ..bench.busload import dbc_profile_load, log_load, read_candump, step_messages
+    from ..bench.codec import default_dbc_path
+
+    dbc = args.dbc or default_dbc_path()
+    db = cantools.database.load_file(str(dbc))
+    names = step_messages(db)
+    pl = dbc_profile_load(db, names, args.rate, args.bitrate, profile="diagnostics")
+    print(f"bus load at {args.rate:g} steps/s, {args.bitrate / 1e6:g} Mbit/s, 11-bit IDs, worst-case bit stuffing")
+    print(f"{'profile':<12}  {'source':<34}  {'frames/step':>11}  {'us/step':>8}  {'load':>7}")
+    print(f"{pl.name:<12}  {'computed from ' + dbc.name:<34}  {pl.frames_per_step:>11.1f}  "
+          f"{1e6 * pl.seconds_per_step:>8.1f}  {100 * pl.load:>6.1f}%")
+    if args.log is not None:
+        t, ids, dlc, data = read_candump(args.log)
+        step_ids = {db.get_message_by_name(n).frame_id for n in names}
+        sel = np.isin(ids, list(step_ids)) if len(ids) else np.zeros(0, bool)
+        ll = log_load(t, ids, dlc, data, args.bitrate)
+        steps = max(1.0, ll.seconds * args.rate)
+        print(f"{pl.name:<12}  {'measured, ' + args.log.name + ' (worst)':<34}  {sel.sum() / steps:>11.1f}  "
+              f"{1e6 * ll.bits_worst / args.bitrate / steps:>8.1f}  {100 * ll.load_worst:>6.1f}%")
+        print(f"{pl.name:<12}  {'measured, ' + args.log.name + ' (exact)':<34}  {sel.sum() / steps:>11.1f}  "
+              f"{1e6 * ll.bits_exact / args.bitrate / steps:>8.1f}  {100 * ll.load_exact:>6.1f}%")
+        print(f"(log: {ll.frames} frames over {ll.seconds:.3f} s; exact = the stuff bits of the recorded contents)")
+    return 0
 
 
 # --- bench -----------------------------------------------------------------------------------
@@ -304,7 +423,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from ..truth import Truth, read_truth_csv
 
     sc = scenario_from_args(args)
-    where = args.where or ("vcan VM (QEMU TCG, 1 vCPU)" if os.environ.get("VCAN_VM_GUEST") else "host")
+    where = args.where or ("user-mode Linux (1 CPU)" if os.environ.get("CAEKF_UML_GUEST") else "host")
     rows: List[Dict] = []
     with tempfile.TemporaryDirectory() as td:
         truth_csv = _truth_csv(args, sc, Path(td))
