@@ -3,6 +3,7 @@
 #include "caekf/caekf.h"
 
 #include "caekf_filter.h"
+#include "caekf_model_internal.h"
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 

@@ -1,5 +1,5 @@
 /* The contact model: eq. (16) contact law, eq. (19) residual and Jacobians, Newton, eq. (10) F. */
-#include "caekf/caekf_model.h"
+#include "caekf_model_internal.h"
 
 #include <stddef.h>
 

@@ -4,7 +4,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "caekf/caekf_model.h"
+#include "caekf_model_internal.h"
 #include "test_support.h"
 #include "unity.h"
 
