@@ -15,8 +15,7 @@ caekf_status_t caekf_settings_default(caekf_settings_t *s)
     for (i = 0; i < sizeof *s; ++i) { /* all-bits zero: 0, 0.0 and the first enumerators */
         bytes[i] = 0;
     }
-    caekf_settings_schema_defaults(s); /* generated from the schema */
-    return CAEKF_OK;
+    return caekf_settings_schema_defaults(s); /* generated from the schema */
 }
 
 CAEKF_STATIC_ASSERT(CAEKF_PARAM_COUNT <= 255u && CAEKF_SETTING_COUNT <= 255u, ids_fit_a_byte);

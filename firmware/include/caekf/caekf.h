@@ -169,7 +169,7 @@ extern const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT];
  * must fill those. */
 caekf_status_t caekf_settings_default(caekf_settings_t *s);
 /* The generated part of it: writes every default the schema gives, touches nothing else. */
-void caekf_settings_schema_defaults(caekf_settings_t *s);
+caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s);
 
 /* Sets one element by its CTRL_PARAM id (the scenario keys and the wire use the same ids). Integer,
  * enum and bool settings need an integral value. Ranges are checked by caekf_settings_validate, so a

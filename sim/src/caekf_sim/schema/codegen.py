@@ -250,7 +250,8 @@ def c_core(schema: Schema) -> Dict[str, str]:
         hi = 0 if s.range != "int" else int(s.hi)
         c.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {s.field}), {s.id}u, {s.count}u, {storage}, "
                  f"CAEKF_RULE_{rule}, {lo}u, {hi}u}}, /* {s.name} */")
-    c += ["};", "", "void caekf_settings_schema_defaults(caekf_settings_t *s)", "{"]
+    c += ["};", "", "caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s)", "{",
+          "    if (s == 0) {", "        return CAEKF_ERR_NULL;", "    }"]
     for s in wire:
         if s.required:
             continue
@@ -267,7 +268,7 @@ def c_core(schema: Schema) -> Dict[str, str]:
                 c.append(f"    {lhs} = {C_ENUMS[s.name][1]}{_macro(str(d))};")
             else:
                 c.append(f"    {lhs} = {expr};")
-    c += ["}", ""]
+    c += ["    return CAEKF_OK;", "}", ""]
     # Names: only host tools and messages need them; a separate object the MCU links only if used.
     n = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "",
          "static const char *const setting_names[CAEKF_SETTING_COUNT] = {"]
