@@ -78,7 +78,7 @@ pkg_installed() {
 
 # --- 1. apt packages -----------------------------------------------------------------------
 install_apt_packages() {
-    local pkgs=(cmake ninja-build gcc g++ make python3-venv python3-dev dpkg-dev clang libclang-rt-dev binutils)
+    local pkgs=(cmake ninja-build gcc g++ make python3-venv python3-dev dpkg-dev clang libclang-rt-dev binutils cppcheck)
     [ "$WANT_ARM" -eq 1 ] && pkgs+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
     # busybox-static conflicts with an installed dynamic busybox: tools/vcan-vm/setup.sh handles it
     [ "$WANT_HIL" -eq 1 ] && pkgs+=(qemu-system-x86 xz-utils)

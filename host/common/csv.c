@@ -73,10 +73,10 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
 {
     char buf[MAX_LINE];
     double v[4];
-    int col = 0, rc, missing = 0;
+    int col = 0, missing = 0;
     char *p;
     do {
-        rc = read_line(r, buf);
+        int rc = read_line(r, buf);
         if (rc == -1) {
             return 0;
         }
