@@ -64,7 +64,11 @@ int caekf_output_open(caekf_output_t *o, const char *dest, char *err, unsigned e
         o->tmp[0] = '\0';
         return CAEKF_EXIT_IO;
     }
-    (void)fchmod(fd, 0644); /* mkstemp's 0600 is not what an output file should have */
+    {
+        mode_t mask = umask(0); /* mkstemp's 0600 is not what an output file should have: 0666 & ~umask */
+        (void)umask(mask);
+        (void)fchmod(fd, 0666 & ~mask);
+    }
     if ((o->f = fdopen(fd, "w")) == NULL) {
         snprintf(err, err_len, "%s: cannot write: %s", dest, strerror(errno));
         close(fd);
