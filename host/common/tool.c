@@ -2,10 +2,40 @@
 #include "tool.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+/* The temporary file of the output being written, removed if the run is interrupted (SIGINT, SIGTERM,
+ * SIGHUP) so that even then nothing is left behind. One output per process. */
+static char pending_tmp[4096];
+static volatile sig_atomic_t pending;
+
+static void on_signal(int sig)
+{
+    if (pending) {
+        (void)unlink(pending_tmp);
+    }
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+static void watch_signals(const char *tmp)
+{
+    static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+    struct sigaction sa;
+    unsigned i;
+    memcpy(pending_tmp, tmp, sizeof pending_tmp);
+    pending = 1;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    for (i = 0; i < sizeof sigs / sizeof sigs[0]; ++i) {
+        (void)sigaction(sigs[i], &sa, NULL);
+    }
+}
 
 void caekf_tool_version(const char *tool, const char *scalar)
 {
@@ -77,6 +107,7 @@ int caekf_output_open(caekf_output_t *o, const char *dest, char *err, unsigned e
         return CAEKF_EXIT_IO;
     }
     o->dest = dest;
+    watch_signals(o->tmp);
     return 0;
 }
 
@@ -98,6 +129,7 @@ int caekf_output_commit(caekf_output_t *o, char *err, unsigned err_len)
         caekf_output_abort(o);
         return CAEKF_EXIT_IO;
     }
+    pending = 0;
     if (rename(o->tmp, o->dest) != 0) {
         snprintf(err, err_len, "%s: cannot write: %s", o->dest, strerror(errno));
         caekf_output_abort(o);
@@ -113,6 +145,7 @@ void caekf_output_abort(caekf_output_t *o)
         fclose(o->f);
     }
     o->f = NULL;
+    pending = 0;
     if (o->tmp[0] != '\0') {
         (void)unlink(o->tmp);
         o->tmp[0] = '\0';
