@@ -25,7 +25,7 @@ static void usage(FILE *f)
           "         [--version] [--help]\n"
           "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
           "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
-          "         [--gate NIS] [--missing-y-predict] [--summary]\n"
+          "         [--gate NIS] [--missing-y-predict] [--no-t-check] [--summary]\n"
           "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default; t strictly\n"
           "increasing by the scenario's dt within 1 %; at most 2,000,000 rows) and writes\n"
           "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis (stdout by default).\n"
@@ -35,7 +35,8 @@ static void usage(FILE *f)
           "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
           "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
           "refusing the input. --missing-y-predict: a row whose y1 and y4 are both empty is a step without\n"
-          "measurement (caekf_predict, the firmware's bridge over lost steps). --summary prints one line of\n"
+          "measurement (caekf_predict, the firmware's bridge over lost steps). --no-t-check: t must increase\n"
+          "but its steps are not checked against dt (rows deliberately not evenly spaced). --summary prints one line of\n"
           "statistics to stderr. The whole input is checked before anything is written; the output file\n"
           "appears (renamed from a temporary file beside it) only when the run succeeded.\n",
           f);
@@ -69,7 +70,7 @@ int main(int argc, char **argv)
     const char *scenario = NULL, *in = "-", *out = "-";
     const char *experiment = NULL, *mode = NULL, *constraint = NULL, *switchoff = NULL;
     double q_gamma_scale = -1, gate = -1;
-    int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0;
+    int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0, t_check = 1;
     caekf_scenario_t sc;
     caekf_settings_t s;
     caekf_t est;
@@ -112,6 +113,7 @@ int main(int argc, char **argv)
         else if (strcmp(a, "--allow-nonfinite") == 0) allow_nonfinite = 1;
         else if (strcmp(a, "--missing-y-predict") == 0) allow_missing = 1;
         else if (strcmp(a, "--summary") == 0) want_summary = 1;
+        else if (strcmp(a, "--no-t-check") == 0) t_check = 0;
         else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
             return CAEKF_EXIT_OK;
@@ -167,7 +169,7 @@ int main(int argc, char **argv)
         return CAEKF_EXIT_INPUT;
     }
     /* The whole input is read and checked before any output exists. */
-    if ((n = caekf_csv_read(in, sc.dt, allow_nonfinite, allow_missing, &rows, err, sizeof err)) < 0) {
+    if ((n = caekf_csv_read(in, t_check ? sc.dt : 0.0, allow_nonfinite, allow_missing, &rows, err, sizeof err)) < 0) {
         fprintf(stderr, "caekf-replay: %s\n", err);
         return (int)-n;
     }

@@ -13,7 +13,7 @@ typedef struct {
     int columns;
     int allow_nonfinite;
     int allow_missing_y;    /* empty y1 and y4 fields: a step without measurement */
-    double dt;              /* > 0: t must step by dt (relative tolerance CAEKF_CSV_DT_TOL); 0: unchecked */
+    double dt;              /* > 0: t must step by dt (relative tolerance CAEKF_CSV_DT_TOL); 0: only increase */
     double prev_t;
     int have_prev;
     char err[512];
@@ -34,7 +34,7 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m);
 #define CAEKF_CSV_DT_TOL 0.01       /* |t[k] - t[k-1] - dt| <= 1 % of dt */
 
 /* Reads a whole measurement CSV ("-": stdin) into a malloc'ed array (*rows, free() it), checking every
- * row before returning: header, column count, numbers, t strictly increasing by dt (dt > 0), at least one
+ * row before returning: header, column count, numbers, t strictly increasing (by dt when dt > 0), at least one
  * data row, at most CAEKF_CSV_MAX_ROWS rows. Returns the row count, or -CAEKF_EXIT_INPUT (bad content)
  * or -CAEKF_EXIT_IO (missing file, a directory, read error) with a one-line message in err. */
 long caekf_csv_read(const char *path, double dt, int allow_nonfinite, int allow_missing_y, caekf_meas_t **rows,
