@@ -7,6 +7,7 @@
 #include "caekf/caekf.h"
 #include "common/csv.h"
 #include "common/scenario.h"
+#include "common/tool.h"
 
 typedef struct {
     long rows, rejected;
@@ -21,10 +22,12 @@ static void usage(FILE *f)
 {
     unsigned b;
     fputs("usage: caekf-replay --scenario FILE [--in CSV|-] [--out CSV|-] [--experiment PRESET]\n"
+          "         [--version] [--help]\n"
           "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
           "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
-          "         [--gate NIS] [--missing-y-predict] [--summary]\n"
-          "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default) and writes\n"
+          "         [--gate NIS] [--missing-y-predict] [--no-t-check] [--summary]\n"
+          "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default; t strictly\n"
+          "increasing by the scenario's dt within 1 %; at most 2,000,000 rows) and writes\n"
           "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis (stdout by default).\n"
           "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
           "preset named by --experiment, then the explicit flags. Presets:\n"
@@ -32,8 +35,10 @@ static void usage(FILE *f)
           "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
           "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
           "refusing the input. --missing-y-predict: a row whose y1 and y4 are both empty is a step without\n"
-          "measurement (caekf_predict, the firmware's bridge over lost steps). --summary prints one line of\n"
-          "statistics to stderr.\n",
+          "measurement (caekf_predict, the firmware's bridge over lost steps). --no-t-check: t must increase\n"
+          "but its steps are not checked against dt (rows deliberately not evenly spaced). --summary prints one line of\n"
+          "statistics to stderr. The whole input is checked before anything is written; the output file\n"
+          "appears (renamed from a temporary file beside it) only when the run succeeded.\n",
           f);
     for (b = 0; b < CAEKF_PRESET_COUNT; ++b) {
         fprintf(f, "  %-28s %s\n", caekf_presets[b].name, caekf_presets[b].doc);
@@ -42,7 +47,7 @@ static void usage(FILE *f)
     for (b = 0; b < CAEKF_FLAG_COUNT; ++b) {
         fprintf(f, "  %4u  %s\n", 1u << b, caekf_flag_name(b));
     }
-    fputs("exit status: 0 ok, 2 usage, 3 bad scenario or settings, 4 malformed input, 5 I/O error\n", f);
+    fputs(CAEKF_EXIT_TABLE, f);
 }
 
 static void print_flags(FILE *f, uint32_t flags)
@@ -65,17 +70,18 @@ int main(int argc, char **argv)
     const char *scenario = NULL, *in = "-", *out = "-";
     const char *experiment = NULL, *mode = NULL, *constraint = NULL, *switchoff = NULL;
     double q_gamma_scale = -1, gate = -1;
-    int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0;
+    int joseph = 0, no_repair = 0, allow_nonfinite = 0, want_summary = 0, allow_missing = 0, t_check = 1;
     caekf_scenario_t sc;
     caekf_settings_t s;
     caekf_t est;
-    caekf_csv_t csv;
-    caekf_meas_t m;
+    caekf_meas_t *rows = NULL;
     summary_t sum;
-    FILE *fin, *fout;
-    char err[512];
+    caekf_output_t o;
+    FILE *fout;
+    char err[1024];
     const caekf_preset_t *preset = NULL;
     caekf_setting_error_t bad;
+    long n, k;
     int i, rc;
 
     for (i = 1; i < argc; ++i) {
@@ -93,55 +99,65 @@ int main(int argc, char **argv)
             q_gamma_scale = strtod(argv[++i], &end);
             if (*end != '\0' || !(q_gamma_scale >= 0) || !isfinite(q_gamma_scale)) {
                 fprintf(stderr, "caekf-replay: --q-gamma-scale needs a finite number >= 0\n");
-                return 2;
+                return CAEKF_EXIT_USAGE;
             }
         } else if (strcmp(a, "--gate") == 0 && has) {
             char *end;
             gate = strtod(argv[++i], &end);
             if (*end != '\0' || !(gate >= 0) || !isfinite(gate)) {
                 fprintf(stderr, "caekf-replay: --gate needs a finite number >= 0\n");
-                return 2;
+                return CAEKF_EXIT_USAGE;
             }
         } else if (strcmp(a, "--joseph") == 0) joseph = 1;
         else if (strcmp(a, "--no-repair") == 0) no_repair = 1;
         else if (strcmp(a, "--allow-nonfinite") == 0) allow_nonfinite = 1;
         else if (strcmp(a, "--missing-y-predict") == 0) allow_missing = 1;
         else if (strcmp(a, "--summary") == 0) want_summary = 1;
+        else if (strcmp(a, "--no-t-check") == 0) t_check = 0;
         else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
-            return 0;
+            return CAEKF_EXIT_OK;
+        } else if (strcmp(a, "--version") == 0) {
+            caekf_tool_version("caekf-replay", CAEKF_SCALAR_NAME);
+            return CAEKF_EXIT_OK;
         } else {
             fprintf(stderr, "caekf-replay: unknown or incomplete argument '%s' (see --help)\n", a);
-            return 2;
+            return CAEKF_EXIT_USAGE;
         }
     }
     if (scenario == NULL) {
         fprintf(stderr, "caekf-replay: --scenario is required (see --help)\n");
-        return 2;
+        return CAEKF_EXIT_USAGE;
     }
     if (experiment != NULL && (preset = caekf_preset_find(experiment)) == NULL) {
         fprintf(stderr, "caekf-replay: unknown experiment '%s' (see --help)\n", experiment);
-        return 2;
+        return CAEKF_EXIT_USAGE;
+    }
+    if (mode != NULL && strcmp(mode, "canonical") != 0 && strcmp(mode, "switched") != 0) {
+        fprintf(stderr, "caekf-replay: bad --mode '%s' (canonical or switched)\n", mode);
+        return CAEKF_EXIT_USAGE;
+    }
+    if (constraint != NULL && strcmp(constraint, "on") != 0 && strcmp(constraint, "off") != 0) {
+        fprintf(stderr, "caekf-replay: bad --constraint '%s' (on or off)\n", constraint);
+        return CAEKF_EXIT_USAGE;
+    }
+    if (switchoff != NULL && strcmp(switchoff, "consistent") != 0 && strcmp(switchoff, "paper") != 0) {
+        fprintf(stderr, "caekf-replay: bad --switchoff '%s' (consistent or paper)\n", switchoff);
+        return CAEKF_EXIT_USAGE;
+    }
+    if ((rc = caekf_tool_check_input(scenario, 0, err, sizeof err)) != 0) {
+        fprintf(stderr, "caekf-replay: %s\n", err);
+        return rc;
     }
     if (caekf_scenario_load(scenario, &sc, err, sizeof err) != 0 ||
         caekf_scenario_settings(&sc, preset, &s, scenario, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-replay: %s\n", err);
-        return 3;
+        return CAEKF_EXIT_INPUT;
     }
-    if (mode != NULL) {
-        if (strcmp(mode, "canonical") == 0) s.mode = CAEKF_MODE_CANONICAL;
-        else if (strcmp(mode, "switched") == 0) s.mode = CAEKF_MODE_SWITCHED;
-        else { fprintf(stderr, "caekf-replay: bad --mode '%s'\n", mode); return 2; }
-    }
-    if (constraint != NULL) {
-        if (strcmp(constraint, "on") == 0) s.constraint_enabled = 1;
-        else if (strcmp(constraint, "off") == 0) s.constraint_enabled = 0;
-        else { fprintf(stderr, "caekf-replay: bad --constraint '%s'\n", constraint); return 2; }
-    }
+    if (mode != NULL) s.mode = strcmp(mode, "canonical") == 0 ? CAEKF_MODE_CANONICAL : CAEKF_MODE_SWITCHED;
+    if (constraint != NULL) s.constraint_enabled = strcmp(constraint, "on") == 0;
     if (switchoff != NULL) {
-        if (strcmp(switchoff, "consistent") == 0) s.switchoff = CAEKF_SWITCHOFF_CONSISTENT;
-        else if (strcmp(switchoff, "paper") == 0) s.switchoff = CAEKF_SWITCHOFF_PAPER;
-        else { fprintf(stderr, "caekf-replay: bad --switchoff '%s'\n", switchoff); return 2; }
+        s.switchoff = strcmp(switchoff, "consistent") == 0 ? CAEKF_SWITCHOFF_CONSISTENT : CAEKF_SWITCHOFF_PAPER;
     }
     if (q_gamma_scale >= 0) s.q_gamma_scale = (caekf_scalar_t)q_gamma_scale;
     if (gate >= 0) s.gamma_gate_nis = (caekf_scalar_t)gate;
@@ -149,45 +165,42 @@ int main(int argc, char **argv)
     if (no_repair) s.cov_repair_enabled = 0;
     if (caekf_settings_validate(&s, &bad) != CAEKF_OK) {
         (void)caekf_setting_error_text(&bad, &s, err, sizeof err);
-        fprintf(stderr, "caekf-replay: settings refused: %s\n", err);
-        return 3;
+        fprintf(stderr, "caekf-replay: %s: settings refused: %s\n", scenario, err);
+        return CAEKF_EXIT_INPUT;
+    }
+    /* The whole input is read and checked before any output exists. */
+    if ((n = caekf_csv_read(in, t_check ? sc.dt : 0.0, allow_nonfinite, allow_missing, &rows, err, sizeof err)) < 0) {
+        fprintf(stderr, "caekf-replay: %s\n", err);
+        return (int)-n;
     }
     if (caekf_init(&est, &s) != CAEKF_OK) {
-        fprintf(stderr, "caekf-replay: estimator initialisation failed\n");
-        return 3;
+        fprintf(stderr, "caekf-replay: %s: estimator initialisation failed\n", scenario);
+        free(rows);
+        return CAEKF_EXIT_NUMERIC;
     }
-
-    fin = strcmp(in, "-") == 0 ? stdin : fopen(in, "r");
-    if (fin == NULL) {
-        perror(in);
-        return 5;
+    if ((rc = caekf_output_open(&o, out, err, sizeof err)) != 0) {
+        fprintf(stderr, "caekf-replay: %s\n", err);
+        free(rows);
+        return rc;
     }
-    fout = strcmp(out, "-") == 0 ? stdout : fopen(out, "w");
-    if (fout == NULL) {
-        perror(out);
-        return 5;
-    }
-    if (caekf_csv_open(&csv, fin, strcmp(in, "-") == 0 ? "<stdin>" : in, allow_nonfinite) != 0) {
-        fprintf(stderr, "caekf-replay: %s\n", csv.err);
-        return 4;
-    }
-    csv.allow_missing_y = allow_missing;
+    fout = o.f;
     memset(&sum, 0, sizeof sum);
     sum.gamma_min_seen = INFINITY;
     fputs("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis\n", fout);
-    while ((rc = caekf_csv_next(&csv, &m)) == 1) {
+    for (k = 0; k < n; ++k) {
+        const caekf_meas_t *m = &rows[k];
         caekf_scalar_t y[CAEKF_NY], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;
         caekf_report_t rep;
-        y[0] = (caekf_scalar_t)m.y1;
-        y[1] = (caekf_scalar_t)m.y4;
-        if ((m.has_y ? caekf_step(&est, (caekf_scalar_t)m.u, y, &rep)
-                     : caekf_predict(&est, (caekf_scalar_t)m.u, &rep)) != CAEKF_OK) {
+        y[0] = (caekf_scalar_t)m->y1;
+        y[1] = (caekf_scalar_t)m->y4;
+        if ((m->has_y ? caekf_step(&est, (caekf_scalar_t)m->u, y, &rep)
+                      : caekf_predict(&est, (caekf_scalar_t)m->u, &rep)) != CAEKF_OK) {
             sum.rejected++;
         }
         (void)caekf_get_state(&est, x);
         (void)caekf_get_covariance(&est, P);
         (void)caekf_get_cov_norm2(&est, &pn);
-        fprintf(fout, "%.17g", m.t);
+        fprintf(fout, "%.17g", m->t);
         for (i = 0; i < CAEKF_N; ++i) {
             fprintf(fout, ",%.17g", (double)x[i]);
         }
@@ -201,13 +214,16 @@ int main(int argc, char **argv)
         if ((double)pn > sum.p_norm_max) sum.p_norm_max = (double)pn;
         sum.gamma_last = (double)x[CAEKF_IG];
     }
-    if (rc < 0) {
-        fprintf(stderr, "caekf-replay: %s\n", csv.err);
-        return 4;
+    free(rows);
+    if (!isfinite(sum.gamma_last)) {
+        caekf_output_abort(&o);
+        fprintf(stderr, "caekf-replay: %s: the estimate of gamma is not finite after %ld steps\n",
+                strcmp(in, "-") == 0 ? "<stdin>" : in, n);
+        return CAEKF_EXIT_NUMERIC;
     }
-    if (fout != stdout && fclose(fout) != 0) {
-        perror(out);
-        return 5;
+    if ((rc = caekf_output_commit(&o, err, sizeof err)) != 0) {
+        fprintf(stderr, "caekf-replay: %s\n", err);
+        return rc;
     }
     if (want_summary) {
         /* One row: experiment scalar rows rejected final_err_% min_gamma max_pnorm iters_mean iters_max flags */
@@ -218,5 +234,5 @@ int main(int argc, char **argv)
         print_flags(stderr, sum.flags_seen);
         fputc('\n', stderr);
     }
-    return 0;
+    return CAEKF_EXIT_OK;
 }

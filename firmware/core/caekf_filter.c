@@ -166,6 +166,7 @@ int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t
     caekf_scalar_t e0, e1;
     /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma column is left as it is. */
     const int jend = policy == CAEKF_GAMMA_FROZEN_PAPER ? IG : N;
+    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j;
     /* Eq. (13): S = H P- H^T + R is the (q1, q4) block of P plus R. */
     if (caekf_sym2_inverse(P[CAEKF_IY1][CAEKF_IY1] + r, P[CAEKF_IY1][CAEKF_IY4], P[CAEKF_IY4][CAEKF_IY4] + r,

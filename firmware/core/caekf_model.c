@@ -212,7 +212,9 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         caekf_contact_t c;
         caekf_scalar_t r[CAEKF_NQ], mag[CAEKF_NQ];
         caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ];
+        /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         int piv[CAEKF_NQ];
+        /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t rmax = 0, magmax = 0;
         caekf_model_contact(m, q, gamma, &c);
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */

@@ -1,5 +1,6 @@
 #define _POSIX_C_SOURCE 200809L /* strtok_r */
 #include "csv.h"
+#include "tool.h"
 
 #include <errno.h>
 #include <math.h>
@@ -72,10 +73,10 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
 {
     char buf[MAX_LINE];
     double v[4];
-    int col = 0, rc, missing = 0;
+    int col = 0, missing = 0;
     char *p;
     do {
-        rc = read_line(r, buf);
+        int rc = read_line(r, buf);
         if (rc == -1) {
             return 0;
         }
@@ -127,6 +128,22 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
     if (missing == 1) {
         return fail(r, "y1 and y4 must both be present or both be empty");
     }
+    if (r->have_prev) { /* t strictly increases; with dt > 0 it steps by dt */
+        double d = v[0] - r->prev_t;
+        char msg[200];
+        if (!(d > 0)) {
+            snprintf(msg, sizeof msg, "t = %.17g does not increase (previous row: %.17g): t must strictly increase",
+                     v[0], r->prev_t);
+            return fail(r, msg);
+        }
+        if (r->dt > 0 && fabs(d - r->dt) > CAEKF_CSV_DT_TOL * r->dt) {
+            snprintf(msg, sizeof msg, "t steps by %.9g from the previous row, the scenario's dt is %.9g (tolerance %g %%)",
+                     d, r->dt, 100.0 * CAEKF_CSV_DT_TOL);
+            return fail(r, msg);
+        }
+    }
+    r->prev_t = v[0];
+    r->have_prev = 1;
     m->has_y = missing == 0;
     m->t = v[0];
     m->u = v[1];
@@ -135,36 +152,66 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
     return 1;
 }
 
-long caekf_csv_load(const char *path, caekf_meas_t *rows, long max_rows, char *err, unsigned err_len)
+long caekf_csv_read(const char *path, double dt, int allow_nonfinite, int allow_missing_y, caekf_meas_t **rows,
+                    char *err, unsigned err_len)
 {
     caekf_csv_t csv;
-    caekf_meas_t extra;
-    long n = 0;
-    int rc;
-    FILE *f = fopen(path, "r");
+    caekf_meas_t m;
+    caekf_meas_t *buf = NULL;
+    long n = 0, cap = 0;
+    int rc, is_stdin = strcmp(path, "-") == 0;
+    const char *name = is_stdin ? "<stdin>" : path;
+    FILE *f;
+    *rows = NULL;
+    if ((rc = caekf_tool_check_input(path, 1, err, err_len)) != 0) {
+        return -rc;
+    }
+    f = is_stdin ? stdin : fopen(path, "r");
     if (f == NULL) {
         snprintf(err, err_len, "%s: cannot open: %s", path, strerror(errno));
-        return -1;
+        return -CAEKF_EXIT_IO;
     }
-    if (caekf_csv_open(&csv, f, path, 0) != 0) {
-        fclose(f);
-        snprintf(err, err_len, "%s", csv.err);
-        return -1;
-    }
-    while (n < max_rows && (rc = caekf_csv_next(&csv, &rows[n])) == 1) {
-        n++;
-    }
-    if (n == max_rows) {
-        rc = caekf_csv_next(&csv, &extra);
-        if (rc == 1) {
-            snprintf(csv.err, sizeof csv.err, "%s: more than %ld rows", path, max_rows);
-            rc = -1;
+    rc = caekf_csv_open(&csv, f, name, allow_nonfinite);
+    if (rc == 0) {
+        csv.allow_missing_y = allow_missing_y;
+        csv.dt = dt;
+        while ((rc = caekf_csv_next(&csv, &m)) == 1) {
+            if (n == CAEKF_CSV_MAX_ROWS) {
+                snprintf(csv.err, sizeof csv.err, "%s:%lu: more than %ld data rows: the size limit is %ld rows",
+                         name, csv.line, CAEKF_CSV_MAX_ROWS, CAEKF_CSV_MAX_ROWS);
+                rc = -1;
+                break;
+            }
+            if (n == cap) {
+                long nc = cap == 0 ? 4096 : 2 * cap;
+                caekf_meas_t *nb = realloc(buf, (size_t)nc * sizeof *nb);
+                if (nb == NULL) {
+                    snprintf(csv.err, sizeof csv.err, "%s:%lu: out of memory", name, csv.line);
+                    rc = -2;
+                    break;
+                }
+                buf = nb;
+                cap = nc;
+            }
+            buf[n++] = m;
         }
     }
-    fclose(f);
-    if (rc < 0) {
-        snprintf(err, err_len, "%s", csv.err);
-        return -1;
+    if (rc == 0 && ferror(f)) {
+        snprintf(csv.err, sizeof csv.err, "%s: read error: %s", name, strerror(errno));
+        rc = -2;
     }
+    if (rc == 0 && n == 0) {
+        snprintf(csv.err, sizeof csv.err, "%s:%lu: no data rows after the header", name, csv.line);
+        rc = -1;
+    }
+    if (!is_stdin) {
+        fclose(f);
+    }
+    if (rc != 0) {
+        snprintf(err, err_len, "%s", csv.err);
+        free(buf);
+        return rc == -2 ? -CAEKF_EXIT_IO : -CAEKF_EXIT_INPUT;
+    }
+    *rows = buf;
     return n;
 }

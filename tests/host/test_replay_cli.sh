@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# caekf-replay's input handling: malformed CSVs are reported with their line number and a non-zero
-# exit status; a good CSV (with extra columns) replays; --allow-nonfinite hands NaN to the estimator,
+# caekf-replay's input handling: malformed CSVs are reported with their line number and exit 3
+# (the whole table of bad inputs is bad_input_cases.txt); a good CSV (with extra columns) replays; --allow-nonfinite hands NaN to the estimator,
 # which rejects that step with the input_rejected flag (2).
 set -u
 replay=$1
@@ -22,14 +22,14 @@ expect_error() { # name, expected exit, expected message regex, csv content
     fi
 }
 
-expect_error bad-header 4 'in.csv:1: bad header' 't,u,y2,y4\n0.001,0,0,0\n'
-expect_error empty 4 'empty input' ''
-expect_error column-count 4 'in.csv:3: wrong column count' 't,u,y1,y4\n0.001,0,0,0\n0.002,0,0\n'
-expect_error non-numeric 4 'in.csv:2: column 3' 't,u,y1,y4\n0.001,0,abc,0\n'
-expect_error non-finite 4 'in.csv:3: column 2: non-finite' 't,u,y1,y4\n0.001,0,0,0\n0.002,nan,0,0\n'
-expect_error trailing-junk 4 'in.csv:2: column 4' 't,u,y1,y4\n0.001,0,0,1e-3x\n'
-"$replay" --scenario "$scenario" --in "$tmp/nope.csv" 2>/dev/null; [[ $? -eq 5 ]] && passes=$((passes + 1)) || { echo "FAIL missing-file exit"; fails=$((fails + 1)); }
-"$replay" --scenario "$tmp/none.toml" --in /dev/null 2>/dev/null; [[ $? -eq 3 ]] && passes=$((passes + 1)) || { echo "FAIL bad scenario exit"; fails=$((fails + 1)); }
+expect_error bad-header 3 'in.csv:1: bad header' 't,u,y2,y4\n0.001,0,0,0\n'
+expect_error empty 3 'empty input' ''
+expect_error column-count 3 'in.csv:3: wrong column count' 't,u,y1,y4\n0.001,0,0,0\n0.002,0,0\n'
+expect_error non-numeric 3 'in.csv:2: column 3' 't,u,y1,y4\n0.001,0,abc,0\n'
+expect_error non-finite 3 'in.csv:3: column 2: non-finite' 't,u,y1,y4\n0.001,0,0,0\n0.002,nan,0,0\n'
+expect_error trailing-junk 3 'in.csv:2: column 4' 't,u,y1,y4\n0.001,0,0,1e-3x\n'
+"$replay" --scenario "$scenario" --in "$tmp/nope.csv" 2>/dev/null; [[ $? -eq 4 ]] && passes=$((passes + 1)) || { echo "FAIL missing-file exit"; fails=$((fails + 1)); }
+"$replay" --scenario "$tmp/none.toml" --in /dev/null 2>/dev/null; [[ $? -eq 4 ]] && passes=$((passes + 1)) || { echo "FAIL bad scenario exit"; fails=$((fails + 1)); }
 "$replay" --bogus 2>/dev/null; [[ $? -eq 2 ]] && passes=$((passes + 1)) || { echo "FAIL usage exit"; fails=$((fails + 1)); }
 
 # Good input with extra columns, then NaN passed through to the estimator.
@@ -53,9 +53,9 @@ if "$replay" --scenario "$scenario" --in "$tmp/gap.csv" --out "$tmp/out.csv" --m
 else
     echo "FAIL missing-y exit: $(cat "$tmp/err")"; fails=$((fails + 1))
 fi
-expect_error missing-without-flag 4 'in.csv:3: column 3' 't,u,y1,y4\n0.001,0.1,1e-6,0\n0.002,0.1,,\n'
+expect_error missing-without-flag 3 'in.csv:3: column 3' 't,u,y1,y4\n0.001,0.1,1e-6,0\n0.002,0.1,,\n'
 printf 't,u,y1,y4\n0.001,0.1,,0\n' > "$tmp/half.csv"
 "$replay" --scenario "$scenario" --in "$tmp/half.csv" --missing-y-predict >/dev/null 2>"$tmp/err"
-if [[ $? -eq 4 ]] && grep -q "both be present" "$tmp/err"; then passes=$((passes + 1)); else echo "FAIL half-missing"; fails=$((fails + 1)); fi
+if [[ $? -eq 3 ]] && grep -q "both be present" "$tmp/err"; then passes=$((passes + 1)); else echo "FAIL half-missing"; fails=$((fails + 1)); fi
 echo "$passes passed, $fails failed"
 [[ $fails -eq 0 ]]

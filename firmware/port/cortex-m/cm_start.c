@@ -28,7 +28,9 @@ static void fault_entry(void);
 /* Vector table: initial SP, Reset_Handler, the 14 system exceptions, then the external interrupts
  * (none is ever enabled by the images; all go to fault_entry). */
 typedef struct {
+    /* cppcheck-suppress unusedStructMember ; read by the hardware (the vector table) */
     uint32_t *initial_sp;
+    /* cppcheck-suppress unusedStructMember ; read by the hardware (the vector table) */
     caekf_vector_t handlers[15 + CAEKF_NUM_IRQ];
 } caekf_vector_table_t;
 
@@ -60,12 +62,15 @@ void caekf_port_c_start(void)
     uint32_t *dst;
     caekf_vector_t *ctor;
 
+    /* cppcheck-suppress comparePointers ; linker-script symbols bounding one section */
     for (dst = __data_start; dst < __data_end; ++dst, ++src) {
         *dst = *src;
     }
+    /* cppcheck-suppress comparePointers ; linker-script symbols bounding one section */
     for (dst = __bss_start; dst < __bss_end; ++dst) {
         *dst = 0u;
     }
+    /* cppcheck-suppress comparePointers ; linker-script symbols bounding one section */
     for (ctor = __init_array_start; ctor < __init_array_end; ++ctor) {
         (*ctor)();
     }

@@ -117,6 +117,7 @@ static int wait_msr(const caekf_bxcan_t *can, uint32_t mask, uint32_t value)
 
 caekf_bxcan_status_t caekf_bxcan_init(caekf_bxcan_t *can, caekf_bxcan_regs_t *regs, const caekf_bxcan_config_t *cfg)
 {
+    /* cppcheck-suppress unassignedVariable ; static storage: all zero, the value it stands for */
     static const caekf_bxcan_counters_t zero_counters;
     uint32_t btr, mcr;
     caekf_bxcan_regs_t *r = regs;

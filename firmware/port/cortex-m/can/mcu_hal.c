@@ -8,6 +8,7 @@
 
 int caekf_mcu_hal_init(caekf_mcu_hal_t *h, caekf_bxcan_t *can, caekf_mcu_now_fn_t now, void *now_ctx)
 {
+    /* cppcheck-suppress unassignedVariable ; static storage: all zero, the value it stands for */
     static const caekf_mcu_hal_counters_t zero;
     if (h == NULL || can == NULL || now == NULL) {
         return -1;
