@@ -22,10 +22,10 @@ typedef struct {
 
 static void usage(FILE *f)
 {
-    fputs("usage: caekf-truth --scenario FILE [--out CSV|-] [--bin FILE] [--quiet]\n"
+    fputs("usage: caekf-truth --scenario FILE [--out CSV|-] [--bin FILE] [--no-csv] [--quiet]\n"
           "                   [--method dop853|backward-euler] [--rtol R] [--atol-q A] [--atol-v A]\n"
           "Writes CSV columns t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta for k = 1..round(t_end/dt).\n"
-          "--bin also writes the same 13 columns as little-endian float64 records.\n"
+          "--bin also writes the same 13 columns as little-endian float64 records; --no-csv skips the CSV.\n"
           "dop853 (default): the continuous model, adaptive Dormand-Prince 8(5,3) with every contact event\n"
           "located and the integration restarted there (rtol 1e-11, atol 1e-15 m, 1e-13 m/s by default).\n"
           "backward-euler: eq. (19) at dt/truth_substeps, Newton-solved (the truth of earlier versions).\n"
@@ -131,6 +131,8 @@ int main(int argc, char **argv)
                 opt.atol_v = v;
             }
             ++i;
+        } else if (strcmp(argv[i], "--no-csv") == 0) {
+            out = NULL;
         } else if (strcmp(argv[i], "--quiet") == 0) {
             sink.quiet = 1;
         } else if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
@@ -150,8 +152,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "caekf-truth: %s\n", err);
         return 3;
     }
-    sink.csv = strcmp(out, "-") == 0 ? stdout : fopen(out, "w");
-    if (sink.csv == NULL) {
+    sink.csv = out == NULL ? NULL : strcmp(out, "-") == 0 ? stdout : fopen(out, "w");
+    if (out != NULL && sink.csv == NULL) {
         perror(out);
         return 4;
     }
@@ -159,12 +161,14 @@ int main(int argc, char **argv)
         perror(bin);
         return 4;
     }
-    fputs("t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta\n", sink.csv);
+    if (sink.csv != NULL) {
+        fputs("t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta\n", sink.csv);
+    }
     rc = caekf_truth_run(&sc, &opt, emit, &sink);
     if (sink.in_contact && !sink.quiet) {
         fputs(" (still in contact)\n", stderr);
     }
-    if (sink.csv != stdout && fclose(sink.csv) != 0) {
+    if (sink.csv != NULL && sink.csv != stdout && fclose(sink.csv) != 0) {
         rc = -1;
     }
     if (sink.bin != NULL && fclose(sink.bin) != 0) {
