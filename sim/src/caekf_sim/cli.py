@@ -17,6 +17,7 @@ COMMAND_MODULES = (
     "caekf_sim.commands.report",  # plot, observability, filterpy-check, truth-diff
     "caekf_sim.commands.bench",  # hil run, hil replay-log, bench (CAN HIL bench)
     "caekf_sim.commands.campaign",  # campaign, family
+    "caekf_sim.commands.truthcheck",  # truth-check
 )
 
 

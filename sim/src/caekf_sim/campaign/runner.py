@@ -40,13 +40,15 @@ class TruthArrays:
     y: np.ndarray
     delta: np.ndarray
     failed: bool
+    q: np.ndarray  # (N, 4) true positions [m]
+    v: np.ndarray  # (N, 4) true velocities [m/s]
 
 
 def truth_arrays(sc: Scenario, backend: str = "c") -> TruthArrays:
     """Measurements and penetration of a scenario from caekf-truth (default) or the numpy truth."""
     if backend == "numpy":
         tr = simulate(sc)
-        return TruthArrays(tr.t, tr.u, tr.y, tr.delta, False)
+        return TruthArrays(tr.t, tr.u, tr.y, tr.delta, False, tr.q, tr.v)
     if backend not in TRUTH_BACKENDS:
         raise ValueError(f"unknown truth backend {backend!r}; choose from {TRUTH_BACKENDS}")
     tool = require_tool("caekf-truth")
@@ -63,7 +65,7 @@ def truth_arrays(sc: Scenario, backend: str = "c") -> TruthArrays:
     failed = proc.returncode == 5 or len(rec) < n
     if len(rec) < n:  # the integration stopped: pad so the run is still reported (as failed)
         rec = np.vstack([rec, np.full((n - len(rec), 13), np.nan)])
-    return TruthArrays(rec[:, 0], rec[:, 1], rec[:, 2:4], rec[:, 12], failed)
+    return TruthArrays(rec[:, 0], rec[:, 1], rec[:, 2:4], rec[:, 12], failed, rec[:, 4:8], rec[:, 8:12])
 
 
 def run_task(task: Task) -> List[Dict[str, Any]]:
