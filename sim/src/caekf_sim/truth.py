@@ -194,38 +194,37 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
     event.terminal = True  # type: ignore[attr-defined]
     out = np.empty((n, 8))
     t, y, closed, i, events, nfev = 0.0, np.zeros(8), False, 0, 0, 0
-    # A tangential touch (delta' ~ 0 at delta = 0) can make the restarted segment end on the same
-    # event at once. Then the next stretch of `graze` seconds runs without events, in the mode the
-    # sign of delta gives; the force there is below gamma (|delta'| graze)^1.5, i.e. nothing.
+    # The restart state is taken just past the located event, on the far side (a few ulps later at
+    # most), so the new mode's event cannot fire again at once. A touch with no far side within
+    # `graze` seconds (tangential) keeps the mode and continues `graze` later.
     graze = 1e-9
-    events_on = True
     while i < n:
         event.direction = -1.0 if closed else 1.0  # type: ignore[attr-defined]
-        t_stop = ts[-1] if events_on else min(ts[-1], t + graze)
-        sol = solve_ivp(rhs(closed), (t, t_stop), y, method=integrator, rtol=rtol, atol=atol,
-                        events=event if events_on else None, dense_output=True)
+        sol = solve_ivp(rhs(closed), (t, ts[-1]), y, method=integrator, rtol=rtol, atol=atol,
+                        events=event, dense_output=True)
         if sol.status < 0:
             raise RuntimeError(f"truth integration failed at t = {sol.t[-1]:.6f} s: {sol.message}")
         nfev += sol.nfev
-        hit = sol.status == 1 and events_on
-        t_seg = float(sol.t_events[0][0]) if hit else float(sol.t[-1])
-        j = int(np.searchsorted(ts, t_seg, side="right")) if t_seg < ts[-1] else n
+        if sol.status != 1:
+            out[i:] = sol.sol(ts[i:]).T
+            break
+        t_ev = float(sol.t_events[0][0])
+        want = -1.0 if closed else 1.0  # sign of delta past the event
+        t_new = t_ev + graze
+        switch = False
+        for dtk in np.r_[0.0, np.geomspace(4 * np.finfo(float).eps * max(1.0, abs(t_ev)), graze, 24)]:
+            yy = sol.sol(t_ev + dtk)
+            if want * (yy[1] - yy[2] - sc.gap) > 0.0:
+                t_new, switch = t_ev + dtk, True
+                break
+        j = int(np.searchsorted(ts, t_new, side="right"))
         if j > i:
             out[i:j] = sol.sol(ts[i:j]).T
         i = j
-        if hit:
-            y_ev = sol.y_events[0][0].copy()
-            if t_seg - t <= 1e-12 * max(1.0, abs(t)):  # no progress: grazing
-                events_on = False
-                closed = bool(y_ev[1] - y_ev[2] - sc.gap > 0.0)
-            else:
-                closed = not closed
-            t, y = t_seg, y_ev
-            events += 1
-        elif not events_on:
-            t, y = t_seg, sol.y[:, -1].copy()
-            closed = bool(y[1] - y[2] - sc.gap > 0.0)
-            events_on = True
+        t, y = t_new, sol.sol(t_new)
+        if switch:
+            closed = not closed
+        events += 1
     return out[:, :4], out[:, 4:], TruthStats(0, 0, 0, events=events, rhs_evals=nfev)
 
 
