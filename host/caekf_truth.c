@@ -27,7 +27,7 @@ static void usage(FILE *f)
           "Writes CSV columns t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta for k = 1..round(t_end/dt).\n"
           "--bin also writes the same 13 columns as little-endian float64 records; --no-csv skips the CSV.\n"
           "dop853 (default): the continuous model, adaptive Dormand-Prince 8(5,3) with every contact event\n"
-          "located and the integration restarted there (rtol 1e-11, atol 1e-15 m, 1e-13 m/s by default).\n"
+          "located and the integration restarted there (rtol 1e-13, atol 1e-15 m, 1e-13 m/s by default).\n"
           "backward-euler: eq. (19) at dt/truth_substeps, Newton-solved (the truth of earlier versions).\n"
           "A summary (contact episodes, max penetration, steps or Newton iterations) goes to stderr.\n"
           "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge.\n",

@@ -36,7 +36,7 @@ static double gaussian(uint64_t *state)
 void caekf_truth_options_default(caekf_truth_options_t *opt)
 {
     opt->method = CAEKF_TRUTH_DOP853;
-    opt->rtol = 1e-11;
+    opt->rtol = 1e-13;
     opt->atol_q = 1e-15;
     opt->atol_v = 1e-13;
 }

@@ -22,7 +22,7 @@ typedef enum { CAEKF_TRUTH_DOP853 = 0, CAEKF_TRUTH_BACKWARD_EULER = 1 } caekf_tr
 
 typedef struct {
     caekf_truth_method_t method;
-    double rtol;      /* DOP853: relative tolerance per step (default 1e-11) */
+    double rtol;      /* DOP853: relative tolerance per step (default 1e-13) */
     double atol_q;    /* absolute tolerance on positions [m] (default 1e-15) */
     double atol_v;    /* absolute tolerance on velocities [m/s] (default 1e-13) */
 } caekf_truth_options_t;
