@@ -155,9 +155,11 @@ def run_one(args) -> List[Dict]:
         t0 = time.perf_counter()
         with np.errstate(all="ignore"):
             for k in range(n):
-                # NIS of the step's innovation against the predicted covariance (recomputed here)
-                flg[k], _ = ekf.step(float(tr.u[k]), tr.y[k])
-                g[k], pgg[k] = ekf.x[IG], ekf.P[IG, IG]
+                try:
+                    flg[k], _ = ekf.step(float(tr.u[k]), tr.y[k])
+                    g[k], pgg[k] = ekf.x[IG], ekf.P[IG, IG]
+                except (np.linalg.LinAlgError, ValueError):  # a diverged filter: NaN from here on
+                    g[k] = np.nan
                 if not np.isfinite(g[k]):
                     g[k:], pgg[k:] = np.nan, np.nan
                     break
