@@ -12,6 +12,7 @@ typedef struct {
     FILE *bin;
     long samples;
     long newton_iters, newton_max, newton_failed;
+    long steps, rejected, events, failed;
     double max_delta;
     int in_contact;
     long episodes;
@@ -21,10 +22,15 @@ typedef struct {
 
 static void usage(FILE *f)
 {
-    fputs("usage: caekf-truth --scenario FILE [--out CSV|-] [--bin FILE] [--quiet]\n"
+    fputs("usage: caekf-truth --scenario FILE [--out CSV|-] [--bin FILE] [--no-csv] [--quiet]\n"
+          "                   [--method dop853|backward-euler] [--rtol R] [--atol-q A] [--atol-v A]\n"
           "Writes CSV columns t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta for k = 1..round(t_end/dt).\n"
-          "--bin also writes the same 13 columns as little-endian float64 records.\n"
-          "A summary (contact episodes, max penetration, Newton iterations) goes to stderr.\n",
+          "--bin also writes the same 13 columns as little-endian float64 records; --no-csv skips the CSV.\n"
+          "dop853 (default): the continuous model, adaptive Dormand-Prince 8(5,3) with every contact event\n"
+          "located and the integration restarted there (rtol 1e-13, atol 1e-15 m, 1e-13 m/s by default).\n"
+          "backward-euler: eq. (19) at dt/truth_substeps, Newton-solved (the truth of earlier versions).\n"
+          "A summary (contact episodes, max penetration, steps or Newton iterations) goes to stderr.\n"
+          "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge.\n",
           f);
 }
 
@@ -56,6 +62,10 @@ static int emit(const caekf_truth_sample_t *s, void *ctx)
     k->samples++;
     k->newton_iters += s->newton_iters;
     k->newton_failed += s->newton_failed;
+    k->steps += s->steps;
+    k->rejected += s->rejected;
+    k->events += s->events;
+    k->failed += s->failed;
     if (s->newton_iters > k->newton_max) {
         k->newton_max = s->newton_iters;
     }
@@ -83,9 +93,11 @@ int main(int argc, char **argv)
     const char *scenario = NULL, *out = "-", *bin = NULL;
     caekf_scenario_t sc;
     truth_sink_t sink;
+    caekf_truth_options_t opt;
     char err[512];
     int i, rc;
     memset(&sink, 0, sizeof sink);
+    caekf_truth_options_default(&opt);
     for (i = 1; i < argc; ++i) {
         if (strcmp(argv[i], "--scenario") == 0 && i + 1 < argc) {
             scenario = argv[++i];
@@ -93,6 +105,34 @@ int main(int argc, char **argv)
             out = argv[++i];
         } else if (strcmp(argv[i], "--bin") == 0 && i + 1 < argc) {
             bin = argv[++i];
+        } else if (strcmp(argv[i], "--method") == 0 && i + 1 < argc) {
+            ++i;
+            if (strcmp(argv[i], "dop853") == 0) {
+                opt.method = CAEKF_TRUTH_DOP853;
+            } else if (strcmp(argv[i], "backward-euler") == 0) {
+                opt.method = CAEKF_TRUTH_BACKWARD_EULER;
+            } else {
+                fprintf(stderr, "caekf-truth: unknown method '%s' (dop853, backward-euler)\n", argv[i]);
+                return 2;
+            }
+        } else if ((strcmp(argv[i], "--rtol") == 0 || strcmp(argv[i], "--atol-q") == 0 ||
+                    strcmp(argv[i], "--atol-v") == 0) && i + 1 < argc) {
+            char *end;
+            double v = strtod(argv[i + 1], &end);
+            if (*end != '\0' || !(v > 0)) {
+                fprintf(stderr, "caekf-truth: %s needs a positive number, got '%s'\n", argv[i], argv[i + 1]);
+                return 2;
+            }
+            if (argv[i][2] == 'r') {
+                opt.rtol = v;
+            } else if (argv[i][7] == 'q') {
+                opt.atol_q = v;
+            } else {
+                opt.atol_v = v;
+            }
+            ++i;
+        } else if (strcmp(argv[i], "--no-csv") == 0) {
+            out = NULL;
         } else if (strcmp(argv[i], "--quiet") == 0) {
             sink.quiet = 1;
         } else if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
@@ -112,8 +152,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "caekf-truth: %s\n", err);
         return 3;
     }
-    sink.csv = strcmp(out, "-") == 0 ? stdout : fopen(out, "w");
-    if (sink.csv == NULL) {
+    sink.csv = out == NULL ? NULL : strcmp(out, "-") == 0 ? stdout : fopen(out, "w");
+    if (out != NULL && sink.csv == NULL) {
         perror(out);
         return 4;
     }
@@ -121,22 +161,34 @@ int main(int argc, char **argv)
         perror(bin);
         return 4;
     }
-    fputs("t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta\n", sink.csv);
-    rc = caekf_truth_run(&sc, emit, &sink);
+    if (sink.csv != NULL) {
+        fputs("t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta\n", sink.csv);
+    }
+    rc = caekf_truth_run(&sc, &opt, emit, &sink);
     if (sink.in_contact && !sink.quiet) {
         fputs(" (still in contact)\n", stderr);
     }
-    if (sink.csv != stdout && fclose(sink.csv) != 0) {
+    if (sink.csv != NULL && sink.csv != stdout && fclose(sink.csv) != 0) {
         rc = -1;
     }
     if (sink.bin != NULL && fclose(sink.bin) != 0) {
         rc = -1;
     }
-    if (rc != 0) {
+    if (rc < 0) {
         fprintf(stderr, "caekf-truth: failed writing output or setting up the model\n");
         return 4;
     }
-    if (!sink.quiet) {
+    if (rc > 0) {
+        fprintf(stderr, "caekf-truth: integration failed at t = %.6f s (step size below 1e-14 s or step budget)\n",
+                (double)sink.samples * sc.dt);
+        return 5;
+    }
+    if (!sink.quiet && opt.method == CAEKF_TRUTH_DOP853) {
+        fprintf(stderr,
+                "caekf-truth: %ld samples, %ld contact onsets, max penetration %.4g m, DOP853 steps %ld "
+                "(rejected %ld), contact events located %ld\n",
+                sink.samples, sink.episodes, sink.max_delta, sink.steps, sink.rejected, sink.events);
+    } else if (!sink.quiet) {
         fprintf(stderr,
                 "caekf-truth: %ld samples, %ld contact onsets, max penetration %.4g m, Newton iterations per "
                 "substep mean %.3f, max per sample %ld, failures %ld\n",

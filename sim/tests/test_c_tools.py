@@ -12,7 +12,7 @@ import pytest
 
 from caekf_sim.results import read_result_csv
 from caekf_sim.scenario import default_scenario_path
-from caekf_sim.truth import read_truth_csv
+from caekf_sim.truth import read_truth_csv, write_truth_csv
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -45,13 +45,15 @@ def test_c_truth_matches_numpy_truth(c_truth_csv, truth):
     c = read_truth_csv(c_truth_csv)
     assert len(c) == len(truth)
     np.testing.assert_allclose(c.t, truth.t, rtol=1e-15)
-    assert np.max(np.abs(c.q - truth.q)) < 1e-12  # metres
-    assert np.max(np.abs(c.y - truth.y)) < 1e-12
+    # two implementations of the continuous model, each within 1e-10 m of the reference (docs/truth.md)
+    assert np.max(np.abs(c.q - truth.q)) < 2e-10  # metres
+    assert np.max(np.abs(c.y - truth.y)) < 2e-10
 
 
 @pytest.mark.parametrize("name", ["canonical", "switched", "switched-highq-constrained"])
-def test_c_replay_matches_numpy_estimator(name, c_truth_csv, results, sc, tmp_path):
-    """Same equations, same Newton test: agreement far below any physical effect.
+def test_c_replay_matches_numpy_estimator(name, truth, results, sc, tmp_path):
+    """Same equations, same Newton test: agreement far below any physical effect. The innovation
+    gate is off in the C run (the numpy reference has none; on the continuous truth it can fire).
 
     (switched-highq is left out: after its Newton failures the trajectory is chaotic.)
     """
@@ -61,8 +63,11 @@ def test_c_replay_matches_numpy_estimator(name, c_truth_csv, results, sc, tmp_pa
             pytest.fail("caekf-replay not found under $CAEKF_BUILD_DIR/host")
         pytest.skip("caekf-replay not built")
     out = tmp_path / f"{name}.csv"
-    subprocess.run([str(tool), "--scenario", str(default_scenario_path()), "--in", str(c_truth_csv),
-                    "--out", str(out), "--experiment", name], check=True, timeout=120)
+    measurements = tmp_path / "truth.csv"  # the numpy estimator's own input, bit for bit
+    write_truth_csv(truth, measurements)
+    subprocess.run([str(tool), "--scenario", str(default_scenario_path()), "--in", str(measurements),
+                    "--out", str(out), "--experiment", name, "--gate", "0"],  # the numpy filter has no gate
+                   check=True, timeout=120)
     c, py = read_result_csv(out), results[name]
     assert np.max(np.abs(c.gamma - py.gamma)) < 1e-8 * sc.gamma
     assert np.max(np.abs(c.x[:, :4] - py.x[:, :4])) < 1e-12

@@ -35,7 +35,7 @@ static void collect(const caekf_t *est, const caekf_report_t *rep, caekf_status_
     r->gamma_final = (double)g;
 }
 
-static result_t run(int preset)
+static result_t run_gate(int preset, int gate_off)
 {
     static caekf_t est;
     caekf_settings_t s;
@@ -43,11 +43,16 @@ static result_t run(int preset)
     memset(&r, 0, sizeof r);
     r.gamma_min_seen = INFINITY;
     paper_settings(&s, preset);
+    if (gate_off) {
+        s.gamma_gate_nis = 0;
+    }
     TEST_ASSERT_EQUAL_INT32(paper_steps(), run_paper(&est, &s, collect, &r));
     return r;
 }
 
-static result_t canonical, switched, highq, constrained;
+static result_t run(int preset) { return run_gate(preset, 0); }
+
+static result_t canonical, switched, highq, constrained, switched_ungated, constrained_ungated;
 static double rel_err(double g) { return g / paper_gamma_true() - 1; }
 
 static void test_switched_converges_within_half_a_percent(void)
@@ -75,12 +80,15 @@ static void test_constrained_stays_positive_and_converges(void)
     TEST_ASSERT_TRUE(fabs(rel_err(constrained.gamma_final)) < 0.02);
 }
 
-static void test_innovation_gate_is_silent_on_the_undisturbed_scenario(void)
+static void test_innovation_gate_leaves_the_undisturbed_scenario_alone(void)
 {
-    /* The switched experiments run with the default gate: on clean data it never fires, so the
-     * paper's results are those of the ungated filter. Canonical runs without it (Table 1). */
-    TEST_ASSERT_EQUAL_UINT32(0, switched.flags_seen & CAEKF_FLAG_GAMMA_GATED);
-    TEST_ASSERT_EQUAL_UINT32(0, constrained.flags_seen & CAEKF_FLAG_GAMMA_GATED);
+    /* The switched experiments run with the default gate. On the continuous-model truth it may hold
+     * gamma for a few steps at a contact onset (NIS just above 25: the filter's backward Euler against
+     * the exact motion), but the paper's results stay those of the ungated filter: final gamma within
+     * 0.05 % of it. Canonical runs without the gate (Table 1). */
+    TEST_ASSERT_DOUBLE_WITHIN(5e-4, 0.0, rel_err(switched.gamma_final) - rel_err(switched_ungated.gamma_final));
+    TEST_ASSERT_DOUBLE_WITHIN(5e-4, 0.0,
+                              rel_err(constrained.gamma_final) - rel_err(constrained_ungated.gamma_final));
     TEST_ASSERT_EQUAL_UINT32(0, canonical.flags_seen & CAEKF_FLAG_GAMMA_GATED);
 }
 
@@ -103,12 +111,14 @@ int main(void)
     switched = run(EXP_SWITCHED);
     highq = run(EXP_SWITCHED_HIGHQ);
     constrained = run(EXP_SWITCHED_HIGHQ_CONSTRAINED);
+    switched_ungated = run_gate(EXP_SWITCHED, 1);
+    constrained_ungated = run_gate(EXP_SWITCHED_HIGHQ_CONSTRAINED, 1);
     UNITY_BEGIN();
     RUN_TEST(test_switched_converges_within_half_a_percent);
     RUN_TEST(test_canonical_is_unstable);
     RUN_TEST(test_switched_highq_goes_negative_or_diverges);
     RUN_TEST(test_constrained_stays_positive_and_converges);
-    RUN_TEST(test_innovation_gate_is_silent_on_the_undisturbed_scenario);
+    RUN_TEST(test_innovation_gate_leaves_the_undisturbed_scenario_alone);
     RUN_TEST(test_matches_the_double_build);
     return UNITY_END();
 }

@@ -792,7 +792,7 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
     ctx.n = n;
     ctx.k = 0;
     Py_BEGIN_ALLOW_THREADS
-    rc = caekf_truth_run(&sc, truth_emit, &ctx);
+    rc = caekf_truth_run(&sc, NULL, truth_emit, &ctx); /* caekf-truth's default method */
     Py_END_ALLOW_THREADS
     for (i = 0; i < 8; ++i) {
         PyBuffer_Release(&b[i]);

@@ -17,6 +17,8 @@ COMMAND_MODULES = (
     "caekf_sim.commands.report",  # plot, observability, filterpy-check, truth-diff
     "caekf_sim.commands.bench",  # hil run, hil replay-log, bench (CAN HIL bench)
     "caekf_sim.commands.binding",  # bench-binding (the C binding's speed), tune (noise from data)
+    "caekf_sim.commands.campaign",  # campaign, family
+    "caekf_sim.commands.truthcheck",  # truth-check
 )
 
 

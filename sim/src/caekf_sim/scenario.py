@@ -46,6 +46,7 @@ _TYPES = {k: (float if s.type == "real" else int) for k, s, _ in _KEYS}
 Scenario: Any = dataclasses.make_dataclass(
     "Scenario", [(k, _TYPES[k]) for k, _, _ in _KEYS], bases=(_ScenarioBase,), frozen=True,
     namespace={"__doc__": "Every value of a scenario, SI units; the fields are the schema's keys."})
+Scenario.__module__ = __name__  # picklable (process pools, Dask): found as caekf_sim.scenario.Scenario
 
 
 def parse_flat(text: str, source: str = "<text>") -> Dict[str, "tuple[int, str]"]:

@@ -30,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("truth-diff", help="max |difference| between two truth CSVs (e.g. C vs numpy)")
     p.add_argument("a", type=Path)
     p.add_argument("b", type=Path)
-    p.add_argument("--tol", type=float, default=1e-12, help="max allowed |dq| [m]")
+    p.add_argument("--tol", type=float, default=2e-10, help="max allowed |dq| [m] (default: twice the truths' bound)")
     p.set_defaults(func=cmd_truth_diff)
 
 

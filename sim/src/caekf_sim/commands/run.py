@@ -7,7 +7,8 @@ from pathlib import Path
 
 from ..experiments import EXPERIMENTS, format_table, run_experiment, summarize
 from ..results import write_result_csv
-from ..truth import contact_episodes, read_truth_csv, simulate, write_truth_csv
+from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, read_truth_csv, simulate,
+                     write_truth_csv)
 from . import add_scenario_arg, scenario_from_args
 
 
@@ -15,6 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("truth", help="simulate the truth model and write its CSV")
     add_scenario_arg(p, t_end=True)
     p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--method", choices=TRUTH_METHODS, default=CONTINUOUS,
+                   help="continuous model with located contact events (default) or backward Euler")
     p.set_defaults(func=cmd_truth)
 
     p = sub.add_parser("estimate", help="run one experiment's estimator over a measurements CSV")
@@ -39,15 +42,19 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_truth(args: argparse.Namespace) -> int:
     sc = scenario_from_args(args)
     t0 = time.perf_counter()
-    truth, stats = simulate(sc, return_stats=True)
+    truth, stats = simulate(sc, return_stats=True, method=args.method)
     wall = time.perf_counter() - t0
     write_truth_csv(truth, args.out)
     eps = contact_episodes(truth.t, truth.delta, merge_gap=0.1)
-    n_sub = len(truth) * sc.truth_substeps
     print(f"wrote {args.out}: {len(truth)} samples in {wall:.1f} s")
     print(f"contact episodes: " + ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in eps))
-    print(f"max penetration {truth.delta.max():.4g} m; Newton iterations per substep "
-          f"mean {stats.newton_iters_total / n_sub:.3f} max {stats.newton_iters_max}")
+    if args.method == CONTINUOUS:
+        print(f"max penetration {truth.delta.max():.4g} m; contact events located {stats.events}, "
+              f"right-hand side evaluations {stats.rhs_evals}")
+    else:
+        n_sub = len(truth) * sc.truth_substeps
+        print(f"max penetration {truth.delta.max():.4g} m; Newton iterations per substep "
+              f"mean {stats.newton_iters_total / n_sub:.3f} max {stats.newton_iters_max}")
     return 0
 
 

@@ -1,0 +1,140 @@
+"""The family table (within 1 %, within 5 %, diverged, consistent; split as the spec says) and the
+campaign plots: error histogram, error against each drawn parameter, NEES/NIS chi-square bands."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Dict, List, Sequence
+
+import numpy as np
+
+from .spec import Family, Split
+
+SUMMARY_COLUMNS = ("experiment", "group", "n", "within_1pct", "within_5pct", "diverged", "consistent_3sigma",
+                   "median_abs_err")
+
+
+def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Sequence[str]) -> List[Dict[str, Any]]:
+    out = []
+    for e in experiments:
+        rs = [r for r in rows if r["experiment"] == e]
+        groups: List[tuple] = [("all", np.ones(len(rs), dtype=bool))]
+        for sp in family.splits:
+            vals = np.array([r.get(sp.name, np.nan) for r in rs], dtype=float)
+            idx = sp.index(vals)
+            groups += [(lab, idx == i) for i, lab in enumerate(sp.labels())]
+        err = np.array([r["abs_final_err"] for r in rs], dtype=float)
+        div = np.array([r["diverged"] for r in rs], dtype=bool)
+        cons = np.array([r["consistent_3sigma"] for r in rs], dtype=bool)
+        for label, m in groups:
+            out.append({
+                "experiment": e, "group": label, "n": int(m.sum()),
+                "within_1pct": int(np.count_nonzero(err[m] <= 0.01)),
+                "within_5pct": int(np.count_nonzero(err[m] <= 0.05)),
+                "diverged": int(np.count_nonzero(div[m])),
+                "consistent_3sigma": int(np.count_nonzero(cons[m])),
+                "median_abs_err": float(np.median(err[m])) if m.any() else float("nan"),
+            })
+    return out
+
+
+def format_summary(summary: Sequence[Dict[str, Any]]) -> str:
+    head = ["experiment", "group", "n", "within 1 %", "within 5 %", "diverged", "within 3 sigma", "median |err|"]
+    cells = [head] + [[s["experiment"], s["group"], str(s["n"]), str(s["within_1pct"]), str(s["within_5pct"]),
+                       str(s["diverged"]), str(s["consistent_3sigma"]), f"{100 * s['median_abs_err']:.3g} %"]
+                      for s in summary]
+    w = [max(len(r[i]) for r in cells) for i in range(len(head))]
+    lines = ["| " + " | ".join(c.ljust(x) for c, x in zip(r, w)) + " |" for r in cells]
+    lines.insert(1, "|" + "|".join("-" * (x + 2) for x in w) + "|")
+    return "\n".join(lines)
+
+
+def write_plots(rows: Sequence[Dict[str, Any]], family: Family, experiments: Sequence[str], outdir: Path,
+                dt: float) -> List[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from scipy.stats import chi2
+
+    outdir.mkdir(parents=True, exist_ok=True)
+    written = []
+    by_exp = {e: [r for r in rows if r["experiment"] == e] for e in experiments}
+    floor = 1e-6
+
+    def abs_err(rs):
+        return np.clip(np.nan_to_num(np.array([r["abs_final_err"] for r in rs], float), nan=10.0, posinf=10.0),
+                       floor, 10.0)
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    bins = np.logspace(np.log10(floor), 1, 36)
+    for e, rs in by_exp.items():
+        ax.hist(abs_err(rs), bins=bins, histtype="step", lw=1.5, label=e)
+    for x, lab in ((0.01, "1 %"), (0.05, "5 %"), (0.5, "diverged")):
+        ax.axvline(x, color="k", ls=":", lw=0.8)
+        ax.text(x, ax.get_ylim()[1] * 0.95, lab, rotation=90, va="top", ha="right", fontsize=8)
+    ax.set_xscale("log")
+    ax.set_xlabel("|final gamma error| (clipped to [1e-6, 10])")
+    ax.set_ylabel("runs")
+    ax.set_title(f"{family.name}: final gamma error, {len(family.runs)} mechanisms")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    p = outdir / "error_histogram.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    written.append(p)
+
+    names = [n for n in family.drawn if n != "seed"]
+    if names:
+        ncol = 4
+        nrow = -(-len(names) // ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol, 2.6 * nrow), squeeze=False)
+        for ax, name in zip(axes.flat, names):
+            for e, rs in by_exp.items():
+                x = np.array([r.get(name, np.nan) for r in rs], float)
+                ax.scatter(x, abs_err(rs), s=6, alpha=0.6, label=e)
+            ax.set_yscale("log")
+            if name in ("gamma", "gamma0"):
+                ax.set_xscale("log")
+            ax.axhline(0.01, color="k", ls=":", lw=0.6)
+            ax.axhline(0.05, color="k", ls="--", lw=0.6)
+            ax.set_xlabel(name, fontsize=8)
+            ax.tick_params(labelsize=7)
+        for ax in list(axes.flat)[len(names):]:
+            ax.axis("off")
+        axes.flat[0].legend(fontsize=6)
+        axes.flat[0].set_ylabel("|final error|")
+        fig.tight_layout()
+        p = outdir / "error_vs_parameters.png"
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        written.append(p)
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
+    lo1, hi1 = chi2.ppf([0.025, 0.975], 1)
+    for e, rs in by_exp.items():
+        nees = np.sort(np.nan_to_num(np.array([r["nees_final"] for r in rs], float), nan=1e12, posinf=1e12))
+        a1.plot(np.arange(1, len(nees) + 1) / len(nees), np.clip(nees, 1e-6, 1e12), ".", ms=3, label=e)
+        nis = np.array([r["nis_mean"] for r in rs], float)
+        ok = np.isfinite(nis)
+        a2.plot(np.flatnonzero(ok), nis[ok], ".", ms=3, label=e)
+    a1.axhspan(lo1, hi1, color="g", alpha=0.15, label="chi2(1) 95 %")
+    a1.axhline(9.0, color="k", ls=":", lw=0.8, label="3 sigma")
+    a1.set_yscale("log")
+    a1.set_xlabel("fraction of runs (sorted)")
+    a1.set_ylabel("final NEES of gamma")
+    a1.legend(fontsize=7)
+    steps = max(1, int(np.median([r.get("nis_steps", 1) or 1 for r in rows])))
+    lo2, hi2 = chi2.ppf([0.025, 0.975], 2 * steps) / steps
+    a2.axhspan(lo2, hi2, color="g", alpha=0.3, label=f"mean of {steps} chi2(2): 95 %")
+    a2.axhline(2.0, color="g", lw=0.8)
+    a2.set_yscale("log")
+    a2.set_xlabel("run")
+    a2.set_ylabel("mean NIS")
+    a2.legend(fontsize=7)
+    fig.suptitle(f"{family.name}: consistency (a consistent filter: NEES ~ chi2(1), NIS ~ chi2(2))")
+    fig.tight_layout()
+    p = outdir / "consistency.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    written.append(p)
+    return written

@@ -1,0 +1,232 @@
+"""Family specs: randomised mechanism families drawn from a TOML file, or a folder of scenarios.
+
+A spec (format in docs/family.md) names a base scenario, the distributions to draw ([draw], in
+order), derived values ([set], small arithmetic expressions) and the splits of the family table.
+Run i draws from numpy's generator on SeedSequence(seed).spawn(runs)[i]: the same spec gives the
+same mechanisms, and run i does not depend on how many runs there are after it.
+The sampler knows nothing of the mechanism: every name that is a Scenario field sets it, so the
+family grows with the scenario format.
+"""
+from __future__ import annotations
+
+import ast
+import dataclasses
+import math
+import operator
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from ..scenario import Scenario, load_scenario
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+PathLike = Union[str, Path]
+SCENARIO_FIELDS = {f.name: f for f in dataclasses.fields(Scenario)}
+INT_FIELDS = {n for n, f in SCENARIO_FIELDS.items() if f.type in ("int", int)}
+
+
+@dataclass(frozen=True)
+class Split:
+    """One split of the family table: bins over a run value (edges) or its distinct values."""
+
+    name: str
+    edges: Optional[Tuple[float, ...]] = None
+    values: Optional[Tuple[float, ...]] = None
+
+    def labels(self) -> List[str]:
+        if self.values is not None:
+            return [f"{self.name} = {v:g}" for v in self.values]
+        e = self.edges or ()
+        return [f"{self.name} {a:g}-{b:g}" for a, b in zip(e[:-1], e[1:])]
+
+    def index(self, x: np.ndarray) -> np.ndarray:
+        """Bin of each value (-1 outside every bin)."""
+        x = np.asarray(x, dtype=float)
+        if self.values is not None:
+            out = np.full(x.shape, -1)
+            for i, v in enumerate(self.values):
+                out[np.isclose(x, v, rtol=1e-12, atol=0.0)] = i
+            return out
+        e = np.asarray(self.edges, dtype=float)
+        i = np.searchsorted(e, x, side="right") - 1
+        i[x == e[-1]] = len(e) - 2  # the last edge closes the last bin
+        i[(x < e[0]) | (x > e[-1])] = -1
+        return i
+
+
+@dataclass(frozen=True)
+class Run:
+    """One mechanism of a family: its id, scenario and every drawn or set value by name."""
+
+    run: int
+    scenario: Scenario
+    values: Dict[str, float]
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Family:
+    name: str
+    runs: Tuple[Run, ...]
+    splits: Tuple[Split, ...] = ()
+    drawn: Tuple[str, ...] = ()  # names varied across the family (plots against each)
+    seed: Optional[int] = None
+
+
+# ---------------------------------------------------------------- expressions
+
+_BINOPS: Dict[type, Callable[[float, float], float]] = {
+    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+}
+_FUNCS: Dict[str, Callable[..., float]] = {"min": min, "max": max, "sqrt": math.sqrt, "exp": math.exp,
+                                          "log": math.log, "log10": math.log10, "abs": abs}
+
+
+def evaluate(expr: str, names: Mapping[str, float]) -> float:
+    """Value of a small arithmetic expression over known names (no attribute access, no calls
+    other than min, max, sqrt, exp, log, log10, abs; constant pi)."""
+
+    def ev(node: ast.AST) -> float:
+        if isinstance(node, ast.Expression):
+            return ev(node.body)
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+            return float(node.value)
+        if isinstance(node, ast.Name):
+            if node.id == "pi":
+                return math.pi
+            if node.id not in names:
+                raise ValueError(f"unknown name {node.id!r} in {expr!r}")
+            return float(names[node.id])
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
+            return _BINOPS[type(node.op)](ev(node.left), ev(node.right))
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            v = ev(node.operand)
+            return -v if isinstance(node.op, ast.USub) else v
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS
+                and not node.keywords):
+            return float(_FUNCS[node.func.id](*[ev(a) for a in node.args]))
+        raise ValueError(f"unsupported expression {expr!r}")
+
+    return ev(ast.parse(expr, mode="eval"))
+
+
+# ---------------------------------------------------------------- distributions
+
+def draw(rng: np.random.Generator, name: str, d: Mapping[str, Any]) -> float:
+    """One value of distribution d (uniform, loguniform, choice, integers, normal, fixed)."""
+    kind = d.get("dist")
+    if kind == "uniform":
+        return float(rng.uniform(float(d["low"]), float(d["high"])))
+    if kind == "loguniform":
+        lo, hi = float(d["low"]), float(d["high"])
+        if not 0 < lo <= hi:
+            raise ValueError(f"{name}: loguniform needs 0 < low <= high")
+        return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+    if kind == "choice":
+        vals = [float(v) for v in d["values"]]
+        return vals[int(rng.integers(len(vals)))]
+    if kind == "integers":
+        return float(rng.integers(int(d["low"]), int(d["high"])))
+    if kind == "normal":
+        return float(rng.normal(float(d["mean"]), float(d["std"])))
+    if kind == "fixed":
+        return float(d["value"])
+    raise ValueError(f"{name}: unknown dist {kind!r} (uniform, loguniform, choice, integers, normal, fixed)")
+
+
+# ---------------------------------------------------------------- loading
+
+def scenario_from_values(base: Scenario, values: Mapping[str, float]) -> Scenario:
+    changes: Dict[str, Any] = {}
+    for k, v in values.items():
+        if k in SCENARIO_FIELDS:
+            changes[k] = int(round(v)) if k in INT_FIELDS else float(v)
+    return dataclasses.replace(base, **changes)
+
+
+def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = None,
+              t_end: Optional[float] = None) -> Family:
+    """Family of a spec file; runs, seed and t_end override the spec's."""
+    path = Path(path)
+    with open(path, "rb") as f:
+        spec = tomllib.load(f)
+    fam = spec.get("family", {})
+    unknown = sorted(set(spec) - {"family", "draw", "set", "split"})
+    if unknown:
+        raise ValueError(f"{path}: unknown tables {unknown} (family, draw, set, split)")
+    base_path = fam.get("base")
+    if base_path is None:
+        from ..scenario import default_scenario_path
+
+        base_file = default_scenario_path()
+    else:
+        base_file = (path.parent / base_path).resolve()
+    base = load_scenario(base_file)
+    if t_end is not None:
+        base = base.replace(t_end=t_end)
+    n = int(runs if runs is not None else fam.get("runs", 100))
+    root = int(seed if seed is not None else fam.get("seed", 0))
+    draws: Dict[str, Any] = spec.get("draw", {})
+    sets: Dict[str, str] = spec.get("set", {})
+    out = []
+    for i, ss in enumerate(np.random.SeedSequence(root).spawn(n)):
+        rng = np.random.default_rng(ss)
+        values: Dict[str, float] = {}
+        for name, d in draws.items():
+            values[name] = draw(rng, name, d)
+        known = {**{k: float(getattr(base, k)) for k in SCENARIO_FIELDS}, **values}
+        for name, expr in sets.items():
+            v = evaluate(str(expr), known)
+            values[name] = known[name] = v
+        out.append(Run(run=i, scenario=scenario_from_values(base, values), values=values, source=str(path)))
+    splits = tuple(
+        Split(name=s["name"], edges=tuple(float(e) for e in s["edges"]) if "edges" in s else None,
+              values=tuple(float(v) for v in s["values"]) if "values" in s else None)
+        for s in spec.get("split", [])
+    )
+    return Family(name=str(fam.get("name", path.stem)), runs=tuple(out), splits=splits,
+                  drawn=tuple(draws), seed=root)
+
+
+def load_folder(folder: PathLike, t_end: Optional[float] = None) -> Family:
+    """Family of every *.toml scenario in a folder (sorted by name); values are the scenario's."""
+    files = sorted(Path(folder).glob("*.toml"))
+    if not files:
+        raise ValueError(f"{folder}: no *.toml scenario files")
+    runs = []
+    for i, f in enumerate(files):
+        sc = load_scenario(f)
+        if t_end is not None:
+            sc = sc.replace(t_end=t_end)
+        values = {k: float(getattr(sc, k)) for k in SCENARIO_FIELDS}
+        values["gamma0_ratio"] = sc.gamma0 / sc.gamma
+        runs.append(Run(run=i, scenario=sc, values=values, source=str(f)))
+    varied = tuple(k for k in SCENARIO_FIELDS if len({r.values[k] for r in runs}) > 1)
+    return Family(name=Path(folder).name, runs=tuple(runs), drawn=varied)
+
+
+def load_family(spec_or_folder: PathLike, runs: Optional[int] = None, seed: Optional[int] = None,
+                t_end: Optional[float] = None) -> Family:
+    p = Path(spec_or_folder)
+    if p.is_dir():
+        return load_folder(p, t_end=t_end)
+    if not p.exists():
+        raise ValueError(f"{p}: no such spec file or folder")
+    return load_spec(p, runs=runs, seed=seed, t_end=t_end)
+
+
+def scenario_text(sc: Scenario) -> str:
+    """A scenario file (flat key = value, %.17g) for the C tools."""
+    lines = []
+    for name in SCENARIO_FIELDS:
+        v = getattr(sc, name)
+        lines.append(f"{name} = {v:d}" if name in INT_FIELDS else f"{name} = {float(v):.17g}")
+    return "\n".join(lines) + "\n"
