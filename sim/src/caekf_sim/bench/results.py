@@ -12,7 +12,8 @@ import numpy as np
 from .. import flags as fl
 from ..estimator import EstimateResult
 from .bench import Ack, Decoded, RunRecord, StepInputs, latency_stats
-from .codec import RESULT_SIGNALS, Codec
+from .codec import Codec
+from .profiles import DIAGNOSTICS, Profile
 
 PathLike = Union[str, Path]
 COUNTER_MOD = 1 << 24
@@ -308,6 +309,7 @@ class Agreement:
     flags_mismatch: int
     newton_mismatch: int
     missing: int
+    carried: Dict[str, int] = field(default_factory=dict)  # rows compared per column
 
     @property
     def ok(self) -> bool:
@@ -322,11 +324,13 @@ class Agreement:
                 f"{self.newton_mismatch}")
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agreement:
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
     """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
     the scaled integers (after clipping to the signal range: the estimator saturates and flags),
     within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags
-    (core bits) and Newton iterations equal."""
+    (core bits) and Newton iterations equal. A profile that carries a value only at some steps
+    (production: EST_PAGE) is compared at those steps (dec.carried)."""
+    profile = profile or DIAGNOSTICS
     n = len(ref.t)
     cols = dec.columns
     rows = min(n, len(dec.complete))
@@ -335,9 +339,14 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agre
                 "p_norm": ref.p_norm, "p_gg": ref.p_gg}
     have = dec.complete[:rows]
     worst, mism = {}, {}
+    def rows_of(col: str) -> np.ndarray:
+        c = dec.carried.get(col)
+        return have if c is None else have & np.asarray(c[:rows], dtype=bool)
+
+    carried_rows = {}
     for col, want in ref_cols.items():
-        msg, sig = RESULT_SIGNALS[col]
-        lay = codec.messages[msg].signals[sig]
+        src = profile.results[col]
+        lay = codec.messages[src.message].signals[src.signal]
         w = np.asarray(want[:rows], dtype=float)
         got = cols[col][:rows]
         if not lay.is_float:
@@ -352,15 +361,18 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agre
         same_inf = np.isinf(w) & (w == got)
         with np.errstate(invalid="ignore"):
             ratio = np.where(both_nan | same_inf, 0.0, np.abs(got - w) / tol)
-        ratio = np.where(np.isnan(ratio), np.inf, ratio)[have]
+        sel = rows_of(col)
+        carried_rows[col] = int(sel.sum())
+        ratio = np.where(np.isnan(ratio), np.inf, ratio)[sel]
         worst[col] = float(ratio.max()) if ratio.size else 0.0
         mism[col] = int(np.sum(ratio > 1.0))
-    fl_can = cols["flags"][:rows][have].astype(np.int64) & CORE_FLAG_MASK
-    fl_ref = ref.flags[:rows][have] & CORE_FLAG_MASK
-    it_can = cols["newton_iters"][:rows][have].astype(np.int64)
-    it_ref = np.clip(ref.newton_iters[:rows][have], 0, 255)
+    fsel, isel = rows_of("flags"), rows_of("newton_iters")
+    fl_can = cols["flags"][:rows][fsel].astype(np.int64) & CORE_FLAG_MASK
+    fl_ref = ref.flags[:rows][fsel] & CORE_FLAG_MASK
+    it_can = cols["newton_iters"][:rows][isel].astype(np.int64)
+    it_ref = np.clip(ref.newton_iters[:rows][isel], 0, 255)
     return Agreement(rows, worst, mism, int(np.sum(fl_can != fl_ref)), int(np.sum(it_can != it_ref)),
-                     int(rows - have.sum()) + (n - rows))
+                     int(rows - have.sum()) + (n - rows), carried_rows)
 
 
 # --- runs saved for later (bus work in the VM, reports on the host) -----------------------------
@@ -425,7 +437,7 @@ def load_runs(path: PathLike) -> Tuple[List[HilRun], str]:
 
 
 def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scenario: PathLike, outdir: PathLike,
-                             codec: Codec) -> Tuple[str, bool]:
+                             codec: Codec, profile: Optional[Profile] = None) -> Tuple[str, bool]:
     """caekf-replay of each run's experiment on the inputs the estimator decoded, compared (text, all ok)."""
     out = Path(outdir)
     lines, ok = [], True
@@ -447,7 +459,7 @@ def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scena
             ref = aligned_result(res, src, pred, r.inputs.t[start:stop], start)
             bridged = (f" ({stop - start - len(est)} steps never estimated (lost on the bus, not counted as missing "
                        f"here), {int(pred.sum())} bridged by prediction-only steps in the replay as in the app)")
-        agr = compare_with_replay(r.decoded, ref, codec)
+        agr = compare_with_replay(r.decoded, ref, codec, profile)
         # steps the estimator never ran (bridged) are not answers missing: they show as STEPS_SKIPPED
         agr.missing -= stop - start - len(est)
         lines.append(f"{r.experiment}: CAN == caekf-replay within resolution: {'yes' if agr.ok else 'NO'}; "
