@@ -395,8 +395,8 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
     double v = 0.0;
     double yp1 = 0.0, yp4 = 0.0;
     if (msg == CAEKF_MSG_BENCH_YP) {
-        yp1 = (double)get_sbits(d, 28, 18) * 5e-8; /* LSB 5e-8 m, as cantools: raw * scale */
-        yp4 = (double)get_sbits(d, 46, 18) * 5e-8;
+        yp1 = (double)get_sbits(d, 28, 18) * 2e-8; /* LSB 2e-8 m, as cantools: raw * scale */
+        yp4 = (double)get_sbits(d, 46, 18) * 2e-8;
     } else if (msg == CAEKF_MSG_BENCH_U) {
         const uint32_t fb = (uint32_t)get_bits(d, 32, 32);
         if (((fb >> 23) & 0xFFu) == 0xFFu) { /* NaN or infinity: refused */

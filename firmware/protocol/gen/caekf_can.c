@@ -1591,7 +1591,7 @@ bool caekf_can_bench_yp_y1_is_in_range(int32_t value)
 
 bool caekf_can_bench_yp_y1_is_in_phys_range(double value)
 {
-    return ((value >= -0.0065536) && (value <= 0.00655355));
+    return ((value >= -0.00262144) && (value <= 0.00262142));
 }
 
 bool caekf_can_bench_yp_y4_is_in_range(int32_t value)
@@ -1601,7 +1601,7 @@ bool caekf_can_bench_yp_y4_is_in_range(int32_t value)
 
 bool caekf_can_bench_yp_y4_is_in_phys_range(double value)
 {
-    return ((value >= -0.0065536) && (value <= 0.00655355));
+    return ((value >= -0.00262144) && (value <= 0.00262142));
 }
 
 int caekf_can_est_prod_pack(

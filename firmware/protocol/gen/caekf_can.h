@@ -981,19 +981,19 @@ struct caekf_can_bench_yp_t {
     uint16_t step;
 
     /**
-     * Measurement y1 = q1. int18, LSB 5e-8 m (quantisation <= 2.5e-8 m), range +/-6.5536 mm; saturates at the range ends.
+     * Measurement y1 = q1. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
      *
-     * Range: -131072..131071 (-0.00655..0.00655 m)
-     * Scale: 5e-08
+     * Range: -131072..131071 (-0.00262..0.00262 m)
+     * Scale: 2e-08
      * Offset: 0
      */
     int32_t y1;
 
     /**
-     * Measurement y2 = q4. int18, LSB 5e-8 m (quantisation <= 2.5e-8 m), range +/-6.5536 mm; saturates at the range ends.
+     * Measurement y2 = q4. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
      *
-     * Range: -131072..131071 (-0.00655..0.00655 m)
-     * Scale: 5e-08
+     * Range: -131072..131071 (-0.00262..0.00262 m)
+     * Scale: 2e-08
      * Offset: 0
      */
     int32_t y4;

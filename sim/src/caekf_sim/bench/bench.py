@@ -564,7 +564,7 @@ class Bench:
             paced = run_paced(self.transport, blobs, wire, dt, self.channel,
                               self.codec.messages[self.profile.input_messages[-1]].frame_id,
                               self.codec.messages[self.profile.closing].frame_id,
-                              grace=grace)
+                              grace=grace, out_step_bits=self.profile.closing_step_bits)
         finally:
             self.transport.set_filter(self.codec.from_estimator_ids)
         est = np.isin(paced.frames["id"], self.codec.from_estimator_ids)

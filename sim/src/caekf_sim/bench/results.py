@@ -26,12 +26,14 @@ CORE_FLAG_MASK = 0x0FFF
 
 
 def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")) -> EstimateResult:
-    """The complete rows of a decoded run as an EstimateResult (the caekf-replay columns)."""
+    """The complete rows of a decoded run as an EstimateResult (the caekf-replay columns). Values a profile
+    carries only at some steps (production: EST_PAGE) are NaN elsewhere; Newton iterations -1."""
     m = dec.complete
     c = dec.columns
+    it = c["newton_iters"][m]
     x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
     return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
-                          flags=c["flags"][m].astype(np.int64), newton_iters=c["newton_iters"][m].astype(np.int64),
+                          flags=c["flags"][m].astype(np.int64), newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
                           wall_time=wall_time)
 
 
@@ -99,14 +101,15 @@ def summary_row(run: HilRun, gamma_true: float) -> List[str]:
     g = r.gamma
     fin = g[np.isfinite(g)]
     pn = r.p_norm[np.isfinite(r.p_norm)]
+    it = r.newton_iters[r.newton_iters >= 0]
     return [
         run.experiment,
         f"{int(run.decoded.complete.sum())}/{run.record.n}",
         f"{100 * (g[-1] / gamma_true - 1):+.3f} %" if len(g) else "-",
         f"{fin.min():.4g}" if fin.size else "-",
         f"{pn.max():.3g}" if pn.size else "-",
-        f"{r.newton_iters.mean():.3f}" if len(g) else "-",
-        str(int(r.newton_iters.max())) if len(g) else "-",
+        f"{it.mean():.3f}" if len(it) else "-",
+        str(int(it.max())) if len(it) else "-",
         describe_flags(int(np.bitwise_or.reduce(r.flags))) if len(g) else "-",
         str(run.record.timeouts),
         _fmt_errors(run.bus_errors) if run.health_after else "?",
