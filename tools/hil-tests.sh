@@ -4,10 +4,10 @@
 #
 #   tools/hil-tests.sh [PYTEST ARGS...]     e.g. tools/hil-tests.sh -k bad_traffic
 #
-# Two passes: the whole suite in the diagnostics profile, then tests/hil/test_hil_experiments.py in the
-# production profile (CAEKF_HIL_PROFILE=production; out/hil-tests/production/). HIL_PROFILES="diagnostics"
-# runs only the first. The fault matrix and the bad-traffic tests run in diagnostics only (their frames and
-# expected counts are written for its three input frames per step).
+# Two passes: the whole suite in the diagnostics profile, then test_hil_experiments.py and
+# test_hil_bad_traffic.py in the production profile (CAEKF_HIL_PROFILE=production; out/hil-tests/production/).
+# HIL_PROFILES="diagnostics" runs only the first. The fault matrix runs in diagnostics only (its schedule and
+# expected counts are written for that profile's three input frames per step).
 #
 # Keeps logs and CSVs in out/hil-tests/ (the full runs' CSVs, summary and figures in out/hil-tests/full/).
 # Exit status: pytest's (125 if no vcan0 could be had).
@@ -31,7 +31,7 @@ for profile in $profiles; do
 	tests=("$root/tests/hil")
 	if [ "$profile" != diagnostics ]; then
 		pout=$out/$profile
-		tests=("$root/tests/hil/test_hil_experiments.py")
+		tests=("$root/tests/hil/test_hil_experiments.py" "$root/tests/hil/test_hil_bad_traffic.py")
 		mkdir -p "$pout"
 	fi
 	prc=0
