@@ -8,6 +8,7 @@
 #      the estimator replaced by an echo of BENCH_Y4.
 # Then the bus load of the recorded log (`caekf-sim busload --log`). Output: OUT_DIR (default out/realtime).
 # A report, not a test: exit status 0 unless something could not run.
+# HIL_PROFILE=production (default diagnostics): caekf-host, the bench and the echo probe in that profile.
 #   tools/hil-realtime.sh [OUT_DIR]
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
@@ -16,11 +17,12 @@ build=$root/build/host-double
 scenario=$root/sim/scenarios/paper.toml
 py=$root/.venv/bin/python
 secs=${HIL_RT_SECONDS:-60}
+profile=${HIL_PROFILE:-diagnostics}
 
 if [ "${1:-}" = "--inside" ]; then
 	out=$2
 	run_host() { # ARGS...: caekf-host in the background until stop_host
-		"$build/host/caekf_host/caekf-host" --iface vcan0 --status-period-ms 0 "$@" >>"$out/caekf-host.log" 2>&1 &
+		"$build/host/caekf_host/caekf-host" --iface vcan0 --status-period-ms 0 --profile "$profile" "$@" >>"$out/caekf-host.log" 2>&1 &
 		host=$!
 		sleep 0.3
 	}
@@ -30,11 +32,11 @@ if [ "${1:-}" = "--inside" ]; then
 	rc=0
 	keep() { [ "$1" = 2 ] || rc=$1; } # 2 = steps unanswered in time: measured and reported, not an error
 	run_host
-	"$py" -m caekf_sim.cli hil run --iface vcan0 --scenario "$scenario" --truth "$out/truth.csv" --outdir "$out" \
+	"$py" -m caekf_sim.cli hil run --iface vcan0 --profile "$profile" --scenario "$scenario" --truth "$out/truth.csv" --outdir "$out" \
 		--realtime --experiments switched --duration "$secs" --defer-outputs --log "$out/bus.log" || keep $?
 	stop_host
 	run_host --echo
-	"$py" -m caekf_sim.cli hil run --iface vcan0 --scenario "$scenario" --truth "$out/truth.csv" --outdir "$out" \
+	"$py" -m caekf_sim.cli hil run --iface vcan0 --profile "$profile" --scenario "$scenario" --truth "$out/truth.csv" --outdir "$out" \
 		--realtime --echo-probe --duration "$secs" --log "$out/bus-echo.log" || keep $?
 	stop_host
 	trap - EXIT
@@ -49,7 +51,7 @@ cmake --build --preset host-double >/dev/null
 rc=0
 "$root/tools/with-vcan.sh" -- "$root/tools/hil-realtime.sh" --inside "$out" || rc=$?
 if [ -s "$out/bus.log" ]; then
-	"$py" -m caekf_sim.cli busload --log "$out/bus.log" | tee "$out/busload.txt" || rc=$?
+	"$py" -m caekf_sim.cli busload --profile "$profile" --log "$profile=$out/bus.log" | tee "$out/busload.txt" || rc=$?
 fi
 echo "hil-realtime: exit status $rc; reports in $out (realtime.txt, realtime-echo.txt, busload.txt)"
 exit "$rc"

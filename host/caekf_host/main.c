@@ -36,6 +36,8 @@ typedef struct {
     long step_timeout_ms;
     long status_period_ms;
     long max_delta;
+    int profile;          /* caekf_profile_t */
+    long page_period;     /* steps, PRODUCTION */
     long poll_ms;
     double run_for_s; /* 0: until a signal */
     int quiet;
@@ -55,13 +57,17 @@ static void usage(FILE *out)
             "                          switched-highq-constrained); --experiment is a synonym\n"
             "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
             "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
+            "  --profile NAME          estimate frames: diagnostics (12 per step, default) or production\n"
+            "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus)\n"
+            "  --page-period N         production: the 11 EST_PAGE pages at the first 11 steps of every N\n"
+            "                          (0 = only after a status request, else >= 11; default 20)\n"
             "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
             "  --poll-ms N             longest wait for a frame before the app checks timeouts (default 5)\n"
             "  --run-for SECONDS       exit by itself after this long (default: run until SIGINT/SIGTERM)\n"
             "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
             "                          buses; they are then not counted). Default: every frame reaches\n"
             "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
-            "  --echo                  timing probe: no estimator; every BENCH_Y4 (a step's last input frame)\n"
+            "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP; a step's last input frame)\n"
             "                          is sent straight back with EST_STEP's ID and its own bytes, so the\n"
             "                          bench measures the bus and the machine without the estimator\n"
             "  --quiet                 print only errors and the final counters\n");
@@ -89,6 +95,8 @@ static int parse_args(int argc, char **argv, options_t *o)
     o->preset = NULL;
     o->step_timeout_ms = 20;
     o->status_period_ms = 1000;
+    o->profile = (int)CAEKF_PROFILE_DIAGNOSTICS;
+    o->page_period = 20;
     o->max_delta = 1;
     o->poll_ms = 5;
     o->run_for_s = 0.0;
@@ -124,6 +132,16 @@ static int parse_args(int argc, char **argv, options_t *o)
             bad = parse_long(v, 1, 4000000, &o->step_timeout_ms);
         } else if (strcmp(a, "--status-period-ms") == 0) {
             bad = parse_long(v, 0, 4000000, &o->status_period_ms);
+        } else if (strcmp(a, "--profile") == 0) {
+            if (strcmp(v, "diagnostics") == 0) {
+                o->profile = (int)CAEKF_PROFILE_DIAGNOSTICS;
+            } else if (strcmp(v, "production") == 0) {
+                o->profile = (int)CAEKF_PROFILE_PRODUCTION;
+            } else {
+                bad = 1;
+            }
+        } else if (strcmp(a, "--page-period") == 0) {
+            bad = parse_long(v, 0, 65535, &o->page_period) || (o->page_period != 0 && o->page_period < (long)CAEKF_PAGE_COUNT);
         } else if (strcmp(a, "--max-delta") == 0) {
             bad = parse_long(v, 1, 15, &o->max_delta);
         } else if (strcmp(a, "--poll-ms") == 0) {
@@ -247,6 +265,8 @@ int main(int argc, char **argv)
     cfg.step_timeout_us = (uint32_t)(o.step_timeout_ms * 1000L);
     cfg.status_period_us = (uint32_t)(o.status_period_ms * 1000L);
     cfg.e2e_max_delta = (uint8_t)o.max_delta;
+    cfg.profile = (uint8_t)o.profile;
+    cfg.page_period_steps = (uint16_t)o.page_period;
     socketcan_hal(&can, &hal);
     if (caekf_app_init(&app, &hal, &cfg) != CAEKF_APP_OK) {
         fprintf(stderr, "caekf-host: app initialisation failed\n");
@@ -273,8 +293,14 @@ int main(int argc, char **argv)
             printf("caekf-host: preset %s\n", o.preset != NULL ? o.preset : "none (scenario and defaults)");
         }
     }
-    if (o.echo && (caekf_proto_msg_info(CAEKF_MSG_BENCH_Y4, &echo_in) != CAEKF_PROTO_OK ||
-                   caekf_proto_msg_info(CAEKF_MSG_EST_STEP, &echo_out) != CAEKF_PROTO_OK)) {
+    /* the step's last input frame, answered as the frame that closes a step in this profile (its STEP
+     * field starts at bit 12 in both, so the bench reads the step it sent) */
+    if (o.echo && (caekf_proto_msg_info(o.profile == (int)CAEKF_PROFILE_PRODUCTION ? CAEKF_MSG_BENCH_YP
+                                                                                   : CAEKF_MSG_BENCH_Y4,
+                                        &echo_in) != CAEKF_PROTO_OK ||
+                   caekf_proto_msg_info(o.profile == (int)CAEKF_PROFILE_PRODUCTION ? CAEKF_MSG_EST_PROD
+                                                                                   : CAEKF_MSG_EST_STEP,
+                                        &echo_out) != CAEKF_PROTO_OK)) {
         fprintf(stderr, "caekf-host: --echo: message table incomplete\n");
         return 1;
     }

@@ -52,8 +52,9 @@ enum {
 /* caekf.dbc, independently of the codec's table (cross-checked once). */
 static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
                                                      0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
-                                                     0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B};
-static int is_bench_msg(unsigned m) { return m <= (unsigned)CAEKF_MSG_BENCH_Y4; }
+                                                     0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B,
+                                                     0x103, 0x190, 0x191};
+static int is_bench_msg(unsigned m) { return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP; }
 static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
 
 /* ---- bits and CRC (own implementation) -------------------------------------------------------- */
@@ -389,9 +390,14 @@ static void model_run_step(void)
 static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
 {
     const uint16_t step = (uint16_t)get_bits(d, 12, 16);
-    const unsigned bit = (msg == CAEKF_MSG_BENCH_U) ? 1u : (msg == CAEKF_MSG_BENCH_Y1) ? 2u : 4u;
-    double v;
-    if (msg == CAEKF_MSG_BENCH_U) {
+    const unsigned bit = (msg == CAEKF_MSG_BENCH_U) ? 1u : (msg == CAEKF_MSG_BENCH_Y1) ? 2u
+                         : (msg == CAEKF_MSG_BENCH_Y4) ? 4u : 6u; /* BENCH_YP carries y1 and y4 */
+    double v = 0.0;
+    double yp1 = 0.0, yp4 = 0.0;
+    if (msg == CAEKF_MSG_BENCH_YP) {
+        yp1 = (double)get_sbits(d, 28, 18) * 2e-8; /* LSB 2e-8 m, as cantools: raw * scale */
+        yp4 = (double)get_sbits(d, 46, 18) * 2e-8;
+    } else if (msg == CAEKF_MSG_BENCH_U) {
         const uint32_t fb = (uint32_t)get_bits(d, 32, 32);
         if (((fb >> 23) & 0xFFu) == 0xFFu) { /* NaN or infinity: refused */
             M.cnt[CAEKF_CNT_RX_BAD_VALUE]++;
@@ -433,8 +439,11 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
         M.u = v;
     } else if (bit == 2u) {
         M.y1 = v;
-    } else {
+    } else if (bit == 4u) {
         M.y4 = v;
+    } else {
+        M.y1 = yp1;
+        M.y4 = yp4;
     }
     if (M.have == 7u) {
         model_run_step();
@@ -932,7 +941,7 @@ static void run_ops(fz_reader_t *r)
             const uint8_t sel = fz_u8(r);
             uint8_t dl;
             if (sel < 200u) {
-                static const uint32_t extra[] = {0x000, 0x7FF, 0x0C3, 0x103, 0x0BF, 0x1C0,
+                static const uint32_t extra[] = {0x000, 0x7FF, 0x0C3, 0x104, 0x0BF, 0x1C0,
                                                  0x0C0u | CAEKF_CAN_ID_EXT_FLAG, 0x100u | CAEKF_CAN_ID_EXT_FLAG};
                 const unsigned k = sel % (NMSG + (unsigned)(sizeof extra / sizeof extra[0]));
                 f.id = (k < NMSG) ? k_can_id[k] : extra[k - NMSG];

@@ -10,6 +10,7 @@ Environment:
   CAEKF_HIL_TRUTH        truth CSV made beforehand (default: caekf-truth is run here)
   CAEKF_HIL_OUT          where logs and CSVs of the run are kept (default: pytest's tmp dir)
   CAEKF_HIL_WINDOW       lockstep window of the full runs (default 32 steps in flight; 1 = strict lockstep)
+  CAEKF_HIL_PROFILE      protocol profile of caekf-host and the bench: diagnostics (default) or production
 """
 from __future__ import annotations
 
@@ -22,7 +23,8 @@ from typing import Dict
 
 import pytest
 
-from hilcfg import EXPERIMENTS, HOST_BIN, HOST_STEP_TIMEOUT_MS, IFACE, REPLAY_BIN, REPORT, SCENARIO, TRUTH_BIN, report
+from hilcfg import (EXPERIMENTS, HOST_BIN, HOST_STEP_TIMEOUT_MS, IFACE, PROFILE, REPLAY_BIN, REPORT, SCENARIO,
+                    TRUTH_BIN, report)
 
 
 def pytest_terminal_summary(terminalreporter):
@@ -90,7 +92,8 @@ def estimator(iface, binaries, out_dir):
     # and the app's 20 ms default (a real-time setting) then drops the step, shifting the estimator against
     # the truth for the rest of the run. A second keeps the comparison with caekf-replay about the estimator.
     proc = subprocess.Popen([str(binaries["host"]), "--iface", iface, "--status-period-ms", "0",
-                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS], stdout=log, stderr=subprocess.STDOUT)
+                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS, "--profile", PROFILE], stdout=log,
+                            stderr=subprocess.STDOUT)
     time.sleep(0.2)
     if proc.poll() is not None:
         log.close()
@@ -111,7 +114,7 @@ def estimator(iface, binaries, out_dir):
 def bench(estimator, iface):
     from caekf_sim.bench import Bench
 
-    b = Bench.open("socketcan", iface)
+    b = Bench.open("socketcan", iface, profile=PROFILE)
     b.wait_for_estimator(timeout=10.0)
     yield b
     b.close()
@@ -157,7 +160,7 @@ def full_runs(bench, sc, inputs, out_dir):
     for name in EXPERIMENTS:
         runs[name] = run_experiment(bench, sc, inputs, name, len(inputs), "lockstep", window=window, timeout=2.0)
         r = runs[name]
-        report(f"lockstep (window {window}) {name}: {r.record.n} steps in {r.record.elapsed:.1f} s = "
+        report(f"[{PROFILE}] lockstep (window {window}) {name}: {r.record.n} steps in {r.record.elapsed:.1f} s = "
                f"{r.steps_per_second:.0f} steps/s, timeouts {r.record.timeouts}")
     # decoded runs only (CSVs are slow to write in the TCG VM): `caekf-sim hil report --outdir <out>/full
     # --truth <out>/truth.csv` turns them into the CSVs, summary.txt and figures afterwards

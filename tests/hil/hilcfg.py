@@ -13,6 +13,10 @@ TRUTH_BIN = BUILD / "host" / "caekf-truth"
 SCENARIO = REPO / "sim" / "scenarios" / "paper.toml"
 IFACE = os.environ.get("CAEKF_HIL_IFACE", "vcan0")
 HOST_STEP_TIMEOUT_MS = os.environ.get("CAEKF_HIL_STEP_TIMEOUT_MS", "1000")  # see conftest.estimator
+# Protocol profile of caekf-host and the bench (caekf_sim.bench.profiles). tools/hil-tests.sh runs the whole
+# suite in diagnostics and test_hil_experiments.py, test_hil_bad_traffic.py and the reduced fault matrix in
+# production.
+PROFILE = os.environ.get("CAEKF_HIL_PROFILE", "diagnostics")
 from caekf_sim.schema import preset_names
 
 EXPERIMENTS = tuple(preset_names())  # the paper's four experiments: presets of the settings schema

@@ -135,6 +135,40 @@ static int run(char *line)
         caekf_msg_step_t m;
         int st = caekf_proto_decode_step(d, &m);
         printf("%d %u %u %u %d\n", st, m.step, m.flags, m.newton_iters, m.status);
+    } else if (strcmp(a[0], "enc_yp") == 0 && n == 4) {
+        caekf_msg_yp_t m;
+        m.step = (uint16_t)strtoul(a[1], NULL, 0);
+        m.y1 = strtod(a[2], NULL);
+        m.y4 = strtod(a[3], NULL);
+        print_hex(caekf_proto_encode_yp(&m, d), d);
+    } else if (strcmp(a[0], "dec_yp") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
+        caekf_msg_yp_t m;
+        int st = caekf_proto_decode_yp(d, &m);
+        printf("%d %u %a %a\n", st, m.step, m.y1, m.y4);
+    } else if (strcmp(a[0], "enc_prod") == 0 && n == 4) {
+        caekf_msg_prod_t m;
+        m.step = (uint8_t)strtoul(a[1], NULL, 0);
+        m.flags = (uint16_t)strtoul(a[2], NULL, 0);
+        m.gamma = strtod(a[3], NULL);
+        print_hex(caekf_proto_encode_prod(&m, d), d);
+    } else if (strcmp(a[0], "dec_prod") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
+        caekf_msg_prod_t m;
+        int st = caekf_proto_decode_prod(d, &m);
+        printf("%d %u %u %a\n", st, m.step, m.flags, m.gamma);
+    } else if (strcmp(a[0], "enc_page") == 0 && n == 7) {
+        caekf_msg_page_t m;
+        m.page = (uint8_t)strtoul(a[1], NULL, 0);
+        m.step = (uint16_t)strtoul(a[2], NULL, 0);
+        m.value = strtod(a[3], NULL);
+        m.info.step = m.step;
+        m.info.flags = (uint16_t)strtoul(a[4], NULL, 0);
+        m.info.newton_iters = (uint8_t)strtoul(a[5], NULL, 0);
+        m.info.status = (int8_t)strtol(a[6], NULL, 0);
+        print_hex(caekf_proto_encode_page(&m, d), d);
+    } else if (strcmp(a[0], "dec_page") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
+        caekf_msg_page_t m;
+        int st = caekf_proto_decode_page(d, &m);
+        printf("%d %u %u %a %u %u %d\n", st, m.page, m.step, m.value, m.info.flags, m.info.newton_iters, m.info.status);
     } else if (strcmp(a[0], "enc_reset") == 0 && n == 3) {
         caekf_msg_reset_t m;
         m.n_params = (uint8_t)strtoul(a[1], NULL, 0);

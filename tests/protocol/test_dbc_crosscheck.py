@@ -11,7 +11,8 @@ import pytest
 
 from e2e_ref import crc8_sae_j1850, e2e_crc, seal, to_mantissa_exp10
 
-LAYOUT = {"RESET": 0, "PARAM": 1, "STATUS_REQ": 2, "ACK": 3, "HEALTH": 4, "INT36": 5, "FLOAT32": 6, "STEP": 7}
+LAYOUT = {"RESET": 0, "PARAM": 1, "STATUS_REQ": 2, "ACK": 3, "HEALTH": 4, "INT36": 5, "FLOAT32": 6, "STEP": 7,
+          "YP": 8, "PROD": 9, "PAGE": 10}
 E2E = ("E2E_CRC", "E2E_COUNTER")
 RNG_SEED = 20240611
 
@@ -35,6 +36,9 @@ def dbc_layout(msg):
     names = [s.name for s in msg.signals]
     if msg.name == "EST_STEP":
         return LAYOUT["STEP"]
+    special = {"BENCH_YP": "YP", "EST_PROD": "PROD", "EST_PAGE": "PAGE"}
+    if msg.name in special:
+        return LAYOUT[special[msg.name]]
     if msg.name.startswith(("BENCH_", "EST_")) and "STEP" in names:
         return LAYOUT["FLOAT32"] if value_signal(msg).is_float else LAYOUT["INT36"]
     return LAYOUT[{"CTRL_RESET": "RESET", "CTRL_PARAM": "PARAM", "CTRL_STATUS_REQ": "STATUS_REQ",
@@ -72,6 +76,8 @@ def test_ids_data_ids_dlc_direction_layout_and_lsb_match(db, dump):
             sig = value_signal(msg)
             assert (sig.start, sig.length, sig.is_signed, sig.offset) == (28, 36, True, 0)
             assert row["lsb"] == sig.scale, msg.name
+        if row["layout"] == LAYOUT["YP"]:
+            assert {s.scale for s in msg.signals if s.name in ("Y1", "Y4")} == {row["lsb"]}, msg.name
     assert len(data_ids) == len(db.messages), "E2E data IDs must be unique"
 
 
@@ -235,8 +241,15 @@ def test_int36_out_of_range_saturates_at_the_dbc_limits(db, dump):
 
 
 def test_position_resolution_is_far_below_a_micrometre(db):
+    """Diagnostics profile scaled signals; the production profile's BENCH_YP trades resolution for room
+    (LSB 2e-8 m, +/-2.6 mm: the scenarios' positions stay within 1.4 mm) and its outputs are float32."""
     for msg in db.messages:
         for sig in msg.signals:
+            if sig.is_float:
+                continue
+            if msg.name == "BENCH_YP":
+                assert sig.unit != "m" or (sig.scale <= 2e-8 and sig.maximum >= 0.0026), sig.name
+                continue
             if sig.unit == "m":
                 assert sig.scale <= 1e-12 and sig.maximum >= 0.03, sig.name
             if sig.unit == "m/s":
@@ -259,6 +272,75 @@ def test_step_frame(db, dump):
     cases = [dict(STEP=rng.randrange(65536), FLAGS=rng.randrange(65536), NEWTON_ITERS=rng.randrange(256),
                   STEP_STATUS=rng.randrange(-128, 128)) for _ in range(200)]
     roundtrip(db, dump, "EST_STEP", "enc_step", "dec_step", cases, ["STEP", "FLAGS", "NEWTON_ITERS", "STEP_STATUS"])
+
+
+# --- production profile frames: C (generated pack/unpack + scaling) against cantools ------------
+
+def _f32(rng):
+    return struct.unpack("<f", struct.pack("<f", rng.uniform(-1e3, 1e3) * 10.0 ** rng.randrange(-12, 12)))[0]
+
+
+def test_yp_frame(db, dump):
+    rng = random.Random(RNG_SEED + 11)
+    sig = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1")
+    cases = []
+    for _ in range(300):
+        raw1, raw4 = rng.randrange(-(1 << 17), 1 << 17), rng.randrange(-(1 << 17), 1 << 17)
+        cases.append(dict(STEP=rng.randrange(65536), Y1=raw1 * sig.scale, Y4=raw4 * sig.scale,
+                          r1=rng.uniform(-2.6e-3, 2.6e-3), r4=rng.uniform(-2.6e-3, 2.6e-3)))
+    # values on the LSB grid and arbitrary values: both sides round the same way
+    enc = dump.run([f"enc_yp {c['STEP']} {c['Y1']!r} {c['Y4']!r}" for c in cases] +
+                   [f"enc_yp {c['STEP']} {c['r1']!r} {c['r4']!r}" for c in cases])
+    want = [f"0 {encode(db, 'BENCH_YP', dict(STEP=c['STEP'], Y1=c['Y1'], Y4=c['Y4']))}" for c in cases] + \
+           [f"0 {encode(db, 'BENCH_YP', dict(STEP=c['STEP'], Y1=c['r1'], Y4=c['r4']))}" for c in cases]
+    assert enc == want
+    payloads = [w.split()[1] for w in want]
+    for line, p in zip(dump.run([f"dec_yp {p}" for p in payloads]), payloads):
+        st, step, y1, y4 = line.split()
+        ref = db.decode_message("BENCH_YP", bytes.fromhex(p))
+        assert (int(st), int(step), float.fromhex(y1), float.fromhex(y4)) == (0, ref["STEP"], ref["Y1"], ref["Y4"])
+    # beyond the range: clipped to the DBC's ends and flagged
+    st, payload = dump.one("enc_yp 1 0.5 -0.5").split()
+    ref = db.decode_message("BENCH_YP", bytes.fromhex(payload))
+    assert int(st) == 1 and (ref["Y1"], ref["Y4"]) == ((2 ** 17 - 1) * sig.scale, -(2 ** 17) * sig.scale)
+
+
+def test_prod_frame(db, dump):
+    rng = random.Random(RNG_SEED + 12)
+    cases = [dict(STEP=rng.randrange(256), FLAGS=rng.randrange(4096), GAMMA=_f32(rng)) for _ in range(300)]
+    enc = dump.run([f"enc_prod {c['STEP']} {c['FLAGS']} {c['GAMMA']!r}" for c in cases])
+    assert enc == [f"0 {encode(db, 'EST_PROD', c)}" for c in cases]
+    dec = dump.run([f"dec_prod {line.split()[1]}" for line in enc])
+    got = [(int(a), int(b), int(c), float.fromhex(d)) for a, b, c, d in (line.split() for line in dec)]
+    assert got == [(0, c["STEP"], c["FLAGS"], c["GAMMA"]) for c in cases]
+    # flags above bit 11 are not part of EST_PROD: the C encoder drops them
+    assert dump.one("enc_prod 1 65535 1.0").split()[1] == encode(db, "EST_PROD", dict(STEP=1, FLAGS=4095, GAMMA=1.0))
+
+
+PAGE_SIGNALS = ("Q1", "Q2", "Q3", "Q4", "V1", "V2", "V3", "V4", "P_NORM", "P_GAMMA_GAMMA")
+
+
+def test_page_frames(db, dump):
+    rng = random.Random(RNG_SEED + 13)
+    cmds, want, dec_want = [], [], []
+    for _ in range(400):
+        page, step = rng.randrange(11), rng.randrange(65536)
+        if page < 10:
+            v = _f32(rng)
+            cmds.append(f"enc_page {page} {step} {v!r} 0 0 0")
+            want.append(encode(db, "EST_PAGE", {"PAGE": page, "STEP": step, PAGE_SIGNALS[page]: v}))
+            dec_want.append((0, page, step, v, 0, 0, 0))
+        else:
+            fl, it, st = rng.randrange(65536), rng.randrange(256), rng.randrange(-128, 128)
+            cmds.append(f"enc_page 10 {step} 0 {fl} {it} {st}")
+            want.append(encode(db, "EST_PAGE", {"PAGE": 10, "STEP": step, "FLAGS": fl, "NEWTON_ITERS": it,
+                                                "STEP_STATUS": st}))
+            dec_want.append((0, 10, step, 0.0, fl, it, st))
+    assert dump.run(cmds) == [f"0 {w}" for w in want]
+    got = [(int(a), int(b), int(c), float.fromhex(d), int(e), int(f), int(g))
+           for a, b, c, d, e, f, g in (line.split() for line in dump.run([f"dec_page {w}" for w in want]))]
+    assert got == dec_want
+    assert dump.one("enc_page 11 1 0 0 0 0").split()[0] == "-4"  # CAEKF_PROTO_ERR_RANGE
 
 
 def test_reset_frame(db, dump):

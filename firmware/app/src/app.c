@@ -9,6 +9,7 @@
 #define DEFAULT_E2E_RESYNC_US 500000u
 #define DEFAULT_E2E_MAX_DELTA 1u
 #define DEFAULT_MAX_FRAMES_PER_POLL 64u
+#define DEFAULT_PAGE_PERIOD_STEPS 20u
 
 caekf_app_status_t caekf_app_config_default(caekf_app_config_t *cfg)
 {
@@ -20,6 +21,8 @@ caekf_app_status_t caekf_app_config_default(caekf_app_config_t *cfg)
     cfg->e2e_resync_us = DEFAULT_E2E_RESYNC_US;
     cfg->e2e_max_delta = DEFAULT_E2E_MAX_DELTA;
     cfg->max_frames_per_poll = DEFAULT_MAX_FRAMES_PER_POLL;
+    cfg->profile = (uint8_t)CAEKF_PROFILE_DIAGNOSTICS;
+    cfg->page_period_steps = DEFAULT_PAGE_PERIOD_STEPS;
     return CAEKF_APP_OK;
 }
 
@@ -30,13 +33,16 @@ caekf_app_status_t caekf_app_init(caekf_app_t *app, const caekf_app_hal_t *hal, 
         return CAEKF_APP_ERR_NULL;
     }
     if (hal->receive == NULL || hal->transmit == NULL || hal->now_us == NULL || cfg->e2e_max_delta < 1u ||
-        cfg->e2e_max_delta > 15u || cfg->max_frames_per_poll < 1u || cfg->step_timeout_us == 0u) {
+        cfg->e2e_max_delta > 15u || cfg->max_frames_per_poll < 1u || cfg->step_timeout_us == 0u ||
+        cfg->profile >= (uint8_t)CAEKF_PROFILE_COUNT ||
+        (cfg->page_period_steps != 0u && cfg->page_period_steps < CAEKF_PAGE_COUNT)) {
         return CAEKF_APP_ERR_CONFIG;
     }
     memset(app, 0, sizeof *app);
     app->hal = *hal;
     app->cfg = *cfg;
     app->staged_bad_param = (uint8_t)CAEKF_ACK_BAD_PARAM_NONE;
+    app->page_phase = (cfg->page_period_steps == 0u) ? (uint16_t)CAEKF_PAGE_COUNT : 0u;
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         (void)caekf_e2e_rx_init(&app->rx[i]);
     }

@@ -1,4 +1,5 @@
-/* Step assembly: collects BENCH_U, BENCH_Y1, BENCH_Y4 of one STEP, then runs the estimator once.
+/* Step assembly: collects BENCH_U, BENCH_Y1, BENCH_Y4 (or BENCH_U, BENCH_YP) of one STEP, then runs the
+ * estimator once.
  * One slot is enough: the bench sends a step's frames together, so a frame of a newer step means the
  * open step will never complete. STEP is 16 bits on the wire, compared modulo 2^16. */
 #include <stddef.h>
@@ -31,6 +32,7 @@ void caekf_app_assembly_reset(caekf_app_t *app)
     app->slot.have = 0;
     app->have_closed = 0;
     app->have_run = 0;
+    app->page_phase = (app->cfg.page_period_steps == 0u) ? (uint16_t)CAEKF_PAGE_COUNT : 0u;
 }
 
 void caekf_app_assembly_timeout(caekf_app_t *app, uint32_t now_us)
@@ -100,10 +102,20 @@ static int route(caekf_app_t *app, uint16_t step, uint32_t now_us)
 
 void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint32_t now_us)
 {
-    uint16_t step;
-    double value;
-    uint8_t bit;
-    if (caekf_proto_decode_value(msg, data, &step, &value) != CAEKF_PROTO_OK) {
+    uint16_t step = 0u;
+    double value = 0.0;
+    caekf_msg_yp_t yp;
+    uint8_t bits;
+    caekf_proto_status_t st;
+    yp.y1 = 0.0;
+    yp.y4 = 0.0;
+    if (msg == CAEKF_MSG_BENCH_YP) {
+        st = caekf_proto_decode_yp(data, &yp);
+        step = yp.step;
+    } else {
+        st = caekf_proto_decode_value(msg, data, &step, &value);
+    }
+    if (st != CAEKF_PROTO_OK) {
         caekf_app_count(app, CAEKF_CNT_RX_BAD_VALUE, 1u); /* NaN/inf never reaches the estimator */
         return;
     }
@@ -112,21 +124,27 @@ void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t d
         caekf_app_count(app, CAEKF_CNT_RX_UNCONFIGURED, 1u);
         return;
     }
-    bit = (msg == CAEKF_MSG_BENCH_U) ? HAVE_U : (msg == CAEKF_MSG_BENCH_Y1) ? HAVE_Y1 : HAVE_Y4;
+    bits = (msg == CAEKF_MSG_BENCH_U)    ? HAVE_U
+           : (msg == CAEKF_MSG_BENCH_Y1) ? HAVE_Y1
+           : (msg == CAEKF_MSG_BENCH_Y4) ? HAVE_Y4
+                                         : (uint8_t)(HAVE_Y1 | HAVE_Y4);
     if (!route(app, step, now_us)) {
         return;
     }
-    if (app->slot.have & bit) {
+    if (app->slot.have & bits) {
         caekf_app_count(app, CAEKF_CNT_RX_REPEATED, 1u); /* keep the first value */
         return;
     }
-    app->slot.have = (uint8_t)(app->slot.have | bit);
-    if (bit == HAVE_U) {
+    app->slot.have = (uint8_t)(app->slot.have | bits);
+    if (bits == HAVE_U) {
         app->slot.u = value;
-    } else if (bit == HAVE_Y1) {
+    } else if (bits == HAVE_Y1) {
         app->slot.y1 = value;
-    } else {
+    } else if (bits == HAVE_Y4) {
         app->slot.y4 = value;
+    } else {
+        app->slot.y1 = yp.y1;
+        app->slot.y4 = yp.y4;
     }
     if (app->slot.have == HAVE_ALL) {
         run_step(app);

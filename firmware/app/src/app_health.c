@@ -40,4 +40,5 @@ void caekf_app_handle_status_req(caekf_app_t *app, const uint8_t data[CAEKF_CAN_
     caekf_app_send_ack(app, r.token, (int8_t)CAEKF_ACK_STATUS, (uint8_t)CAEKF_ACK_BAD_PARAM_NONE,
                        app->staging ? app->staged_count : 0u);
     caekf_app_send_health(app);
+    app->page_phase = 0u; /* PRODUCTION: every EST_PAGE over the next CAEKF_PAGE_COUNT steps */
 }

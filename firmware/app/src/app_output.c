@@ -1,4 +1,5 @@
-/* The estimate frames of one step. EST_STEP goes last: it tells the bench the step is complete. */
+/* The estimate frames of one step, by profile. DIAGNOSTICS: 12 frames, EST_STEP last (it tells the bench
+ * the step is complete). PRODUCTION: EST_PROD (closes the step), then at most one EST_PAGE. */
 #include <math.h>
 #include <stddef.h>
 
@@ -17,6 +18,67 @@ static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double 
     caekf_app_send(app, msg, &f);
 }
 
+static uint8_t clamp_iters(int it)
+{
+    return (uint8_t)((it < 0) ? 0 : (it > 255) ? 255 : it);
+}
+
+static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
+                            uint16_t app_flags)
+{
+    caekf_scalar_t x[CAEKF_N];
+    caekf_scalar_t p_norm;
+    caekf_msg_prod_t pm;
+    caekf_msg_page_t pg;
+    caekf_can_frame_t f;
+    const uint16_t page = app->page_phase;
+
+    (void)caekf_get_state(&app->est, x);
+    pm.step = (uint8_t)(step & 0xFFu);
+    pm.flags = (uint16_t)(report->flags & CAEKF_PROD_FLAGS_MASK);
+    pm.gamma = (double)x[CAEKF_IG];
+    if (caekf_proto_encode_prod(&pm, f.data) == CAEKF_PROTO_SATURATED) {
+        caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
+        app_flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
+    }
+    caekf_app_send(app, CAEKF_MSG_EST_PROD, &f);
+
+    if (app->cfg.page_period_steps != 0u) {
+        app->page_phase = (uint16_t)((app->page_phase + 1u) % app->cfg.page_period_steps);
+    } else if (app->page_phase < CAEKF_PAGE_COUNT) {
+        app->page_phase++;
+    }
+    if (page >= CAEKF_PAGE_COUNT) {
+        return;
+    }
+    pg.page = (uint8_t)page;
+    pg.step = step;
+    pg.value = 0.0;
+    if (page < 2u * CAEKF_NQ) {
+        pg.value = (double)x[page];
+    } else if (page == 8u) {
+        pg.value = (double)NAN; /* sent when the norm cannot be computed */
+        if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
+            pg.value = (double)p_norm;
+        }
+    } else if (page == 9u) {
+        (void)caekf_get_covariance(&app->est, app->cov_scratch);
+        pg.value = (double)app->cov_scratch[CAEKF_IG][CAEKF_IG];
+    } else {
+        if (caekf_get_cov_norm2(&app->est, &p_norm) != CAEKF_OK) {
+            app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
+        }
+        pg.info.step = step;
+        pg.info.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
+        pg.info.newton_iters = clamp_iters(report->newton_iters);
+        pg.info.status = (int8_t)status;
+    }
+    if (caekf_proto_encode_page(&pg, f.data) == CAEKF_PROTO_SATURATED) {
+        caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
+    }
+    caekf_app_send(app, CAEKF_MSG_EST_PAGE, &f);
+}
+
 void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
                              uint16_t app_flags)
 {
@@ -31,6 +93,10 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
     caekf_can_frame_t f;
     unsigned i;
 
+    if (app->cfg.profile == (uint8_t)CAEKF_PROFILE_PRODUCTION) {
+        send_production(app, step, status, report, app_flags);
+        return;
+    }
     (void)caekf_get_state(&app->est, x);
     (void)caekf_get_covariance(&app->est, app->cov_scratch);
     if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
@@ -50,7 +116,7 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
 
     sm.step = step;
     sm.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
-    sm.newton_iters = (uint8_t)((report->newton_iters < 0) ? 0 : (report->newton_iters > 255) ? 255 : report->newton_iters);
+    sm.newton_iters = clamp_iters(report->newton_iters);
     sm.status = (int8_t)status;
     (void)caekf_proto_encode_step(&sm, f.data);
     caekf_app_send(app, CAEKF_MSG_EST_STEP, &f);

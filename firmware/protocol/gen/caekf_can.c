@@ -1471,6 +1471,695 @@ bool caekf_can_bench_y4_y4_is_in_phys_range(double value)
     return ((value >= -0.034359738368) && (value <= 0.034359738367));
 }
 
+int caekf_can_bench_yp_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_yp_t *src_p,
+    size_t size)
+{
+    uint32_t y1;
+    uint32_t y4;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    y1 = (uint32_t)src_p->y1;
+    dst_p[3] |= pack_left_shift_u32(y1, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u32(y1, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(y1, 12u, 0x3fu);
+    y4 = (uint32_t)src_p->y4;
+    dst_p[5] |= pack_left_shift_u32(y4, 6u, 0xc0u);
+    dst_p[6] |= pack_right_shift_u32(y4, 2u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(y4, 10u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_yp_unpack(
+    struct caekf_can_bench_yp_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t y1;
+    uint32_t y4;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    y1 = unpack_right_shift_u32(src_p[3], 4u, 0xf0u);
+    y1 |= unpack_left_shift_u32(src_p[4], 4u, 0xffu);
+    y1 |= unpack_left_shift_u32(src_p[5], 12u, 0x3fu);
+
+    if ((y1 & (1u << 17)) != 0u) {
+        y1 |= 0xfffc0000u;
+    }
+
+    dst_p->y1 = (int32_t)y1;
+    y4 = unpack_right_shift_u32(src_p[5], 6u, 0xc0u);
+    y4 |= unpack_left_shift_u32(src_p[6], 2u, 0xffu);
+    y4 |= unpack_left_shift_u32(src_p[7], 10u, 0xffu);
+
+    if ((y4 & (1u << 17)) != 0u) {
+        y4 |= 0xfffc0000u;
+    }
+
+    dst_p->y4 = (int32_t)y4;
+
+    return (0);
+}
+
+int caekf_can_bench_yp_init(struct caekf_can_bench_yp_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_yp_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_yp_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_yp_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_yp_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_yp_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_yp_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_yp_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_yp_y1_is_in_range(int32_t value)
+{
+    return ((value >= -131072) && (value <= 131071));
+}
+
+bool caekf_can_bench_yp_y1_is_in_phys_range(double value)
+{
+    return ((value >= -0.00262144) && (value <= 0.00262142));
+}
+
+bool caekf_can_bench_yp_y4_is_in_range(int32_t value)
+{
+    return ((value >= -131072) && (value <= 131071));
+}
+
+bool caekf_can_bench_yp_y4_is_in_phys_range(double value)
+{
+    return ((value >= -0.00262144) && (value <= 0.00262142));
+}
+
+int caekf_can_est_prod_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_prod_t *src_p,
+    size_t size)
+{
+    uint32_t gamma;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u8(src_p->step, 4u, 0x0fu);
+    dst_p[2] |= pack_left_shift_u16(src_p->flags, 4u, 0xf0u);
+    dst_p[3] |= pack_right_shift_u16(src_p->flags, 4u, 0xffu);
+    memcpy(&gamma, &src_p->gamma, sizeof(gamma));
+    dst_p[4] |= pack_left_shift_u32(gamma, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(gamma, 8u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(gamma, 16u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(gamma, 24u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_prod_unpack(
+    struct caekf_can_est_prod_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t gamma;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u8(src_p[2], 4u, 0x0fu);
+    dst_p->flags = unpack_right_shift_u16(src_p[2], 4u, 0xf0u);
+    dst_p->flags |= unpack_left_shift_u16(src_p[3], 4u, 0xffu);
+    gamma = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+    gamma |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+    gamma |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+    gamma |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+    memcpy(&dst_p->gamma, &gamma, sizeof(dst_p->gamma));
+
+    return (0);
+}
+
+int caekf_can_est_prod_init(struct caekf_can_est_prod_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_prod_t));
+
+    return 0;
+}
+
+bool caekf_can_est_prod_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_prod_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_prod_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_prod_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_prod_step_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_prod_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_prod_flags_is_in_range(uint16_t value)
+{
+    return (value <= 4095u);
+}
+
+bool caekf_can_est_prod_flags_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 4095.0));
+}
+
+bool caekf_can_est_prod_gamma_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_prod_gamma_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+int caekf_can_est_page_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_page_t *src_p,
+    size_t size)
+{
+    uint32_t p_gamma_gamma;
+    uint32_t p_norm;
+    uint32_t q1;
+    uint32_t q2;
+    uint32_t q3;
+    uint32_t q4;
+    uint32_t v1;
+    uint32_t v2;
+    uint32_t v3;
+    uint32_t v4;
+    uint8_t step_status;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->page, 4u, 0xf0u);
+    dst_p[2] |= pack_left_shift_u16(src_p->step, 0u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 8u, 0xffu);
+
+    switch (src_p->page) {
+
+    case 0:
+        memcpy(&q1, &src_p->q1, sizeof(q1));
+        dst_p[4] |= pack_left_shift_u32(q1, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(q1, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(q1, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(q1, 24u, 0xffu);
+        break;
+
+    case 1:
+        memcpy(&q2, &src_p->q2, sizeof(q2));
+        dst_p[4] |= pack_left_shift_u32(q2, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(q2, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(q2, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(q2, 24u, 0xffu);
+        break;
+
+    case 2:
+        memcpy(&q3, &src_p->q3, sizeof(q3));
+        dst_p[4] |= pack_left_shift_u32(q3, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(q3, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(q3, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(q3, 24u, 0xffu);
+        break;
+
+    case 3:
+        memcpy(&q4, &src_p->q4, sizeof(q4));
+        dst_p[4] |= pack_left_shift_u32(q4, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(q4, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(q4, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(q4, 24u, 0xffu);
+        break;
+
+    case 4:
+        memcpy(&v1, &src_p->v1, sizeof(v1));
+        dst_p[4] |= pack_left_shift_u32(v1, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(v1, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(v1, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(v1, 24u, 0xffu);
+        break;
+
+    case 5:
+        memcpy(&v2, &src_p->v2, sizeof(v2));
+        dst_p[4] |= pack_left_shift_u32(v2, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(v2, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(v2, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(v2, 24u, 0xffu);
+        break;
+
+    case 6:
+        memcpy(&v3, &src_p->v3, sizeof(v3));
+        dst_p[4] |= pack_left_shift_u32(v3, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(v3, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(v3, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(v3, 24u, 0xffu);
+        break;
+
+    case 7:
+        memcpy(&v4, &src_p->v4, sizeof(v4));
+        dst_p[4] |= pack_left_shift_u32(v4, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(v4, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(v4, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(v4, 24u, 0xffu);
+        break;
+
+    case 8:
+        memcpy(&p_norm, &src_p->p_norm, sizeof(p_norm));
+        dst_p[4] |= pack_left_shift_u32(p_norm, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(p_norm, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(p_norm, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(p_norm, 24u, 0xffu);
+        break;
+
+    case 9:
+        memcpy(&p_gamma_gamma, &src_p->p_gamma_gamma, sizeof(p_gamma_gamma));
+        dst_p[4] |= pack_left_shift_u32(p_gamma_gamma, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u32(p_gamma_gamma, 8u, 0xffu);
+        dst_p[6] |= pack_right_shift_u32(p_gamma_gamma, 16u, 0xffu);
+        dst_p[7] |= pack_right_shift_u32(p_gamma_gamma, 24u, 0xffu);
+        break;
+
+    case 10:
+        dst_p[4] |= pack_left_shift_u16(src_p->flags, 0u, 0xffu);
+        dst_p[5] |= pack_right_shift_u16(src_p->flags, 8u, 0xffu);
+        dst_p[6] |= pack_left_shift_u8(src_p->newton_iters, 0u, 0xffu);
+        step_status = (uint8_t)src_p->step_status;
+        dst_p[7] |= pack_left_shift_u8(step_status, 0u, 0xffu);
+        break;
+
+    default:
+        break;
+    }
+
+    return (8);
+}
+
+int caekf_can_est_page_unpack(
+    struct caekf_can_est_page_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t p_gamma_gamma;
+    uint32_t p_norm;
+    uint32_t q1;
+    uint32_t q2;
+    uint32_t q3;
+    uint32_t q4;
+    uint32_t v1;
+    uint32_t v2;
+    uint32_t v3;
+    uint32_t v4;
+    uint8_t step_status;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->page = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
+    dst_p->step = unpack_right_shift_u16(src_p[2], 0u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 8u, 0xffu);
+
+    switch (dst_p->page) {
+
+    case 0:
+        q1 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        q1 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        q1 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        q1 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->q1, &q1, sizeof(dst_p->q1));
+        break;
+
+    case 1:
+        q2 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        q2 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        q2 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        q2 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->q2, &q2, sizeof(dst_p->q2));
+        break;
+
+    case 2:
+        q3 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        q3 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        q3 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        q3 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->q3, &q3, sizeof(dst_p->q3));
+        break;
+
+    case 3:
+        q4 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        q4 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        q4 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        q4 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->q4, &q4, sizeof(dst_p->q4));
+        break;
+
+    case 4:
+        v1 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        v1 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        v1 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        v1 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->v1, &v1, sizeof(dst_p->v1));
+        break;
+
+    case 5:
+        v2 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        v2 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        v2 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        v2 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->v2, &v2, sizeof(dst_p->v2));
+        break;
+
+    case 6:
+        v3 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        v3 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        v3 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        v3 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->v3, &v3, sizeof(dst_p->v3));
+        break;
+
+    case 7:
+        v4 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        v4 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        v4 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        v4 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->v4, &v4, sizeof(dst_p->v4));
+        break;
+
+    case 8:
+        p_norm = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        p_norm |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        p_norm |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        p_norm |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->p_norm, &p_norm, sizeof(dst_p->p_norm));
+        break;
+
+    case 9:
+        p_gamma_gamma = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+        p_gamma_gamma |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+        p_gamma_gamma |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+        p_gamma_gamma |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+        memcpy(&dst_p->p_gamma_gamma, &p_gamma_gamma, sizeof(dst_p->p_gamma_gamma));
+        break;
+
+    case 10:
+        dst_p->flags = unpack_right_shift_u16(src_p[4], 0u, 0xffu);
+        dst_p->flags |= unpack_left_shift_u16(src_p[5], 8u, 0xffu);
+        dst_p->newton_iters = unpack_right_shift_u8(src_p[6], 0u, 0xffu);
+        step_status = unpack_right_shift_u8(src_p[7], 0u, 0xffu);
+        dst_p->step_status = (int8_t)step_status;
+        break;
+
+    default:
+        break;
+    }
+
+    return (0);
+}
+
+int caekf_can_est_page_init(struct caekf_can_est_page_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_page_t));
+
+    return 0;
+}
+
+bool caekf_can_est_page_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_page_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_page_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_page_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_page_page_is_in_range(uint8_t value)
+{
+    return (value <= 10u);
+}
+
+bool caekf_can_est_page_page_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 10.0));
+}
+
+bool caekf_can_est_page_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_page_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_page_q1_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_q1_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_q2_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_q2_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_q3_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_q3_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_q4_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_q4_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_v1_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_v1_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_v2_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_v2_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_v3_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_v3_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_v4_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_v4_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_p_norm_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_p_norm_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_p_gamma_gamma_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_page_p_gamma_gamma_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_page_flags_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_page_flags_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_page_newton_iters_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_page_newton_iters_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_page_step_status_is_in_range(int8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_page_step_status_is_in_phys_range(double value)
+{
+    return ((value >= -128.0) && (value <= 127.0));
+}
+
 int caekf_can_est_gamma_pack(
     uint8_t *dst_p,
     const struct caekf_can_est_gamma_t *src_p,

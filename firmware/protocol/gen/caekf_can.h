@@ -53,6 +53,9 @@ extern "C" {
 #define CAEKF_CAN_BENCH_U_FRAME_ID (0x100u)
 #define CAEKF_CAN_BENCH_Y1_FRAME_ID (0x101u)
 #define CAEKF_CAN_BENCH_Y4_FRAME_ID (0x102u)
+#define CAEKF_CAN_BENCH_YP_FRAME_ID (0x103u)
+#define CAEKF_CAN_EST_PROD_FRAME_ID (0x190u)
+#define CAEKF_CAN_EST_PAGE_FRAME_ID (0x191u)
 #define CAEKF_CAN_EST_GAMMA_FRAME_ID (0x180u)
 #define CAEKF_CAN_EST_Q1_FRAME_ID (0x181u)
 #define CAEKF_CAN_EST_Q2_FRAME_ID (0x182u)
@@ -75,6 +78,9 @@ extern "C" {
 #define CAEKF_CAN_BENCH_U_LENGTH (8u)
 #define CAEKF_CAN_BENCH_Y1_LENGTH (8u)
 #define CAEKF_CAN_BENCH_Y4_LENGTH (8u)
+#define CAEKF_CAN_BENCH_YP_LENGTH (8u)
+#define CAEKF_CAN_EST_PROD_LENGTH (8u)
+#define CAEKF_CAN_EST_PAGE_LENGTH (8u)
 #define CAEKF_CAN_EST_GAMMA_LENGTH (8u)
 #define CAEKF_CAN_EST_Q1_LENGTH (8u)
 #define CAEKF_CAN_EST_Q2_LENGTH (8u)
@@ -97,6 +103,9 @@ extern "C" {
 #define CAEKF_CAN_BENCH_U_IS_EXTENDED (0)
 #define CAEKF_CAN_BENCH_Y1_IS_EXTENDED (0)
 #define CAEKF_CAN_BENCH_Y4_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_YP_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_PROD_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_PAGE_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_GAMMA_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_Q1_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_Q2_IS_EXTENDED (0)
@@ -164,6 +173,14 @@ extern "C" {
 #define CAEKF_CAN_EST_ACK_ACK_STATUS_ACCEPTED_CHOICE (0)
 #define CAEKF_CAN_EST_ACK_ACK_STATUS_STATUS_CHOICE (1)
 
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_ERR_SINGULAR_CHOICE (-6)
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_ERR_NUMERIC_CHOICE (-5)
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_ERR_INPUT_CHOICE (-4)
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_ERR_NOT_INIT_CHOICE (-3)
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_ERR_SETTINGS_CHOICE (-2)
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_ERR_NULL_CHOICE (-1)
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_OK_CHOICE (0)
+
 #define CAEKF_CAN_EST_STEP_STEP_STATUS_ERR_SINGULAR_CHOICE (-6)
 #define CAEKF_CAN_EST_STEP_STEP_STATUS_ERR_NUMERIC_CHOICE (-5)
 #define CAEKF_CAN_EST_STEP_STEP_STATUS_ERR_INPUT_CHOICE (-4)
@@ -181,6 +198,9 @@ extern "C" {
 #define CAEKF_CAN_BENCH_U_NAME "BENCH_U"
 #define CAEKF_CAN_BENCH_Y1_NAME "BENCH_Y1"
 #define CAEKF_CAN_BENCH_Y4_NAME "BENCH_Y4"
+#define CAEKF_CAN_BENCH_YP_NAME "BENCH_YP"
+#define CAEKF_CAN_EST_PROD_NAME "EST_PROD"
+#define CAEKF_CAN_EST_PAGE_NAME "EST_PAGE"
 #define CAEKF_CAN_EST_GAMMA_NAME "EST_GAMMA"
 #define CAEKF_CAN_EST_Q1_NAME "EST_Q1"
 #define CAEKF_CAN_EST_Q2_NAME "EST_Q2"
@@ -253,6 +273,33 @@ extern "C" {
 #define CAEKF_CAN_BENCH_Y4_E2_E_COUNTER_NAME "E2E_COUNTER"
 #define CAEKF_CAN_BENCH_Y4_STEP_NAME "STEP"
 #define CAEKF_CAN_BENCH_Y4_Y4_NAME "Y4"
+#define CAEKF_CAN_BENCH_YP_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_YP_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_YP_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_YP_Y1_NAME "Y1"
+#define CAEKF_CAN_BENCH_YP_Y4_NAME "Y4"
+#define CAEKF_CAN_EST_PROD_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_PROD_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_PROD_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_PROD_FLAGS_NAME "FLAGS"
+#define CAEKF_CAN_EST_PROD_GAMMA_NAME "GAMMA"
+#define CAEKF_CAN_EST_PAGE_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_PAGE_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_PAGE_PAGE_NAME "PAGE"
+#define CAEKF_CAN_EST_PAGE_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_PAGE_Q1_NAME "Q1"
+#define CAEKF_CAN_EST_PAGE_Q2_NAME "Q2"
+#define CAEKF_CAN_EST_PAGE_Q3_NAME "Q3"
+#define CAEKF_CAN_EST_PAGE_Q4_NAME "Q4"
+#define CAEKF_CAN_EST_PAGE_V1_NAME "V1"
+#define CAEKF_CAN_EST_PAGE_V2_NAME "V2"
+#define CAEKF_CAN_EST_PAGE_V3_NAME "V3"
+#define CAEKF_CAN_EST_PAGE_V4_NAME "V4"
+#define CAEKF_CAN_EST_PAGE_P_NORM_NAME "P_NORM"
+#define CAEKF_CAN_EST_PAGE_P_GAMMA_GAMMA_NAME "P_GAMMA_GAMMA"
+#define CAEKF_CAN_EST_PAGE_FLAGS_NAME "FLAGS"
+#define CAEKF_CAN_EST_PAGE_NEWTON_ITERS_NAME "NEWTON_ITERS"
+#define CAEKF_CAN_EST_PAGE_STEP_STATUS_NAME "STEP_STATUS"
 #define CAEKF_CAN_EST_GAMMA_E2_E_CRC_NAME "E2E_CRC"
 #define CAEKF_CAN_EST_GAMMA_E2_E_COUNTER_NAME "E2E_COUNTER"
 #define CAEKF_CAN_EST_GAMMA_STEP_NAME "STEP"
@@ -896,6 +943,276 @@ struct caekf_can_bench_y4_t {
      * Offset: 0
      */
     int64_t y4;
+};
+
+/**
+ * Signals in message BENCH_YP.
+ *
+ * Production profile step data: both measurements y1 = q1 and y2 = q4 in one frame (with BENCH_U: 2 input frames per step).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_yp_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measurement y1 = q1. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
+     *
+     * Range: -131072..131071 (-0.00262..0.00262 m)
+     * Scale: 2e-08
+     * Offset: 0
+     */
+    int32_t y1;
+
+    /**
+     * Measurement y2 = q4. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
+     *
+     * Range: -131072..131071 (-0.00262..0.00262 m)
+     * Scale: 2e-08
+     * Offset: 0
+     */
+    int32_t y4;
+};
+
+/**
+ * Signals in message EST_PROD.
+ *
+ * Production profile: the one estimate frame per step (closes the step). The full state, P and the step details follow at a lower rate in EST_PAGE, the counters in EST_HEALTH.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_prod_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^8 (the low byte of the inputs' STEP).
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t step;
+
+    /**
+     * Estimator health flags CAEKF_FLAG_* bits 0..11 (as EST_STEP.FLAGS bits 0..11); the app flags and STEP_STATUS are in EST_PAGE page 10.
+     *
+     * Range: 0..4095 (0..4095 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t flags;
+
+    /**
+     * Estimated contact stiffness gamma. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 N/m^1.5)
+     * Scale: 1
+     * Offset: 0
+     */
+    float gamma;
+};
+
+/**
+ * Signals in message EST_PAGE.
+ *
+ * Production profile: one page of the estimate of step STEP per frame. The app sends page p at the p-th step of every period of N steps (app setting page_period_steps, caekf-host --page-period; 0 = only on request) and all pages at the 11 steps after a CTRL_STATUS_REQ.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_page_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * 0..3 Q1..Q4, 4..7 V1..V4, 8 P_NORM, 9 P_GAMMA_GAMMA, 10 FLAGS/NEWTON_ITERS/STEP_STATUS.
+     *
+     * Range: 0..10 (0..10 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t page;
+
+    /**
+     * Bench step index k modulo 2^16 of the estimate this page belongs to.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated position q1. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m)
+     * Scale: 1
+     * Offset: 0
+     */
+    float q1;
+
+    /**
+     * Estimated position q2. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m)
+     * Scale: 1
+     * Offset: 0
+     */
+    float q2;
+
+    /**
+     * Estimated position q3. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m)
+     * Scale: 1
+     * Offset: 0
+     */
+    float q3;
+
+    /**
+     * Estimated position q4. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m)
+     * Scale: 1
+     * Offset: 0
+     */
+    float q4;
+
+    /**
+     * Estimated velocity v1. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m/s)
+     * Scale: 1
+     * Offset: 0
+     */
+    float v1;
+
+    /**
+     * Estimated velocity v2. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m/s)
+     * Scale: 1
+     * Offset: 0
+     */
+    float v2;
+
+    /**
+     * Estimated velocity v3. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m/s)
+     * Scale: 1
+     * Offset: 0
+     */
+    float v3;
+
+    /**
+     * Estimated velocity v4. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 m/s)
+     * Scale: 1
+     * Offset: 0
+     */
+    float v4;
+
+    /**
+     * 2-norm of the covariance P. IEEE-754 float32 (relative resolution 6e-8); NaN when unavailable (FLAGS bit 14).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    float p_norm;
+
+    /**
+     * Covariance entry P_gamma,gamma. IEEE-754 float32 (relative resolution 6e-8).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 (N/m^1.5)^2)
+     * Scale: 1
+     * Offset: 0
+     */
+    float p_gamma_gamma;
+
+    /**
+     * As EST_STEP.FLAGS: bits 0..11 estimator flags, 12 saturated, 13 step gap, 14 P_NORM unavailable.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t flags;
+
+    /**
+     * Newton iterations of the prediction.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t newton_iters;
+
+    /**
+     * Return status of caekf_step (value table).
+     *
+     * Range: -128..127 (-128..127 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    int8_t step_status;
 };
 
 /**
@@ -3027,6 +3344,711 @@ bool caekf_can_bench_y4_y4_is_in_range(int64_t value);
  * @return true if in range, false otherwise.
  */
 bool caekf_can_bench_y4_y4_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_YP.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_yp_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_yp_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_YP.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_yp_unpack(
+    struct caekf_can_bench_yp_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_YP.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_yp_init(struct caekf_can_bench_yp_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_y1_is_in_range(int32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_y1_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_y4_is_in_range(int32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_yp_y4_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_PROD.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_prod_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_prod_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_PROD.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_prod_unpack(
+    struct caekf_can_est_prod_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_PROD.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_prod_init(struct caekf_can_est_prod_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_step_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_flags_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_flags_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_gamma_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_prod_gamma_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_PAGE.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_page_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_page_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_PAGE.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_page_unpack(
+    struct caekf_can_est_page_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_PAGE.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_page_init(struct caekf_can_est_page_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_page_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_page_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q1_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q1_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q2_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q2_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q3_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q3_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q4_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_q4_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v1_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v1_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v2_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v2_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v3_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v3_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v4_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_v4_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_p_norm_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_p_norm_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_p_gamma_gamma_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_p_gamma_gamma_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_flags_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_flags_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_newton_iters_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_newton_iters_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_step_status_is_in_range(int8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_page_step_status_is_in_phys_range(double value);
 
 /**
  * Pack message EST_GAMMA.

@@ -171,3 +171,168 @@ caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], 
     m->status = g.step_status;
     return CAEKF_PROTO_OK;
 }
+
+/* --- production profile ------------------------------------------------------------------------ */
+
+caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data[CAEKF_CAN_DLC])
+{
+    struct caekf_can_bench_yp_t g;
+    int64_t r1 = 0;
+    int64_t r4 = 0;
+    int clipped;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    clipped = caekf_scaled_to_raw(m->y1, CAEKF_YP_LSB, 18u, &r1);
+    clipped |= caekf_scaled_to_raw(m->y4, CAEKF_YP_LSB, 18u, &r4);
+    memset(&g, 0, sizeof g);
+    g.step = m->step;
+    g.y1 = (int32_t)r1;
+    g.y4 = (int32_t)r4;
+    if (caekf_can_bench_yp_pack(data, &g, CAEKF_CAN_DLC) != (int)CAEKF_CAN_DLC) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_decode_yp(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_yp_t *m)
+{
+    struct caekf_can_bench_yp_t g;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if (caekf_can_bench_yp_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    m->step = g.step;
+    m->y1 = (double)g.y1 * CAEKF_YP_LSB; /* as cantools: raw * scale */
+    m->y4 = (double)g.y4 * CAEKF_YP_LSB;
+    return CAEKF_PROTO_OK;
+}
+
+/* float32 of an output value as the generated struct holds it (bit pattern copied). */
+static int put_f32(float *dst, double value)
+{
+    uint32_t bits = 0u;
+    int clipped = caekf_float32_bits(value, &bits);
+    memcpy(dst, &bits, sizeof bits);
+    return clipped;
+}
+
+static double get_f32(const float *src)
+{
+    uint32_t bits;
+    double v = 0.0;
+    memcpy(&bits, src, sizeof bits);
+    (void)caekf_float32_value(bits, &v); /* outputs: NaN and infinities are returned as they are */
+    return v;
+}
+
+caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t data[CAEKF_CAN_DLC])
+{
+    struct caekf_can_est_prod_t g;
+    int clipped;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    memset(&g, 0, sizeof g);
+    g.step = m->step;
+    g.flags = (uint16_t)(m->flags & CAEKF_PROD_FLAGS_MASK);
+    clipped = put_f32(&g.gamma, m->gamma);
+    if (caekf_can_est_prod_pack(data, &g, CAEKF_CAN_DLC) != (int)CAEKF_CAN_DLC) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_decode_prod(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_prod_t *m)
+{
+    struct caekf_can_est_prod_t g;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if (caekf_can_est_prod_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    m->step = g.step;
+    m->flags = g.flags;
+    m->gamma = get_f32(&g.gamma);
+    return CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t data[CAEKF_CAN_DLC])
+{
+    struct caekf_can_est_page_t g;
+    float *slot[CAEKF_PAGE_STEP_INFO];
+    int clipped = 0;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if (m->page >= CAEKF_PAGE_COUNT) {
+        return CAEKF_PROTO_ERR_RANGE;
+    }
+    memset(&g, 0, sizeof g);
+    slot[0] = &g.q1;
+    slot[1] = &g.q2;
+    slot[2] = &g.q3;
+    slot[3] = &g.q4;
+    slot[4] = &g.v1;
+    slot[5] = &g.v2;
+    slot[6] = &g.v3;
+    slot[7] = &g.v4;
+    slot[8] = &g.p_norm;
+    slot[9] = &g.p_gamma_gamma;
+    g.page = m->page;
+    g.step = m->step;
+    if (m->page == CAEKF_PAGE_STEP_INFO) {
+        g.flags = m->info.flags;
+        g.newton_iters = m->info.newton_iters;
+        g.step_status = m->info.status;
+    } else {
+        clipped = put_f32(slot[m->page], m->value);
+    }
+    if (caekf_can_est_page_pack(data, &g, CAEKF_CAN_DLC) != (int)CAEKF_CAN_DLC) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_page_t *m)
+{
+    struct caekf_can_est_page_t g;
+    const float *slot[CAEKF_PAGE_STEP_INFO];
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if (caekf_can_est_page_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    if (g.page >= CAEKF_PAGE_COUNT) {
+        return CAEKF_PROTO_ERR_VALUE;
+    }
+    slot[0] = &g.q1;
+    slot[1] = &g.q2;
+    slot[2] = &g.q3;
+    slot[3] = &g.q4;
+    slot[4] = &g.v1;
+    slot[5] = &g.v2;
+    slot[6] = &g.v3;
+    slot[7] = &g.v4;
+    slot[8] = &g.p_norm;
+    slot[9] = &g.p_gamma_gamma;
+    m->page = g.page;
+    m->step = g.step;
+    m->value = 0.0;
+    m->info.step = g.step;
+    m->info.flags = 0u;
+    m->info.newton_iters = 0u;
+    m->info.status = 0;
+    if (g.page == CAEKF_PAGE_STEP_INFO) {
+        m->info.flags = g.flags;
+        m->info.newton_iters = g.newton_iters;
+        m->info.status = g.step_status;
+    } else {
+        m->value = get_f32(slot[g.page]);
+    }
+    return CAEKF_PROTO_OK;
+}

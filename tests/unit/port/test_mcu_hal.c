@@ -72,12 +72,12 @@ static void accept_all(void)
 static void test_rx_ids_are_the_protocol_inputs(void)
 {
     uint16_t ids[CAEKF_MSG_COUNT];
-    const uint16_t expect[6] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u};
+    const uint16_t expect[7] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u};
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(6u, caekf_mcu_hal_rx_ids(ids, (unsigned)CAEKF_MSG_COUNT));
-    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 6);
+    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 7);
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(6u, caekf_mcu_hal_rx_ids(ids, 2u)); /* count, but only 2 written */
+    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(ids, 2u)); /* count, but only 2 written */
     TEST_ASSERT_EQUAL_HEX16(0x0C1u, ids[1]);
     TEST_ASSERT_EQUAL_HEX16(0u, ids[2]);
 }
@@ -90,7 +90,7 @@ static void test_program_filters_uses_two_list_banks(void)
     TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FA1R);
     TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FM1R);
     TEST_ASSERT_EQUAL_HEX32(0x18201800u, fake.regs.filter[4].FR1);
-    TEST_ASSERT_EQUAL_HEX32(0x20402040u, fake.regs.filter[5].FR2);
+    TEST_ASSERT_EQUAL_HEX32(0x20602060u, fake.regs.filter[5].FR2); /* 0x103, repeated as the filler */
 }
 
 static void test_receive_maps_frames(void)

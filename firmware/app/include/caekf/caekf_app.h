@@ -9,9 +9,10 @@
  *   static caekf_app_t app;  caekf_app_init(&app, &hal, &cfg);
  *   for (;;) { wait for a frame or a few ms; caekf_app_poll(&app); }
  *
- * Per step the bench sends BENCH_U, BENCH_Y1 and BENCH_Y4 with the same STEP; when all three are in,
- * the app runs caekf_step and sends EST_GAMMA, EST_Q1..4, EST_V1..4, EST_P_NORM, EST_P_GG and last
- * EST_STEP. A partial step is dropped (and counted) when it times out or when a newer step starts.
+ * Per step the bench sends BENCH_U, BENCH_Y1 and BENCH_Y4 (or BENCH_U and BENCH_YP) with the same STEP;
+ * when u, y1 and y4 are in, the app runs caekf_step and sends, in the DIAGNOSTICS profile, EST_GAMMA,
+ * EST_Q1..4, EST_V1..4, EST_P_NORM, EST_P_GG and last EST_STEP; in the PRODUCTION profile EST_PROD and,
+ * at the first 11 steps of every page period, one EST_PAGE. A partial step is dropped (and counted) when it times out or when a newer step starts.
  * Configuration: CTRL_PARAM frames stage settings, CTRL_RESET commits them (re-initialising) and is
  * answered by EST_ACK; a refused configuration leaves the running one untouched.
  */
@@ -62,6 +63,10 @@ typedef struct {
     uint32_t e2e_resync_us;      /* silence on a message after which any counter is accepted (default 500 ms) */
     uint8_t e2e_max_delta;       /* largest accepted alive-counter step, 1..15 (default 1: consecutive) */
     uint8_t max_frames_per_poll; /* bound on the frames one poll takes from the HAL (default 64) */
+    uint8_t profile;             /* caekf_profile_t: the estimate frames sent (default DIAGNOSTICS) */
+    uint16_t page_period_steps;  /* PRODUCTION: EST_PAGE pages 0..10 go out at the first 11 steps of every
+                                    period of this many steps; 0 = only after a CTRL_STATUS_REQ, else
+                                    >= CAEKF_PAGE_COUNT (default 20) */
 } caekf_app_config_t;
 
 /* Settings the bench configures: the estimator's, by parameter id (CTRL_PARAM). Named presets are the
@@ -104,6 +109,7 @@ typedef struct {
     uint32_t rx_last_us[CAEKF_MSG_COUNT];       /* last CRC-valid frame, for the re-sync timeout */
     uint8_t tx_counter[CAEKF_MSG_COUNT];        /* alive counters of the messages we send */
     uint32_t last_status_us;
+    uint16_t page_phase;         /* PRODUCTION: steps since the period started; page = phase while < 11 */
 
     uint32_t counters[CAEKF_CNT_COUNT];         /* caekf_counter_id_t; wrap modulo 2^32 */
     caekf_scalar_t cov_scratch[CAEKF_N][CAEKF_N]; /* P for EST_P_GG: here rather than on the stack */

@@ -57,6 +57,9 @@ typedef enum {
     CAEKF_MSG_EST_P_NORM,
     CAEKF_MSG_EST_P_GG,
     CAEKF_MSG_EST_STEP,
+    CAEKF_MSG_BENCH_YP,   /* production profile: y1 and y4 in one frame */
+    CAEKF_MSG_EST_PROD,   /* production profile: the one estimate frame per step */
+    CAEKF_MSG_EST_PAGE,   /* production profile: multiplexed pages of the full estimate */
     CAEKF_MSG_COUNT
 } caekf_msg_t;
 
@@ -69,8 +72,19 @@ typedef enum {
     CAEKF_LAYOUT_HEALTH,
     CAEKF_LAYOUT_INT36,   /* STEP (16 bits at bit 12) + scaled signed 36-bit value at bit 28 */
     CAEKF_LAYOUT_FLOAT32, /* STEP (16 bits at bit 12) + IEEE float32 at bit 32 */
-    CAEKF_LAYOUT_STEP     /* STEP + FLAGS + NEWTON_ITERS + STEP_STATUS */
+    CAEKF_LAYOUT_STEP,    /* STEP + FLAGS + NEWTON_ITERS + STEP_STATUS */
+    CAEKF_LAYOUT_YP,      /* STEP + Y1 + Y4 (18-bit scaled) */
+    CAEKF_LAYOUT_PROD,    /* STEP low byte + FLAGS (12 bits) + GAMMA float32 */
+    CAEKF_LAYOUT_PAGE     /* PAGE (multiplexer) + STEP + one page of the estimate */
 } caekf_layout_t;
+
+/* Protocol profiles: which frames carry a step. The app sends the estimate frames of its profile;
+ * it accepts the input frames of every profile. */
+typedef enum {
+    CAEKF_PROFILE_DIAGNOSTICS = 0, /* BENCH_U/Y1/Y4 in, 12 EST_* out per step (vcan, the HIL reference) */
+    CAEKF_PROFILE_PRODUCTION = 1,  /* BENCH_U + BENCH_YP in, EST_PROD out per step, EST_PAGE pages */
+    CAEKF_PROFILE_COUNT
+} caekf_profile_t;
 
 typedef enum { CAEKF_DIR_TO_ESTIMATOR = 0, CAEKF_DIR_FROM_ESTIMATOR = 1 } caekf_dir_t;
 
@@ -149,6 +163,41 @@ caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], c
 /* Encode refuses pages >= CAEKF_HEALTH_PAGES; counters are reduced modulo 2^24. */
 caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint8_t data[CAEKF_CAN_DLC]);
 caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m);
+
+/* Production profile frames. */
+#define CAEKF_YP_LSB 2e-8              /* m per LSB of BENCH_YP.Y1/Y4 (18-bit signed) */
+#define CAEKF_PROD_FLAGS_MASK 0x0FFFu  /* EST_PROD.FLAGS: the estimator's flag bits 0..11 */
+#define CAEKF_PAGE_COUNT 11u           /* EST_PAGE pages 0..10 */
+#define CAEKF_PAGE_STEP_INFO 10u       /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */
+
+typedef struct {
+    uint16_t step;
+    double y1, y4;        /* m */
+} caekf_msg_yp_t;
+
+typedef struct {
+    uint8_t step;         /* STEP modulo 2^8 */
+    uint16_t flags;       /* bits 0..11 sent */
+    double gamma;         /* sent as float32 */
+} caekf_msg_prod_t;
+
+typedef struct {
+    uint8_t page;         /* 0..3 q1..q4, 4..7 v1..v4, 8 P_NORM, 9 P_GAMMA_GAMMA, 10 step info */
+    uint16_t step;
+    double value;         /* pages 0..9, sent as float32 */
+    caekf_msg_step_t info; /* page 10 (info.step is ignored: `step` is sent) */
+} caekf_msg_page_t;
+
+/* BENCH_YP: out-of-range positions are clipped (CAEKF_PROTO_SATURATED); NaN becomes 0, saturated. */
+caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_yp(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_yp_t *m);
+/* EST_PROD / EST_PAGE: float values beyond the float32 range are clipped (SATURATED), NaN and
+ * infinities travel unchanged (outputs: the decoders return them too). encode_page refuses pages
+ * >= CAEKF_PAGE_COUNT (CAEKF_PROTO_ERR_RANGE); decode_page returns CAEKF_PROTO_ERR_VALUE for them. */
+caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_prod(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_prod_t *m);
+caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_page_t *m);
 
 /* mantissa * 10^exp10 as a double. Exact (correctly rounded, the same double a decimal parser gives)
  * because |mantissa| < 2^53 and 10^|exp10| <= 10^22 are exact and one IEEE division or

@@ -31,7 +31,8 @@ import numpy as np
 
 from .. import schema
 from . import e2e
-from .codec import ESTIMATE_MESSAGES, RECORD, RECORD_SIZE, RESULT_SIGNALS, Codec, records_array
+from .codec import RECORD, RECORD_SIZE, Codec, records_array
+from .profiles import DIAGNOSTICS, Profile, get_profile
 from .transport import Transport, make_transport, open_bus
 
 STEP_MOD = 1 << 16
@@ -67,7 +68,7 @@ class StepInputs:
     u: np.ndarray
     y: np.ndarray
     wire_steps: np.ndarray  # STEP field per row: sample number k = row + 1, modulo 2^16
-    payloads: Dict[str, np.ndarray]  # BENCH_U/Y1/Y4 -> (n, 8) uint8, E2E fields zero
+    payloads: Dict[str, np.ndarray]  # input message of the profile -> (n, 8) uint8, E2E fields zero
     u_seen: np.ndarray
     y_seen: np.ndarray
 
@@ -105,7 +106,7 @@ class Decoded:
     """Estimates of rows [start, stop) as decoded from CAN; NaN where a frame never came."""
 
     columns: Dict[str, np.ndarray]
-    complete: np.ndarray  # bool per row: all 12 estimate frames received
+    complete: np.ndarray  # bool per row: every estimate frame the profile sends each step received
     step_status: np.ndarray
     bad_crc: int = 0
     bad_dlc: int = 0
@@ -115,6 +116,7 @@ class Decoded:
     duplicated_steps: int = 0
     foreign_steps: int = 0  # estimate frames whose STEP maps outside the run
     frames: int = 0
+    carried: Dict[str, np.ndarray] = field(default_factory=dict)  # column -> rows whose value came over CAN
 
 
 def _now() -> float:
@@ -125,8 +127,9 @@ class Bench:
     """Bench side of the caekf CAN protocol over one python-can bus."""
 
     def __init__(self, transport: Transport, codec: Optional[Codec] = None, record_log: bool = False,
-                 channel: str = "vcan0") -> None:
+                 channel: str = "vcan0", profile: str = "diagnostics") -> None:
         self.codec = codec or Codec()
+        self.profile: Profile = get_profile(profile)
         self.transport = transport
         self.channel = channel
         self.tx_counter: Dict[str, int] = {m.name: 0 for m in self.codec.messages.values() if m.to_estimator}
@@ -134,16 +137,18 @@ class Bench:
         self.journal: Optional[List[Tuple[float, int, bytes]]] = [] if record_log else None
         self.wall_offset = time.time() - _now()
         self.rx_bad_crc = 0  # control frames from the estimator that failed the CRC
-        self._est_step_pat = RECORD.pack(self.codec.messages["EST_STEP"].frame_id, 8, bytes(8))[:5]
+        self._est_step_pat = RECORD.pack(self.codec.messages[self.profile.closing].frame_id, 8, bytes(8))[:5]
+        self._step_mask = self.profile.step_mask
         self._ack_id = self.codec.messages["EST_ACK"].frame_id
         self._health_id = self.codec.messages["EST_HEALTH"].frame_id
 
     @classmethod
     def open(cls, interface: str = "socketcan", channel: str = "vcan0", fast: bool = True,
-             record_log: bool = False, codec: Optional[Codec] = None, **bus_kwargs) -> "Bench":
+             record_log: bool = False, codec: Optional[Codec] = None, profile: str = "diagnostics",
+             **bus_kwargs) -> "Bench":
         codec = codec or Codec()
         bus = open_bus(interface, channel, **bus_kwargs)
-        return cls(make_transport(bus, codec.from_estimator_ids, fast=fast), codec, record_log, channel)
+        return cls(make_transport(bus, codec.from_estimator_ids, fast=fast), codec, record_log, channel, profile)
 
     def close(self) -> None:
         self.transport.close()
@@ -306,24 +311,27 @@ class Bench:
         y = np.asarray(y, dtype=float).reshape(-1, 2)
         n = len(t)
         steps = (np.arange(1, n + 1) % STEP_MOD).astype(np.int64)
-        cols = {"BENCH_U": ("U", u), "BENCH_Y1": ("Y1", y[:, 0]), "BENCH_Y4": ("Y4", y[:, 1])}
+        values = {"u": u, "y1": y[:, 0], "y4": y[:, 1]}
         payloads = {}
         seen = {}
-        for name, (sig, v) in cols.items():
-            payloads[name] = self.codec.pack(name, {"STEP": steps, sig: v}, counters=0)
+        for name, sigs in self.profile.inputs:
+            payloads[name] = self.codec.pack(name, {"STEP": steps, **{sig: values[col] for sig, col in sigs}},
+                                             counters=0)
             payloads[name][:, 0] = 0
-            seen[name] = self.codec.unpack(name, payloads[name], [sig])[sig]
+            dec = self.codec.unpack(name, payloads[name], [sig for sig, _ in sigs])
+            for sig, col in sigs:
+                seen[col] = dec[sig]
         if check and n:
             rows = sorted({0, n // 2, n - 1})
-            self.codec.self_check([(name, {"STEP": int(steps[r]), sig: float(v[r])})
-                                   for r in rows for name, (sig, v) in cols.items()])
-        return StepInputs(t, u, y, steps, payloads, seen["BENCH_U"],
-                          np.column_stack([seen["BENCH_Y1"], seen["BENCH_Y4"]]))
+            self.codec.self_check([(name, {"STEP": int(steps[r]), **{sig: float(values[col][r]) for sig, col in sigs}})
+                                   for r in rows for name, sigs in self.profile.inputs])
+        return StepInputs(t, u, y, steps, payloads, seen["u"], np.column_stack([seen["y1"], seen["y4"]]))
 
-    def seal_steps(self, inputs: StepInputs, start: int, stop: int, order=("BENCH_U", "BENCH_Y1", "BENCH_Y4"),
+    def seal_steps(self, inputs: StepInputs, start: int, stop: int, order: Optional[Sequence[str]] = None,
                    extra: bytes = b"") -> List[bytes]:
-        """Sealed records of rows [start, stop), one bytes blob per step (its three frames, after
-        `extra`), with the bench's counters, which move on past them."""
+        """Sealed records of rows [start, stop), one bytes blob per step (its input frames in the
+        profile's order, after `extra`), with the bench's counters, which move on past them."""
+        order = tuple(order or self.profile.input_messages)
         n = stop - start
         if n <= 0:
             return []
@@ -346,10 +354,11 @@ class Bench:
     # --- runs -----------------------------------------------------------------------------
 
     def _step_of(self, chunk: bytes, p: int) -> int:
-        return (chunk[p + 9] >> 4) | (chunk[p + 10] << 4) | ((chunk[p + 11] & 0x0F) << 12)
+        """STEP (at bit 12, the profile's closing-message width) of the record at offset p."""
+        return ((chunk[p + 9] >> 4) | (chunk[p + 10] << 4) | ((chunk[p + 11] & 0x0F) << 12)) & self._step_mask
 
     def _last_est_step(self, chunk: bytes) -> int:
-        """STEP of the last EST_STEP record in a chunk, -1 if none."""
+        """STEP of the last closing record (EST_STEP, EST_PROD) in a chunk, -1 if none."""
         pat = self._est_step_pat
         p = chunk.rfind(pat)
         while p >= 0 and p % RECORD_SIZE:
@@ -381,6 +390,7 @@ class Bench:
         send, recv = self.transport.send, self.transport.recv
         journal = self.journal
         last_est_step = self._last_est_step
+        mask = self._step_mask
         chunks = rec.chunks
         window = max(1, int(window))
         bar = _progress_bar(n, desc, progress)
@@ -404,7 +414,7 @@ class Bench:
                     journal.append((_now(), 1, chunk))
                 s = last_est_step(chunk)
                 if s >= 0:
-                    d = (wire[sent - 1] - s) & 0xFFFF  # steps between the newest sent and this one
+                    d = (wire[sent - 1] - s) & mask  # steps between the newest sent and this one
                     if d < sent - done:
                         done = sent - d
                         streak = 0
@@ -513,7 +523,7 @@ class Bench:
             while p >= 0:
                 if p % RECORD_SIZE == 0:
                     s = self._step_of(chunk, p)
-                    i = sent - 1 - ((wire[sent - 1] - s) & 0xFFFF)
+                    i = sent - 1 - ((wire[sent - 1] - s) & self._step_mask)
                     if 0 <= i < n and t_rx[i] == 0.0:
                         t_rx[i] = tr
                         answered += 1
@@ -552,8 +562,9 @@ class Bench:
         sock.setsockopt(_socket.SOL_CAN_RAW, _socket.CAN_RAW_FILTER, b"")  # the recorder sees the bus
         try:
             paced = run_paced(self.transport, blobs, wire, dt, self.channel,
-                              self.codec.messages["BENCH_Y4"].frame_id, self.codec.messages["EST_STEP"].frame_id,
-                              grace=grace)
+                              self.codec.messages[self.profile.input_messages[-1]].frame_id,
+                              self.codec.messages[self.profile.closing].frame_id,
+                              grace=grace, out_step_bits=self.profile.closing_step_bits)
         finally:
             self.transport.set_filter(self.codec.from_estimator_ids)
         est = np.isin(paced.frames["id"], self.codec.from_estimator_ids)
@@ -572,12 +583,14 @@ class Bench:
     # --- decoding --------------------------------------------------------------------------
 
     def decode_run(self, rec: RunRecord, inputs: StepInputs) -> Decoded:
-        """Decode and E2E-check every estimate frame of a run, placed by STEP into rows."""
+        """Decode and E2E-check every estimate frame of a run (the bench's profile), placed by STEP into
+        rows. `complete`: the step's every-step frames came; `carried[col]`: rows with that value."""
+        prof = self.profile
         n = rec.n
-        cols = {c: np.full(n, np.nan) for c in RESULT_SIGNALS}
-        have = np.zeros((len(ESTIMATE_MESSAGES), n), dtype=bool)
+        cols = {c: np.full(n, np.nan) for c in prof.results}
+        carried = {c: np.zeros(n, dtype=bool) for c in prof.results}
         status = np.zeros(n, dtype=np.int64)
-        out = Decoded(cols, np.zeros(n, dtype=bool), status)
+        out = Decoded(cols, np.zeros(n, dtype=bool), status, carried=carried)
         if not rec.chunks or n == 0:
             return out
         recs = records_array(b"".join(rec.chunks))
@@ -587,7 +600,10 @@ class Bench:
         ok_dlc = recs["dlc"] == 8
         out.bad_dlc = int(np.sum(~ok_dlc & np.isin(ids, self.codec.from_estimator_ids)))
         first_wire = int(inputs.wire_steps[rec.start])
-        for j, name in enumerate(ESTIMATE_MESSAGES):
+        messages = sorted({s.message for s in prof.results.values()}, key=lambda m: m != prof.closing)
+        every = {s.message for s in prof.results.values() if s.page is None}
+        have = {m: np.zeros(n, dtype=bool) for m in every}
+        for name in messages:
             info = self.codec.messages[name]
             sel = (ids == info.frame_id) & ok_dlc
             if not sel.any():
@@ -596,32 +612,46 @@ class Bench:
             good = e2e.e2e_crc_np(info.data_id, d) == d[:, 0]
             out.bad_crc += int(np.sum(~good))
             d = d[good]
+            if not len(d):
+                continue
             dup, jump, lost = e2e.counter_errors_np(d[:, 1] & 15)
             out.counter_duplicates += dup
             out.counter_jumps += jump
             out.counter_lost += lost
-            sigs = [s for s in info.signals if s not in E2E_FIELDS]
-            vals = self.codec.unpack(name, d, sigs)
-            steps = vals["STEP"].astype(np.int64)
-            # rows in arrival order: unwrap STEP (mod 2^16) relative to the run's first step
+            step_sig = info.signals["STEP"]
+            mod = 1 << step_sig.length
+            steps = self.codec.unpack(name, d, ["STEP"])["STEP"].astype(np.int64)
+            # rows in arrival order: unwrap STEP (mod 2^bits) relative to the run's first step
             k = np.empty(len(steps), dtype=np.int64)
-            k[0] = (steps[0] - first_wire) & 0xFFFF
+            k[0] = (steps[0] - first_wire) % mod
             if len(steps) > 1:
-                diff = (np.diff(steps) + 0x8000) % STEP_MOD - 0x8000
+                diff = (np.diff(steps) + mod // 2) % mod - mod // 2
                 k[1:] = k[0] + np.cumsum(diff)
             inside = (k >= 0) & (k < n)
             out.foreign_steps += int(np.sum(~inside))
-            k_in = k[inside]
-            uniq, first_idx = np.unique(k_in, return_index=True)
-            if j == 0:
-                out.duplicated_steps += len(k_in) - len(uniq)
-            have[j, uniq] = True
-            for col, (msg, sig) in RESULT_SIGNALS.items():
-                if msg == name:
-                    cols[col][uniq] = vals[sig][inside][first_idx]
-            if name == "EST_STEP":
-                status[uniq] = vals["STEP_STATUS"][inside][first_idx]
-        out.complete = have.all(axis=0)
+            pages = None
+            if "PAGE" in info.signals:
+                pages = self.codec.unpack(name, d, ["PAGE"])["PAGE"].astype(np.int64)
+            for col, src in prof.results.items():
+                if src.message != name:
+                    continue
+                rows_ok = inside if src.page is None else inside & (pages == src.page)
+                if not rows_ok.any():
+                    continue
+                vals = self.codec.unpack(name, d[rows_ok], [src.signal])[src.signal]
+                uniq, first_idx = np.unique(k[rows_ok], return_index=True)
+                cols[col][uniq] = vals[first_idx]
+                carried[col][uniq] = True
+                if src.page is None and name == prof.closing and col == next(iter(
+                        c for c, s in prof.results.items() if s.message == name)):
+                    out.duplicated_steps += int(rows_ok.sum()) - len(uniq)
+            if name in have:
+                have[name][np.unique(k[inside])] = True
+        if "step_status" in cols:  # kept as Decoded.step_status, not a results column
+            st = cols.pop("step_status")
+            carried.pop("step_status")
+            status[:] = np.where(np.isnan(st), 0, st).astype(np.int64)
+        out.complete = np.logical_and.reduce([have[m] for m in have]) if have else out.complete
         return out
 
     # --- bus log --------------------------------------------------------------------------

@@ -29,6 +29,14 @@ def unchecked_frame(bench: Bench, name: str, values, advance: bool = True) -> by
     return bench.codec.record(name, e2e.seal(info.data_id, c, body))
 
 
+def _y_values(name: str, step: int, inputs: StepInputs, row: int) -> Dict[str, float]:
+    """Signals of a position frame: BENCH_Y1, BENCH_Y4 (diagnostics) or BENCH_YP (production, both)."""
+    y1, y4 = float(inputs.y[row, 0]), float(inputs.y[row, 1])
+    if name == "BENCH_YP":
+        return {"STEP": step, "Y1": y1, "Y4": y4}
+    return {"STEP": step, "Y1": y1} if name == "BENCH_Y1" else {"STEP": step, "Y4": y4}
+
+
 def bad_crc(bench: Bench, inputs: StepInputs, row: int) -> bytes:
     """A copy of the step's BENCH_U with the CRC byte inverted (counter not used up): RX_BAD_CRC +1."""
     step = int(inputs.wire_steps[row])
@@ -36,10 +44,10 @@ def bad_crc(bench: Bench, inputs: StepInputs, row: int) -> bytes:
     return good[:8] + bytes([good[8] ^ 0xFF]) + good[9:]
 
 
-def wrong_dlc(bench: Bench, inputs: StepInputs, row: int) -> bytes:
-    """The step's BENCH_Y1 cut to 6 bytes (DLC 6): RX_BAD_DLC +1."""
+def wrong_dlc(bench: Bench, inputs: StepInputs, row: int, name: str = "BENCH_Y1") -> bytes:
+    """The step's BENCH_Y1 (or `name`) cut to 6 bytes (DLC 6): RX_BAD_DLC +1."""
     step = int(inputs.wire_steps[row])
-    return bench.frame("BENCH_Y1", {"STEP": step, "Y1": float(inputs.y[row, 0])}, advance=False, dlc=6)
+    return bench.frame(name, _y_values(name, step, inputs, row), advance=False, dlc=6)
 
 
 def unknown_ids(bench: Bench, inputs: StepInputs, row: int) -> bytes:
@@ -54,19 +62,21 @@ def unknown_ids(bench: Bench, inputs: StepInputs, row: int) -> bytes:
 UNKNOWN_IDS_PER_INJECTION = 4
 
 
-def counter_jump(bench: Bench, inputs: StepInputs, row: int) -> bytes:
-    """The step's BENCH_Y4 with its counter +5 (valid CRC): rejected, the receiver resynchronises on it
-    and the bench goes on from there (the valid BENCH_Y4 follows with the next counter): RX_COUNTER_JUMP +1."""
+def counter_jump(bench: Bench, inputs: StepInputs, row: int, name: str = "BENCH_Y4") -> bytes:
+    """The step's BENCH_Y4 (or `name`) with its counter +5 (valid CRC): rejected, the receiver resynchronises
+    on it and the bench goes on from there (the valid frame follows with the next counter): RX_COUNTER_JUMP +1."""
     step = int(inputs.wire_steps[row])
-    jumped = (bench.tx_counter["BENCH_Y4"] + 5) & 15
-    return bench.frame("BENCH_Y4", {"STEP": step, "Y4": float(inputs.y[row, 1])}, counter=jumped)
+    jumped = (bench.tx_counter[name] + 5) & 15
+    return bench.frame(name, _y_values(name, step, inputs, row), counter=jumped)
 
 
-def duplicate(bench: Bench, inputs: StepInputs, row: int) -> bytes:
-    """A valid BENCH_Y1 of the step twice with the same counter (the first copy opens the step), then the
-    step's own BENCH_Y1 with the next counter: RX_DUPLICATE +1 and RX_REPEATED +1 (first value kept)."""
+def duplicate(bench: Bench, inputs: StepInputs, row: int, name: str = "BENCH_Y1") -> bytes:
+    """A valid BENCH_Y1 (or `name`) of the step twice with the same counter (the first copy opens the step),
+    then the step's own frame with the next counter: RX_DUPLICATE +1 and RX_REPEATED +1 (first value kept).
+    With BENCH_YP (production) the first copy brings y1 and y4, the step's BENCH_U completes it and its own
+    BENCH_YP, sent after BENCH_U, is late: RX_DUPLICATE +1, RX_LATE +1."""
     step = int(inputs.wire_steps[row])
-    f = bench.frame("BENCH_Y1", {"STEP": step, "Y1": float(inputs.y[row, 0])})
+    f = bench.frame(name, _y_values(name, step, inputs, row))
     return f + f
 
 

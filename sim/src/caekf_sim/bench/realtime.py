@@ -162,7 +162,7 @@ class PacedRun:
 
 
 def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel: str, in_id: int, out_id: int,
-              grace: float = 0.5, start_delay: float = 0.05) -> PacedRun:
+              grace: float = 0.5, start_delay: float = 0.05, out_step_bits: int = 16) -> PacedRun:
     """Send blobs[k] at T0 + k*dt (absolute, CLOCK_REALTIME); record the bus; match by STEP."""
     libc = _libc()
     rec = BusRecorder(channel)
@@ -189,7 +189,7 @@ def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel
     t_ns, frames = rec.frames()
     deadlines = t0 + dt_ns * np.arange(n, dtype=np.int64)
     t_in = _first_by_step(t_ns, frames, in_id, wire)
-    t_out = _first_by_step(t_ns, frames, out_id, wire)
+    t_out = _first_by_step(t_ns, frames, out_id, wire, out_step_bits)
     return PacedRun(n, dt, deadlines, t_in, t_out, t_ns, frames)
 
 
@@ -199,8 +199,9 @@ def _realtime_ns() -> int:
     return time.clock_gettime_ns(time.CLOCK_REALTIME)
 
 
-def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int]) -> np.ndarray:
-    """Per row: the timestamp of the first frame `fid` whose STEP (bits 12..27) is that row's."""
+def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int], step_bits: int = 16) -> np.ndarray:
+    """Per row: the timestamp of the first frame `fid` whose STEP (bits 12.., step_bits wide: 16, or 8 for
+    the production profile's EST_PROD, unwrapped in bus order) is that row's."""
     n = len(wire)
     out = np.full(n, -1, dtype=np.int64)
     if n == 0 or len(frames) == 0:
@@ -208,8 +209,16 @@ def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int]) -> np.nd
     sel = frames["id"] == fid
     d = frames["data"][sel]
     st = (d[:, 1].astype(np.int64) >> 4) | (d[:, 2].astype(np.int64) << 4) | ((d[:, 3].astype(np.int64) & 15) << 12)
-    row = (st - int(wire[0])) & 0xFFFF
-    ok = row < n
+    mod = 1 << step_bits
+    st &= mod - 1
+    if step_bits >= 16:
+        row = (st - int(wire[0])) & 0xFFFF
+    else:  # unwrap in bus order, relative to the run's first step
+        row = np.empty(len(st), dtype=np.int64)
+        if len(st):
+            row[0] = (st[0] - int(wire[0])) % mod
+            row[1:] = row[0] + np.cumsum((np.diff(st) + mod // 2) % mod - mod // 2)
+    ok = (row >= 0) & (row < n)
     row, tt = row[ok], t_ns[sel][ok]
     order = np.argsort(tt, kind="stable")[::-1]  # later first, so the first one per row wins below
     out[row[order]] = tt[order]

@@ -12,7 +12,8 @@ import numpy as np
 from .. import flags as fl
 from ..estimator import EstimateResult
 from .bench import Ack, Decoded, RunRecord, StepInputs, latency_stats
-from .codec import RESULT_SIGNALS, Codec
+from .codec import Codec
+from .profiles import DIAGNOSTICS, Profile
 
 PathLike = Union[str, Path]
 COUNTER_MOD = 1 << 24
@@ -25,12 +26,14 @@ CORE_FLAG_MASK = 0x0FFF
 
 
 def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")) -> EstimateResult:
-    """The complete rows of a decoded run as an EstimateResult (the caekf-replay columns)."""
+    """The complete rows of a decoded run as an EstimateResult (the caekf-replay columns). Values a profile
+    carries only at some steps (production: EST_PAGE) are NaN elsewhere; Newton iterations -1."""
     m = dec.complete
     c = dec.columns
+    it = c["newton_iters"][m]
     x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
     return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
-                          flags=c["flags"][m].astype(np.int64), newton_iters=c["newton_iters"][m].astype(np.int64),
+                          flags=c["flags"][m].astype(np.int64), newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
                           wall_time=wall_time)
 
 
@@ -98,14 +101,15 @@ def summary_row(run: HilRun, gamma_true: float) -> List[str]:
     g = r.gamma
     fin = g[np.isfinite(g)]
     pn = r.p_norm[np.isfinite(r.p_norm)]
+    it = r.newton_iters[r.newton_iters >= 0]
     return [
         run.experiment,
         f"{int(run.decoded.complete.sum())}/{run.record.n}",
         f"{100 * (g[-1] / gamma_true - 1):+.3f} %" if len(g) else "-",
         f"{fin.min():.4g}" if fin.size else "-",
         f"{pn.max():.3g}" if pn.size else "-",
-        f"{r.newton_iters.mean():.3f}" if len(g) else "-",
-        str(int(r.newton_iters.max())) if len(g) else "-",
+        f"{it.mean():.3f}" if len(it) else "-",
+        str(int(it.max())) if len(it) else "-",
         describe_flags(int(np.bitwise_or.reduce(r.flags))) if len(g) else "-",
         str(run.record.timeouts),
         _fmt_errors(run.bus_errors) if run.health_after else "?",
@@ -308,6 +312,7 @@ class Agreement:
     flags_mismatch: int
     newton_mismatch: int
     missing: int
+    carried: Dict[str, int] = field(default_factory=dict)  # rows compared per column
 
     @property
     def ok(self) -> bool:
@@ -322,11 +327,13 @@ class Agreement:
                 f"{self.newton_mismatch}")
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agreement:
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
     """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
     the scaled integers (after clipping to the signal range: the estimator saturates and flags),
     within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags
-    (core bits) and Newton iterations equal."""
+    (core bits) and Newton iterations equal. A profile that carries a value only at some steps
+    (production: EST_PAGE) is compared at those steps (dec.carried)."""
+    profile = profile or DIAGNOSTICS
     n = len(ref.t)
     cols = dec.columns
     rows = min(n, len(dec.complete))
@@ -335,9 +342,14 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agre
                 "p_norm": ref.p_norm, "p_gg": ref.p_gg}
     have = dec.complete[:rows]
     worst, mism = {}, {}
+    def rows_of(col: str) -> np.ndarray:
+        c = dec.carried.get(col)
+        return have if c is None else have & np.asarray(c[:rows], dtype=bool)
+
+    carried_rows = {}
     for col, want in ref_cols.items():
-        msg, sig = RESULT_SIGNALS[col]
-        lay = codec.messages[msg].signals[sig]
+        src = profile.results[col]
+        lay = codec.messages[src.message].signals[src.signal]
         w = np.asarray(want[:rows], dtype=float)
         got = cols[col][:rows]
         if not lay.is_float:
@@ -352,15 +364,18 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec) -> Agre
         same_inf = np.isinf(w) & (w == got)
         with np.errstate(invalid="ignore"):
             ratio = np.where(both_nan | same_inf, 0.0, np.abs(got - w) / tol)
-        ratio = np.where(np.isnan(ratio), np.inf, ratio)[have]
+        sel = rows_of(col)
+        carried_rows[col] = int(sel.sum())
+        ratio = np.where(np.isnan(ratio), np.inf, ratio)[sel]
         worst[col] = float(ratio.max()) if ratio.size else 0.0
         mism[col] = int(np.sum(ratio > 1.0))
-    fl_can = cols["flags"][:rows][have].astype(np.int64) & CORE_FLAG_MASK
-    fl_ref = ref.flags[:rows][have] & CORE_FLAG_MASK
-    it_can = cols["newton_iters"][:rows][have].astype(np.int64)
-    it_ref = np.clip(ref.newton_iters[:rows][have], 0, 255)
+    fsel, isel = rows_of("flags"), rows_of("newton_iters")
+    fl_can = cols["flags"][:rows][fsel].astype(np.int64) & CORE_FLAG_MASK
+    fl_ref = ref.flags[:rows][fsel] & CORE_FLAG_MASK
+    it_can = cols["newton_iters"][:rows][isel].astype(np.int64)
+    it_ref = np.clip(ref.newton_iters[:rows][isel], 0, 255)
     return Agreement(rows, worst, mism, int(np.sum(fl_can != fl_ref)), int(np.sum(it_can != it_ref)),
-                     int(rows - have.sum()) + (n - rows))
+                     int(rows - have.sum()) + (n - rows), carried_rows)
 
 
 # --- runs saved for later (bus work in the VM, reports on the host) -----------------------------
@@ -425,7 +440,7 @@ def load_runs(path: PathLike) -> Tuple[List[HilRun], str]:
 
 
 def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scenario: PathLike, outdir: PathLike,
-                             codec: Codec) -> Tuple[str, bool]:
+                             codec: Codec, profile: Optional[Profile] = None) -> Tuple[str, bool]:
     """caekf-replay of each run's experiment on the inputs the estimator decoded, compared (text, all ok)."""
     out = Path(outdir)
     lines, ok = [], True
@@ -447,7 +462,7 @@ def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scena
             ref = aligned_result(res, src, pred, r.inputs.t[start:stop], start)
             bridged = (f" ({stop - start - len(est)} steps never estimated (lost on the bus, not counted as missing "
                        f"here), {int(pred.sum())} bridged by prediction-only steps in the replay as in the app)")
-        agr = compare_with_replay(r.decoded, ref, codec)
+        agr = compare_with_replay(r.decoded, ref, codec, profile)
         # steps the estimator never ran (bridged) are not answers missing: they show as STEPS_SKIPPED
         agr.missing -= stop - start - len(est)
         lines.append(f"{r.experiment}: CAN == caekf-replay within resolution: {'yes' if agr.ok else 'NO'}; "

@@ -40,6 +40,8 @@ def _bus_args(p: argparse.ArgumentParser) -> None:
                    help="python-can interface (default socketcan; e.g. pcan, kvaser, virtual)")
     p.add_argument("--slow-path", action="store_true",
                    help="use python-can Messages even on SocketCAN (no CAN_RAW/mmsg fast path)")
+    p.add_argument("--profile", choices=["diagnostics", "production"], default="diagnostics",
+                   help="protocol profile, as the estimator's (caekf-host --profile; default diagnostics)")
 
 
 def _progress_args(p: argparse.ArgumentParser) -> None:
@@ -90,6 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--truth", type=Path, default=None, help="truth CSV, for the figures")
     p.add_argument("--compare-replay", nargs="?", const=str(DEFAULT_REPLAY_BIN), default=None, metavar="BIN")
     p.add_argument("--no-figures", action="store_true")
+    p.add_argument("--profile", choices=["diagnostics", "production"], default="diagnostics",
+                   help="the profile the saved run used (default diagnostics)")
     p.set_defaults(func=cmd_hil_report)
 
     p = hsub.add_parser("replay-log", help="replay a candump -L log into the estimator and compare")
@@ -105,7 +109,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dbc", type=Path, default=None, help="DBC (default firmware/protocol/caekf.dbc)")
     p.add_argument("--rate", type=float, default=1000.0, help="steps per second (default 1000)")
     p.add_argument("--bitrate", type=float, default=1e6, help="(nominal) bit rate (default 1e6)")
-    p.add_argument("--log", type=Path, default=None, help="a candump -L log: its measured load")
+    p.add_argument("--profile", action="append", choices=["diagnostics", "production"], default=None,
+                   help="profile(s) to compute (repeatable; default all)")
+    p.add_argument("--page-period", type=int, default=20,
+                   help="production: the EST_PAGE period in steps, as caekf-host --page-period (default 20)")
+    p.add_argument("--log", action="append", default=None, metavar="[PROFILE=]LOG",
+                   help="a candump -L log of a run in PROFILE (default: the first profile): its measured load; "
+                        "repeatable")
     p.set_defaults(func=cmd_busload)
 
     p = sub.add_parser("gen-c", help="C pack/unpack of the DBC (cantools generate_c_source) into firmware/protocol/gen")
@@ -141,7 +151,8 @@ def _open_bench(args, record_log: bool = False):
         raise SystemExit(f"caekf-sim hil: no CAN interface '{args.iface}' here. This kernel may have no "
                          "SocketCAN: run through tools/with-vcan.sh (it boots user-mode Linux with vcan0), or pass "
                          "--iface/--interface for real hardware.")
-    return Bench.open(args.interface, args.iface, fast=not args.slow_path, record_log=record_log)
+    return Bench.open(args.interface, args.iface, fast=not args.slow_path, record_log=record_log,
+                      profile=getattr(args, "profile", "diagnostics"))
 
 
 def cmd_hil_echo_probe(args: argparse.Namespace) -> int:
@@ -224,12 +235,14 @@ def cmd_hil_run(args: argparse.Namespace) -> int:
         print(f"hil: runs saved to {saved} after {time.perf_counter() - t_start:.1f} s; CSVs, summary.txt, "
               f"figures and the replay comparison: caekf-sim hil report --outdir {args.outdir}")
         return rc
-    rc |= _report(runs, header, args.outdir, sc, scenario_path, truth, args.compare_replay, not args.no_figures)
+    rc |= _report(runs, header, args.outdir, sc, scenario_path, truth, args.compare_replay, not args.no_figures,
+                  args.profile)
     print(f"hil: total {time.perf_counter() - t_start:.1f} s; results in {args.outdir}")
     return rc
 
 
-def _report(runs, header, outdir: Path, sc, scenario_path, truth, compare_bin, figures: bool) -> int:
+def _report(runs, header, outdir: Path, sc, scenario_path, truth, compare_bin, figures: bool,
+            profile: str = "diagnostics") -> int:
     """CSVs, summary.txt (+ the caekf-replay comparison), figures; prints the summary. 1 if CAN != replay."""
     from ..bench.codec import Codec
     from ..bench.results import compare_runs_with_replay, write_outputs
@@ -240,7 +253,9 @@ def _report(runs, header, outdir: Path, sc, scenario_path, truth, compare_bin, f
     rc = 0
     if compare_bin:
         t0 = time.perf_counter()
-        block, ok = compare_runs_with_replay(runs, compare_bin, scenario_path, outdir, Codec())
+        from ..bench.profiles import get_profile
+
+        block, ok = compare_runs_with_replay(runs, compare_bin, scenario_path, outdir, Codec(), get_profile(profile))
         with open(outdir / "summary.txt", "a", encoding="utf-8") as f:
             f.write(block + "\n")
         text += "\n" + block
@@ -265,7 +280,7 @@ def cmd_hil_report(args: argparse.Namespace) -> int:
     if truth is None and not args.no_figures:
         print("hil report: no --truth: no figures")
     rc = _report(runs, header, args.outdir, sc, args.scenario or _default_scenario(), truth, args.compare_replay,
-                 not args.no_figures and truth is not None)
+                 not args.no_figures and truth is not None, args.profile)
     return rc | (2 if any(r.record.timeouts for r in runs) else 0)
 
 
@@ -310,28 +325,41 @@ def cmd_gen_c(args: argparse.Namespace) -> int:
 def cmd_busload(args: argparse.Namespace) -> int:
     import cantools
 
-    from ..bench.busload import dbc_profile_load, log_load, read_candump, step_messages
+    from ..bench.busload import dbc_profile_load, log_load, read_candump
     from ..bench.codec import default_dbc_path
+    from ..bench.profiles import PROFILES, production
 
     dbc = args.dbc or default_dbc_path()
     db = cantools.database.load_file(str(dbc))
-    names = step_messages(db)
-    pl = dbc_profile_load(db, names, args.rate, args.bitrate, profile="diagnostics")
+    names = args.profile or list(PROFILES)
+    logs: Dict[str, List[Path]] = {}
+    for item in args.log or []:
+        prof, sep, path = item.partition("=")
+        if not sep:
+            prof, path = names[0], item
+        if prof not in PROFILES:
+            raise SystemExit(f"caekf-sim busload: --log {item}: unknown profile {prof!r}")
+        logs.setdefault(prof, []).append(Path(path))
     print(f"bus load at {args.rate:g} steps/s, {args.bitrate / 1e6:g} Mbit/s, 11-bit IDs, worst-case bit stuffing")
-    print(f"{'profile':<12}  {'source':<34}  {'frames/step':>11}  {'us/step':>8}  {'load':>7}")
-    print(f"{pl.name:<12}  {'computed from ' + dbc.name:<34}  {pl.frames_per_step:>11.1f}  "
-          f"{1e6 * pl.seconds_per_step:>8.1f}  {100 * pl.load:>6.1f}%")
-    if args.log is not None:
-        t, ids, dlc, data = read_candump(args.log)
-        step_ids = {db.get_message_by_name(n).frame_id for n in names}
-        sel = np.isin(ids, list(step_ids)) if len(ids) else np.zeros(0, bool)
-        ll = log_load(t, ids, dlc, data, args.bitrate)
-        steps = max(1.0, ll.seconds * args.rate)
-        print(f"{pl.name:<12}  {'measured, ' + args.log.name + ' (worst)':<34}  {sel.sum() / steps:>11.1f}  "
-              f"{1e6 * ll.bits_worst / args.bitrate / steps:>8.1f}  {100 * ll.load_worst:>6.1f}%")
-        print(f"{pl.name:<12}  {'measured, ' + args.log.name + ' (exact)':<34}  {sel.sum() / steps:>11.1f}  "
-              f"{1e6 * ll.bits_exact / args.bitrate / steps:>8.1f}  {100 * ll.load_exact:>6.1f}%")
-        print(f"(log: {ll.frames} frames over {ll.seconds:.3f} s; exact = the stuff bits of the recorded contents)")
+    print(f"{'profile':<12}  {'source':<40}  {'frames/step':>11}  {'us/step':>8}  {'load':>7}")
+    for name in names:
+        prof = production(args.page_period, args.rate) if name == "production" else PROFILES[name]
+        msgs = list(prof.per_step)
+        pl = dbc_profile_load(db, msgs, args.rate, args.bitrate, profile=name, per_step=prof.per_step)
+        print(f"{name:<12}  {'computed from ' + dbc.name:<40}  {pl.frames_per_step:>11.2f}  "
+              f"{1e6 * pl.seconds_per_step:>8.1f}  {100 * pl.load:>6.1f}%")
+        for path in logs.get(name, []):
+            if not path.is_file():
+                raise SystemExit(f"caekf-sim busload: {path}: no such log")
+            t, ids, dlc, data = read_candump(path)
+            ll = log_load(t, ids, dlc, data, args.bitrate)
+            steps = max(1.0, ll.seconds * args.rate)
+            print(f"{name:<12}  {'measured, ' + path.name + ' (worst)':<40}  {ll.frames / steps:>11.2f}  "
+                  f"{1e6 * ll.bits_worst / args.bitrate / steps:>8.1f}  {100 * ll.load_worst:>6.1f}%")
+            print(f"{name:<12}  {'measured, ' + path.name + ' (exact)':<40}  {ll.frames / steps:>11.2f}  "
+                  f"{1e6 * ll.bits_exact / args.bitrate / steps:>8.1f}  {100 * ll.load_exact:>6.1f}%")
+            print(f"{'':<12}  (log: {ll.frames} frames over {ll.seconds:.3f} s; exact = the stuff bits of the "
+                  "recorded contents)")
     return 0
 
 

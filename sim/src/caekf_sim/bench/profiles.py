@@ -1,0 +1,108 @@
+"""Protocol profiles: which messages of caekf.dbc carry one step, in and out.
+
+The DBC holds every frame of every profile (one definition each); a profile only names them. The
+estimator's profile is a runtime choice (`caekf-host --profile`), the bench's too
+(`caekf-sim hil run --profile`); both sides must agree.
+
+- diagnostics: BENCH_U, BENCH_Y1, BENCH_Y4 in; EST_GAMMA, EST_Q1..4, EST_V1..4, EST_P_NORM, EST_P_GG,
+  EST_STEP out, every step (vcan; the HIL's reference for the equality with caekf-replay).
+- production: BENCH_U, BENCH_YP in; EST_PROD out every step (gamma, the estimator's flags, STEP mod
+  2^8); the rest of the estimate as EST_PAGE pages 0..10, one page per step at the first 11 steps of
+  every page period (default 20 steps), for a real 1 Mbit/s classic bus.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, Optional, Tuple
+
+# EST_PAGE page -> the results column it carries (page 10: flags, newton_iters, step_status)
+PAGE_COLUMNS: Tuple[Tuple[int, str, str], ...] = (
+    (0, "q1", "Q1"), (1, "q2", "Q2"), (2, "q3", "Q3"), (3, "q4", "Q4"),
+    (4, "v1", "V1"), (5, "v2", "V2"), (6, "v3", "V3"), (7, "v4", "V4"),
+    (8, "p_norm", "P_NORM"), (9, "p_gg", "P_GAMMA_GAMMA"),
+    (10, "newton_iters", "NEWTON_ITERS"), (10, "step_status", "STEP_STATUS"),
+)  # page 10 also carries the app's FLAGS bits; the estimator's bits 0..11 come with every EST_PROD
+PAGE_COUNT = 11
+DEFAULT_PAGE_PERIOD = 20
+HEALTH_PAGES_PER_SECOND = 12.0  # EST_HEALTH burst at the default 1 s status period
+
+
+@dataclass(frozen=True)
+class Signal:
+    """Where a results column comes from: message, signal, multiplexer page (None: not multiplexed)."""
+
+    message: str
+    signal: str
+    page: Optional[int] = None
+
+
+@dataclass(frozen=True)
+class Profile:
+    name: str
+    inputs: Tuple[Tuple[str, Tuple[Tuple[str, str], ...]], ...]  # (message, ((signal, "u"|"y1"|"y4"), ...))
+    closing: str  # the message that closes a step (the bench waits for it)
+    closing_step_bits: int  # width of its STEP signal (at bit 12)
+    results: Dict[str, Signal]  # results column -> where it is carried
+    per_step: Dict[str, float]  # message -> frames per step (for the bus load), at the defaults
+
+    @property
+    def input_messages(self) -> Tuple[str, ...]:
+        return tuple(m for m, _ in self.inputs)
+
+    @property
+    def step_mask(self) -> int:
+        return (1 << self.closing_step_bits) - 1
+
+    @property
+    def every_step(self) -> Tuple[str, ...]:
+        """Columns carried by every step (the others only at some steps)."""
+        return tuple(c for c, s in self.results.items() if s.page is None)
+
+
+_DIAG_RESULTS = {
+    "q1": Signal("EST_Q1", "Q1"), "q2": Signal("EST_Q2", "Q2"), "q3": Signal("EST_Q3", "Q3"),
+    "q4": Signal("EST_Q4", "Q4"), "v1": Signal("EST_V1", "V1"), "v2": Signal("EST_V2", "V2"),
+    "v3": Signal("EST_V3", "V3"), "v4": Signal("EST_V4", "V4"), "gamma": Signal("EST_GAMMA", "GAMMA"),
+    "p_norm": Signal("EST_P_NORM", "P_NORM"), "p_gg": Signal("EST_P_GG", "P_GAMMA_GAMMA"),
+    "flags": Signal("EST_STEP", "FLAGS"), "newton_iters": Signal("EST_STEP", "NEWTON_ITERS"),
+    "step_status": Signal("EST_STEP", "STEP_STATUS"),
+}
+_DIAG_OUT = ("EST_GAMMA", "EST_Q1", "EST_Q2", "EST_Q3", "EST_Q4", "EST_V1", "EST_V2", "EST_V3", "EST_V4",
+             "EST_P_NORM", "EST_P_GG", "EST_STEP")
+
+DIAGNOSTICS = Profile(
+    name="diagnostics",
+    inputs=(("BENCH_U", (("U", "u"),)), ("BENCH_Y1", (("Y1", "y1"),)), ("BENCH_Y4", (("Y4", "y4"),))),
+    closing="EST_STEP",
+    closing_step_bits=16,
+    results=_DIAG_RESULTS,
+    per_step={**{m: 1.0 for m in ("BENCH_U", "BENCH_Y1", "BENCH_Y4") + _DIAG_OUT},
+              "EST_HEALTH": HEALTH_PAGES_PER_SECOND / 1000.0},
+)
+
+
+def production(page_period: int = DEFAULT_PAGE_PERIOD, rate_hz: float = 1000.0) -> Profile:
+    results = {"gamma": Signal("EST_PROD", "GAMMA"), "flags": Signal("EST_PROD", "FLAGS")}
+    for page, col, sig in PAGE_COLUMNS:
+        results[col] = Signal("EST_PAGE", sig, page)
+    return Profile(
+        name="production",
+        inputs=(("BENCH_U", (("U", "u"),)), ("BENCH_YP", (("Y1", "y1"), ("Y4", "y4")))),
+        closing="EST_PROD",
+        closing_step_bits=8,
+        results=results,
+        per_step={"BENCH_U": 1.0, "BENCH_YP": 1.0, "EST_PROD": 1.0,
+                  "EST_PAGE": (PAGE_COUNT / page_period) if page_period else 0.0,
+                  "EST_HEALTH": HEALTH_PAGES_PER_SECOND / rate_hz},
+    )
+
+
+PRODUCTION = production()
+PROFILES: Dict[str, Profile] = {p.name: p for p in (DIAGNOSTICS, PRODUCTION)}
+
+
+def get_profile(name: str) -> Profile:
+    try:
+        return PROFILES[name]
+    except KeyError:
+        raise ValueError(f"unknown profile {name!r} (known: {', '.join(PROFILES)})") from None
