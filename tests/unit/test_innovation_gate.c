@@ -108,7 +108,9 @@ static void test_gate_does_not_touch_a_frozen_gamma_or_flag_it(void)
 #define Q_TOL 1e-7
 #define G_TOL 1e-2
 #if CAEKF_USE_FLOAT
-#define FINAL_TOL 1e-4 /* ... and at 20 s, gamma within this of it (float: rounding keeps them apart) */
+/* ... and at 20 s, gamma within this of it. Float: rounding keeps the two runs apart (measured 3e-5 on the
+ * backward-Euler truth, 1.2e-4 on the continuous-model truth, whose contact onsets gate more steps). */
+#define FINAL_TOL 5e-4
 #else
 #define FINAL_TOL 1e-6
 #endif
