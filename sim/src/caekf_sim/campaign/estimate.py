@@ -1,10 +1,10 @@
 """The one place a campaign calls the estimator.
 
 `estimate(scenario, experiment, t, u, y)` returns gamma, P_gamma,gamma, NIS and the health flags
-of every step. Today it runs the shipped C estimator through `caekf-replay` (the double host
-build, CSV over pipes) or, with backend="numpy", the numpy reference (no innovation gate, no NIS).
-When the in-process binding `caekf_sim.run(settings, u, y)` lands, only this function changes.
-Settings names the campaign depends on: the scenario fields (Scenario) and the experiment names.
+of every step. By default it runs the shipped C estimator in process through the binding
+(`caekf_sim.run`, double); backend="replay" runs the same C code through `caekf-replay` (CSV over
+pipes: an independent path, kept for cross-checks) and backend="numpy" the numpy reference (no
+innovation gate, no NIS). `experiment` is a preset of the settings schema, or "default" for none.
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from ..scenario import Scenario
 from .spec import scenario_text
 from .tools import require_tool
 
-BACKENDS = ("replay", "numpy")
+BACKENDS = ("binding", "replay", "numpy")
+DEFAULT = "default"  # no preset: the schema's defaults over the scenario
 
 
 @dataclass(frozen=True)
@@ -46,8 +47,16 @@ def _csv_in(t: np.ndarray, u: np.ndarray, y: np.ndarray) -> bytes:
 
 
 def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.ndarray,
-             backend: str = "replay") -> Estimate:
-    """Run one estimator configuration (a paper experiment name) over measurements y (N, 2)."""
+             backend: str = "binding") -> Estimate:
+    """Run one estimator configuration (a preset name, or "default") over measurements y (N, 2)."""
+    preset = None if experiment == DEFAULT else experiment
+    if backend == "binding":
+        from ..binding import run
+
+        res = run(sc, np.asarray(u, float), np.ascontiguousarray(y, dtype=float), t=np.asarray(t, float),
+                  experiment=preset)
+        return Estimate(gamma=res.gamma.copy(), p_gg=np.asarray(res.p_gg, float).copy(), nis=res.nis.copy(),
+                        flags=res.flags.astype(np.int64))
     if backend == "numpy":
         from ..experiments import experiment_config
         from ..estimator import run_estimator
@@ -63,8 +72,8 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
     with tempfile.TemporaryDirectory(prefix="caekf-est-") as tmp:
         scen = Path(tmp) / "scenario.toml"
         scen.write_text(scenario_text(sc), encoding="utf-8")
-        proc = subprocess.run([str(tool), "--scenario", str(scen), "--experiment", experiment],
-                              input=_csv_in(t, u, y), capture_output=True, check=False)
+        cmd = [str(tool), "--scenario", str(scen)] + ([] if preset is None else ["--experiment", preset])
+        proc = subprocess.run(cmd, input=_csv_in(t, u, y), capture_output=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"caekf-replay exit {proc.returncode}: {proc.stderr.decode(errors='replace').strip()}")
     tab = pcsv.read_csv(io.BytesIO(proc.stdout))

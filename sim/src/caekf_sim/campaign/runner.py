@@ -21,7 +21,7 @@ from .metrics import run_metrics
 from .spec import Family, Run, scenario_text
 from .tools import require_tool
 
-TRUTH_BACKENDS = ("c", "numpy", "c-backward-euler")
+TRUTH_BACKENDS = ("binding", "c", "numpy", "c-backward-euler")
 TIMING_COLUMNS = ("truth_s", "estimate_s")  # wall times: excluded when comparing campaigns
 
 
@@ -29,8 +29,8 @@ TIMING_COLUMNS = ("truth_s", "estimate_s")  # wall times: excluded when comparin
 class Task:
     run: Run
     experiments: Tuple[str, ...]
-    truth: str = "c"
-    estimator: str = "replay"
+    truth: str = "binding"
+    estimator: str = "binding"
 
 
 @dataclass(frozen=True)
@@ -44,8 +44,20 @@ class TruthArrays:
     v: np.ndarray  # (N, 4) true velocities [m/s]
 
 
-def truth_arrays(sc: Scenario, backend: str = "c") -> TruthArrays:
-    """Measurements and penetration of a scenario from caekf-truth (default) or the numpy truth."""
+def truth_arrays(sc: Scenario, backend: str = "binding") -> TruthArrays:
+    """Measurements and penetration of a scenario: caekf-truth's C generator in process (binding,
+    default), the caekf-truth program ("c", "c-backward-euler") or the numpy truth."""
+    if backend == "binding":
+        from ..binding import truth as c_truth
+
+        try:
+            tr = c_truth(sc)
+        except ValueError:  # the integration failed: report the run as failed
+            n = sc.n_steps
+            nan = np.full(n, np.nan)
+            return TruthArrays(nan, nan, np.full((n, 2), np.nan), nan, True, np.full((n, 4), np.nan),
+                               np.full((n, 4), np.nan))
+        return TruthArrays(tr.t, tr.u, tr.y, tr.delta, False, tr.q, tr.v)
     if backend == "numpy":
         tr = simulate(sc)
         return TruthArrays(tr.t, tr.u, tr.y, tr.delta, False, tr.q, tr.v)
@@ -106,7 +118,7 @@ def _progress(total: int, enabled: bool):
     return tqdm(total=total, unit="run", mininterval=0.5)
 
 
-def run_family(family: Family, experiments: Sequence[str], truth: str = "c", estimator: str = "replay",
+def run_family(family: Family, experiments: Sequence[str], truth: str = "binding", estimator: str = "binding",
                workers: Optional[int] = None, scheduler: Optional[str] = None, client: Any = None,
                progress: bool = True) -> List[Dict[str, Any]]:
     """Rows of every (run, experiment), sorted. Local process pool by default (workers: all cores);

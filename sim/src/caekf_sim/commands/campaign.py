@@ -12,16 +12,19 @@ from ..experiments import EXPERIMENTS
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("campaign", help="truth + estimator + metrics over a family spec or a folder of scenarios")
     p.add_argument("spec", type=Path, help="family spec (TOML, docs/family.md) or a folder of scenario files")
-    p.add_argument("--experiment", action="append", choices=sorted(EXPERIMENTS), default=None,
-                   help="estimator configuration, repeatable (default: switched)")
+    p.add_argument("--experiment", action="append", choices=sorted(EXPERIMENTS) + ["default"], default=None,
+                   help="estimator configuration: a preset, or default (the schema's defaults); repeatable "
+                        "(default: switched)")
     p.add_argument("--out", type=Path, default=Path("out/campaign"), help="output folder (default out/campaign)")
     p.add_argument("--runs", type=int, default=None, help="override the spec's number of runs")
     p.add_argument("--seed", type=int, default=None, help="override the spec's seed")
     p.add_argument("--t-end", type=float, default=None, help="override t_end [s] of every run")
-    p.add_argument("--truth", choices=("c", "numpy", "c-backward-euler"), default="c",
-                   help="caekf-truth (continuous model, default), the numpy truth, or the legacy backward Euler")
-    p.add_argument("--estimator", choices=("replay", "numpy"), default="replay",
-                   help="caekf-replay (the shipped C estimator, default) or the numpy reference")
+    p.add_argument("--truth", choices=("binding", "c", "numpy", "c-backward-euler"), default="binding",
+                   help="caekf-truth's C generator in process (continuous model, default), the caekf-truth "
+                        "program, the numpy truth, or the legacy backward Euler")
+    p.add_argument("--estimator", choices=("binding", "replay", "numpy"), default="binding",
+                   help="the shipped C estimator in process (binding, default), the same through caekf-replay, "
+                        "or the numpy reference")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--scheduler", default=None, help="run on a Dask distributed cluster, e.g. tcp://HOST:8786")
     p.add_argument("--no-plots", action="store_true")
