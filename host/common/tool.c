@@ -79,6 +79,14 @@ int caekf_output_open(caekf_output_t *o, const char *dest, char *err, unsigned e
         snprintf(err, err_len, "%s: is a directory, expected an output file name", dest);
         return CAEKF_EXIT_IO;
     }
+    if (stat(dest, &st) == 0 && !S_ISREG(st.st_mode)) {
+        if ((o->f = fopen(dest, "w")) == NULL) {
+            snprintf(err, err_len, "%s: cannot write: %s", dest, strerror(errno));
+            return CAEKF_EXIT_IO;
+        }
+        o->direct = 1;
+        return 0;
+    }
     slash = strrchr(dest, '/');
     if (slash == NULL) {
         n = snprintf(o->tmp, sizeof o->tmp, ".%s.tmp-XXXXXX", dest);
@@ -115,8 +123,13 @@ int caekf_output_commit(caekf_output_t *o, char *err, unsigned err_len)
 {
     int bad;
     if (o->dest == NULL) {
-        if (o->f != NULL && (fflush(o->f) != 0 || ferror(o->f))) {
-            snprintf(err, err_len, "<stdout>: write failed: %s", strerror(errno));
+        int bad_out = o->f != NULL && (fflush(o->f) != 0 || ferror(o->f));
+        if (o->direct) {
+            bad_out |= fclose(o->f) != 0;
+            o->f = NULL;
+        }
+        if (bad_out) {
+            snprintf(err, err_len, "<output>: write failed: %s", strerror(errno));
             return CAEKF_EXIT_IO;
         }
         return 0;

@@ -31,12 +31,15 @@ int caekf_tool_check_input(const char *path, int allow_stdin, char *err, unsigne
 
 typedef struct {
     FILE *f;
-    const char *dest;  /* final path, or NULL for stdout */
+    const char *dest;  /* final path, or NULL for stdout and special files */
     char tmp[4096];    /* temporary file beside dest */
+    int direct;        /* f is dest itself (a device or a pipe such as /dev/null): closed, never renamed */
 } caekf_output_t;
 
-/* Opens the output: "-" is stdout, anything else a temporary file in dest's folder. Returns 0, or
- * CAEKF_EXIT_IO with a message in err. Nothing exists at dest until caekf_output_commit. */
+/* Opens the output: "-" is stdout; an existing file that is not a regular file (/dev/null, a FIFO) is
+ * written in place, since renaming over it would replace the device; anything else is a temporary
+ * file in dest's folder, so nothing exists at dest until caekf_output_commit. Returns 0, or
+ * CAEKF_EXIT_IO with a message in err. */
 int caekf_output_open(caekf_output_t *o, const char *dest, char *err, unsigned err_len);
 
 /* Flushes, closes and renames the temporary file onto dest. Returns 0, or CAEKF_EXIT_IO with a message

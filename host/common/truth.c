@@ -224,7 +224,7 @@ static double event_bracket(const plant_t *p, double t, const double y[TRUTH_N],
     double sgn = p->closed ? -1.0 : 1.0;
     double g0 = event_g(p, y), g1 = event_g(p, ynew);
     double d0 = sgn * (y[5] - y[6]) * h, d1 = sgn * (ynew[5] - ynew[6]) * h;
-    double a, b, c, disc, roots[2], ys[TRUTH_N];
+    double a, b, c, roots[2], ys[TRUTH_N];
     int n = 0, r;
     if (g1 > 0) {
         return h;
@@ -234,7 +234,7 @@ static double event_bracket(const plant_t *p, double t, const double y[TRUTH_N],
     b = -3 * g0 - 2 * d0 + 3 * g1 - d1;
     c = d0;
     if (fabs(a) > 1e-300) {
-        disc = 4 * b * b - 12 * a * c;
+        const double disc = 4 * b * b - 12 * a * c;
         if (disc >= 0) {
             double sq = sqrt(disc);
             roots[n++] = (-2 * b + sq) / (6 * a);

@@ -57,5 +57,21 @@ expect_error missing-without-flag 3 'in.csv:3: column 3' 't,u,y1,y4\n0.001,0.1,1
 printf 't,u,y1,y4\n0.001,0.1,,0\n' > "$tmp/half.csv"
 "$replay" --scenario "$scenario" --in "$tmp/half.csv" --missing-y-predict >/dev/null 2>"$tmp/err"
 if [[ $? -eq 3 ]] && grep -q "both be present" "$tmp/err"; then passes=$((passes + 1)); else echo "FAIL half-missing"; fails=$((fails + 1)); fi
+# An output that is not a regular file (/dev/null, a FIFO) is written in place: renaming a temporary file
+# over it would replace the device (found: --out /dev/null turned /dev/null into a regular file). Checked
+# on a FIFO of our own, never on /dev/null.
+mkfifo "$tmp/fifo"
+timeout 20 cat "$tmp/fifo" > "$tmp/fifo.got" &
+reader=$!
+"$replay" --scenario "$scenario" --in "$tmp/ok.csv" --out "$tmp/fifo" --allow-nonfinite 2>"$tmp/err"
+rc=$?
+[[ -p $tmp/fifo ]] || { rm -f "$tmp/fifo"; mkfifo "$tmp/fifo"; kill "$reader" 2>/dev/null; }
+wait "$reader"
+if [[ $rc -eq 0 && -p $tmp/fifo && $(wc -l < "$tmp/fifo.got") -eq 4 ]]; then
+    passes=$((passes + 1))
+else
+    echo "FAIL out-fifo: exit $rc, still a FIFO: $([[ -p $tmp/fifo ]] && echo yes || echo no), $(wc -l < "$tmp/fifo.got") lines read"
+    fails=$((fails + 1))
+fi
 echo "$passes passed, $fails failed"
 [[ $fails -eq 0 ]]
