@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/csv.h" /* CAEKF_CSV_MAX_ROWS: the truth is the replay's input */
 #include "common/scenario.h"
 #include "common/truth.h"
 
@@ -150,6 +151,13 @@ int main(int argc, char **argv)
     }
     if (caekf_scenario_load(scenario, &sc, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-truth: %s\n", err);
+        return 3;
+    }
+    /* t_end / dt can ask for more rows than any tool reads (dt = 1e-12 or t_end = 1e9 filled the disk):
+     * refused before anything is written. */
+    if (!(sc.t_end / sc.dt <= (double)CAEKF_CSV_MAX_ROWS)) {
+        fprintf(stderr, "caekf-truth: %s: t_end / dt = %.3g samples: the limit is %ld (what caekf-replay reads)\n",
+                scenario, sc.t_end / sc.dt, CAEKF_CSV_MAX_ROWS);
         return 3;
     }
     sink.csv = out == NULL ? NULL : strcmp(out, "-") == 0 ? stdout : fopen(out, "w");

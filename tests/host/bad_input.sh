@@ -2,9 +2,9 @@
 # Runs the bad-input table (bad_input_cases.txt) against the C host tools. For every case: the exit
 # code; exactly one line on stderr naming the problem (or, for exit 0, nothing on stderr and stdout's
 # first line matching); and no file left behind: out/ stays empty and in/ holds only the inputs.
-# usage: bad_input.sh CASES REPLAY BENCH REFERENCE SCENARIO
+# usage: bad_input.sh CASES REPLAY BENCH REFERENCE SCENARIO TRUTH
 set -u
-cases=$1 replay=$2 bench=$3 reference=$4 scenario=$5
+cases=$1 replay=$2 bench=$3 reference=$4 scenario=$5 truth=${6:-}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fails=0 passes=0
@@ -49,7 +49,7 @@ while IFS= read -r line; do
     write_csv "$csv" "$d/in/in.csv"
     read -r -a argv <<< "$args"
     case ${argv[0]} in
-        replay) bin=$replay ;; bench) bin=$bench ;; reference) bin=$reference ;;
+        replay) bin=$replay ;; bench) bin=$bench ;; reference) bin=$reference ;; truth) bin=$truth ;;
         *) echo "FAIL $name: unknown tool ${argv[0]}"; fails=$((fails + 1)); continue ;;
     esac
     argv=("${argv[@]:1}")
