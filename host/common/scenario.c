@@ -122,6 +122,21 @@ const caekf_preset_t *caekf_preset_find(const char *name)
     return NULL;
 }
 
+/* The wire settings the file gave, set by parameter id over what s holds. Returns 0, or -1 with *e. */
+static int set_given(const caekf_scenario_t *sc, caekf_settings_t *s, caekf_setting_error_t *e)
+{
+    unsigned i;
+    for (i = 0; i < NKEYS; ++i) {
+        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
+        if (k->param_id >= 0 && sc->given[i] &&
+            caekf_settings_set(s, (unsigned)k->param_id, *(const double *)(const void *)((const char *)sc + k->offset),
+                               e) != CAEKF_OK) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
 int caekf_scenario_settings(const caekf_scenario_t *sc, const caekf_preset_t *preset, caekf_settings_t *s,
                             const char *path, char *err, unsigned err_len)
 {
@@ -129,26 +144,18 @@ int caekf_scenario_settings(const caekf_scenario_t *sc, const caekf_preset_t *pr
     char text[200];
     unsigned i;
     (void)caekf_settings_default(s); /* the defaults of this build (newton_rtol scales with its epsilon) */
-    for (i = 0; i < NKEYS; ++i) {
-        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
-        if (k->param_id >= 0 && sc->given[i] && caekf_settings_set(s, (unsigned)k->param_id,
-                                                   *(const double *)(const void *)((const char *)sc + k->offset),
-                                                   &e) != CAEKF_OK) {
-            (void)caekf_setting_error_text(&e, s, text, sizeof text);
-            snprintf(err, err_len, "%s: %s", path, text);
-            return -1;
-        }
+    if (set_given(sc, s, &e) != 0) {
+        (void)caekf_setting_error_text(&e, s, text, sizeof text);
+        snprintf(err, err_len, "%s: %s", path, text);
+        return -1;
     }
     for (i = 0; preset != NULL && i < preset->n_values; ++i) {
         (void)caekf_settings_set(s, preset->param_id[i], preset->value[i], NULL); /* checked by the generator */
     }
     if (caekf_settings_validate(s, &e) != CAEKF_OK) {
         (void)caekf_setting_error_text(&e, s, text, sizeof text);
-        snprintf(err, err_len, "%s: %s%s%s", path, text, preset != NULL ? " (with preset " : "",
-                 preset != NULL ? preset->name : "");
-        if (preset != NULL && strlen(err) + 2 < err_len) {
-            strcat(err, ")");
-        }
+        snprintf(err, err_len, "%s: %s%s%s%s", path, text, preset != NULL ? " (with preset " : "",
+                 preset != NULL ? preset->name : "", preset != NULL ? ")" : "");
         return -1;
     }
     return 0;
@@ -157,15 +164,9 @@ int caekf_scenario_settings(const caekf_scenario_t *sc, const caekf_preset_t *pr
 void caekf_scenario_model(const caekf_scenario_t *sc, double dt, caekf_model_params_t *p)
 {
     caekf_settings_t s;
-    unsigned i;
+    caekf_setting_error_t e;
     (void)caekf_settings_default(&s);
-    for (i = 0; i < NKEYS; ++i) { /* the model's keys are among the wire settings */
-        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
-        if (k->param_id >= 0) {
-            (void)caekf_settings_set(&s, (unsigned)k->param_id,
-                                     *(const double *)(const void *)((const char *)sc + k->offset), NULL);
-        }
-    }
+    (void)set_given(sc, &s, &e); /* the model's keys are required, so always given */
     *p = s.model;
     p->dt = (caekf_scalar_t)dt;
 }
