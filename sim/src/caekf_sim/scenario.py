@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import Any, Dict, Union
 
-from .schema import SCHEMA
+from .schema import SCHEMA, setting_of
 
 PathLike = Union[str, Path]
 
@@ -67,7 +67,7 @@ def parse_flat(text: str, source: str = "<text>") -> Dict[str, "tuple[int, str]"
 
 
 def _check(key: str, v: float, where: str, text: str = "") -> Any:
-    setting = next(s for k, s, _ in _KEYS if k == key)
+    setting = setting_of(key)
     if not setting.check(v):
         raise ScenarioError(f"{where}: {key} = {text or format(v, 'g')}: {setting.rule_text()}")
     return int(v) if setting.type != "real" else float(v)

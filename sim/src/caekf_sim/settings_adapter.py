@@ -49,7 +49,7 @@ class Settings:
         for key, v in changes.items():
             if key not in ids:
                 raise ValueError(f"unknown setting {key!r}")
-            setting = next(s for k, s, _ in schema.SCHEMA.keys() if k == key)
+            setting = schema.setting_of(key)
             if isinstance(v, str):
                 if v not in setting.values:
                     raise ValueError(f"{key} = {v!r}: {setting.rule_text()}")

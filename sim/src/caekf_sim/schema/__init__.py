@@ -13,7 +13,14 @@ from .codegen import Preset, Schema, SchemaError, Setting, load
 SCHEMA: Schema = load()
 
 __all__ = ["SCHEMA", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
-           "wire_values"]
+           "setting_of", "wire_values"]
+
+_SETTING_OF_KEY: Dict[str, Setting] = {k: s for k, s, _ in SCHEMA.keys()}
+
+
+def setting_of(key: str) -> Setting:
+    """The setting a scenario key belongs to ("m3" -> m); KeyError when there is none."""
+    return _SETTING_OF_KEY[key]
 
 
 def param_ids() -> Dict[str, int]:
