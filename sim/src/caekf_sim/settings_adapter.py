@@ -9,6 +9,7 @@ schema's (caekf_sim.schema), and a scenario maps to settings through the C funct
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Optional, Tuple
 
@@ -16,6 +17,7 @@ from . import schema
 from .scenario import Scenario
 
 PRECISIONS = ("double", "float")
+_ALIASES = dict(schema.SCHEMA.aliases())  # the paper's names of single elements (gamma0 -> contact1_gamma0)
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,7 @@ class Settings:
 
     def __getattr__(self, key: str) -> float:
         ids = schema.param_ids()
+        key = _ALIASES.get(key, key)
         if key in ids:
             return self.values[ids[key]]
         raise AttributeError(f"no setting {key!r}")
@@ -47,6 +50,7 @@ class Settings:
         ids = schema.param_ids()
         values = list(self.values)
         for key, v in changes.items():
+            key = _ALIASES.get(key, key)
             if key not in ids:
                 raise ValueError(f"unknown setting {key!r}")
             setting = schema.setting_of(key)
@@ -75,7 +79,7 @@ def check_precision(precision: str) -> str:
 
 def scenario_dict(sc: Scenario) -> Dict[str, float]:
     """The scenario as the C struct caekf_scenario_t holds it (all doubles)."""
-    return {k: float(v) for k, v in sc.values().items()}
+    return {k: float(v) for k, v in dataclasses.asdict(sc).items()}
 
 
 def settings_for(sc: Scenario, experiment: Optional[str] = None, precision: str = "double",
