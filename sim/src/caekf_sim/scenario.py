@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import Any, Dict, Union
 
-from .schema import SCHEMA, setting_of
+from .schema import ALIASES, SCHEMA, canonical, setting_of
 
 PathLike = Union[str, Path]
 
@@ -34,7 +34,7 @@ class _ScenarioBase:
     def replace(self, **changes: float) -> Any:
         """Copy with some values changed (handy for shortened test runs); checked like a file. Elements
         a change of a count leaves unused are dropped."""
-        values = {**self.values(), **{_ALIASES.get(k, k): v for k, v in changes.items()}}
+        values = {**self.values(), **{canonical(k): v for k, v in changes.items()}}
         unused = [k for k, s, i in _KEYS if not SCHEMA.in_use(s, i, values)]
         return scenario_from_values({k: v for k, v in values.items() if k not in unused}, "replace()")
 
@@ -48,7 +48,6 @@ _KEYS = SCHEMA.keys()
 _TYPES = {k: (float if s.type == "real" else int) for k, s, _ in _KEYS}
 # The paper's flat names of single elements (k12 -> spring2_k): accepted in files and replace(), and
 # readable as attributes.
-_ALIASES: Dict[str, str] = dict(SCHEMA.aliases())
 _INDEX = {k: i for k, _, i in _KEYS}
 _SETTINGS = {k: s for k, s, _ in _KEYS}
 
@@ -60,7 +59,7 @@ def _alias_property(key: str) -> property:
 Scenario: Any = dataclasses.make_dataclass(
     "Scenario", [(k, _TYPES[k]) for k, _, _ in _KEYS], bases=(_ScenarioBase,), frozen=True,
     namespace={"__doc__": "Every value of a scenario, SI units; the fields are the schema's keys.",
-               **{a: _alias_property(k) for a, k in _ALIASES.items()}})
+               **{a: _alias_property(k) for a, k in ALIASES.items()}})
 Scenario.__module__ = __name__  # picklable (process pools, Dask): found as caekf_sim.scenario.Scenario
 
 
@@ -82,7 +81,7 @@ def parse_flat(text: str, source: str = "<text>") -> Dict[str, "tuple[int, str]"
 
 
 def _check(key: str, v: float, where: str, text: str = "") -> Any:
-    setting = setting_of(_ALIASES.get(key, key))
+    setting = setting_of(canonical(key))
     if not setting.check(v):
         raise ScenarioError(f"{where}: {key} = {text or format(v, 'g')}: {setting.rule_text()}")
     return int(v) if setting.type != "real" else float(v)
@@ -90,15 +89,15 @@ def _check(key: str, v: float, where: str, text: str = "") -> Any:
 
 def scenario_from_values(values: Dict[str, Any], source: str) -> Any:
     """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked."""
-    unknown = sorted(set(values) - set(_TYPES) - set(_ALIASES))
+    unknown = sorted(set(values) - set(_TYPES) - set(ALIASES))
     if unknown:
         raise ScenarioError(f"{source}: unknown key '{unknown[0]}'")
     given: Dict[str, Any] = {}
     for key, v in values.items():
-        canonical = _ALIASES.get(key, key)
-        if canonical in given:
+        name = canonical(key)
+        if name in given:
             raise ScenarioError(f"{source}: duplicate key '{key}' (or another name of it)")
-        given[canonical] = v
+        given[name] = v
     out: Dict[str, Any] = {}
     for key, setting, index in _KEYS:
         used = SCHEMA.in_use(setting, index, given)
@@ -120,9 +119,9 @@ def scenario_from_text(text: str, source: str = "<text>") -> Any:
     """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required."""
     values: Dict[str, float] = {}
     for key, (lineno, value) in parse_flat(text, source).items():
-        if key not in _TYPES and key not in _ALIASES:
+        if key not in _TYPES and key not in ALIASES:
             raise ScenarioError(f"{source}:{lineno}: unknown key '{key}'")
-        setting = setting_of(_ALIASES.get(key, key))
+        setting = setting_of(canonical(key))
         try:
             if setting.type == "enum" and len(value) >= 2 and value[0] == value[-1] == '"' \
                     and value[1:-1] in setting.values:

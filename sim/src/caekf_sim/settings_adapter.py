@@ -17,7 +17,6 @@ from . import schema
 from .scenario import Scenario
 
 PRECISIONS = ("double", "float")
-_ALIASES = dict(schema.SCHEMA.aliases())  # the paper's names of single elements (gamma0 -> contact1_gamma0)
 
 
 @dataclass(frozen=True)
@@ -35,7 +34,7 @@ class Settings:
 
     def __getattr__(self, key: str) -> float:
         ids = schema.param_ids()
-        key = _ALIASES.get(key, key)
+        key = schema.canonical(key)
         if key in ids:
             return self.values[ids[key]]
         raise AttributeError(f"no setting {key!r}")
@@ -50,7 +49,7 @@ class Settings:
         ids = schema.param_ids()
         values = list(self.values)
         for key, v in changes.items():
-            key = _ALIASES.get(key, key)
+            key = schema.canonical(key)
             if key not in ids:
                 raise ValueError(f"unknown setting {key!r}")
             setting = schema.setting_of(key)

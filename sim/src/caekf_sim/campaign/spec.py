@@ -21,7 +21,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from ..scenario import Scenario, load_scenario
-from ..schema import SCHEMA
+from ..schema import ALIASES, canonical
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -31,7 +31,6 @@ else:  # pragma: no cover
 PathLike = Union[str, Path]
 SCENARIO_FIELDS = {f.name: f for f in dataclasses.fields(Scenario)}
 INT_FIELDS = {n for n, f in SCENARIO_FIELDS.items() if f.type in ("int", int)}
-ALIASES = dict(SCHEMA.aliases())  # the paper's names (k12 -> spring2_k)
 
 
 @dataclass(frozen=True)
@@ -150,7 +149,7 @@ def scenario_from_values(base: Scenario, values: Mapping[str, float]) -> Scenari
     """base with the drawn values of its keys (aliases such as k12 included); other names are ignored."""
     changes: Dict[str, Any] = {}
     for k, v in values.items():
-        key = ALIASES.get(k, k)
+        key = canonical(k)
         if key in SCENARIO_FIELDS:
             changes[key] = int(round(v)) if key in INT_FIELDS else float(v)
     return base.replace(**changes)

@@ -12,10 +12,17 @@ from .codegen import Preset, Schema, SchemaError, Setting, load
 
 SCHEMA: Schema = load()
 
-__all__ = ["SCHEMA", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
+__all__ = ["ALIASES", "SCHEMA", "canonical", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
            "setting_of", "wire_values"]
 
 _SETTING_OF_KEY: Dict[str, Setting] = {k: s for k, s, _ in SCHEMA.keys()}
+ALIASES: Dict[str, str] = dict(SCHEMA.aliases())
+
+
+def canonical(key: str) -> str:
+    """The key a paper name stands for ("k12" -> "spring2_k"); other keys are returned as they are."""
+    return ALIASES.get(key, key)
+
 _SETTING_OF_KEY.update({a: _SETTING_OF_KEY[k] for a, k in SCHEMA.aliases()})
 
 
