@@ -103,7 +103,7 @@ int main(int argc, char **argv)
                 caekf_scalar_t y[2];
                 y[0] = (caekf_scalar_t)rows[k].y1;
                 y[1] = (caekf_scalar_t)rows[k].y4;
-                (void)caekf_step(&est, (caekf_scalar_t)rows[k].u, y, NULL);
+                (void)caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)rows[k].u}, y, NULL);
             }
             dt = now_s() - t0;
             (void)caekf_get_gamma(&est, &g);

@@ -74,7 +74,7 @@ int main(int argc, char **argv)
             double y[2];
             y[0] = rows[k].y1;
             y[1] = rows[k].y4;
-            (void)caekf_step(&est, rows[k].u, y, NULL);
+            (void)caekf_step(&est, (const caekf_scalar_t[]){rows[k].u}, y, NULL);
         }
         (void)caekf_get_gamma(&est, &g[e]);
         if (!isfinite(g[e])) {

@@ -82,7 +82,7 @@ int main(int argc, char **argv)
     const caekf_preset_t *preset = NULL;
     caekf_setting_error_t bad;
     long n, k;
-    int i, rc;
+    int i, rc, ig;
 
     for (i = 1; i < argc; ++i) {
         const char *a = argv[i];
@@ -186,33 +186,33 @@ int main(int argc, char **argv)
     fout = o.f;
     memset(&sum, 0, sizeof sum);
     sum.gamma_min_seen = INFINITY;
+    ig = 2 * est.model.nq;
     fputs("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis\n", fout);
     for (k = 0; k < n; ++k) {
         const caekf_meas_t *m = &rows[k];
-        caekf_scalar_t y[CAEKF_NY], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;
+        caekf_scalar_t y[2], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0, u = (caekf_scalar_t)m->u;
         caekf_report_t rep;
         y[0] = (caekf_scalar_t)m->y1;
         y[1] = (caekf_scalar_t)m->y4;
-        if ((m->has_y ? caekf_step(&est, (caekf_scalar_t)m->u, y, &rep)
-                      : caekf_predict(&est, (caekf_scalar_t)m->u, &rep)) != CAEKF_OK) {
+        if ((m->has_y ? caekf_step(&est, &u, y, &rep) : caekf_predict(&est, &u, &rep)) != CAEKF_OK) {
             sum.rejected++;
         }
         (void)caekf_get_state(&est, x);
         (void)caekf_get_covariance(&est, P);
         (void)caekf_get_cov_norm2(&est, &pn);
         fprintf(fout, "%.17g", m->t);
-        for (i = 0; i < CAEKF_N; ++i) {
+        for (i = 0; i < est.model.n; ++i) {
             fprintf(fout, ",%.17g", (double)x[i]);
         }
-        fprintf(fout, ",%.17g,%.17g,%lu,%d,%.9g\n", (double)pn, (double)P[CAEKF_IG][CAEKF_IG],
+        fprintf(fout, ",%.17g,%.17g,%lu,%d,%.9g\n", (double)pn, (double)P[ig][ig],
                 (unsigned long)rep.flags, rep.newton_iters, (double)rep.nis);
         sum.rows++;
         sum.iters_sum += rep.newton_iters;
         if (rep.newton_iters > sum.iters_max) sum.iters_max = rep.newton_iters;
         sum.flags_seen |= rep.flags;
-        if ((double)x[CAEKF_IG] < sum.gamma_min_seen) sum.gamma_min_seen = (double)x[CAEKF_IG];
+        if ((double)x[ig] < sum.gamma_min_seen) sum.gamma_min_seen = (double)x[ig];
         if ((double)pn > sum.p_norm_max) sum.p_norm_max = (double)pn;
-        sum.gamma_last = (double)x[CAEKF_IG];
+        sum.gamma_last = (double)x[ig];
     }
     free(rows);
     if (!isfinite(sum.gamma_last)) {

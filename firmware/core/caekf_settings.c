@@ -258,6 +258,24 @@ static int first_bad_body(const caekf_model_params_t *m)
     return -1;
 }
 
+/* A build sized for one mechanism (CAEKF_SIZED) runs exactly its counts: the first count that differs. */
+static int first_unsized(const caekf_model_params_t *m)
+{
+    if (!CAEKF_SIZED) {
+        return -1;
+    }
+    if (m->bodies != CAEKF_MAX_BODIES) {
+        return (int)CAEKF_PARAM_BODIES;
+    }
+    if (m->inputs != CAEKF_MAX_INPUTS) {
+        return (int)CAEKF_PARAM_INPUTS;
+    }
+    if (m->sensors != CAEKF_MAX_SENSORS) {
+        return (int)CAEKF_PARAM_SENSORS;
+    }
+    return m->contacts != CAEKF_MAX_CONTACTS ? (int)CAEKF_PARAM_CONTACTS : -1;
+}
+
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
 {
     unsigned k, i;
@@ -291,7 +309,7 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
             return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, CAEKF_PARAM_SIGMA_RV);
         }
     }
-    bad = caekf_model_unsupported(&s->model);
+    bad = first_unsized(&s->model);
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);
     }

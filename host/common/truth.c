@@ -78,18 +78,18 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, int (*emit)(cons
     if (caekf_model_init(&model, &p) != 0) {
         return -1;
     }
-    x[CAEKF_IG] = sc->contact1_gamma;
+    x[2 * model.nq] = sc->contact1_gamma;
     for (k = 1; k <= steps; ++k) {
         caekf_truth_sample_t out = {0};
         for (s = 1; s <= sub; ++s) {
             double t = (double)(k - 1) * sc->dt + (double)s * h;
             int it = 0;
-            if (caekf_model_newton(&model, x, caekf_scenario_input(sc, t), CAEKF_NEWTON_MAX_ITER, DBL_EPSILON * 256, xn,
-                                   &it) != 0) {
+            const double u = caekf_scenario_input(sc, t);
+            if (caekf_model_newton(&model, x, &u, CAEKF_NEWTON_MAX_ITER, DBL_EPSILON * 256, xn, &it) != 0) {
                 out.newton_failed++;
             }
             out.newton_iters += it;
-            for (i = 0; i < CAEKF_N; ++i) {
+            for (i = 0; i < model.n; ++i) {
                 x[i] = xn[i];
             }
         }

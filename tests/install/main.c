@@ -34,7 +34,7 @@ int main(void)
         return 1;
     }
     for (k = 0; k < 100; ++k) {
-        if (caekf_step(&est, (caekf_scalar_t)0.1, y, NULL) != CAEKF_OK) {
+        if (caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)0.1}, y, NULL) != CAEKF_OK) {
             fprintf(stderr, "example: step %d refused\n", k);
             return 1;
         }

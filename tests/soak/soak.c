@@ -279,7 +279,7 @@ int main(int argc, char **argv)
         y[0] = (caekf_scalar_t)x->y1;
         y[1] = (caekf_scalar_t)x->y4;
         a = now_s();
-        st = caekf_step(&est, (caekf_scalar_t)x->u, y, &rep);
+        st = caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)x->u}, y, &rep);
         b = now_s();
         t_step += b - a;
         check_step(&est, &lap, &rep, st, gamma_min);

@@ -144,7 +144,7 @@ int main(void)
         y[0] = in[1];
         y[1] = in[2];
         caekf_mark_begin();
-        st = caekf_step(&est, in[0], y, &rep);
+        st = caekf_step(&est, (const caekf_scalar_t[]){in[0]}, y, &rep);
         caekf_mark_end();
         cls = (rep.flags & 0x1FFu) | ((uint32_t)(rep.newton_iters > 31 ? 31 : rep.newton_iters) << 9);
         if (st != CAEKF_OK) {

@@ -62,8 +62,8 @@ static void check_jacobians_at(double delta)
         a[j] += (caekf_scalar_t)fd_step[j];
         b[j] -= (caekf_scalar_t)fd_step[j];
         h = (double)a[j] - (double)b[j]; /* the step actually taken after rounding */
-        caekf_model_residual(&model, a, xp, (caekf_scalar_t)0.3, ga);
-        caekf_model_residual(&model, b, xp, (caekf_scalar_t)0.3, gb);
+        caekf_model_residual(&model, a, xp, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, ga);
+        caekf_model_residual(&model, b, xp, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, gb);
         for (i = 0; i < N; ++i) {
             double fd = ((double)ga[i] - (double)gb[i]) / h;
             double rowmax = 0;
@@ -79,8 +79,8 @@ static void check_jacobians_at(double delta)
         a[j] += (caekf_scalar_t)fd_step[j];
         b[j] -= (caekf_scalar_t)fd_step[j];
         h = (double)a[j] - (double)b[j];
-        caekf_model_residual(&model, xk, a, (caekf_scalar_t)0.3, ga);
-        caekf_model_residual(&model, xk, b, (caekf_scalar_t)0.3, gb);
+        caekf_model_residual(&model, xk, a, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, ga);
+        caekf_model_residual(&model, xk, b, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, gb);
         for (i = 0; i < N; ++i) {
             double fd = ((double)ga[i] - (double)gb[i]) / h;
             TEST_ASSERT_DOUBLE_WITHIN(JAC_RTOL * (fabs((double)Jp[i][j]) + 1e-3), (double)Jp[i][j], fd);
@@ -93,7 +93,7 @@ static void test_jacobians_match_finite_differences_in_contact(void)
     caekf_contact_t c;
     caekf_scalar_t x[N];
     make_state(x, 2e-6);
-    caekf_model_contact(&model, x, x[8], &c);
+    caekf_model_contact(&model, 0, x, x[8], &c);
     TEST_ASSERT_TRUE(c.delta > 0 && c.fc > 0 && c.dfc_ddelta > 0);
     check_jacobians_at(2e-6);
 }
@@ -103,7 +103,7 @@ static void test_jacobians_match_finite_differences_out_of_contact(void)
     caekf_contact_t c;
     caekf_scalar_t x[N];
     make_state(x, -5e-6);
-    caekf_model_contact(&model, x, x[8], &c);
+    caekf_model_contact(&model, 0, x, x[8], &c);
     TEST_ASSERT_TRUE(c.delta < 0);
     TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)c.fc);
     check_jacobians_at(-5e-6);
@@ -203,7 +203,7 @@ static void test_newton_converges_over_the_reference_scenario(void)
     xp[8] = (caekf_scalar_t)paper_gamma_true();
     while ((rc = truth_next(&r)) == 1) {
         int it = -1;
-        int st = caekf_model_newton(&model, xp, (caekf_scalar_t)r.u, CAEKF_NEWTON_MAX_ITER,
+        int st = caekf_model_newton(&model, xp, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, CAEKF_NEWTON_MAX_ITER,
                                     (caekf_scalar_t)(CAEKF_EPS * 256), xk, &it);
         TEST_ASSERT_EQUAL_INT_MESSAGE(0, st, "Newton did not converge on the reference scenario");
         TEST_ASSERT_TRUE(it >= 1 && it <= CAEKF_NEWTON_MAX_ITER);
@@ -232,7 +232,7 @@ static void test_forced_newton_failure_is_reported(void)
     int it = 0;
     make_state(xp, 2e-6);
     /* One iteration cannot meet an absurd tolerance in contact: status 1, the iterate is kept. */
-    TEST_ASSERT_EQUAL_INT(1, caekf_model_newton(&model, xp, 0, 1, (caekf_scalar_t)1e-30, xk, &it));
+    TEST_ASSERT_EQUAL_INT(1, caekf_model_newton(&model, xp, (const caekf_scalar_t[]){0}, 1, (caekf_scalar_t)1e-30, xk, &it));
     TEST_ASSERT_EQUAL_INT(1, it);
     TEST_ASSERT_TRUE(isfinite((double)xk[1]));
     /* Through the estimator: the step completes and raises NEWTON_NOT_CONVERGED. */
@@ -245,7 +245,7 @@ static void test_forced_newton_failure_is_reported(void)
         s.newton_max_iter = 1;
         s.newton_rtol = (caekf_scalar_t)1e-30;
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (caekf_scalar_t)0.5, y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)0.5}, y, &rep));
         TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NEWTON_NOT_CONVERGED);
         TEST_ASSERT_EQUAL_INT(1, rep.newton_iters);
     }

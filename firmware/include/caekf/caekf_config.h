@@ -45,7 +45,11 @@ typedef double caekf_scalar_t;
 #define CAEKF_SCALAR_NAME "double"
 #endif
 
-/* Mechanism capacity. */
+/* Mechanism capacity. CAEKF_SIZED 1: the build runs exactly these counts (an MCU build sized from its
+ * scenario); 0: any mechanism up to them. */
+#ifndef CAEKF_SIZED
+#define CAEKF_SIZED 0
+#endif
 #ifndef CAEKF_MAX_BODIES
 #define CAEKF_MAX_BODIES 4
 #endif

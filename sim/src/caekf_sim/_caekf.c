@@ -300,7 +300,7 @@ static PyObject *est_step(EstObject *self, PyObject *const *args, Py_ssize_t nar
     }
     y[0] = (caekf_scalar_t)yd[0];
     y[1] = (caekf_scalar_t)yd[1];
-    st = caekf_step(&self->est, (caekf_scalar_t)u, y, &rep);
+    st = caekf_step(&self->est, (const caekf_scalar_t[]){(caekf_scalar_t)u}, y, &rep);
     return make_report(st, &rep);
 }
 
@@ -317,7 +317,7 @@ static PyObject *est_predict(EstObject *self, PyObject *arg)
         PyErr_SetString(PyExc_TypeError, "u must be a number (force on body 1, N)");
         return NULL;
     }
-    st = caekf_predict(&self->est, (caekf_scalar_t)u, &rep);
+    st = caekf_predict(&self->est, (const caekf_scalar_t[]){(caekf_scalar_t)u}, &rep);
     return make_report(st, &rep);
 }
 
@@ -519,9 +519,9 @@ static PyObject *est_run(EstObject *self, PyObject *args)
             caekf_scalar_t ys[CAEKF_NY];
             ys[0] = (caekf_scalar_t)y[2 * k];
             ys[1] = (caekf_scalar_t)y[2 * k + 1];
-            st = caekf_step(&self->est, (caekf_scalar_t)u[k], ys, &rep);
+            st = caekf_step(&self->est, (const caekf_scalar_t[]){(caekf_scalar_t)u[k]}, ys, &rep);
         } else {
-            st = caekf_predict(&self->est, (caekf_scalar_t)u[k], &rep);
+            st = caekf_predict(&self->est, (const caekf_scalar_t[]){(caekf_scalar_t)u[k]}, &rep);
         }
         if (x != NULL) {
             (void)caekf_get_state(&self->est, xs);

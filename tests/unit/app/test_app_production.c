@@ -90,7 +90,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
         fixture_poll_all();
         y[0] = (caekf_scalar_t)yp_wire(y1);
         y[1] = (caekf_scalar_t)yp_wire(y4);
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (caekf_scalar_t)(float)u, y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)(float)u}, y, &rep));
         (void)caekf_get_state(&ref, x);
         (void)caekf_get_covariance(&ref, P);
         (void)caekf_get_cov_norm2(&ref, &pn);

@@ -104,7 +104,7 @@ static void test_estimates_equal_a_directly_stepped_estimator(void)
         fixture_poll_all();
         y[0] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y1, y1);
         y[1] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y4, y4);
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u), y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u)}, y, &rep));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&ref, x));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_covariance(&ref, P));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_cov_norm2(&ref, &pn));
@@ -184,7 +184,7 @@ static void test_repeated_signal_keeps_the_first_value(void)
     {
         caekf_scalar_t y[2] = {(caekf_scalar_t)1e-6, 0};
         caekf_scalar_t x[CAEKF_N];
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&before, 0, y, NULL));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&before, (const caekf_scalar_t[]){0}, y, NULL));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&before, x));
         TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_Q1, (double)x[0]) == tx_value(CAEKF_MSG_EST_Q1, 0, &step));
     }
@@ -225,15 +225,15 @@ static void test_step_gap_is_bridged_by_prediction_only_steps(void)
     fixture_poll_all();
     y[0] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y1, y1);
     y[1] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y4, y4);
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1), y, NULL));
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1), y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, y, NULL));
     for (k = 0; k < 5; k++) {
         caekf_report_t rep;
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1), &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, &rep));
         TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NO_MEASUREMENT);
     }
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2), y, NULL));
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2), y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2)}, y, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2)}, y, NULL));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&ref, x));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&naive, xn));
     TEST_ASSERT_EQUAL_UINT32(5, counter(CAEKF_CNT_STEPS_SKIPPED));
