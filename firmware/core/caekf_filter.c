@@ -68,6 +68,20 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         const unsigned char *idx = pat->nz[i];
         const caekf_scalar_t *f = val[i], *pi = P + i * n, *pj = P;
         caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
+        if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
+            const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
+            const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+            for (j = 0; j < n; ++j, pj += n) {
+                caekf_scalar_t s = 0;
+                s += f0 * pj[i0];
+                s += f1 * pj[i1];
+                s += f2 * pj[i2];
+                s += f3 * pj[i3];
+                tv[j] = s;
+                tq[j] = pi[j] + c * s;
+            }
+            continue;
+        }
         for (j = 0; j < n; ++j, pj += n) {
             caekf_scalar_t s = 0;
             for (k = 0; k < cnt[i]; ++k) {
@@ -88,8 +102,15 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             const unsigned char *idx = pat->nz[j];
             const caekf_scalar_t *f = val[j];
             caekf_scalar_t s = 0;
-            for (k = 0; k < cnt[j]; ++k) {
-                s += t[idx[k]] * f[k];
+            if (cnt[j] == 4) {
+                s += t[idx[0]] * f[0];
+                s += t[idx[1]] * f[1];
+                s += t[idx[2]] * f[2];
+                s += t[idx[3]] * f[3];
+            } else {
+                for (k = 0; k < cnt[j]; ++k) {
+                    s += t[idx[k]] * f[k];
+                }
             }
             w[j] = s;
         }
@@ -243,7 +264,19 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
          * product would stay stale; the upper triangle alone gives the Schmidt result
          * P_xg <- (I - G_x H_x) P_xg, P_gg unchanged. */
         for (i = 0; i < n; ++i) {
+            caekf_scalar_t *p = &AT(P, n, i, 0);
             if (skip[i]) {
+                continue;
+            }
+            if (ny == 2) { /* two sensors: the gains held in registers */
+                const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
+                const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
+                p[i] -= g0 * h0[i] + g1 * h1[i];
+                for (j = i + 1; j < n; ++j) {
+                    if (!skip[j]) {
+                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                    }
+                }
                 continue;
             }
             for (j = i; j < n; ++j) {
@@ -254,7 +287,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                 for (k = 0; k < ny; ++k) {
                     s += G[i][k] * hp[k][j];
                 }
-                AT(P, n, i, j) = j == i ? AT(P, n, i, j) - s : flush(AT(P, n, i, j) - s);
+                p[j] = j == i ? p[j] - s : flush(p[j] - s);
             }
         }
         return 0;
