@@ -42,7 +42,7 @@ static void load_fv0(caekf_t *est)
         }
     }
     scale_fv(est->fv, est->scale, nq, n);
-    caekf_fv_pattern(est->fv, nq, n, &est->fv_pattern);
+    caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     est->fv_const = 1;
 }
 
@@ -92,7 +92,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     for (i = 0; i < CAEKF_N * CAEKF_N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
         est->P[i] = 0;
         est->P_work[i] = 0;
-        est->scratch[i] = 0;
+        est->scratch.m[i] = 0;
     }
     for (i = 0; i < n; ++i) {
         for (j = 0; j < n; ++j) {
@@ -209,7 +209,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             goto done;
         }
         scale_fv(est->fv, s, nq, n);
-        caekf_fv_pattern(est->fv, nq, n, &est->fv_pattern);
+        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     } else if (!est->fv_const) {
         load_fv0(est);
     }
@@ -229,7 +229,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             y_s[i] = y[i] / s[est->sensor_state[i]];
         }
         (void)caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, &dims,
-                                  est->cfg.gamma_gate_nis, &nis, &flags);
+                                  est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct);
         /* Inequality constraints, eqs. (28)-(30), one gamma after the other. */
         for (i = 0; est->cfg.constraint_enabled && i < nc; ++i) {
             caekf_constrain_upper(z, est->P_work, n, 2 * nq + i, est->gamma_min_scaled[i], s[2 * nq + i],
@@ -239,7 +239,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
     }
     if (!caekf_covariance_health(est->P_work, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
-                                 est->cfg.cov_repair_enabled, est->scratch, &flags) ||
+                                 est->cfg.cov_repair_enabled, est->scratch.m, &flags) ||
         !all_finite(z, n)) {
         flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_NUMERIC;
@@ -364,7 +364,7 @@ caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2)
     }
     /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
     physical_covariance(est, est->P_work, est->model.n);
-    return caekf_sym_norm2(est->P_work, est->model.n, est->scratch, norm2) == CAEKF_LA_OK ? CAEKF_OK
+    return caekf_sym_norm2(est->P_work, est->model.n, est->scratch.m, norm2) == CAEKF_LA_OK ? CAEKF_OK
                                                                                         : CAEKF_ERR_NUMERIC;
 }
 

@@ -24,14 +24,15 @@ void caekf_mirror_upper(caekf_scalar_t *P, int n)
     }
 }
 
-void caekf_fv_pattern(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat)
+void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat)
 {
     int i, j;
     for (i = 0; i < nq; ++i) {
         unsigned char k = 0;
         for (j = 0; j < n; ++j) {
             if (fv[i][j] != 0) { /* a NaN is kept: it must reach P and be caught */
-                pat->nz[i][k++] = (unsigned char)j;
+                pat->nz[i][k] = (unsigned char)j;
+                fv[i][k++] = fv[i][j]; /* k <= j: in place */
             }
         }
         pat->nnz[i] = k;
@@ -41,32 +42,18 @@ void caekf_fv_pattern(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
 /* The products of eq. (12) are dot products with a row of Fv over its nonzeros, summed with the column
  * index ascending from s = 0: exactly the order of the plain dense loops, so every result is bit for
  * bit the same whatever the mechanism's sparsity (without contact, K, C and M couple only linked
- * bodies and the gamma columns are 0). The row's nonzeros are gathered once, then held while the other
- * operand's rows stream past. */
-static int gather(const caekf_scalar_t *f, const caekf_fv_pattern_t *pat, int i, caekf_scalar_t *val)
-{
-    int k;
-    for (k = 0; k < pat->nnz[i]; ++k) {
-        val[k] = f[pat->nz[i][k]];
-    }
-    return pat->nnz[i];
-}
-
+ * bodies and the gamma columns are 0). */
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, const caekf_scalar_t *q_diag,
                               const caekf_filter_dims_t *d)
 {
     const int nq = d->nq, n = d->n, nx = 2 * d->nq;
-    caekf_scalar_t val[CAEKF_NQ][CAEKF_N];
-    int cnt[CAEKF_NQ];
+    const unsigned char *cnt = pat->nnz;
     caekf_scalar_t w[CAEKF_NQ];
     int i, j, k;
-    for (i = 0; i < nq; ++i) {
-        cnt[i] = gather(fv[i], pat, i, val[i]);
-    }
     for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
         const unsigned char *idx = pat->nz[i];
-        const caekf_scalar_t *f = val[i], *pi = P + i * n, *pj = P;
+        const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
         caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
         if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
             const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
@@ -100,7 +87,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         const int j0 = i < nq ? 0 : i - nq;
         for (j = j0; j < nq; ++j) {
             const unsigned char *idx = pat->nz[j];
-            const caekf_scalar_t *f = val[j];
+            const caekf_scalar_t *f = fv[j];
             caekf_scalar_t s = 0;
             if (cnt[j] == 4) {
                 s += t[idx[0]] * f[0];
@@ -191,12 +178,13 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
 }
 
 int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
-                        const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags)
+                        const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
+                        caekf_correct_work_t *work)
 {
     const int n = d->n, ny = d->ny, nx = 2 * d->nq;
     caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
-    caekf_scalar_t G[CAEKF_N][CAEKF_MAX_SENSORS];
-    caekf_scalar_t hp[CAEKF_MAX_SENSORS][CAEKF_N]; /* H P = the sensed rows of P, from the upper triangle */
+    caekf_scalar_t(*const G)[CAEKF_MAX_SENSORS] = work->gain;
+    caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */
     caekf_scalar_t e[CAEKF_MAX_SENSORS], rr[CAEKF_MAX_SENSORS];
     unsigned char live[CAEKF_N], skip[CAEKF_N];
     int any_live = 0;

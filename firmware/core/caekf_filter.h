@@ -29,14 +29,15 @@ typedef struct {
     uint8_t policy[CAEKF_MAX_CONTACTS + 1]; /* caekf_gamma_policy_t of gamma c (state 2 nq + c) */
 } caekf_filter_dims_t;
 
-/* The nonzero pattern of fv's rows (exact zeros are skipped by the products: adding a zero product
- * changes no sum). */
-void caekf_fv_pattern(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat);
+/* Compacts fv's rows in place to their nonzeros (fv[i][k] is column pat->nz[i][k]): the products skip
+ * the exact zeros, as adding a zero product changes no sum. */
+void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat);
 
 /* Copies the upper triangle into the lower one. */
 void caekf_mirror_upper(caekf_scalar_t *P, int n);
 
-/* Eq. (12) P- = F P F^T + Q with the structure of eq. (10): fv holds the v-rows of the scaled F and
+/* Eq. (12) P- = F P F^T + Q with the structure of eq. (10): fv holds the v-rows of the scaled F (compacted)
+ * and
  * the q-rows are I + c * fv (c = dt s_v / s_q); the gamma rows are identity rows. Q_gamma and the gamma
  * rows/columns are handled per gamma policy (eqs. 21-24). P: full symmetric; P_pred: upper triangle. */
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *P_pred, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
@@ -48,7 +49,8 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *P_pred, c
  * normalised innovation squared; with gate > 0 and nis above it every live gamma is held for this
  * correction (Schmidt gain, flag GAMMA_GATED). */
 int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
-                        const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags);
+                        const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
+                        caekf_correct_work_t *work);
 
 /* Eqs. (28)-(30) for the gamma at state g: if z_g < zmin, the perfect measurement D z = zmin
  * (D = e_g, R = 0). Processing it after the y-correction equals repeating the correction with [H; D]

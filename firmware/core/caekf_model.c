@@ -16,10 +16,11 @@ int caekf_model_params_check(const caekf_model_params_t *p)
         !(p->contacts >= 0 && p->contacts <= CAEKF_MAX_CONTACTS) || !CAEKF_ISFINITE(p->dt) || !(p->dt > 0)) {
         return 1;
     }
-    if (CAEKF_SIZED && (p->bodies != CAEKF_MAX_BODIES || p->contacts != CAEKF_MAX_CONTACTS ||
-                        p->sensors != CAEKF_MAX_SENSORS || p->inputs != CAEKF_MAX_INPUTS)) {
+#if CAEKF_SIZED
+    if (p->bodies != CAEKF_SIZED_BODIES || p->contacts != CAEKF_SIZED_CONTACTS || p->inputs != CAEKF_SIZED_INPUTS) {
         return 1;
     }
+#endif
     for (i = 0; i < p->bodies; ++i) {
         if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
             return 1;

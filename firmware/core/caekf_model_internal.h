@@ -10,10 +10,10 @@
 /* Run-time sizes of a model. A build sized for one mechanism (CAEKF_SIZED, generated from its scenario)
  * has them as constants, so the compiler sees fixed loop bounds. */
 #if CAEKF_SIZED
-#define CAEKF_DIM_NQ(m) ((void)(m), CAEKF_MAX_BODIES)
-#define CAEKF_DIM_NC(m) ((void)(m), CAEKF_MAX_CONTACTS)
-#define CAEKF_DIM_NU(m) ((void)(m), CAEKF_MAX_INPUTS)
-#define CAEKF_DIM_N(m) ((void)(m), CAEKF_N)
+#define CAEKF_DIM_NQ(m) ((void)(m), CAEKF_SIZED_BODIES)
+#define CAEKF_DIM_NC(m) ((void)(m), CAEKF_SIZED_CONTACTS)
+#define CAEKF_DIM_NU(m) ((void)(m), CAEKF_SIZED_INPUTS)
+#define CAEKF_DIM_N(m) ((void)(m), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
 #else
 #define CAEKF_DIM_NQ(m) ((m)->nq)
 #define CAEKF_DIM_NC(m) ((m)->nc)

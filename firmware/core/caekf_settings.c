@@ -261,19 +261,24 @@ static int first_bad_body(const caekf_model_params_t *m)
 /* A build sized for one mechanism (CAEKF_SIZED) runs exactly its counts: the first count that differs. */
 static int first_unsized(const caekf_model_params_t *m)
 {
-    if (!CAEKF_SIZED) {
-        return -1;
-    }
-    if (m->bodies != CAEKF_MAX_BODIES) {
+#if CAEKF_SIZED
+    if (m->bodies != CAEKF_SIZED_BODIES) {
         return (int)CAEKF_PARAM_BODIES;
     }
-    if (m->inputs != CAEKF_MAX_INPUTS) {
+    if (m->springs != CAEKF_SIZED_SPRINGS) {
+        return (int)CAEKF_PARAM_SPRINGS;
+    }
+    if (m->inputs != CAEKF_SIZED_INPUTS) {
         return (int)CAEKF_PARAM_INPUTS;
     }
-    if (m->sensors != CAEKF_MAX_SENSORS) {
+    if (m->sensors != CAEKF_SIZED_SENSORS) {
         return (int)CAEKF_PARAM_SENSORS;
     }
-    return m->contacts != CAEKF_MAX_CONTACTS ? (int)CAEKF_PARAM_CONTACTS : -1;
+    return m->contacts != CAEKF_SIZED_CONTACTS ? (int)CAEKF_PARAM_CONTACTS : -1;
+#else
+    (void)m;
+    return -1;
+#endif
 }
 
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)

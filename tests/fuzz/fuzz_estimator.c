@@ -26,9 +26,9 @@
  */
 #include "fuzz_common.h"
 
-#define N CAEKF_N
+#define N 9 /* the fuzzed mechanism is the paper's (its counts are not fuzzed): n = 2 x 4 bodies + 1 contact */
 #define NQ CAEKF_NQ
-#define IG CAEKF_IG
+#define IG 8 /* its gamma */
 #define MAX_STEPS_PER_INPUT 2048L
 
 /* INIT_SCALING (fixed): caekf_settings_validate used to accept settings whose scaled state or noise
@@ -220,7 +220,7 @@ static void check_flags(const caekf_t *e, const caekf_report_t *rep)
              "Newton iterations within the bound");
 }
 
-static void one_step(caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], int norm)
+static void one_step(caekf_scalar_t u, const caekf_scalar_t y[CAEKF_MAX_SENSORS], int norm)
 {
     caekf_report_t rep;
     caekf_status_t st;
@@ -341,7 +341,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
     while (fz_more(&r) && steps < MAX_STEPS_PER_INPUT) {
         const uint8_t ctrl = fz_u8(&r);
-        caekf_scalar_t u, y[CAEKF_NY];
+        caekf_scalar_t u, y[CAEKF_MAX_SENSORS];
         long reps, k;
         if (ctrl == 0x7Eu) {
             caekf_settings_t s2 = est.cfg;

@@ -19,7 +19,7 @@ int main(void)
 {
     caekf_settings_t s;
     caekf_t est;
-    caekf_scalar_t y[CAEKF_NY] = {0, 0}, gamma = 0;
+    caekf_scalar_t y[CAEKF_MAX_SENSORS] = {0, 0}, gamma = 0;
     unsigned i;
     int k;
     (void)caekf_settings_default(&s);

@@ -272,7 +272,7 @@ int main(int argc, char **argv)
     t_lap = t0;
     for (k = 0; k < steps; ++k) {
         const sample_t *x = &truth[k % n_truth];
-        caekf_scalar_t y[CAEKF_NY];
+        caekf_scalar_t y[CAEKF_MAX_SENSORS];
         caekf_report_t rep;
         caekf_status_t st;
         double a, b;

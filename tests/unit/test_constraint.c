@@ -26,9 +26,10 @@ static int correct_full(caekf_scalar_t z[N], paper_mat_t P, const caekf_scalar_t
 {
     caekf_scalar_t nis;
     caekf_filter_dims_t d;
+    static caekf_correct_work_t work;
     int st;
     paper_filter_dims(&d, r, CAEKF_GAMMA_LIVE);
-    st = caekf_correct_upper(z, &P[0][0], y, joseph, &d, 0, &nis, flags);
+    st = caekf_correct_upper(z, &P[0][0], y, joseph, &d, 0, &nis, flags, &work);
     if (st == 0) {
         caekf_mirror_upper(&P[0][0], N);
     }
@@ -50,7 +51,7 @@ typedef struct {
 static void cwatch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *t, void *ctx)
 {
     cwatch_t *w = ctx;
-    caekf_scalar_t x[N];
+    caekf_scalar_t x[CAEKF_N];
     int i;
     (void)t;
     (void)st;

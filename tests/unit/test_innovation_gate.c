@@ -45,10 +45,11 @@ static corr_t correct(const caekf_scalar_t y[2], caekf_gamma_policy_t policy, ca
 {
     corr_t c;
     caekf_filter_dims_t d;
+    static caekf_correct_work_t work;
     memset(&c, 0, sizeof c);
     prior(c.z, c.P);
     paper_filter_dims(&d, (caekf_scalar_t)0.01, policy);
-    TEST_ASSERT_EQUAL_INT(0, caekf_correct_upper(c.z, &c.P[0][0], y, 0, &d, gate, &c.nis, &c.flags));
+    TEST_ASSERT_EQUAL_INT(0, caekf_correct_upper(c.z, &c.P[0][0], y, 0, &d, gate, &c.nis, &c.flags, &work));
     return c;
 }
 
@@ -141,7 +142,7 @@ static gap_result_t run_gap(caekf_scalar_t gate)
     for (k = 0; k < RUN_END && truth_next(&r) == 1; ++k) {
         const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
         caekf_report_t rep;
-        caekf_scalar_t xr[N], xe[N];
+        caekf_scalar_t xr[CAEKF_N], xe[CAEKF_N];
         double dq = 0, dg;
         int i;
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));

@@ -8,7 +8,7 @@
 #include "test_support.h"
 #include "unity.h"
 
-#define N CAEKF_N
+#define N PAPER_N /* the paper's mechanism: loops; arrays have the build's capacity */
 
 #if CAEKF_USE_FLOAT
 #define JAC_RTOL 3e-2
@@ -31,7 +31,7 @@ void setUp(void)
 void tearDown(void) {}
 
 /* A state with penetration `delta` (<= 0: no contact) and some motion. */
-static void make_state(caekf_scalar_t x[N], double delta)
+static void make_state(caekf_scalar_t x[CAEKF_N], double delta)
 {
     double q3 = 1.5e-5;
     x[0] = (caekf_scalar_t)1.2e-3;
@@ -47,14 +47,14 @@ static void make_state(caekf_scalar_t x[N], double delta)
 
 static void check_jacobians_at(double delta)
 {
-    caekf_scalar_t xk[N], xp[N], Jk[N][N], Jp[N][N];
+    caekf_scalar_t xk[CAEKF_N], xp[CAEKF_N], Jk[CAEKF_N][CAEKF_N], Jp[CAEKF_N][CAEKF_N];
     int i, j;
     make_state(xk, delta);
     make_state(xp, delta * 0.9);
     xp[4] = (caekf_scalar_t)2.5e-3;
     caekf_model_jacobians(&model, xk, Jk, Jp);
     for (j = 0; j < N; ++j) {
-        caekf_scalar_t a[N], b[N], ga[N], gb[N];
+        caekf_scalar_t a[CAEKF_N], b[CAEKF_N], ga[CAEKF_N], gb[CAEKF_N];
         double h;
         /* d/dx_k */
         memcpy(a, xk, sizeof a);
@@ -91,7 +91,7 @@ static void check_jacobians_at(double delta)
 static void test_jacobians_match_finite_differences_in_contact(void)
 {
     caekf_contact_t c;
-    caekf_scalar_t x[N];
+    caekf_scalar_t x[CAEKF_N];
     make_state(x, 2e-6);
     caekf_model_contact(&model, 0, x, x[8], &c);
     TEST_ASSERT_TRUE(c.delta > 0 && c.fc > 0 && c.dfc_ddelta > 0);
@@ -101,7 +101,7 @@ static void test_jacobians_match_finite_differences_in_contact(void)
 static void test_jacobians_match_finite_differences_out_of_contact(void)
 {
     caekf_contact_t c;
-    caekf_scalar_t x[N];
+    caekf_scalar_t x[CAEKF_N];
     make_state(x, -5e-6);
     caekf_model_contact(&model, 0, x, x[8], &c);
     TEST_ASSERT_TRUE(c.delta < 0);
@@ -147,7 +147,7 @@ static void invert(double a[N][N], double inv[N][N])
 
 static void check_transition_at(double delta)
 {
-    caekf_scalar_t xk[N], Jk[N][N], Jp[N][N], F[N][N];
+    caekf_scalar_t xk[CAEKF_N], Jk[CAEKF_N][CAEKF_N], Jp[CAEKF_N][CAEKF_N], F[CAEKF_N][CAEKF_N];
     double A[N][N], Ai[N][N];
     int i, j, k;
     make_state(xk, delta);
@@ -195,7 +195,7 @@ static void test_structured_transition_equals_eq10(void)
 static void test_newton_converges_over_the_reference_scenario(void)
 {
     truth_rec_t r;
-    caekf_scalar_t xp[N], xk[N];
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N];
     long n = 0, contact = 0, iters = 0;
     int max_it = 0, rc, i;
     TEST_ASSERT_EQUAL_INT(0, truth_open());
@@ -228,7 +228,7 @@ static void test_newton_converges_over_the_reference_scenario(void)
 
 static void test_forced_newton_failure_is_reported(void)
 {
-    caekf_scalar_t xp[N], xk[N];
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N];
     int it = 0;
     make_state(xp, 2e-6);
     /* One iteration cannot meet an absurd tolerance in contact: status 1, the iterate is kept. */

@@ -122,11 +122,15 @@ typedef struct {
     caekf_scalar_t z[CAEKF_N];              /* scaled state */
     caekf_scalar_t P[CAEKF_N * CAEKF_N];    /* scaled covariance */
     caekf_scalar_t P_work[CAEKF_N * CAEKF_N];
-    caekf_scalar_t scratch[CAEKF_N * CAEKF_N];
+    /* scratch: the PSD check's and the P norm's n x n workspace, earlier in a step the correction's */
+    union {
+        caekf_scalar_t m[CAEKF_N * CAEKF_N];
+        caekf_correct_work_t correct;
+    } scratch;
     caekf_scalar_t x_prev[CAEKF_N];         /* step work: x_{k-1}, then x_k- and the scaled z */
     caekf_scalar_t x_pred[CAEKF_N];
     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of the scaled F */
-    caekf_fv_pattern_t fv_pattern;          /* fv's nonzeros */
+    caekf_fv_pattern_t fv_pattern;          /* fv's rows, compacted to their nonzeros: their columns */
     uint32_t fv_const;                      /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
     int sensor_state[CAEKF_MAX_SENSORS];    /* state index each sensor measures */

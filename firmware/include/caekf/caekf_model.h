@@ -69,6 +69,12 @@ typedef struct {
     unsigned char nnz[CAEKF_NQ];
 } caekf_fv_pattern_t;
 
+/* Work buffers of the correction: the gain and H P (in the instance, off the stack). */
+typedef struct {
+    caekf_scalar_t gain[CAEKF_N][CAEKF_MAX_SENSORS];
+    caekf_scalar_t hp[CAEKF_MAX_SENSORS][CAEKF_N];
+} caekf_correct_work_t;
+
 /* One contact's law at a state: penetration and the force with its derivatives. */
 typedef struct {
     caekf_scalar_t delta;      /* q_a - q_b - gap */

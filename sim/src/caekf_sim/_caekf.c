@@ -280,7 +280,7 @@ static int parse_y(PyObject *obj, double y[2])
 static PyObject *est_step(EstObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double u, yd[2];
-    caekf_scalar_t y[CAEKF_NY];
+    caekf_scalar_t y[CAEKF_MAX_SENSORS];
     caekf_report_t rep;
     caekf_status_t st;
     if (nargs != 2) {
@@ -516,7 +516,7 @@ static PyObject *est_run(EstObject *self, PyObject *args)
         caekf_scalar_t xs[CAEKF_N];
         int with_y = has_y == NULL || has_y[k] != 0;
         if (with_y) {
-            caekf_scalar_t ys[CAEKF_NY];
+            caekf_scalar_t ys[CAEKF_MAX_SENSORS];
             ys[0] = (caekf_scalar_t)y[2 * k];
             ys[1] = (caekf_scalar_t)y[2 * k + 1];
             st = caekf_step(&self->est, (const caekf_scalar_t[]){(caekf_scalar_t)u[k]}, ys, &rep);

@@ -102,7 +102,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_prod(fake.tx[0].data, &pm));
         TEST_ASSERT_EQUAL_UINT8((uint8_t)(step & 0xFFu), pm.step);
         TEST_ASSERT_EQUAL_HEX16((uint16_t)(rep.flags & 0x0FFFu), pm.flags);
-        TEST_ASSERT_TRUE(f32((double)x[CAEKF_IG]) == pm.gamma);
+        TEST_ASSERT_TRUE(f32((double)x[2 * ref.model.nq]) == pm.gamma);
         i = fake_tx_find(&fake, CAEKF_MSG_EST_PAGE, 0);
         if ((k % PERIOD) < CAEKF_PAGE_COUNT) {
             caekf_msg_page_t pg;
@@ -116,7 +116,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
             } else if (pg.page == 8u) {
                 TEST_ASSERT_TRUE(f32((double)pn) == pg.value);
             } else if (pg.page == 9u) {
-                TEST_ASSERT_TRUE(f32((double)P[CAEKF_IG][CAEKF_IG]) == pg.value);
+                TEST_ASSERT_TRUE(f32((double)P[2 * ref.model.nq][2 * ref.model.nq]) == pg.value);
             } else {
                 TEST_ASSERT_EQUAL_HEX16((uint16_t)rep.flags, pg.info.flags);
                 TEST_ASSERT_EQUAL_UINT8((uint8_t)rep.newton_iters, pg.info.newton_iters);
