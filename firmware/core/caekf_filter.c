@@ -69,6 +69,17 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             }
             continue;
         }
+        if (cnt[i] == n) { /* a dense row (in contact): no indices */
+            for (j = 0; j < n; ++j, pj += n) {
+                caekf_scalar_t s = 0;
+                for (k = 0; k < n; ++k) {
+                    s += f[k] * pj[k];
+                }
+                tv[j] = s;
+                tq[j] = pi[j] + c * s;
+            }
+            continue;
+        }
         for (j = 0; j < n; ++j, pj += n) {
             caekf_scalar_t s = 0;
             for (k = 0; k < cnt[i]; ++k) {
@@ -94,6 +105,10 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                 s += t[idx[1]] * f[1];
                 s += t[idx[2]] * f[2];
                 s += t[idx[3]] * f[3];
+            } else if (cnt[j] == n) {
+                for (k = 0; k < n; ++k) {
+                    s += t[k] * f[k];
+                }
             } else {
                 for (k = 0; k < cnt[j]; ++k) {
                     s += t[idx[k]] * f[k];
@@ -225,27 +240,38 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         }
         *flags |= CAEKF_FLAG_GAMMA_GATED;
     }
-    for (i = 0; i < n; ++i) {
-        for (k = 0; k < ny; ++k) {
-            hp[k][i] = UP(P, n, d->h[k], i);
-        }
-    }
-    for (i = 0; i < n; ++i) {
-        for (k = 0; k < ny; ++k) {
-            caekf_scalar_t s = 0;
-            for (l = 0; l < ny; ++l) {
-                s += hp[l][i] * Si[l][k];
-            }
+    if (ny == 2) { /* two sensors, written out: the same operations as the loops below */
+        const int h0 = d->h[0], h1 = d->h[1];
+        const caekf_scalar_t s00 = Si[0][0], s01 = Si[0][1], s11 = Si[1][1], e0 = e[0], e1 = e[1];
+        for (i = 0; i < n; ++i) {
+            const caekf_scalar_t a = UP(P, n, h0, i), b = UP(P, n, h1, i);
+            hp[0][i] = a;
+            hp[1][i] = b;
             /* eq. (26) with a gamma frozen: a Schmidt ("consider") gain of 0 on it */
-            G[i][k] = live[i] ? s : 0;
+            G[i][0] = live[i] ? a * s00 + b * s01 : 0;
+            G[i][1] = live[i] ? a * s01 + b * s11 : 0;
+            z[i] += G[i][0] * e0 + G[i][1] * e1;
         }
-    }
-    for (i = 0; i < n; ++i) {
-        caekf_scalar_t s = 0;
-        for (k = 0; k < ny; ++k) {
-            s += G[i][k] * e[k];
+    } else {
+        for (i = 0; i < n; ++i) {
+            for (k = 0; k < ny; ++k) {
+                hp[k][i] = UP(P, n, d->h[k], i);
+            }
         }
-        z[i] += s;
+        for (i = 0; i < n; ++i) {
+            caekf_scalar_t dz = 0;
+            for (k = 0; k < ny; ++k) {
+                caekf_scalar_t s = 0;
+                for (l = 0; l < ny; ++l) {
+                    s += hp[l][i] * Si[l][k];
+                }
+                G[i][k] = live[i] ? s : 0;
+            }
+            for (k = 0; k < ny; ++k) {
+                dz += G[i][k] * e[k];
+            }
+            z[i] += dz;
+        }
     }
     if (!joseph) {
         /* Eq. (15) on the upper triangle: P+ = P - G (H P). With a gamma's gain zeroed, its row of this
