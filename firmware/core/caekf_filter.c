@@ -43,6 +43,23 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
  * index ascending from s = 0: exactly the order of the plain dense loops, so every result is bit for
  * bit the same whatever the mechanism's sparsity (without contact, K, C and M couple only linked
  * bodies and the gamma columns are 0). */
+/* sum_k a[k] b[k], k ascending from 0 (the plain loop's order), four terms per turn. */
+static inline caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_t *b, int n)
+{
+    caekf_scalar_t s = 0;
+    int k = 0;
+    for (; k + 4 <= n; k += 4) {
+        s += a[k] * b[k];
+        s += a[k + 1] * b[k + 1];
+        s += a[k + 2] * b[k + 2];
+        s += a[k + 3] * b[k + 3];
+    }
+    for (; k < n; ++k) {
+        s += a[k] * b[k];
+    }
+    return s;
+}
+
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, const caekf_scalar_t *q_diag,
                               const caekf_filter_dims_t *d)
@@ -71,10 +88,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         }
         if (cnt[i] == n) { /* a dense row (in contact): no indices */
             for (j = 0; j < n; ++j, pj += n) {
-                caekf_scalar_t s = 0;
-                for (k = 0; k < n; ++k) {
-                    s += f[k] * pj[k];
-                }
+                const caekf_scalar_t s = dot(f, pj, n);
                 tv[j] = s;
                 tq[j] = pi[j] + c * s;
             }
@@ -106,9 +120,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                 s += t[idx[2]] * f[2];
                 s += t[idx[3]] * f[3];
             } else if (cnt[j] == n) {
-                for (k = 0; k < n; ++k) {
-                    s += t[k] * f[k];
-                }
+                s = dot(t, f, n);
             } else {
                 for (k = 0; k < cnt[j]; ++k) {
                     s += t[idx[k]] * f[k];
@@ -202,7 +214,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */
     caekf_scalar_t e[CAEKF_MAX_SENSORS], rr[CAEKF_MAX_SENSORS];
     unsigned char live[CAEKF_N], skip[CAEKF_N];
-    int any_live = 0;
+    int any_live = 0, any_skip = 0;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j, k, l;
     if (innovation_inverse(P, d, Si) != 0) {
@@ -233,6 +245,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma's row and column are left. */
         skip[i] = (unsigned char)(g >= 0 && d->policy[g] == CAEKF_GAMMA_FROZEN_PAPER);
         any_live |= g >= 0 && live[i];
+        any_skip |= skip[i];
     }
     if (any_live && gate > 0 && *nis > gate) {
         for (i = nx; i < n; ++i) {
@@ -287,7 +300,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                 const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
                 p[i] -= g0 * h0[i] + g1 * h1[i];
                 for (j = i + 1; j < n; ++j) {
-                    if (!skip[j]) {
+                    if (!any_skip || !skip[j]) {
                         p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
                     }
                 }

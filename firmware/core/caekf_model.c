@@ -141,15 +141,31 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     int i, k;
     for (i = 0; i < nq; ++i) {
         const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        caekf_scalar_t s = inertia, a = CAEKF_FABS(inertia);
+        const caekf_scalar_t *Ki = m->K[i], *Ci = m->C[i];
+        const unsigned char *nz = m->nz[i];
+        caekf_scalar_t s = inertia;
+        if (m->nnz[i] == 2) { /* a body with one neighbour (a chain's end or pair): written out */
+            const int j0 = nz[0], j1 = nz[1];
+            const caekf_scalar_t kq0 = Ki[j0] * q[j0], cv0 = Ci[j0] * v[j0];
+            const caekf_scalar_t kq1 = Ki[j1] * q[j1], cv1 = Ci[j1] * v[j1];
+            r[i] = s + (kq0 + cv0) + (kq1 + cv1);
+            if (mag != 0) {
+                mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) +
+                         (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+            }
+            continue;
+        }
         for (k = 0; k < m->nnz[i]; ++k) { /* K and C's nonzeros of row i, ascending */
-            const int j = m->nz[i][k];
-            const caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
-            s += kq + cv;
-            a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
+            const int j = nz[k];
+            s += Ki[j] * q[j] + Ci[j] * v[j];
         }
         r[i] = s;
         if (mag != 0) {
+            caekf_scalar_t a = CAEKF_FABS(inertia);
+            for (k = 0; k < m->nnz[i]; ++k) {
+                const int j = nz[k];
+                a += CAEKF_FABS(Ki[j] * q[j]) + CAEKF_FABS(Ci[j] * v[j]);
+            }
             mag[i] = a;
         }
     }
