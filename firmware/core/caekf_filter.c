@@ -6,6 +6,18 @@
 #include "caekf_math.h"
 
 #define AT(P, n, i, j) ((P)[(i) * (n) + (j)])
+
+/* The filter's sizes: constants in a build sized for one mechanism (the branches for other sizes and
+ * the loop bounds then fold away), the instance's otherwise. */
+#if CAEKF_SIZED
+#define DIM_NQ(d) ((void)(d), CAEKF_SIZED_BODIES)
+#define DIM_N(d) ((void)(d), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#define DIM_NY(d) ((void)(d), CAEKF_SIZED_SENSORS)
+#else
+#define DIM_NQ(d) ((d)->nq)
+#define DIM_N(d) ((d)->n)
+#define DIM_NY(d) ((d)->ny)
+#endif
 /* P_ij of a matrix kept as its upper triangle. */
 #define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
@@ -64,7 +76,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, const caekf_scalar_t *q_diag,
                               const caekf_filter_dims_t *d)
 {
-    const int nq = d->nq, n = d->n, nx = 2 * d->nq;
+    const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
     caekf_scalar_t w[CAEKF_NQ];
     int i, j, k;
@@ -167,7 +179,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
 static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t *d,
                               caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
 {
-    const int n = d->n, ny = d->ny;
+    const int n = DIM_N(d), ny = DIM_NY(d);
     caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     int piv[CAEKF_MAX_SENSORS];
@@ -208,7 +220,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                         const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
                         caekf_correct_work_t *work)
 {
-    const int n = d->n, ny = d->ny, nx = 2 * d->nq;
+    const int n = DIM_N(d), ny = DIM_NY(d), nx = 2 * DIM_NQ(d);
     caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
     caekf_scalar_t(*const G)[CAEKF_MAX_SENSORS] = work->gain;
     caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */

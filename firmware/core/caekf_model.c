@@ -280,13 +280,13 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
 /* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
-    return (nq == 4 ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK ? 0
+    return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK ? 0
                                                                                                              : -1;
 }
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
 {
-    if (nq == 4) {
+    if (CAEKF_DIM_IS4(nq)) {
         caekf_lu4_solve(lu, piv, b, nrhs, ldb);
     } else {
         (void)caekf_lu_solve(lu, nq, piv, b, nrhs, ldb);
