@@ -59,14 +59,11 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
 static inline caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_t *b, int n)
 {
     caekf_scalar_t s = 0;
-    int k = 0;
-    for (; k + 4 <= n; k += 4) {
-        s += a[k] * b[k];
-        s += a[k + 1] * b[k + 1];
-        s += a[k + 2] * b[k + 2];
-        s += a[k + 3] * b[k + 3];
-    }
-    for (; k < n; ++k) {
+    int k;
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 32 /* a sized build knows n: written out even at -Os */
+#endif
+    for (k = 0; k < n; ++k) {
         s += a[k] * b[k];
     }
     return s;
