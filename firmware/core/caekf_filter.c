@@ -24,7 +24,7 @@
 /* Off-diagonal covariances below CAEKF_TINY are flushed to 0 as they are written: decaying
  * cross-covariances otherwise become subnormal, which costs 5x in float on x86 and means nothing
  * next to the O(1) scaled variances. */
-static caekf_scalar_t flush(caekf_scalar_t v) { return CAEKF_FABS(v) < CAEKF_TINY ? 0 : v; }
+CAEKF_HOT_INLINE caekf_scalar_t flush(caekf_scalar_t v) { return CAEKF_FABS(v) < CAEKF_TINY ? 0 : v; }
 
 void caekf_mirror_upper(caekf_scalar_t *P, int n)
 {
@@ -56,7 +56,7 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
  * bit the same whatever the mechanism's sparsity (without contact, K, C and M couple only linked
  * bodies and the gamma columns are 0). */
 /* sum_k a[k] b[k], k ascending from 0 (the plain loop's order), four terms per turn. */
-static inline caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_t *b, int n)
+CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_t *b, int n)
 {
     caekf_scalar_t s = 0;
     int k;

@@ -63,7 +63,7 @@ int caekf_model_params_check(const caekf_model_params_t *p)
 #endif
 
 /* delta^n and n delta^(n-1) for delta > 0: the Hertz (1.5) and linear (1) laws exactly, others by pow. */
-static void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar_t *dn, caekf_scalar_t *dn1)
+CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar_t *dn, caekf_scalar_t *dn1)
 {
     if (n == CAEKF_C(1.5)) {
         const caekf_scalar_t sd = CAEKF_SQRT(d);
