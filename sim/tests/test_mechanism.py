@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from caekf_sim.estimator import AugmentedEKF, EstimatorConfig, run_estimator
+from caekf_sim.estimator import AugmentedEKF, EstimatorConfig
 from caekf_sim.mechanism import InputSeries, Mechanism, MechanismError, contact_law, contact_values
 from caekf_sim.model import StepSolver
-from caekf_sim.truth import contact_episodes, read_truth_csv, simulate, write_truth_csv
+from caekf_sim.truth import read_truth_csv, simulate, write_truth_csv
+from mechanism_support import Sc
 
 # A 5-body mechanism exercising everything: a body-ground contact (n = 1, Hunt-Crossley), a
 # body-body contact with the ground on side a, two inputs, a velocity sensor.
@@ -35,23 +36,6 @@ FIVE = {
     "contact2_gamma_min": 1e9, "sigma_q0": 1e-6, "sigma_v0": 1e-5, "sigma_qx_q": 1e-9, "sigma_qx_v": 1e-7,
     "sigma_r": 1e-7, "sigma_rv": 1e-5, "noise_std": 0.0, "noise_std_v": 0.0, "seed": 1, "truth_substeps": 2,
 }
-
-
-class Sc(dict):
-    """A dict scenario with the attributes the estimator and truth read directly."""
-
-    def __getattr__(self, key):
-        try:
-            return self[key]
-        except KeyError:
-            raise AttributeError(key) from None
-
-    @property
-    def n_steps(self) -> int:
-        return int(round(self["t_end"] / self["dt"]))
-
-    def replace(self, **kw) -> "Sc":
-        return Sc({**self, **kw})
 
 
 @pytest.fixture
