@@ -15,7 +15,7 @@ from caekf_sim.experiments import experiment_config
 from caekf_sim.mechanism import Mechanism, contact_values
 from caekf_sim.truth import contact_episodes, simulate
 
-from mechanism_support import Sc, example_scenario
+from mechanism_support import example_scenario
 
 EXAMPLES = ("shuttle", "valve")
 PRESETS = ("switched", "switched-highq-constrained")
@@ -98,34 +98,32 @@ def test_each_gamma_is_frozen_while_its_contact_is_open(runs, estimates):
 
 
 def test_paper_in_the_general_keys_is_the_paper(sc, truth):
-    """The paper written with canonical keys (no aliases) runs bit for bit like paper.toml."""
-    canon = {"bodies": 4, "springs": 4, "inputs": 1, "sensors": 2, "contacts": 1}
-    for i, (a, b, k, c) in enumerate([(1, 0, "k1", "c1"), (1, 2, "k12", "c12"), (3, 4, "k34", "c34"),
-                                      (4, 0, "k4", "c4")], 1):
-        canon.update({f"spring{i}_a": a, f"spring{i}_b": b, f"spring{i}_k": getattr(sc, k),
-                      f"spring{i}_c": getattr(sc, c)})
-    for key in ("gap", "gamma0", "sigma_gamma0", "sigma_q_gamma", "gamma_min"):
-        canon[f"contact1_{key}"] = getattr(sc, key)
-    canon.update({"contact1_a": 2, "contact1_b": 3, "contact1_n": 1.5, "contact1_lambda": 0.0,
-                  "sensor1_body": 1, "sensor2_body": 4, "input1_body": 1})
-    rest = {k: v for k, v in sc.values().items() if k not in ("k1", "k12", "k34", "k4", "c1", "c12", "c34", "c4",
-                                                               "gap", "gamma0", "sigma_gamma0", "sigma_q_gamma",
-                                                               "gamma_min")}
-    general = Sc({**rest, **canon})
+    """paper.toml rewritten with the canonical keys and the chain spelled out runs bit for bit alike."""
+    from caekf_sim import schema
+    from caekf_sim.scenario import default_scenario_path, parse_flat, scenario_from_text
+
+    lines = [f"{schema.canonical(k)} = {v}" for k, (_, v) in parse_flat(default_scenario_path().read_text()).items()]
+    lines += [f"spring{i}_{e} = {b}" for i, pair in enumerate([(1, 0), (1, 2), (3, 4), (4, 0)], 1)
+              for e, b in zip("ab", pair)]
+    lines += ["bodies = 4", "springs = 4", "inputs = 1", "sensors = 2", "contacts = 1", "contact1_a = 2",
+              "contact1_b = 3", "contact1_n = 1.5", "contact1_lambda = 0", "input1_body = 1", "sensor1_body = 1",
+              "sensor2_body = 4", 'sensor1_kind = "position"', 'sensor2_kind = "position"']
+    general = scenario_from_text("\n".join(lines), "general")
+    assert not {line.split(" = ")[0] for line in lines} & set(schema.ALIASES)  # no paper name left
     n = 20000  # through the first contact episode
     cfg = experiment_config("switched")
     a = run_estimator(sc, cfg, truth.t[:n], truth.u[:n], truth.y[:n], keep_P=False)
     b = run_estimator(general, cfg, truth.t[:n], truth.u[:n], truth.y[:n], keep_P=False)
     np.testing.assert_array_equal(a.x, b.x)
     np.testing.assert_array_equal(a.flags, b.flags)
+    np.testing.assert_array_equal(simulate(general.replace(t_end=15.0)).q, simulate(sc.replace(t_end=15.0)).q)
 
 
 def test_a_second_contact_that_never_closes_changes_nothing(sc, truth):
     """Contact 2 far away: gamma_1 follows the paper's single-contact run, gamma_2 stays frozen."""
-    values = {**sc.values(), "contacts": 2, "contact2_a": 1, "contact2_b": 0, "contact2_gap": 1.0,
-              "contact2_n": 1.0, "contact2_lambda": 0.0, "contact2_gamma": 1e6, "contact2_gamma0": 3e5,
-              "contact2_sigma_gamma0": 1e5, "contact2_sigma_q_gamma": 1e3, "contact2_gamma_min": 0.0}
-    two = Sc(values)
+    two = sc.replace(contacts=2, contact2_a=1, contact2_b=0, contact2_gap=1.0, contact2_n=1.0, contact2_lambda=0.0,
+                     contact2_gamma=1e6, contact2_gamma0=3e5, contact2_sigma_gamma0=1e5,
+                     contact2_sigma_q_gamma=1e3, contact2_gamma_min=0.0)
     n = 20000
     for preset in ("switched", "switched-highq-constrained"):
         cfg = experiment_config(preset)

@@ -13,59 +13,45 @@ acting -f on body a and +f on body b. With body numbers 1-based in the file, eve
 
 `Mechanism.from_scenario(sc)` reads the canonical keys (`spring2_k`, `contact1_gap`, ...) or, for a
 scenario that predates them, their paper aliases (`k12`, `gap`, ...); absent keys take the defaults
-of the format, which are the paper's chain. `sc` may be a `Scenario` or a plain {key: value} dict.
+of the settings schema, which are the paper's chain. `sc` may be a `Scenario` or a plain {key: value} dict.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-MAX_BODIES = 8
-MAX_SPRINGS = 12
-MAX_INPUTS = 2
-MAX_SENSORS = 4
-MAX_CONTACTS = 2
+from .schema import ALIASES as SCHEMA_ALIASES
+from .schema import SCHEMA, setting_of
+
+# Capacities of the format (the schema's [capacity] table).
+MAX_BODIES = SCHEMA.capacity["bodies"]
+MAX_SPRINGS = SCHEMA.capacity["springs"]
+MAX_INPUTS = SCHEMA.capacity["inputs"]
+MAX_SENSORS = SCHEMA.capacity["sensors"]
+MAX_CONTACTS = SCHEMA.capacity["contacts"]
 
 POSITION = 0
 VELOCITY = 1
 SENSOR_KINDS = ("position", "velocity")
 
-# Canonical key -> the paper's name for it (the scenario files written before the general format).
-ALIASES: Dict[str, str] = {
-    "spring1_k": "k1", "spring2_k": "k12", "spring3_k": "k34", "spring4_k": "k4",
-    "spring1_c": "c1", "spring2_c": "c12", "spring3_c": "c34", "spring4_c": "c4",
-    "input1_amp": "u_amp", "input1_freq": "u_freq", "input1_phase": "u_phase",
-    "contact1_gap": "gap", "contact1_gamma": "gamma", "contact1_gamma0": "gamma0",
-    "contact1_sigma_gamma0": "sigma_gamma0", "contact1_sigma_q_gamma": "sigma_q_gamma",
-    "contact1_gamma_min": "gamma_min",
-}
-_PAPER_SPRINGS = ((1, 0), (1, 2), (3, 4), (4, 0))
+# Canonical key -> the paper's name for it (the schema's aliases, reversed).
+ALIASES: Dict[str, str] = {canon: alias for alias, canon in SCHEMA_ALIASES.items()}
 
 
-def _defaults() -> Dict[str, Any]:
-    """Defaults of the format's keys (the paper's chain); keys without one are required."""
-    d: Dict[str, Any] = {"bodies": 4, "springs": 4, "inputs": 1, "sensors": 2, "contacts": 1,
-                         "noise_std_v": 0.0, "sigma_rv": 1.0}
-    for i in range(1, MAX_BODIES + 1):
-        d[f"q0_{i}"] = 0.0
-        d[f"v0_{i}"] = 0.0
-    for i in range(1, MAX_SPRINGS + 1):
-        a, b = _PAPER_SPRINGS[i - 1] if i <= len(_PAPER_SPRINGS) else (1, 0)
-        d.update({f"spring{i}_a": a, f"spring{i}_b": b, f"spring{i}_k": 0.0, f"spring{i}_c": 0.0})
-    for i in range(1, MAX_INPUTS + 1):
-        d.update({f"input{i}_body": 1, f"input{i}_amp": 0.0, f"input{i}_freq": 0.0, f"input{i}_phase": 0.0})
-    for i, body in zip(range(1, MAX_SENSORS + 1), (1, 4, 1, 4)):
-        d.update({f"sensor{i}_body": body, f"sensor{i}_kind": POSITION})
-    for i in range(1, MAX_CONTACTS + 1):
-        d.update({f"contact{i}_a": 2, f"contact{i}_b": 3, f"contact{i}_n": 1.5, f"contact{i}_lambda": 0.0,
-                  f"contact{i}_gamma_min": 0.0})
+def default_of(key: str) -> Any:
+    """The schema's default of a canonical key (None: required when in use, or not a setting)."""
+    try:
+        setting = setting_of(key)
+    except KeyError:
+        return None
+    index = setting.keys.index(key) if key in setting.keys else 0
+    d = setting.element_default(index)
+    if isinstance(d, str):  # an enum's name or a build-relative value
+        return setting.default_value(index=index)
     return d
-
-
-DEFAULTS: Dict[str, Any] = _defaults()
 
 
 class MechanismError(ValueError):
@@ -78,7 +64,7 @@ class MechanismError(ValueError):
 
 def scenario_value(sc: Any, key: str) -> Any:
     """The value of a canonical key in a Scenario or dict: the key, else its paper alias, else the
-    format's default; MechanismError when none of them exists."""
+    schema's default; MechanismError when none of them exists."""
     for k in (key, ALIASES.get(key)):
         if k is None:
             continue
@@ -87,8 +73,9 @@ def scenario_value(sc: Any, key: str) -> Any:
                 return sc[k]
         elif hasattr(sc, k):
             return getattr(sc, k)
-    if key in DEFAULTS:
-        return DEFAULTS[key]
+    d = default_of(key)
+    if d is not None:
+        return d
     raise MechanismError(key, "(missing)", "required: it has no default")
 
 
