@@ -96,6 +96,19 @@ def _body(sc: Any, key: str, bodies: int, ground: bool) -> int:
     return int(v) - 1
 
 
+def _links(sc: Any, prefix: str, count: int, bodies: int) -> Tuple[list, list]:
+    """0-based ends (a, b) of springs or contacts 1..count; -1 = ground, a != b."""
+    ends: Tuple[list, list] = ([], [])
+    for i in range(1, count + 1):
+        a = _body(sc, f"{prefix}{i}_a", bodies, True)
+        b = _body(sc, f"{prefix}{i}_b", bodies, True)
+        if a == b:
+            raise MechanismError(f"{prefix}{i}_b", b + 1, f"must differ from {prefix}{i}_a")
+        ends[0].append(a)
+        ends[1].append(b)
+    return ends
+
+
 def _real(sc: Any, key: str, lo: Optional[float] = None, strict: bool = False) -> float:
     v = float(scenario_value(sc, key))
     if not math.isfinite(v):
@@ -191,10 +204,18 @@ class Mechanism:
     B_u: np.ndarray = field(init=False)  # (nq, ni): input i acts on column i
     B_c: np.ndarray = field(init=False)  # (nc, nq): row c = e_a - e_b (ground omitted); delta = B_c q - gap
     H: np.ndarray = field(init=False)  # (ns, 2 nq): y = H [q; v]
+    # sizes: bodies, inputs, sensors, contacts
+    nq: int = field(init=False)
+    n_inputs: int = field(init=False)
+    n_sensors: int = field(init=False)
+    n_contacts: int = field(init=False)
 
     def __post_init__(self) -> None:
         nq = len(self.m)
         set_ = object.__setattr__
+        for name, n in (("nq", nq), ("n_inputs", len(self.input_body)), ("n_sensors", len(self.sensor_body)),
+                        ("n_contacts", len(self.contact_a))):
+            set_(self, name, n)
         set_(self, "K", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_k))
         set_(self, "C", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_c))
         B_u = np.zeros((nq, len(self.input_body)))
@@ -210,23 +231,6 @@ class Mechanism:
         H = np.zeros((len(self.sensor_body), 2 * nq))
         H[np.arange(len(self.sensor_body)), self.sensor_body + nq * self.sensor_kind] = 1.0
         set_(self, "H", H)
-
-    # ---- sizes --------------------------------------------------------------------------
-    @property
-    def nq(self) -> int:
-        return len(self.m)
-
-    @property
-    def n_inputs(self) -> int:
-        return len(self.input_body)
-
-    @property
-    def n_sensors(self) -> int:
-        return len(self.sensor_body)
-
-    @property
-    def n_contacts(self) -> int:
-        return len(self.contact_a)
 
     @property
     def M(self) -> np.ndarray:
@@ -245,14 +249,7 @@ class Mechanism:
         nq = _count(sc, "bodies", 1, MAX_BODIES)
         m = np.array([_real(sc, f"m{i}", 0.0, strict=True) for i in range(1, nq + 1)])
         n_springs = _count(sc, "springs", 0, MAX_SPRINGS)
-        sa, sb = [], []
-        for i in range(1, n_springs + 1):
-            a = _body(sc, f"spring{i}_a", nq, True)
-            b = _body(sc, f"spring{i}_b", nq, True)
-            if a == b:
-                raise MechanismError(f"spring{i}_b", b + 1, f"must differ from spring{i}_a")
-            sa.append(a)
-            sb.append(b)
+        sa, sb = _links(sc, "spring", n_springs, nq)
         sk = [_real(sc, f"spring{i}_k", 0.0) for i in range(1, n_springs + 1)]
         scc = [_real(sc, f"spring{i}_c", 0.0) for i in range(1, n_springs + 1)]
         ni = _count(sc, "inputs", 0, MAX_INPUTS)
@@ -269,14 +266,7 @@ class Mechanism:
                                      f"same body and kind as sensor{sens.index(s) + 1}")
             sens.append(s)
         nc = _count(sc, "contacts", 0, MAX_CONTACTS)
-        ca, cb = [], []
-        for i in range(1, nc + 1):
-            a = _body(sc, f"contact{i}_a", nq, True)
-            b = _body(sc, f"contact{i}_b", nq, True)
-            if a == b:
-                raise MechanismError(f"contact{i}_b", b + 1, f"must differ from contact{i}_a")
-            ca.append(a)
-            cb.append(b)
+        ca, cb = _links(sc, "contact", nc, nq)
         gap = [_real(sc, f"contact{i}_gap") for i in range(1, nc + 1)]
         n = [_real(sc, f"contact{i}_n", 1.0) for i in range(1, nc + 1)]
         lam = [_real(sc, f"contact{i}_lambda", 0.0) for i in range(1, nc + 1)]
