@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from caekf_sim.estimator import run_estimator
-from caekf_sim.experiments import experiment_config
+from caekf_sim.experiments import experiment_config, scenario_config
 from caekf_sim.mechanism import Mechanism, contact_values
 from caekf_sim.truth import contact_episodes, simulate
 
@@ -33,8 +33,12 @@ def runs() -> Dict[str, tuple]:
 
 @pytest.fixture(scope="module")
 def estimates(runs) -> Dict[tuple, object]:
-    return {(name, p): run_estimator(sc, experiment_config(p), tr.t, tr.u, tr.y, keep_P=False)
-            for name, (sc, tr, _) in runs.items() for p in PRESETS}
+    """Each preset as the numpy presets define it (no gate) and as the C tools run it over the scenario
+    (scenario_config: the innovation gate at 25 on)."""
+    configs = {"numpy": experiment_config, "c-settings": None}
+    return {(name, p, how): run_estimator(sc, make(p) if make else scenario_config(sc, p), tr.t, tr.u, tr.y,
+                                          keep_P=False)
+            for name, (sc, tr, _) in runs.items() for p in PRESETS for how, make in configs.items()}
 
 
 def test_examples_fit_the_format():
@@ -75,18 +79,20 @@ def test_contacts_close_at_the_force_peaks(runs, name):
 
 @pytest.mark.parametrize("name", EXAMPLES)
 @pytest.mark.parametrize("preset", PRESETS)
-def test_reference_ekf_converges(runs, estimates, name, preset):
+@pytest.mark.parametrize("how", ["numpy", "c-settings"])
+def test_reference_ekf_converges(runs, estimates, name, preset, how):
     sc, tr, _ = runs[name]
-    res = estimates[(name, preset)]
+    res = estimates[(name, preset, how)]
     g = contact_values(sc, "gamma", Mechanism.from_scenario(sc).n_contacts)
     err = res.gammas[-1] / g - 1.0
     assert np.all(np.abs(err) < 0.01), err
     assert np.all(np.abs(res.gammas[0] / g - 1.0) > 0.2)  # it did start far off
+    assert np.any(res.flags & 0x800) == (how == "c-settings")  # GAMMA_GATED: the gate held gamma at times
 
 
 def test_each_gamma_is_frozen_while_its_contact_is_open(runs, estimates):
     sc, tr, _ = runs["shuttle"]
-    res = estimates[("shuttle", "switched")]
+    res = estimates[("shuttle", "switched", "numpy")]
     D = tr.deltas
     for c in range(2):
         # Steps well away from contact c (truth open for 50 ms on both sides): gamma_c must not move.
