@@ -311,7 +311,7 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     }
     for (i = 0; i < (unsigned)s->model.sensors; ++i) {
         if (s->model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY && !(s->sigma_rv > 0)) {
-            return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, CAEKF_PARAM_SIGMA_RV);
+            return refuse(err, CAEKF_SETTING_NEEDED, CAEKF_PARAM_SIGMA_RV);
         }
     }
     bad = first_unsized(&s->model);

@@ -45,6 +45,9 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
     case CAEKF_SETTING_NOT_INTEGER:
         why = "must be an integer";
         break;
+    case CAEKF_SETTING_NEEDED:
+        why = "must be > 0: the mechanism uses it (a velocity sensor)";
+        break;
     case CAEKF_SETTING_BAD_BODY:
         why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
         break;

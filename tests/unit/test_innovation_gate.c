@@ -157,7 +157,7 @@ static gap_result_t run_gap(caekf_scalar_t gate)
         res.gated_steps += (rep.flags & CAEKF_FLAG_GAMMA_GATED) != 0;
         (void)caekf_get_state(&ref, xr);
         (void)caekf_get_state(&est, xe);
-        for (i = 0; i < CAEKF_NQ; ++i) {
+        for (i = 0; i < PAPER_NQ; ++i) {
             dq = fmax(dq, fabs((double)xe[i] - (double)xr[i]));
         }
         dg = fabs((double)xe[IG] / (double)xr[IG] - 1);

@@ -151,7 +151,8 @@ typedef enum {
     CAEKF_SETTING_NOT_INTEGER = 6,      /* caekf_settings_set: an int, enum or bool setting got a fraction */
     CAEKF_SETTING_BAD_BODY = 7,         /* names a body beyond `bodies` (or the ground where a body is needed,
                                          * or both ends the same) */
-    CAEKF_SETTING_UNSUPPORTED = 8       /* a count other than a sized build's (CAEKF_SIZED) */
+    CAEKF_SETTING_UNSUPPORTED = 8,      /* a count other than a sized build's (CAEKF_SIZED) */
+    CAEKF_SETTING_NEEDED = 9            /* 0 (its default), but the mechanism uses it: must be > 0 */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
