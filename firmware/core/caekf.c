@@ -84,10 +84,20 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->q_diag[2 * nq + i] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
         est->gamma_min_scaled[i] = s->gamma_min[i] / s->sigma_gamma0[i];
     }
+    est->dims.nq = nq;
+    est->dims.n = n;
+    est->dims.ny = mp->sensors;
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
+        est->dims.h[i] = 0;
+        est->dims.r[i] = 1;
+    }
     for (i = 0; i < mp->sensors; ++i) {
         const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
-        est->sensor_state[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
-        est->r_scaled[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
+        est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
+        est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
+    }
+    for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
+        est->dims.policy[i] = CAEKF_GAMMA_LIVE;
     }
     for (i = 0; i < CAEKF_N * CAEKF_N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
         est->P[i] = 0;
@@ -134,7 +144,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
-    caekf_filter_dims_t dims;
+    caekf_filter_dims_t *const dims = &est->dims;
     caekf_status_t st = CAEKF_OK;
     caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
@@ -183,20 +193,13 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
                            &iters) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
     }
-    dims.nq = nq;
-    dims.n = n;
-    dims.ny = ny;
-    for (i = 0; i < ny; ++i) {
-        dims.h[i] = est->sensor_state[i];
-        dims.r[i] = est->r_scaled[i];
-    }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
         caekf_contact_t c;
         caekf_model_contact(&est->model, i, est->x_pred, est->x_pred[2 * nq + i], &c);
         deepest = i == 0 ? c.delta : caekf_max(deepest, c.delta);
         any_contact |= c.delta > 0;
-        dims.policy[i] = (uint8_t)gamma_policy(&est->cfg, c.delta > 0);
-        if (dims.policy[i] != CAEKF_GAMMA_LIVE) {
+        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, c.delta > 0);
+        if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }
     }
@@ -221,14 +224,14 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     /* From here on P_work holds the upper triangle only; the commit mirrors it. */
     caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.p.dt * s_v / s_q,
-                             est->q_diag, &dims);
+                             est->q_diag, dims);
 
     if (y != 0) {
         /* Correction, eqs. (13)-(15) / (25)-(27). */
         for (i = 0; i < ny; ++i) {
-            y_s[i] = y[i] / s[est->sensor_state[i]];
+            y_s[i] = y[i] / s[dims->h[i]];
         }
-        (void)caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, &dims,
+        (void)caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
                                   est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct);
         /* Inequality constraints, eqs. (28)-(30), one gamma after the other. */
         for (i = 0; est->cfg.constraint_enabled && i < nc; ++i) {

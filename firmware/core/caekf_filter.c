@@ -6,13 +6,25 @@
 #include "caekf_math.h"
 
 #define AT(P, n, i, j) ((P)[(i) * (n) + (j)])
+
+/* The filter's sizes: constants in a build sized for one mechanism (the branches for other sizes and
+ * the loop bounds then fold away), the instance's otherwise. */
+#if CAEKF_SIZED
+#define DIM_NQ(d) ((void)(d), CAEKF_SIZED_BODIES)
+#define DIM_N(d) ((void)(d), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#define DIM_NY(d) ((void)(d), CAEKF_SIZED_SENSORS)
+#else
+#define DIM_NQ(d) ((d)->nq)
+#define DIM_N(d) ((d)->n)
+#define DIM_NY(d) ((d)->ny)
+#endif
 /* P_ij of a matrix kept as its upper triangle. */
 #define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
 /* Off-diagonal covariances below CAEKF_TINY are flushed to 0 as they are written: decaying
  * cross-covariances otherwise become subnormal, which costs 5x in float on x86 and means nothing
  * next to the O(1) scaled variances. */
-static caekf_scalar_t flush(caekf_scalar_t v) { return CAEKF_FABS(v) < CAEKF_TINY ? 0 : v; }
+CAEKF_HOT_INLINE caekf_scalar_t flush(caekf_scalar_t v) { return CAEKF_FABS(v) < CAEKF_TINY ? 0 : v; }
 
 void caekf_mirror_upper(caekf_scalar_t *P, int n)
 {
@@ -43,11 +55,25 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
  * index ascending from s = 0: exactly the order of the plain dense loops, so every result is bit for
  * bit the same whatever the mechanism's sparsity (without contact, K, C and M couple only linked
  * bodies and the gamma columns are 0). */
+/* sum_k a[k] b[k], k ascending from 0 (the plain loop's order), four terms per turn. */
+CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_t *b, int n)
+{
+    caekf_scalar_t s = 0;
+    int k;
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 32 /* a sized build knows n: written out even at -Os */
+#endif
+    for (k = 0; k < n; ++k) {
+        s += a[k] * b[k];
+    }
+    return s;
+}
+
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, const caekf_scalar_t *q_diag,
                               const caekf_filter_dims_t *d)
 {
-    const int nq = d->nq, n = d->n, nx = 2 * d->nq;
+    const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
     caekf_scalar_t w[CAEKF_NQ];
     int i, j, k;
@@ -71,10 +97,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         }
         if (cnt[i] == n) { /* a dense row (in contact): no indices */
             for (j = 0; j < n; ++j, pj += n) {
-                caekf_scalar_t s = 0;
-                for (k = 0; k < n; ++k) {
-                    s += f[k] * pj[k];
-                }
+                const caekf_scalar_t s = dot(f, pj, n);
                 tv[j] = s;
                 tq[j] = pi[j] + c * s;
             }
@@ -106,9 +129,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                 s += t[idx[2]] * f[2];
                 s += t[idx[3]] * f[3];
             } else if (cnt[j] == n) {
-                for (k = 0; k < n; ++k) {
-                    s += t[k] * f[k];
-                }
+                s = dot(t, f, n);
             } else {
                 for (k = 0; k < cnt[j]; ++k) {
                     s += t[idx[k]] * f[k];
@@ -155,7 +176,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
 static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t *d,
                               caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
 {
-    const int n = d->n, ny = d->ny;
+    const int n = DIM_N(d), ny = DIM_NY(d);
     caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     int piv[CAEKF_MAX_SENSORS];
@@ -196,13 +217,13 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                         const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
                         caekf_correct_work_t *work)
 {
-    const int n = d->n, ny = d->ny, nx = 2 * d->nq;
+    const int n = DIM_N(d), ny = DIM_NY(d), nx = 2 * DIM_NQ(d);
     caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
     caekf_scalar_t(*const G)[CAEKF_MAX_SENSORS] = work->gain;
     caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */
     caekf_scalar_t e[CAEKF_MAX_SENSORS], rr[CAEKF_MAX_SENSORS];
     unsigned char live[CAEKF_N], skip[CAEKF_N];
-    int any_live = 0;
+    int any_live = 0, any_skip = 0;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j, k, l;
     if (innovation_inverse(P, d, Si) != 0) {
@@ -233,6 +254,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma's row and column are left. */
         skip[i] = (unsigned char)(g >= 0 && d->policy[g] == CAEKF_GAMMA_FROZEN_PAPER);
         any_live |= g >= 0 && live[i];
+        any_skip |= skip[i];
     }
     if (any_live && gate > 0 && *nis > gate) {
         for (i = nx; i < n; ++i) {
@@ -287,7 +309,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                 const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
                 p[i] -= g0 * h0[i] + g1 * h1[i];
                 for (j = i + 1; j < n; ++j) {
-                    if (!skip[j]) {
+                    if (!any_skip || !skip[j]) {
                         p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
                     }
                 }

@@ -20,14 +20,6 @@ typedef enum {
     CAEKF_GAMMA_FROZEN_PAPER      /* switched, contact inactive, eqs. 23-27 literally */
 } caekf_gamma_policy_t;
 
-/* The step's sizes and structure. */
-typedef struct {
-    int nq, n;                    /* bodies; states */
-    int ny;                       /* sensors */
-    int h[CAEKF_MAX_SENSORS];     /* state index each sensor measures */
-    caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
-    uint8_t policy[CAEKF_MAX_CONTACTS + 1]; /* caekf_gamma_policy_t of gamma c (state 2 nq + c) */
-} caekf_filter_dims_t;
 
 /* Compacts fv's rows in place to their nonzeros (fv[i][k] is column pat->nz[i][k]): the products skip
  * the exact zeros, as adding a zero product changes no sum. */

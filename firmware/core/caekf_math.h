@@ -20,6 +20,13 @@
 #define CAEKF_C(x) ((caekf_scalar_t)(x))
 #endif
 
+/* A small helper on the step's hot path: inlined even at -Os (a call costs more than its body). */
+#if defined(__GNUC__)
+#define CAEKF_HOT_INLINE static inline __attribute__((always_inline))
+#else
+#define CAEKF_HOT_INLINE static inline
+#endif
+
 /* isfinite() is type-generic in C99. */
 #define CAEKF_ISFINITE(x) (isfinite(x) != 0)
 

@@ -63,7 +63,7 @@ int caekf_model_params_check(const caekf_model_params_t *p)
 #endif
 
 /* delta^n and n delta^(n-1) for delta > 0: the Hertz (1.5) and linear (1) laws exactly, others by pow. */
-static void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar_t *dn, caekf_scalar_t *dn1)
+CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar_t *dn, caekf_scalar_t *dn1)
 {
     if (n == CAEKF_C(1.5)) {
         const caekf_scalar_t sd = CAEKF_SQRT(d);
@@ -141,15 +141,31 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     int i, k;
     for (i = 0; i < nq; ++i) {
         const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        caekf_scalar_t s = inertia, a = CAEKF_FABS(inertia);
+        const caekf_scalar_t *Ki = m->K[i], *Ci = m->C[i];
+        const unsigned char *nz = m->nz[i];
+        caekf_scalar_t s = inertia;
+        if (m->nnz[i] == 2) { /* a body with one neighbour (a chain's end or pair): written out */
+            const int j0 = nz[0], j1 = nz[1];
+            const caekf_scalar_t kq0 = Ki[j0] * q[j0], cv0 = Ci[j0] * v[j0];
+            const caekf_scalar_t kq1 = Ki[j1] * q[j1], cv1 = Ci[j1] * v[j1];
+            r[i] = s + (kq0 + cv0) + (kq1 + cv1);
+            if (mag != 0) {
+                mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) +
+                         (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+            }
+            continue;
+        }
         for (k = 0; k < m->nnz[i]; ++k) { /* K and C's nonzeros of row i, ascending */
-            const int j = m->nz[i][k];
-            const caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
-            s += kq + cv;
-            a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
+            const int j = nz[k];
+            s += Ki[j] * q[j] + Ci[j] * v[j];
         }
         r[i] = s;
         if (mag != 0) {
+            caekf_scalar_t a = CAEKF_FABS(inertia);
+            for (k = 0; k < m->nnz[i]; ++k) {
+                const int j = nz[k];
+                a += CAEKF_FABS(Ki[j] * q[j]) + CAEKF_FABS(Ci[j] * v[j]);
+            }
             mag[i] = a;
         }
     }
@@ -264,13 +280,13 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
 /* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
-    return (nq == 4 ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK ? 0
+    return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK ? 0
                                                                                                              : -1;
 }
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
 {
-    if (nq == 4) {
+    if (CAEKF_DIM_IS4(nq)) {
         caekf_lu4_solve(lu, piv, b, nrhs, ldb);
     } else {
         (void)caekf_lu_solve(lu, nq, piv, b, nrhs, ldb);

@@ -21,6 +21,13 @@
 #define CAEKF_DIM_N(m) ((m)->n)
 #endif
 
+/* nq == 4, decided at compile time in a sized build (only one LU kernel is then linked). */
+#if CAEKF_SIZED
+#define CAEKF_DIM_IS4(nq) ((void)(nq), CAEKF_SIZED_BODIES == 4)
+#else
+#define CAEKF_DIM_IS4(nq) ((nq) == 4)
+#endif
+
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 

@@ -133,8 +133,7 @@ typedef struct {
     caekf_fv_pattern_t fv_pattern;          /* fv's rows, compacted to their nonzeros: their columns */
     uint32_t fv_const;                      /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
-    int sensor_state[CAEKF_MAX_SENSORS];    /* state index each sensor measures */
-    caekf_scalar_t r_scaled[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
+    caekf_filter_dims_t dims;               /* sizes, sensed states, scaled R; the gamma policies */
     caekf_scalar_t gamma_min_scaled[CAEKF_MAX_CONTACTS + 1];
     uint32_t step_count;
     uint32_t last_flags;

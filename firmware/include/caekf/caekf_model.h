@@ -9,6 +9,8 @@
 #ifndef CAEKF_MODEL_H
 #define CAEKF_MODEL_H
 
+#include <stdint.h>
+
 #include "caekf/caekf_config.h"
 
 #ifdef __cplusplus
@@ -68,6 +70,15 @@ typedef struct {
     unsigned char nz[CAEKF_NQ][CAEKF_N];
     unsigned char nnz[CAEKF_NQ];
 } caekf_fv_pattern_t;
+
+/* The filter's sizes and structure (set at init; the policies every step). */
+typedef struct {
+    int nq, n;                    /* bodies; states */
+    int ny;                       /* sensors */
+    int h[CAEKF_MAX_SENSORS];     /* state index each sensor measures */
+    caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
+    uint8_t policy[CAEKF_MAX_CONTACTS + 1]; /* how gamma c (state 2 nq + c) is handled this step */
+} caekf_filter_dims_t;
 
 /* Work buffers of the correction: the gain and H P (in the instance, off the stack). */
 typedef struct {
