@@ -227,6 +227,8 @@ int main(int argc, char **argv)
         }
         opt.series = &series;
     }
+    /* Both outputs go to temporary files renamed at the end (an interrupt removes the last one opened:
+     * tool.c watches one per process). */
     if ((out != NULL && (rc = caekf_output_open(&ocsv, out, err, sizeof err)) != 0) ||
         (bin != NULL && (rc = caekf_output_open(&obin, bin, err, sizeof err)) != 0)) {
         fprintf(stderr, "caekf-truth: %s\n", err);
