@@ -272,10 +272,15 @@ int main(int argc, char **argv)
     }
     if (want_summary) {
         /* One row: experiment scalar rows rejected final_err_% min_gamma max_pnorm iters_mean iters_max flags */
-        fprintf(stderr, "%-28s %-6s %7ld %5ld %+10.4f %12.4e %12.4e %6.3f %4d ",
-                experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
-                sum.rows, sum.rejected, nc > 0 ? gamma_error(&sc, sum.gamma_last, 0) : 0.0, sum.gamma_min_seen,
-                sum.p_norm_max, sum.rows ? (double)sum.iters_sum / (double)sum.rows : 0.0, sum.iters_max);
+        fprintf(stderr, "%-28s %-6s %7ld %5ld ", experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
+                sum.rows, sum.rejected);
+        if (nc > 0) {
+            fprintf(stderr, "%+10.4f %12.4e ", gamma_error(&sc, sum.gamma_last, 0), sum.gamma_min_seen);
+        } else { /* no contact, no gamma */
+            fprintf(stderr, "%10s %12s ", "-", "-");
+        }
+        fprintf(stderr, "%12.4e %6.3f %4d ", sum.p_norm_max, sum.rows ? (double)sum.iters_sum / (double)sum.rows : 0.0,
+                sum.iters_max);
         print_flags(stderr, sum.flags_seen);
         for (i = 1; i < nc; ++i) { /* further contacts: their final gamma error, after the flags */
             fprintf(stderr, " gamma%d %+.4f", i + 1, gamma_error(&sc, sum.gamma_last, i));
