@@ -24,8 +24,9 @@ static void usage(FILE *f)
 {
     fputs("usage: caekf-bench SCENARIO TRUTH_CSV [REPEATS]\n"
           "       caekf-bench --help | --version\n"
-          "Steps per second of caekf_step for every preset over the rows of TRUTH_CSV (caekf-truth's columns: t,u,y1,y4... for the paper; t\n"
-          "strictly increasing by the scenario's dt within 1 %), best of REPEATS runs (a positive integer,\n"
+          "Steps per second of caekf_step for every preset over the rows of TRUTH_CSV (the mechanism's\n"
+          "columns as caekf-truth writes them, t,u,y1,y4... for the paper; t strictly increasing by the\n"
+          "scenario's dt within 1 %), best of REPEATS runs (a positive integer,\n"
           "default 3). Prints a table to stdout; writes no file.\n" CAEKF_EXIT_TABLE,
           f);
 }

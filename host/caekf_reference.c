@@ -16,8 +16,9 @@ static void usage(FILE *f)
 {
     fputs("usage: caekf-reference SCENARIO TRUTH_CSV OUT_HEADER\n"
           "       caekf-reference --help | --version\n"
-          "Runs every preset in double over TRUTH_CSV (caekf-truth's columns, t,u,y1,y4... for the paper; t strictly increasing by the\n"
-          "scenario's dt within 1 %) and writes a C header with each final gamma. OUT_HEADER appears\n"
+          "Runs every preset in double over TRUTH_CSV (the mechanism's columns as caekf-truth writes them,\n"
+          "t,u,y1,y4... for the paper; t strictly increasing by the scenario's dt within 1 %) and writes a\n"
+          "C header with each final gamma (of contact 1). OUT_HEADER appears\n"
           "(renamed from a temporary file beside it) only when the run succeeded.\n" CAEKF_EXIT_TABLE,
           f);
 }
