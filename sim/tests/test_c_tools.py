@@ -74,3 +74,30 @@ def test_c_replay_matches_numpy_estimator(name, truth, results, sc, tmp_path):
     both = ~(c.flags ^ py.flags) & 0xFFFF  # bits on which the two agree
     shared = 0b100001101  # newton_not_converged, constraint_applied, contact_active, gamma_frozen
     assert np.all((both & shared) == shared)
+
+
+@pytest.mark.parametrize("name, fires", [("switched", True), ("switched-highq-constrained", False)])
+def test_c_replay_with_its_gate_matches_numpy_with_the_scenarios_settings(name, fires, truth, sc, tmp_path):
+    """caekf-replay as it runs by default (innovation gate 25 on) against the numpy reference configured
+    from the same scenario and preset (experiments.scenario_config): the gate holds gamma on the same
+    steps in both."""
+    from caekf_sim.estimator import run_estimator
+    from caekf_sim.experiments import scenario_config
+
+    tool = find_tool("caekf-replay")
+    if tool is None:
+        if os.environ.get("CAEKF_BUILD_DIR"):
+            pytest.fail("caekf-replay not found under $CAEKF_BUILD_DIR/host")
+        pytest.skip("caekf-replay not built")
+    out, measurements = tmp_path / f"{name}.csv", tmp_path / "truth.csv"
+    write_truth_csv(truth, measurements)
+    subprocess.run([str(tool), "--scenario", str(default_scenario_path()), "--in", str(measurements),
+                    "--out", str(out), "--experiment", name], check=True, timeout=120)
+    cfg = scenario_config(sc, name)
+    assert cfg.gate_nis == 25.0
+    py = run_estimator(sc, cfg, truth.t, truth.u, truth.y, keep_P=False)
+    c = read_result_csv(out)
+    gated = 0x800
+    assert np.any(py.flags & gated) == fires  # switched: NIS 27 at the onsets (README)
+    np.testing.assert_array_equal(c.flags & gated, py.flags & gated)
+    assert np.max(np.abs(c.gamma - py.gamma)) < 1e-8 * sc.gamma

@@ -1,37 +1,45 @@
 """Augmented EKF for contact-parameter estimation, written from the paper (numpy reference).
 
-Augmented state x* = [q1..q4, v1..v4, gamma] (eq. 2, 18), random-walk gamma (eq. 3).
-One step k:
+Augmented state x* = [q_1..q_nq, v_1..v_nq, gamma_1..gamma_nc] (eq. 2, 18) for any mechanism of
+mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). One step k:
   prediction   Newton solve of eq. (19) with gamma_{k-1}  -> x_k^-
-               F_k = -(dg/dx_k)^-1 dg/dx_{k-1}             (eq. 10, full 9x9 Jacobians)
+               F_k = -(dg/dx_k)^-1 dg/dx_{k-1}             (eq. 10, full N x N Jacobians)
                P_k^- = F P F^T + Q                          (eq. 12)
   correction   G = P H^T (H P H^T + R)^-1, x += G (y - H x), P = (I - G H) P   (eqs. 13-15)
-  modes        canonical: Table 1 every step.
-               switched (Sec. 3.2): contact active iff delta(x_k^-) > 0 (eq. 21); while
-               inactive Q_gamma = 0 and gamma, P_gg are frozen (eqs. 22-27). Two variants for
-               the cross-covariance P_xg while inactive:
-                 "paper"      eqs. 23-27 read literally: P_xg frozen, only P_xx moves;
-                 "consistent" P_xg <- F_xx P_xg, then P_xg <- (I - G_x H_x) P_xg, i.e. a
+  modes        canonical: Table 1 every step, every gamma live.
+               switched (Sec. 3.2): gamma_c is live iff its own contact is closed at the
+               prediction, delta_c(x_k^-) > 0 (eq. 21); a frozen gamma_c has Q = 0 and keeps its
+               value and variance (eqs. 22-27), and the live block L (states + live gammas) is
+               propagated and corrected alone. Two variants for the cross-covariance P_Lg of a
+               frozen gamma:
+                 "paper"      eqs. 23-27 read literally: P_Lg frozen, only P_LL moves;
+                 "consistent" P_Lg <- F_LL P_Lg, then P_Lg <- (I - G_L H_L) P_Lg, i.e. a
                               Schmidt ("consider") update that keeps P positive semidefinite.
-  constraint   if gamma^+ < gamma_min, redo the correction from (x^-, P^-) with the perfect
-               measurement gamma = gamma_min: H^c = [H; D], R^c = blkdiag(R, 0) (eqs. 28-30).
-               S^c is solved after diagonal equilibration, with a pseudo-inverse fallback when
-               singular (flag SINGULAR_INNOVATION); afterwards gamma = gamma_min and P's gamma
-               row/column are set to their exact-arithmetic values (gamma_min, 0).
+  gate         (optional, `gate_nis`) NIS = e^T S^-1 e above it: every live gamma is held for
+               the correction of this step (Schmidt), as the C core does (flag GAMMA_GATED).
+  constraint   contacts in order: if gamma_c^+ < gamma_min_c, redo the correction from
+               (x^-, P^-) with the perfect measurements gamma = gamma_min of every violated contact
+               so far appended: H^c = [H; D], R^c = blkdiag(R, 0) (eqs. 28-30; the same as
+               sequential perfect measurements). S^c is solved after diagonal equilibration, with a
+               pseudo-inverse fallback when singular (flag SINGULAR_INNOVATION); afterwards gamma_c =
+               gamma_min_c and P's gamma_c row/column are set to their exact-arithmetic values.
 Flags use the C core's bit layout (flags.py).
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Any, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import flags as fl
-from .model import B_CONTACT, Plant, StepSolver, contact_force
+from .mechanism import Mechanism, body_values, contact_values, scenario_value
+from .model import StepSolver, as_gammas, contact_law
 from .scenario import Scenario
 
+# The paper's layout (4 bodies, one contact); a general mechanism has N = 2 nq + nc (AugmentedEKF.n).
 NX = 8  # physical states q, v
 NA = 9  # augmented: + gamma
 IG = 8  # index of gamma
@@ -41,29 +49,32 @@ SWITCHED = "switched"
 VARIANT_PAPER = "paper"
 VARIANT_CONSISTENT = "consistent"
 
+Index = Union[slice, List[int]]
+
 
 @dataclass(frozen=True)
 class EstimatorConfig:
     mode: str = SWITCHED  # CANONICAL | SWITCHED
     switch_variant: str = VARIANT_CONSISTENT  # VARIANT_CONSISTENT | VARIANT_PAPER (switched only)
-    q_gamma_scale: float = 1.0  # Q_gamma = q_gamma_scale * sigma_q_gamma^2 (Sec. 4.2 uses 1000)
-    constrained: bool = False  # gamma >= gamma_min via eqs. (28)-(30)
+    q_gamma_scale: float = 1.0  # Q_gamma_c = q_gamma_scale * sigma_q_gamma_c^2 (Sec. 4.2 uses 1000)
+    constrained: bool = False  # gamma_c >= gamma_min_c via eqs. (28)-(30)
     joseph: bool = False  # Joseph-form covariance updates instead of eq. (15)
     newton_max_iter: int = 20
+    gate_nis: float = math.inf  # innovation gate on the gammas (the C setting gamma_gate_nis); inf: off
 
     def __post_init__(self) -> None:
         if self.mode not in (CANONICAL, SWITCHED):
             raise ValueError(f"unknown mode {self.mode!r}")
         if self.switch_variant not in (VARIANT_PAPER, VARIANT_CONSISTENT):
             raise ValueError(f"unknown switch variant {self.switch_variant!r}")
+        if not self.gate_nis > 0:
+            raise ValueError(f"gate_nis = {self.gate_nis}: must be > 0 (inf: no gate)")
 
 
-def measurement_matrix() -> np.ndarray:
-    """H of eq. (11): y = [q1, q4]; linear, so constant."""
-    H = np.zeros((2, NA))
-    H[0, 0] = 1.0
-    H[1, 3] = 1.0
-    return H
+def measurement_matrix(mech: "Mechanism | None" = None) -> np.ndarray:
+    """H of eq. (11) on the augmented state: the sensed positions/velocities (paper: y = [q1, q4])."""
+    mech = mech if mech is not None else Mechanism.from_scenario({})
+    return np.hstack([mech.H, np.zeros((mech.n_sensors, mech.n_contacts))])
 
 
 def joseph(IKH: np.ndarray, P: np.ndarray, G: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -71,176 +82,215 @@ def joseph(IKH: np.ndarray, P: np.ndarray, G: np.ndarray, R: np.ndarray) -> np.n
     return IKH @ P @ IKH.T + G @ R @ G.T
 
 
+def _block(A: np.ndarray, rows: Index, cols: Index) -> np.ndarray:
+    """A[rows, cols] for slices or index lists (a copy for lists)."""
+    if isinstance(rows, slice) and isinstance(cols, slice):
+        return A[rows, cols]
+    return A[np.ix_(np.arange(A.shape[0])[rows], np.arange(A.shape[1])[cols])]
+
+
+def _set_block(A: np.ndarray, rows: Index, cols: Index, value: np.ndarray) -> None:
+    if isinstance(rows, slice) and isinstance(cols, slice):
+        A[rows, cols] = value
+    else:
+        A[np.ix_(np.arange(A.shape[0])[rows], np.arange(A.shape[1])[cols])] = value
+
+
 class AugmentedEKF:
     """State (x, P) plus the constant matrices; `step` advances one sample."""
 
-    def __init__(self, sc: Scenario, cfg: EstimatorConfig) -> None:
+    def __init__(self, sc: Scenario, cfg: EstimatorConfig, mech: Optional[Mechanism] = None) -> None:
         self.sc = sc
         self.cfg = cfg
-        self.plant = Plant.from_scenario(sc)
-        self.solver = StepSolver(self.plant, sc.dt, max_iter=cfg.newton_max_iter)
+        self.plant = mech if mech is not None else Mechanism.from_scenario(sc)
+        p = self.plant
+        nq, nc = p.nq, p.n_contacts
+        self.nq, self.nc = nq, nc
+        self.nx = 2 * nq
+        self.n = n = 2 * nq + nc
+        self.ig = list(range(self.nx, n))  # indices of the gammas
+        self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter)
         self.dt = sc.dt
-        self.H = measurement_matrix()
-        self.Hx = self.H[:, :NX]
-        self.R = np.eye(2) * sc.sigma_r**2
-        self.q_gamma = cfg.q_gamma_scale * sc.sigma_q_gamma**2
-        self.Q = np.diag([sc.sigma_qx_q**2] * 4 + [sc.sigma_qx_v**2] * 4 + [self.q_gamma])
-        self.Qx = self.Q[:NX, :NX]
-        self.x = np.zeros(NA)
-        self.x[IG] = sc.gamma0
-        self.P = np.diag([sc.sigma_q0**2] * 4 + [sc.sigma_v0**2] * 4 + [sc.sigma_gamma0**2])
+        self.H = measurement_matrix(p)
+        self.Hx = self.H[:, : self.nx]
+        sig_r = float(scenario_value(sc, "sigma_r"))
+        sig_rv = float(scenario_value(sc, "sigma_rv"))
+        self.R = np.diag([sig_r**2 if k == 0 else sig_rv**2 for k in p.sensor_kind.tolist()])
+        self.gamma_min = contact_values(sc, "gamma_min", nc)
+        self.q_gamma = cfg.q_gamma_scale * contact_values(sc, "sigma_q_gamma", nc) ** 2
+        self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma])
+        self.Qx = self.Q[: self.nx, : self.nx]
+        self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq), contact_values(sc, "gamma0", nc)]
+        self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
+                               contact_values(sc, "sigma_gamma0", nc) ** 2])
         # dg/dx_{k-1} of eq. (19): constant.
-        m_dt = self.plant.m / self.dt
-        self.Jprev = -np.diag(np.r_[np.full(4, 1.0 / self.dt), m_dt, 1.0])
-        # dg/dx_k without the contact terms; contact adds k_c b b^T and df_c/dgamma b.
-        Jk = np.zeros((NA, NA))
-        Jk[:4, :4] = np.eye(4) / self.dt
-        Jk[:4, 4:8] = -np.eye(4)
-        Jk[4:8, :4] = self.plant.K
-        Jk[4:8, 4:8] = np.diag(m_dt) + self.plant.C
-        Jk[IG, IG] = 1.0
+        m_dt = p.m / self.dt
+        self.Jprev = -np.diag(np.r_[np.full(nq, 1.0 / self.dt), m_dt, np.ones(nc)])
+        # dg/dx_k without the contact terms; contact c adds its law's derivatives along b_c b_c^T.
+        Jk = np.zeros((n, n))
+        Jk[:nq, :nq] = np.eye(nq) / self.dt
+        Jk[:nq, nq : self.nx] = -np.eye(nq)
+        Jk[nq : self.nx, :nq] = p.K
+        Jk[nq : self.nx, nq : self.nx] = np.diag(m_dt) + p.C
+        Jk[self.nx :, self.nx :] = np.eye(nc)
         self.Jk0 = Jk
-        self.F0 = self._transition(Jk)  # F while out of contact: constant, computed once
-        # Constrained-correction pieces (eq. 29-30): D selects gamma.
-        D = np.zeros((1, NA))
-        D[0, IG] = 1.0
-        self.Hc = np.vstack([self.H, D])
-        self.Rc = np.zeros((3, 3))
-        self.Rc[:2, :2] = self.R
-        self.I = np.eye(NA)
+        self.F0 = self._transition(Jk)  # F while every contact is open: constant, computed once
+        self.I = np.eye(n)
 
     # ---- prediction -------------------------------------------------------------------
     def _transition(self, Jk: np.ndarray) -> np.ndarray:
         """Eq. (10): F = -(dg/dx_k)^-1 dg/dx_{k-1}."""
         return -np.linalg.solve(Jk, self.Jprev)
 
-    def transition_matrix(self, q: np.ndarray, gamma: float) -> np.ndarray:
-        """F_k at the predicted state (eq. 10 with the full 9x9 Jacobians of eq. 19)."""
-        delta = q[1] - q[2] - self.plant.gap
-        _, kc, dfc_dg = contact_force(delta, gamma)
-        if kc == 0.0 and dfc_dg == 0.0:
-            return self.F0
-        Jk = self.Jk0.copy()
-        Jk[4:8, :4] += kc * np.outer(B_CONTACT, B_CONTACT)
-        Jk[4:8, IG] = dfc_dg * B_CONTACT
-        return self._transition(Jk)
+    def transition_matrix(self, q: np.ndarray, gamma: Any, v: Optional[np.ndarray] = None) -> np.ndarray:
+        """F_k at the predicted state (eq. 10 with the full Jacobians of eq. 19); v for Hunt-Crossley."""
+        nq, Jk = self.nq, None
+        for c, ((a, b, gap, n, lam), g) in enumerate(zip(self.solver.contacts, as_gammas(gamma))):
+            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+            dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+            _, kc, kd, dfc_dg = contact_law(delta, dd, g, n, lam)
+            if kc == 0.0 and kd == 0.0 and dfc_dg == 0.0:
+                continue
+            if Jk is None:
+                Jk = self.Jk0.copy()
+            bb = self.plant.B_c[c]
+            Jk[nq : self.nx, :nq] += kc * np.outer(bb, bb)
+            if kd != 0.0:
+                Jk[nq : self.nx, nq : self.nx] += kd * np.outer(bb, bb)
+            Jk[nq : self.nx, self.nx + c] = dfc_dg * bb
+        return self.F0 if Jk is None else self._transition(Jk)
 
-    def predict(self, u: float) -> Tuple[np.ndarray, np.ndarray, int, bool]:
+    def predict(self, u: Any) -> Tuple[np.ndarray, np.ndarray, int, bool]:
         """Newton solve of eq. (19): returns (x_k^-, F_k, iterations, converged)."""
-        x = self.x
-        q, v, iters, ok = self.solver.solve(x[:4], x[4:8], u, x[IG])
-        xp = np.empty(NA)
-        xp[:4] = q
-        xp[4:8] = v
-        xp[IG] = x[IG]  # random walk: gamma_k^- = gamma_{k-1}^+ (eq. 19, third row)
-        return xp, self.transition_matrix(q, x[IG]), iters, ok
+        x, nq, nx = self.x, self.nq, self.nx
+        gammas = x[nx:]
+        q, v, iters, ok = self.solver.solve(x[:nq], x[nq:nx], u, gammas)
+        xp = np.empty(self.n)
+        xp[:nq] = q
+        xp[nq:nx] = v
+        xp[nx:] = gammas  # random walk: gamma_k^- = gamma_{k-1}^+ (eq. 19, last rows)
+        return xp, self.transition_matrix(q, gammas, v), iters, ok
 
     # ---- correction -------------------------------------------------------------------
-    def _gain(self, P: np.ndarray, H: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """Eq. (13): G = P H^T S^-1, solved rather than inverted."""
-        PHt = P @ H.T
-        S = H @ PHt + R
-        return np.linalg.solve(S, PHt.T).T
+    def _index(self, live: Sequence[int]) -> Index:
+        """The live block: the physical states plus the live gammas (a slice when contiguous)."""
+        idx = list(range(self.nx)) + [self.ig[c] for c in live]
+        return slice(0, len(idx)) if idx == list(range(len(idx))) else idx
 
-    def _full_correction(
-        self, xp: np.ndarray, P: np.ndarray, y: np.ndarray
-    ) -> Tuple[np.ndarray, np.ndarray]:
-        """Eqs. (13)-(15) on the whole augmented state."""
-        G = self._gain(P, self.H, self.R)
-        x = xp + G @ (y - self.H @ xp)
-        IKH = self.I - G @ self.H
-        P = joseph(IKH, P, G, self.R) if self.cfg.joseph else IKH @ P
-        return x, P
-
-    def _constrained_correction(
-        self, xp: np.ndarray, P: np.ndarray, y: np.ndarray
+    def _correct(
+        self, xp: np.ndarray, P: np.ndarray, y: np.ndarray, L: Index, frozen: Sequence[int], schmidt: bool,
+        violated: Sequence[int] = (),
     ) -> Tuple[np.ndarray, np.ndarray, bool]:
-        """Eqs. (28)-(30): perfect measurement gamma = gamma_min appended to y.
-
-        S^c = H^c P H^c^T + R^c has a zero noise entry, so it is singular when P_gg (or its
-        posterior value) is 0 and badly scaled always (metres^2 next to gamma^2). We
-        equilibrate it with its diagonal before solving, and fall back to the pseudo-inverse
-        (least-squares gain) if it is still singular. Returns (x, P, used_pinv).
-        """
-        Hc, Rc = self.Hc, self.Rc
-        PHt = P @ Hc.T
-        S = Hc @ PHt + Rc
-        d = np.sqrt(np.abs(np.diag(S)))
-        d[d == 0.0] = 1.0
-        Sn = S / np.outer(d, d)
+        """Eqs. (13)-(15) on the block L; gammas `frozen` keep value and variance (eqs. 25-27), their
+        cross-covariance with L Schmidt-updated when `schmidt`. Contacts `violated` add the perfect
+        measurements gamma_c = gamma_min_c of eqs. (28)-(30). Returns (x, P, used_pinv)."""
+        HL = self.H[:, L]
+        R = self.R
+        resid = y - self.H @ xp
+        PLL = _block(P, L, L)
         used_pinv = False
-        try:
-            if np.linalg.cond(Sn) > 1e14:
-                raise np.linalg.LinAlgError("ill-conditioned")
-            G = (np.linalg.solve(Sn, (PHt / d).T) / d[:, None]).T
-        except np.linalg.LinAlgError:
-            G = (PHt / d) @ np.linalg.pinv(Sn, rcond=1e-14) / d
-            used_pinv = True
-        yc = np.r_[y, self.sc.gamma_min]
-        x = xp + G @ (yc - Hc @ xp)
-        IKH = self.I - G @ Hc
-        P = joseph(IKH, P, G, Rc) if self.cfg.joseph else IKH @ P
-        if not used_pinv:
+        if violated:
+            ns, nv = len(y), len(violated)
+            lidx = list(range(self.n))[L] if isinstance(L, slice) else L
+            D = np.zeros((nv, len(lidx)))
+            for i, c in enumerate(violated):
+                D[i, lidx.index(self.ig[c])] = 1.0
+            HL = np.vstack([HL, D])
+            Rc = np.zeros((ns + nv, ns + nv))
+            Rc[:ns, :ns] = R
+            R = Rc
+            resid = np.r_[resid, self.gamma_min[list(violated)] - xp[[self.ig[c] for c in violated]]]
+            # S^c has zero noise entries, so it is singular when a P_gg (or its posterior value)
+            # is 0 and badly scaled always (metres^2 next to gamma^2): equilibrate with its
+            # diagonal, fall back to the pseudo-inverse (least-squares gain) if still singular.
+            PHt = PLL @ HL.T
+            S = HL @ PHt + R
+            d = np.sqrt(np.abs(np.diag(S)))
+            d[d == 0.0] = 1.0
+            Sn = S / np.outer(d, d)
+            try:
+                if np.linalg.cond(Sn) > 1e14:
+                    raise np.linalg.LinAlgError("ill-conditioned")
+                G = (np.linalg.solve(Sn, (PHt / d).T) / d[:, None]).T
+            except np.linalg.LinAlgError:
+                G = (PHt / d) @ np.linalg.pinv(Sn, rcond=1e-14) / d
+                used_pinv = True
+        else:
+            PHt = PLL @ HL.T
+            S = HL @ PHt + R
+            G = np.linalg.solve(S, PHt.T).T  # eq. (13) (G_L of eq. 26), solved rather than inverted
+        x = xp.copy()
+        x[L] += G @ resid
+        IKH = (self.I if isinstance(L, slice) and L.stop == self.n else np.eye(PLL.shape[0])) - G @ HL
+        Pn = P.copy()
+        _set_block(Pn, L, L, joseph(IKH, PLL, G, R) if self.cfg.joseph else IKH @ PLL)  # eq. (15) / (27)
+        if schmidt:
+            for c in frozen:
+                g = self.ig[c]
+                col = IKH @ P[L, g]  # Schmidt update of the cross-covariance
+                Pn[L, g] = col
+                Pn[g, L] = col
+        if violated and not used_pinv:
             # A perfect measurement leaves gamma = gamma_min and zero gamma row/column in exact
             # arithmetic; restore that, else round-off (P_gg ~ -1e-15 P_gg^-) makes P indefinite.
-            x[IG] = self.sc.gamma_min
-            P[IG, :] = 0.0
-            P[:, IG] = 0.0
-        return x, P, used_pinv
+            for c in violated:
+                g = self.ig[c]
+                x[g] = self.gamma_min[c]
+                Pn[g, :] = 0.0
+                Pn[:, g] = 0.0
+        return x, Pn, used_pinv
 
-    def _switched_off_correction(
-        self, xp: np.ndarray, P: np.ndarray, y: np.ndarray
-    ) -> Tuple[np.ndarray, np.ndarray]:
-        """Contact inactive: correct x only (gamma frozen, eqs. 25-27); P_gg untouched."""
-        Pxx = P[:NX, :NX]
-        PHt = Pxx @ self.Hx.T
-        S = self.Hx @ PHt + self.R
-        Gx = np.linalg.solve(S, PHt.T).T  # G_x of eq. (26)
-        x = xp.copy()
-        x[:NX] += Gx @ (y - self.H @ xp)
-        IKH = np.eye(NX) - Gx @ self.Hx
-        Pn = P.copy()
-        Pn[:NX, :NX] = joseph(IKH, Pxx, Gx, self.R) if self.cfg.joseph else IKH @ Pxx  # eq. (27)
-        if self.cfg.switch_variant == VARIANT_CONSISTENT:
-            Pxg = IKH @ P[:NX, IG]  # Schmidt update of the cross-covariance
-            Pn[:NX, IG] = Pxg
-            Pn[IG, :NX] = Pxg
-        return x, Pn
+    def _nis(self, xp: np.ndarray, P: np.ndarray, y: np.ndarray) -> float:
+        """Normalised innovation squared e^T S^-1 e of the full correction."""
+        e = y - self.H @ xp
+        S = self.H @ P @ self.H.T + self.R
+        return float(e @ np.linalg.solve(S, e))
 
     # ---- one step -----------------------------------------------------------------------
-    def step(self, u: float, y: np.ndarray) -> Tuple[int, int]:
-        """Advance one sample with input u_k and measurement y_k; returns (flags, Newton iters)."""
+    def step(self, u: Any, y: np.ndarray) -> Tuple[int, int]:
+        """Advance one sample with input(s) u_k and measurement y_k; returns (flags, Newton iters)."""
         cfg = self.cfg
         status = 0
         xp, F, iters, ok = self.predict(u)
         if not ok:
             status |= fl.NEWTON_NOT_CONVERGED
-        active = self.plant.penetration(xp[:4]) > 0.0  # eq. (21), on the predicted state
-        if active:
+        closed = [d > 0.0 for d in self.solver.penetrations(xp[: self.nq])]  # eq. (21), per contact
+        if any(closed):
             status |= fl.CONTACT_ACTIVE
+        live = [c for c in range(self.nc) if cfg.mode == CANONICAL or closed[c]]
+        frozen = [c for c in range(self.nc) if c not in live]
+        if frozen:
+            status |= fl.GAMMA_FROZEN
+        L = self._index(live)
         P = self.P
-        full = cfg.mode == CANONICAL or active
-        if full:
+        consistent = cfg.switch_variant == VARIANT_CONSISTENT
+        if not frozen:
             Pm = F @ P @ F.T + self.Q  # eq. (12)
         else:
-            Fxx = F[:NX, :NX]  # F_xg = 0 out of contact (df_c/dgamma = 0), eq. (23)
+            # F_Lg = 0 for a frozen gamma (its contact is open: df_c/dgamma = 0), eq. (23).
+            FLL = _block(F, L, L)
             Pm = P.copy()
-            Pm[:NX, :NX] = Fxx @ P[:NX, :NX] @ Fxx.T + self.Qx  # eq. (24)
-            if cfg.switch_variant == VARIANT_CONSISTENT:
-                Pxg = Fxx @ P[:NX, IG]
-                Pm[:NX, IG] = Pxg
-                Pm[IG, :NX] = Pxg
-            # Q_gamma = 0 (eq. 21): P_gg and gamma stay as they are.
-        if full:
-            x, Pp = self._full_correction(xp, Pm, y)
-            if cfg.constrained and x[IG] < self.sc.gamma_min:  # eq. (28): c = D x - d < 0
-                x, Pp, used_pinv = self._constrained_correction(xp, Pm, y)
-                status |= fl.CONSTRAINT_APPLIED
-                if used_pinv:
-                    status |= fl.SINGULAR_INNOVATION
+            _set_block(Pm, L, L, FLL @ _block(P, L, L) @ FLL.T + _block(self.Q, L, L))  # eq. (24)
+            if consistent:
+                for c in frozen:
+                    g = self.ig[c]
+                    col = FLL @ P[L, g]
+                    Pm[L, g] = col
+                    Pm[g, L] = col
+            # Q_gamma = 0 (eq. 21): the frozen P_gg and gamma stay as they are.
+        if live and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
+            status |= fl.GAMMA_GATED  # every live gamma held this step, as a consider state
+            x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True)
         else:
-            x, Pp = self._switched_off_correction(xp, Pm, y)
-            status |= fl.GAMMA_FROZEN
+            x, Pp, _ = self._correct(xp, Pm, y, L, frozen, consistent)
+            violated: List[int] = []
+            for c in live if cfg.constrained else ():
+                if x[self.ig[c]] < self.gamma_min[c]:  # eq. (28): c = D x - d < 0
+                    violated.append(c)
+                    x, Pp, used_pinv = self._correct(xp, Pm, y, L, frozen, consistent, violated)
+                    status |= fl.CONSTRAINT_APPLIED
+                    if used_pinv:
+                        status |= fl.SINGULAR_INNOVATION
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(Pp))):
             status |= fl.NON_FINITE
         self.x, self.P = x, Pp
@@ -252,17 +302,24 @@ class EstimateResult:
     """Per-step estimator output for samples k = 1..N."""
 
     t: np.ndarray
-    x: np.ndarray  # (N, 9)
+    x: np.ndarray  # (N, 2 nq + nc); the paper: (N, 9)
     p_norm: np.ndarray  # 2-norm of P^+, physical units
-    p_gg: np.ndarray
+    p_gg: np.ndarray  # P^+ of gamma_1 (the paper's gamma)
     flags: np.ndarray  # int
     newton_iters: np.ndarray  # int
-    P: Optional[np.ndarray] = None  # (N, 9, 9) when kept
+    P: Optional[np.ndarray] = None  # (N, n, n) when kept
     wall_time: float = float("nan")
+    n_contacts: int = 1
+
+    @property
+    def gammas(self) -> np.ndarray:
+        """(N, nc): gamma_c of every contact, the last nc states."""
+        return self.x[:, self.x.shape[1] - self.n_contacts :]
 
     @property
     def gamma(self) -> np.ndarray:
-        return self.x[:, IG]
+        """gamma of contact 1 (the paper's gamma)."""
+        return self.gammas[:, 0]
 
     @property
     def steps_per_second(self) -> float:
@@ -288,12 +345,13 @@ def run_estimator(
     y: np.ndarray,
     keep_P: bool = True,
     progress: bool = False,
+    mech: Optional[Mechanism] = None,
 ) -> EstimateResult:
-    """Run the filter over measurements y (N, 2) with inputs u (N,) sampled at t_k = k dt."""
-    ekf = AugmentedEKF(sc, cfg)
+    """Run the filter over measurements y (N, ns) with inputs u (N,) or (N, ni) sampled at t_k = k dt."""
+    ekf = AugmentedEKF(sc, cfg, mech)
     n = len(t)
-    xs = np.empty((n, NA))
-    Ps = np.empty((n, NA, NA))
+    xs = np.empty((n, ekf.n))
+    Ps = np.empty((n, ekf.n, ekf.n))
     fls = np.zeros(n, dtype=np.int64)
     its = np.zeros(n, dtype=np.int64)
     rng = range(n)
@@ -316,9 +374,10 @@ def run_estimator(
         t=np.asarray(t, dtype=float),
         x=xs,
         p_norm=spectral_norms(Ps),
-        p_gg=Ps[:, IG, IG].copy(),
+        p_gg=Ps[:, ekf.nx, ekf.nx].copy() if ekf.nc else np.zeros(n),
         flags=fls,
         newton_iters=its,
         P=Ps if keep_P else None,
         wall_time=wall,
+        n_contacts=ekf.nc,
     )

@@ -2,6 +2,7 @@
 reference estimator, and their summary table."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Dict, Iterable, List, Optional
 
@@ -26,6 +27,27 @@ def _config(preset: schema.Preset) -> EstimatorConfig:
 
 
 EXPERIMENTS: Dict[str, EstimatorConfig] = {p.name: _config(p) for p in schema.SCHEMA.presets}
+
+
+def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig:
+    """The configuration the C tools run: the scenario's estimator settings (mode, switchoff, cov_update,
+    q_gamma_scale, constraint_enabled, gamma_gate_nis (0: off), newton_max_iter) with preset `name`'s
+    values over them; for the cross-check of caekf-replay on any mechanism."""
+    values = {s.name: float(getattr(sc, s.keys[0])) for s in schema.SCHEMA.settings
+              if s.name in ("mode", "switchoff", "cov_update", "q_gamma_scale", "constraint_enabled",
+                            "gamma_gate_nis", "newton_max_iter")}
+    if name is not None:
+        values.update(schema.preset(name).values)
+
+    def enum(key: str) -> str:
+        v = values[key]
+        return v if isinstance(v, str) else schema.SCHEMA.by_name(key).values[int(v)]
+
+    gate = float(values["gamma_gate_nis"])
+    return EstimatorConfig(mode=CANONICAL if enum("mode") == "canonical" else SWITCHED,
+                           switch_variant=enum("switchoff"), q_gamma_scale=float(values["q_gamma_scale"]),
+                           constrained=bool(values["constraint_enabled"]), joseph=enum("cov_update") == "joseph",
+                           newton_max_iter=int(values["newton_max_iter"]), gate_nis=gate if gate > 0 else math.inf)
 
 
 def experiment_config(name: str, **overrides) -> EstimatorConfig:

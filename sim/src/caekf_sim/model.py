@@ -1,14 +1,15 @@
-"""The four-body lumped model of paper Sec. 3.1 and its backward-Euler step (eq. 19).
+"""The implicit backward-Euler step (eq. 19) of any lumped mechanism on a line (mechanism.py).
 
-Conventions (shared with the C core): x = [q1..q4, v1..v4]; the input force u acts on body 1
-(B_u = e1); penetration delta = q2 - q3 - gap; Hertz force f_c = gamma * delta^1.5 for
-delta > 0 (eq. 16-17), acting -f_c on body 2 and +f_c on body 3.
+Conventions (shared with the C core): x = [q_1..q_nq, v_1..v_nq]; inputs enter through B_u (one
+column per input), contact c through b_c = e_a - e_b (ground omitted) with the law of
+`mechanism.contact_law`. The paper's mechanism (mechanism defaults) is 4 bodies, B_u = e1, one Hertz
+contact with b = [0, 1, -1, 0].
 
 Backward Euler, eq. (19) plus the damping term C v_k that the paper omits:
     (q_k - q_{k-1})/h - v_k = 0
-    M (v_k - v_{k-1})/h + C v_k + K q_k - B_u u_k + b f_c(q_k, gamma) = 0,   b = [0, 1, -1, 0]
-Substituting q_k = q_{k-1} + h v_k leaves 4 equations in v_k, solved by Newton from
-v_{k-1} with Jacobian J = M/h + C + h (K + k_c b b^T), k_c = 1.5 gamma delta^0.5.
+    M (v_k - v_{k-1})/h + C v_k + K q_k - B_u u_k + sum_c b_c f_c(q_k, v_k, gamma_c) = 0
+Substituting q_k = q_{k-1} + h v_k leaves nq equations in v_k, solved by Newton from v_{k-1} with
+Jacobian A = M/h + C + h K + sum_c (h df_c/ddelta + df_c/dddelta) b_c b_c^T.
 Convergence (the same test as the C core, caekf_model_newton): after at least one update,
 max_i |r_i| <= rtol * max_i mag_i, where mag_i is the sum of the magnitudes of row i's terms
 (a norm-wise backward error: a lightly loaded row cannot be resolved better than the rounding
@@ -16,80 +17,40 @@ the coupled solve spreads from the heavily loaded ones); rtol = 256 eps.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from typing import Tuple
+from typing import Any, List, Tuple
 
 import numpy as np
 
-from .scenario import Scenario
+from .mechanism import Mechanism, contact_law
 
-# Contact direction b: the contact force enters the residual as +b f_c (-f_c on body 2, +f_c on 3).
+# The paper's contact direction b (-f_c on body 2, +f_c on body 3) and input direction B_u = e1.
 B_CONTACT = np.array([0.0, 1.0, -1.0, 0.0])
-# Input direction B_u = e1.
 B_INPUT = np.array([1.0, 0.0, 0.0, 0.0])
 
 NEWTON_RTOL = 256 * np.finfo(float).eps
 NEWTON_MAX_ITER = 20
 
-
-def chain_matrix(a1: float, a12: float, a34: float, a4: float) -> np.ndarray:
-    """K or C of the chain ground-1-2 | 3-4-ground (2-3 only via contact)."""
-    return np.array(
-        [
-            [a1 + a12, -a12, 0.0, 0.0],
-            [-a12, a12, 0.0, 0.0],
-            [0.0, 0.0, a34, -a34],
-            [0.0, 0.0, -a34, a34 + a4],
-        ]
-    )
-
-
-@dataclass(frozen=True)
-class Plant:
-    """Constant matrices of the model; gamma is passed separately (it is estimated)."""
-
-    m: np.ndarray  # diagonal of M
-    K: np.ndarray
-    C: np.ndarray
-    gap: float
-    u_amp: float
-    u_freq: float
-    u_phase: float
-
-    @staticmethod
-    def from_scenario(sc: Scenario) -> "Plant":
-        return Plant(
-            m=np.array([sc.m1, sc.m2, sc.m3, sc.m4]),
-            K=chain_matrix(sc.k1, sc.k12, sc.k34, sc.k4),
-            C=chain_matrix(sc.c1, sc.c12, sc.c34, sc.c4),
-            gap=sc.gap,
-            u_amp=sc.u_amp,
-            u_freq=sc.u_freq,
-            u_phase=sc.u_phase,
-        )
-
-    @property
-    def M(self) -> np.ndarray:
-        return np.diag(self.m)
-
-    def force(self, t: "np.ndarray | float") -> "np.ndarray | float":
-        """Input u(t) = u_amp sin(2 pi u_freq t + u_phase); vectorised over t."""
-        return self.u_amp * np.sin(2.0 * np.pi * self.u_freq * np.asarray(t) + self.u_phase)
-
-    def penetration(self, q: np.ndarray) -> "np.ndarray | float":
-        """delta = q2 - q3 - gap; works on a state row or an (n, >=4) array."""
-        q = np.asarray(q)
-        return q[..., 1] - q[..., 2] - self.gap
+# The model is the mechanism: `Plant` is the name the callers written for the paper's chain use.
+Plant = Mechanism
 
 
 def contact_force(delta: float, gamma: float) -> Tuple[float, float, float]:
-    """Hertz law eq. (16)-(17): returns (f_c, df_c/ddelta, df_c/dgamma); all zero if delta <= 0."""
-    if delta <= 0.0:
-        return 0.0, 0.0, 0.0
-    s = math.sqrt(delta)
-    d15 = delta * s
-    return gamma * d15, 1.5 * gamma * s, d15
+    """The paper's Hertz law eq. (16)-(17): (f_c, df_c/ddelta, df_c/dgamma); all zero if delta <= 0."""
+    f, fd, _, fg = contact_law(delta, 0.0, gamma, 1.5, 0.0)
+    return f, fd, fg
+
+
+def as_inputs(u: Any) -> Tuple[float, ...]:
+    """u_k as a tuple of floats: a number is the single input, a sequence one value per input."""
+    if isinstance(u, (float, int, np.floating, np.integer)):
+        return (float(u),)
+    return tuple(float(x) for x in np.asarray(u, dtype=float).ravel())
+
+
+def as_gammas(gamma: Any) -> Tuple[float, ...]:
+    """gamma as a tuple of floats, one per contact (a number for a single contact)."""
+    return as_inputs(gamma)
 
 
 @dataclass
@@ -97,11 +58,12 @@ class StepSolver:
     """Backward-Euler step of eq. (19) for a fixed step h, with the linear part factorised once.
 
     `solve` reproduces Newton-from-v_{k-1}: when neither the initial guess nor the linear
-    solution is in contact, one Newton iteration lands on the linear solution exactly, so
+    solution has a contact closed, one Newton iteration lands on the linear solution exactly, so
     we take it straight from the precomputed inverse (1 iteration); otherwise we iterate.
+    u: a number (one input) or one value per input; gamma: a number (one contact) or one per contact.
     """
 
-    plant: Plant
+    plant: Mechanism
     h: float
     rtol: float = NEWTON_RTOL
     max_iter: int = NEWTON_MAX_ITER
@@ -111,6 +73,8 @@ class StepSolver:
     m_h: np.ndarray = field(init=False)
     abs_C: np.ndarray = field(init=False)
     abs_K: np.ndarray = field(init=False)
+    contacts: Tuple[Tuple[int, int, float, float, float], ...] = field(init=False)
+    input_rows: Tuple[int, ...] = field(init=False)
 
     def __post_init__(self) -> None:
         p, h = self.plant, self.h
@@ -119,57 +83,81 @@ class StepSolver:
         self.J0_inv = np.linalg.inv(self.J0)
         self.abs_C = np.abs(p.C)
         self.abs_K = np.abs(p.K)
+        self.contacts = p.contacts
+        self.input_rows = tuple(p.input_body.tolist())
+
+    def penetrations(self, q: np.ndarray) -> List[float]:
+        """delta of each contact at positions q (plain floats)."""
+        return [(q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap for a, b, gap, _, _ in self.contacts]
 
     def residual(
-        self, v: np.ndarray, q_prev: np.ndarray, v_prev: np.ndarray, u: float, gamma: float
-    ) -> Tuple[np.ndarray, np.ndarray, float]:
-        """Momentum rows of eq. (19) in v_k, each row's sum of term magnitudes, and delta."""
+        self, v: np.ndarray, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any
+    ) -> Tuple[np.ndarray, np.ndarray, List[float]]:
+        """Momentum rows of eq. (19) in v_k, each row's sum of term magnitudes, and the deltas."""
         p = self.plant
         q = q_prev + self.h * v
-        delta = q[1] - q[2] - p.gap
-        fc, _, _ = contact_force(delta, gamma)
         inertia = self.m_h * (v - v_prev)
-        r = inertia + p.C @ v + p.K @ q + fc * B_CONTACT
-        r[0] -= u
-        mag = np.abs(inertia) + self.abs_C @ np.abs(v) + self.abs_K @ np.abs(q) + abs(fc) * np.abs(B_CONTACT)
-        mag[0] += abs(u)
-        return r, mag, delta
+        r = inertia + p.C @ v + p.K @ q
+        mag = np.abs(inertia) + self.abs_C @ np.abs(v) + self.abs_K @ np.abs(q)
+        deltas = []
+        for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
+            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+            deltas.append(delta)
+            dd = (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+            fc = contact_law(delta, dd, g, n, lam)[0]
+            if a >= 0:
+                r[a] += fc
+                mag[a] += abs(fc)
+            if b >= 0:
+                r[b] -= fc
+                mag[b] += abs(fc)
+        for row, uj in zip(self.input_rows, as_inputs(u)):
+            r[row] -= uj
+            mag[row] += abs(uj)
+        return r, mag, deltas
 
-    def jacobian(self, q: np.ndarray, gamma: float) -> np.ndarray:
-        """dr/dv_k = M/h + C + h (K + k_c b b^T)."""
-        delta = q[1] - q[2] - self.plant.gap
-        _, kc, _ = contact_force(delta, gamma)
-        if kc == 0.0:
-            return self.J0
-        J = self.J0.copy()
-        hk = self.h * kc
-        J[1, 1] += hk
-        J[1, 2] -= hk
-        J[2, 1] -= hk
-        J[2, 2] += hk
+    def jacobian(self, q: np.ndarray, gamma: Any, v: "np.ndarray | None" = None) -> np.ndarray:
+        """dr/dv_k = M/h + C + h K + sum_c (h df_c/ddelta + df_c/dddelta) b_c b_c^T (v: for Hunt-Crossley)."""
+        J = self.J0
+        for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
+            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+            dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+            _, kc, kd, _ = contact_law(delta, dd, g, n, lam)
+            if kc == 0.0 and kd == 0.0:
+                continue
+            if J is self.J0:
+                J = self.J0.copy()
+            hk = self.h * kc + kd
+            if a >= 0:
+                J[a, a] += hk
+            if a >= 0 and b >= 0:
+                J[a, b] -= hk
+                J[b, a] -= hk
+            if b >= 0:
+                J[b, b] += hk
         return J
 
-    def linear_velocity(self, q_prev: np.ndarray, v_prev: np.ndarray, u: float) -> np.ndarray:
+    def linear_velocity(self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any) -> np.ndarray:
         """Exact root of the contact-free residual: J0 v = M/h v_prev - K q_prev + B_u u."""
         rhs = self.m_h * v_prev - self.plant.K @ q_prev
-        rhs[0] += u
+        for row, uj in zip(self.input_rows, as_inputs(u)):
+            rhs[row] += uj
         return self.J0_inv @ rhs
 
     def solve(
-        self, q_prev: np.ndarray, v_prev: np.ndarray, u: float, gamma: float
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any
     ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
         """One step: returns (q_k, v_k, Newton iterations, converged)."""
-        h, gap = self.h, self.plant.gap
-        guess_delta = (q_prev[1] + h * v_prev[1]) - (q_prev[2] + h * v_prev[2]) - gap
-        if guess_delta <= 0.0:
+        h = self.h
+        if all(d <= 0.0 for d in self.penetrations(q_prev + h * v_prev)):
             v = self.linear_velocity(q_prev, v_prev, u)
             q = q_prev + h * v
-            if q[1] - q[2] - gap <= 0.0:
+            if all(d <= 0.0 for d in self.penetrations(q)):
                 return q, v, 1, True
         return self.newton(q_prev, v_prev, u, gamma)
 
     def newton(
-        self, q_prev: np.ndarray, v_prev: np.ndarray, u: float, gamma: float
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any
     ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
         """Plain Newton on the residual of eq. (19) from v_{k-1}; bounded iterations.
 
@@ -183,7 +171,7 @@ class StepSolver:
                 return q_prev + self.h * v, v, it, True
             if it == self.max_iter:
                 break
-            J = self.jacobian(q_prev + self.h * v, gamma)
+            J = self.jacobian(q_prev + self.h * v, gamma, v)
             try:
                 v = v - np.linalg.solve(J, r)
             except np.linalg.LinAlgError:

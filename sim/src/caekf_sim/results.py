@@ -1,8 +1,11 @@
-"""Estimate CSV (same columns as the C `caekf-replay` output) and its reader."""
+"""Estimate CSV (same columns as the C `caekf-replay` output) and its reader.
+
+A general mechanism (nq bodies, nc contacts) writes q1..q<nq>, v1..v<nq>, then `gamma` for one contact
+or gamma1..gamma<nc>; the paper's columns are RESULT_COLUMNS."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Union
+from typing import Tuple, Union
 
 import numpy as np
 
@@ -16,10 +19,17 @@ RESULT_COLUMNS = (
 PathLike = Union[str, Path]
 
 
+def result_columns(nq: int, nc: int) -> Tuple[str, ...]:
+    gammas = ["gamma"] if nc == 1 else [f"gamma{i}" for i in range(1, nc + 1)]
+    return ("t", *[f"q{i}" for i in range(1, nq + 1)], *[f"v{i}" for i in range(1, nq + 1)], *gammas,
+            "p_norm", "p_gg", "flags", "newton_iters")
+
+
 def write_result_csv(res: EstimateResult, path: PathLike) -> None:
     """%.17g for the floats so a reader gets the bits back; flags and iterations as integers."""
     with open(path, "w", encoding="utf-8") as f:
-        f.write(",".join(RESULT_COLUMNS) + "\n")
+        nc = res.n_contacts
+        f.write(",".join(result_columns((res.x.shape[1] - nc) // 2, nc)) + "\n")
         floats = np.column_stack([res.t, res.x, res.p_norm, res.p_gg])
         for row, flag, it in zip(floats, res.flags, res.newton_iters):
             f.write(",".join("%.17g" % v for v in row) + f",{int(flag)},{int(it)}\n")
@@ -29,12 +39,15 @@ def read_result_csv(path: PathLike) -> EstimateResult:
     """Read an estimate CSV (ours or caekf-replay's); columns matched by header name."""
     with open(path, encoding="utf-8") as f:
         header = [c.strip() for c in f.readline().split(",")]
-    missing = [c for c in RESULT_COLUMNS if c not in header]
-    if missing:
-        raise ValueError(f"{path}: missing columns {missing}")
+    nq = sum(1 for c in header if c[:1] == "q" and c[1:].isdigit())
+    nc = 1 if "gamma" in header else sum(1 for c in header if c.startswith("gamma") and c[5:].isdigit())
+    want = result_columns(nq, nc)
+    missing = [c for c in want if c not in header]
+    if missing or nq == 0:
+        raise ValueError(f"{path}: missing columns {missing or ['q1']}")
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    col = {name: data[:, header.index(name)] for name in RESULT_COLUMNS}
-    x = np.column_stack([col[c] for c in RESULT_COLUMNS[1:10]])
+    col = {name: data[:, header.index(name)] for name in want}
+    x = np.column_stack([col[c] for c in want[1 : 1 + 2 * nq + nc]])
     return EstimateResult(
         t=col["t"],
         x=x,
@@ -42,4 +55,5 @@ def read_result_csv(path: PathLike) -> EstimateResult:
         p_gg=col["p_gg"],
         flags=col["flags"].astype(np.int64),
         newton_iters=col["newton_iters"].astype(np.int64),
+        n_contacts=nc,
     )

@@ -3,9 +3,12 @@ from __future__ import annotations
 
 import argparse
 import time
+
+import numpy as np
 from pathlib import Path
 
 from ..experiments import EXPERIMENTS, format_table, run_experiment, summarize
+from ..mechanism import Mechanism, read_input_csv
 from ..results import write_result_csv
 from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, read_truth_csv, simulate,
                      write_truth_csv)
@@ -18,6 +21,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--method", choices=TRUTH_METHODS, default=CONTINUOUS,
                    help="continuous model with located contact events (default) or backward Euler")
+    p.add_argument("--inputs", type=Path, default=None, metavar="CSV",
+                   help="input forces from a CSV with columns t,u1[,u2] (linear interpolation, end values "
+                        "held) instead of the scenario's sines")
     p.set_defaults(func=cmd_truth)
 
     p = sub.add_parser("estimate", help="run one experiment's estimator over a measurements CSV")
@@ -41,19 +47,23 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_truth(args: argparse.Namespace) -> int:
     sc = scenario_from_args(args)
+    mech = Mechanism.from_scenario(sc)
+    inputs = read_input_csv(args.inputs, mech.n_inputs) if args.inputs is not None else None
     t0 = time.perf_counter()
-    truth, stats = simulate(sc, return_stats=True, method=args.method)
+    truth, stats = simulate(sc, return_stats=True, method=args.method, inputs=inputs, mech=mech)
     wall = time.perf_counter() - t0
     write_truth_csv(truth, args.out)
-    eps = contact_episodes(truth.t, truth.delta, merge_gap=0.1)
     print(f"wrote {args.out}: {len(truth)} samples in {wall:.1f} s")
-    print(f"contact episodes: " + ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in eps))
+    for c in range(truth.deltas.shape[1]):
+        eps = contact_episodes(truth.t, truth.deltas[:, c], merge_gap=0.1)
+        label = "contact episodes" if truth.deltas.shape[1] == 1 else f"contact {c + 1} episodes"
+        print(f"{label}: " + ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in eps))
     if args.method == CONTINUOUS:
-        print(f"max penetration {truth.delta.max():.4g} m; contact events located {stats.events}, "
+        print(f"max penetration {truth.deltas.max(initial=-np.inf):.4g} m; contact events located {stats.events}, "
               f"right-hand side evaluations {stats.rhs_evals}")
     else:
         n_sub = len(truth) * sc.truth_substeps
-        print(f"max penetration {truth.delta.max():.4g} m; Newton iterations per substep "
+        print(f"max penetration {truth.deltas.max(initial=-np.inf):.4g} m; Newton iterations per substep "
               f"mean {stats.newton_iters_total / n_sub:.3f} max {stats.newton_iters_max}")
     return 0
 

@@ -1,0 +1,383 @@
+"""A lumped mechanism on a line, as a scenario describes it (docs/mechanism.md).
+
+Bodies 1..nq move on one axis (q_i: displacement from rest, v_i its velocity); body 0 is the ground
+(q_0 = v_0 = 0). Springs/dampers join any two bodies or a body and the ground, input forces act on
+bodies, sensors read a body's position or velocity, and contacts push two bodies (or a body and the
+ground) apart with the law
+
+    delta = q_a - q_b - gap,  ddelta = v_a - v_b,
+    f = gamma * delta^n * (1 + lambda * ddelta)  for delta > 0 (clamped at f >= 0), else 0,
+
+acting -f on body a and +f on body b. With body numbers 1-based in the file, every array here is
+0-based and uses -1 for the ground.
+
+`Mechanism.from_scenario(sc)` reads the canonical keys (`spring2_k`, `contact1_gap`, ...) or, for a
+scenario that predates them, their paper aliases (`k12`, `gap`, ...); absent keys take the defaults
+of the settings schema, which are the paper's chain. `sc` may be a `Scenario` or a plain {key: value} dict.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .schema import ALIASES as SCHEMA_ALIASES
+from .schema import SCHEMA, setting_of
+
+# Capacities of the format (the schema's [capacity] table).
+MAX_BODIES = SCHEMA.capacity["bodies"]
+MAX_SPRINGS = SCHEMA.capacity["springs"]
+MAX_INPUTS = SCHEMA.capacity["inputs"]
+MAX_SENSORS = SCHEMA.capacity["sensors"]
+MAX_CONTACTS = SCHEMA.capacity["contacts"]
+
+POSITION = 0
+VELOCITY = 1
+SENSOR_KINDS = ("position", "velocity")
+
+# Canonical key -> the paper's name for it (the schema's aliases, reversed).
+ALIASES: Dict[str, str] = {canon: alias for alias, canon in SCHEMA_ALIASES.items()}
+
+
+def default_of(key: str) -> Any:
+    """The schema's default of a canonical key (None: required when in use, or not a setting)."""
+    try:
+        setting = setting_of(key)
+    except KeyError:
+        return None
+    index = setting.keys.index(key) if key in setting.keys else 0
+    d = setting.element_default(index)
+    if isinstance(d, str):  # an enum's name or a build-relative value
+        return setting.default_value(index=index)
+    return d
+
+
+class MechanismError(ValueError):
+    """A mechanism that cannot be used; one line naming the key, its value and the rule."""
+
+    def __init__(self, key: str, value: Any, rule: str) -> None:
+        self.key = key
+        super().__init__(f"{key} = {value}: {rule}")
+
+
+def scenario_value(sc: Any, key: str) -> Any:
+    """The value of a canonical key in a Scenario or dict: the key, else its paper alias, else the
+    schema's default; MechanismError when none of them exists."""
+    for k in (key, ALIASES.get(key)):
+        if k is None:
+            continue
+        if isinstance(sc, Mapping):
+            if k in sc:
+                return sc[k]
+        elif hasattr(sc, k):
+            return getattr(sc, k)
+    d = default_of(key)
+    if d is not None:
+        return d
+    raise MechanismError(key, "(missing)", "required: it has no default")
+
+
+def _count(sc: Any, key: str, lo: int, hi: int) -> int:
+    v = scenario_value(sc, key)
+    if not (float(v) == int(v) and lo <= int(v) <= hi):
+        raise MechanismError(key, v, f"must be an integer in {lo}..{hi}")
+    return int(v)
+
+
+def _body(sc: Any, key: str, bodies: int, ground: bool) -> int:
+    """0-based body index (-1 = ground) of a 1-based body-number key."""
+    v = scenario_value(sc, key)
+    lo = 0 if ground else 1
+    if not (float(v) == int(v) and lo <= int(v) <= bodies):
+        where = "0 (ground)" if ground else "1"
+        raise MechanismError(key, v, f"must be a body number in {where}..{bodies} (bodies = {bodies})")
+    return int(v) - 1
+
+
+def _links(sc: Any, prefix: str, count: int, bodies: int) -> Tuple[list, list]:
+    """0-based ends (a, b) of springs or contacts 1..count; -1 = ground, a != b."""
+    ends: Tuple[list, list] = ([], [])
+    for i in range(1, count + 1):
+        a = _body(sc, f"{prefix}{i}_a", bodies, True)
+        b = _body(sc, f"{prefix}{i}_b", bodies, True)
+        if a == b:
+            raise MechanismError(f"{prefix}{i}_b", b + 1, f"must differ from {prefix}{i}_a")
+        ends[0].append(a)
+        ends[1].append(b)
+    return ends
+
+
+def _real(sc: Any, key: str, lo: Optional[float] = None, strict: bool = False) -> float:
+    v = float(scenario_value(sc, key))
+    if not math.isfinite(v):
+        raise MechanismError(key, v, "must be finite")
+    if lo is not None and (v <= lo if strict else v < lo):
+        raise MechanismError(key, format(v, "g"), f"must be {'>' if strict else '>='} {lo:g}")
+    return v
+
+
+def _kind(sc: Any, key: str) -> int:
+    v = scenario_value(sc, key)
+    if isinstance(v, str):
+        if v not in SENSOR_KINDS:
+            raise MechanismError(key, v, f"must be one of {', '.join(SENSOR_KINDS)}")
+        return SENSOR_KINDS.index(v)
+    if not (float(v) == int(v) and 0 <= int(v) < len(SENSOR_KINDS)):
+        raise MechanismError(key, v, f"must be one of {', '.join(SENSOR_KINDS)}")
+    return int(v)
+
+
+def _pair_matrix(nq: int, a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Sum over links of w (e_a - e_b)(e_a - e_b)^T, ground (-1) omitted: K or C of the springs."""
+    out = np.zeros((nq, nq))
+    for ia, ib, wi in zip(a.tolist(), b.tolist(), w.tolist()):
+        if ia >= 0:
+            out[ia, ia] += wi
+        if ib >= 0:
+            out[ib, ib] += wi
+        if ia >= 0 and ib >= 0:
+            out[ia, ib] -= wi
+            out[ib, ia] -= wi
+    return out
+
+
+def contact_law(delta: float, ddelta: float, gamma: float, n: float, lam: float
+                ) -> Tuple[float, float, float, float]:
+    """(f, df/ddelta, df/dddelta, df/dgamma) of one contact; all 0 while open (delta <= 0) or clamped.
+
+    The clamp (no adhesion) acts when 1 + lambda ddelta <= 0, i.e. where f < 0 for any gamma > 0; a
+    negative gamma (a diverged estimate) is not clamped, so the linearisation keeps its information.
+    n = 1.5 and n = 1 are written out (sqrt, identity) so the paper's Hertz law keeps its bits."""
+    if delta <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    if n == 1.5:
+        s = math.sqrt(delta)
+        dn = delta * s
+        fd = 1.5 * gamma * s
+    elif n == 1.0:
+        dn = delta
+        fd = gamma
+    else:
+        dn = delta**n
+        fd = n * gamma * delta ** (n - 1.0)
+    if lam == 0.0:
+        return gamma * dn, fd, 0.0, dn
+    fac = 1.0 + lam * ddelta
+    if fac <= 0.0:  # the damping term would pull: no adhesion
+        return 0.0, 0.0, 0.0, 0.0
+    return gamma * dn * fac, fd * fac, gamma * dn * lam, dn * fac
+
+
+def contact_forces(delta: np.ndarray, ddelta: np.ndarray, gamma: "np.ndarray | float", n: "np.ndarray | float",
+                   lam: "np.ndarray | float") -> np.ndarray:
+    """Vectorised contact force f (broadcast over any shape; the law of `contact_law`)."""
+    d = np.clip(np.asarray(delta, dtype=float), 0.0, None)
+    fac = 1.0 + np.asarray(lam) * ddelta
+    return np.where((np.asarray(delta) > 0.0) & (fac > 0.0), gamma * d**n * fac, 0.0)
+
+
+@dataclass(frozen=True, eq=False)
+class Mechanism:
+    """Bodies, springs/dampers, inputs, sensors and contacts; arrays are 0-based, -1 = ground."""
+
+    m: np.ndarray  # (nq,) masses [kg]
+    spring_a: np.ndarray  # (n_springs,) int
+    spring_b: np.ndarray
+    spring_k: np.ndarray  # [N/m]
+    spring_c: np.ndarray  # [N s/m]
+    input_body: np.ndarray  # (ni,) int
+    input_amp: np.ndarray  # (ni,) truth excitation u_i = amp sin(2 pi freq t + phase) [N]
+    input_freq: np.ndarray  # [Hz]
+    input_phase: np.ndarray  # [rad]
+    sensor_body: np.ndarray  # (ns,) int
+    sensor_kind: np.ndarray  # (ns,) POSITION | VELOCITY
+    contact_a: np.ndarray  # (nc,) int
+    contact_b: np.ndarray
+    contact_gap: np.ndarray  # [m]
+    contact_n: np.ndarray  # exponent >= 1
+    contact_lambda: np.ndarray  # Hunt-Crossley damping [s/m]
+    # derived
+    K: np.ndarray = field(init=False)
+    C: np.ndarray = field(init=False)
+    B_u: np.ndarray = field(init=False)  # (nq, ni): input i acts on column i
+    B_c: np.ndarray = field(init=False)  # (nc, nq): row c = e_a - e_b (ground omitted); delta = B_c q - gap
+    H: np.ndarray = field(init=False)  # (ns, 2 nq): y = H [q; v]
+    # sizes: bodies, inputs, sensors, contacts
+    nq: int = field(init=False)
+    n_inputs: int = field(init=False)
+    n_sensors: int = field(init=False)
+    n_contacts: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        nq = len(self.m)
+        set_ = object.__setattr__
+        for name, n in (("nq", nq), ("n_inputs", len(self.input_body)), ("n_sensors", len(self.sensor_body)),
+                        ("n_contacts", len(self.contact_a))):
+            set_(self, name, n)
+        set_(self, "K", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_k))
+        set_(self, "C", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_c))
+        B_u = np.zeros((nq, len(self.input_body)))
+        B_u[self.input_body, np.arange(len(self.input_body))] = 1.0
+        set_(self, "B_u", B_u)
+        B_c = np.zeros((len(self.contact_a), nq))
+        for c, (ia, ib) in enumerate(zip(self.contact_a.tolist(), self.contact_b.tolist())):
+            if ia >= 0:
+                B_c[c, ia] += 1.0
+            if ib >= 0:
+                B_c[c, ib] -= 1.0
+        set_(self, "B_c", B_c)
+        H = np.zeros((len(self.sensor_body), 2 * nq))
+        H[np.arange(len(self.sensor_body)), self.sensor_body + nq * self.sensor_kind] = 1.0
+        set_(self, "H", H)
+
+    @property
+    def M(self) -> np.ndarray:
+        return np.diag(self.m)
+
+    @property
+    def contacts(self) -> Tuple[Tuple[int, int, float, float, float], ...]:
+        """(a, b, gap, n, lambda) per contact as Python scalars (the step's hot loop)."""
+        return tuple(zip(self.contact_a.tolist(), self.contact_b.tolist(), self.contact_gap.tolist(),
+                         self.contact_n.tolist(), self.contact_lambda.tolist()))
+
+    # ---- construction -------------------------------------------------------------------
+    @staticmethod
+    def from_scenario(sc: Any) -> "Mechanism":
+        """Read and check the mechanism keys of a Scenario or dict (docs/mechanism.md)."""
+        nq = _count(sc, "bodies", 1, MAX_BODIES)
+        m = np.array([_real(sc, f"m{i}", 0.0, strict=True) for i in range(1, nq + 1)])
+        n_springs = _count(sc, "springs", 0, MAX_SPRINGS)
+        sa, sb = _links(sc, "spring", n_springs, nq)
+        sk = [_real(sc, f"spring{i}_k", 0.0) for i in range(1, n_springs + 1)]
+        scc = [_real(sc, f"spring{i}_c", 0.0) for i in range(1, n_springs + 1)]
+        ni = _count(sc, "inputs", 0, MAX_INPUTS)
+        ib = [_body(sc, f"input{i}_body", nq, False) for i in range(1, ni + 1)]
+        amp = [_real(sc, f"input{i}_amp") for i in range(1, ni + 1)]
+        freq = [_real(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]
+        phase = [_real(sc, f"input{i}_phase") for i in range(1, ni + 1)]
+        ns = _count(sc, "sensors", 1, MAX_SENSORS)
+        sens = []
+        for i in range(1, ns + 1):
+            s = (_body(sc, f"sensor{i}_body", nq, False), _kind(sc, f"sensor{i}_kind"))
+            if s in sens:
+                raise MechanismError(f"sensor{i}_body", s[0] + 1,
+                                     f"same body and kind as sensor{sens.index(s) + 1}")
+            sens.append(s)
+        nc = _count(sc, "contacts", 0, MAX_CONTACTS)
+        ca, cb = _links(sc, "contact", nc, nq)
+        gap = [_real(sc, f"contact{i}_gap") for i in range(1, nc + 1)]
+        n = [_real(sc, f"contact{i}_n", 1.0) for i in range(1, nc + 1)]
+        lam = [_real(sc, f"contact{i}_lambda", 0.0) for i in range(1, nc + 1)]
+        ints = lambda xs: np.array(xs, dtype=np.int64)  # noqa: E731
+        reals = lambda xs: np.array(xs, dtype=float)  # noqa: E731
+        return Mechanism(
+            m=m, spring_a=ints(sa), spring_b=ints(sb), spring_k=reals(sk), spring_c=reals(scc),
+            input_body=ints(ib), input_amp=reals(amp), input_freq=reals(freq), input_phase=reals(phase),
+            sensor_body=ints([s[0] for s in sens]), sensor_kind=ints([s[1] for s in sens]),
+            contact_a=ints(ca), contact_b=ints(cb), contact_gap=reals(gap), contact_n=reals(n),
+            contact_lambda=reals(lam))
+
+    # ---- kinematics ---------------------------------------------------------------------
+    def penetrations(self, q: np.ndarray) -> np.ndarray:
+        """delta of every contact, shape (..., nc), for a state row or an (N, nq) array of them."""
+        q = np.asarray(q, dtype=float)
+        cols = [_side(q, a) - _side(q, b) - g
+                for a, b, g in zip(self.contact_a.tolist(), self.contact_b.tolist(), self.contact_gap.tolist())]
+        return np.stack(cols, axis=-1) if cols else np.zeros(q.shape[:-1] + (0,))
+
+    def penetration_rates(self, v: np.ndarray) -> np.ndarray:
+        """ddelta/dt of every contact, shape (..., nc)."""
+        v = np.asarray(v, dtype=float)
+        cols = [_side(v, a) - _side(v, b) for a, b in zip(self.contact_a.tolist(), self.contact_b.tolist())]
+        return np.stack(cols, axis=-1) if cols else np.zeros(v.shape[:-1] + (0,))
+
+    def penetration(self, q: np.ndarray) -> "np.ndarray | float":
+        """delta of contact 1 (the paper's single contact)."""
+        return self.penetrations(q)[..., 0]
+
+    @property
+    def gap(self) -> float:
+        """Gap of contact 1 (the paper's single contact)."""
+        return float(self.contact_gap[0])
+
+    def forces(self, q: np.ndarray, v: np.ndarray, gamma: Sequence[float]) -> np.ndarray:
+        """Contact forces f_c (..., nc) at states (q, v) with stiffnesses gamma (nc,)."""
+        return contact_forces(self.penetrations(q), self.penetration_rates(v), np.asarray(gamma, dtype=float),
+                              self.contact_n, self.contact_lambda)
+
+    def measure(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Noise-free sensor readings (..., ns): each sensor copies its body's q or v."""
+        src = (np.asarray(q), np.asarray(v))
+        cols = [src[k][..., b] for b, k in zip(self.sensor_body.tolist(), self.sensor_kind.tolist())]
+        return np.stack(cols, axis=-1)
+
+    # ---- inputs -------------------------------------------------------------------------
+    def inputs(self, t: "np.ndarray | float") -> np.ndarray:
+        """Sine inputs u_i(t) = amp_i sin(2 pi freq_i t + phase_i), shape (..., ni)."""
+        t = np.asarray(t, dtype=float)
+        cols = [a * np.sin(2.0 * np.pi * f * t + p) for a, f, p in
+                zip(self.input_amp.tolist(), self.input_freq.tolist(), self.input_phase.tolist())]
+        return np.stack(cols, axis=-1) if cols else np.zeros(t.shape + (0,))
+
+    def force(self, t: "np.ndarray | float") -> "np.ndarray | float":
+        """Input 1's sine (the paper's single input u)."""
+        return self.inputs(t)[..., 0]
+
+    # ---- names --------------------------------------------------------------------------
+    def sensor_names(self) -> Tuple[str, ...]:
+        """y<body> for a position sensor, yv<body> for a velocity sensor (the paper: y1, y4)."""
+        return tuple(("y" if k == POSITION else "yv") + str(b + 1)
+                     for b, k in zip(self.sensor_body.tolist(), self.sensor_kind.tolist()))
+
+    def input_names(self) -> Tuple[str, ...]:
+        return ("u",) if self.n_inputs == 1 else tuple(f"u{i}" for i in range(1, self.n_inputs + 1))
+
+    def delta_names(self) -> Tuple[str, ...]:
+        return ("delta",) if self.n_contacts == 1 else tuple(f"delta{i}" for i in range(1, self.n_contacts + 1))
+
+
+def _side(x: np.ndarray, idx: int) -> "np.ndarray | float":
+    """Column idx of x (..., nq), or 0 for the ground (idx = -1)."""
+    return x[..., idx] if idx >= 0 else 0.0
+
+
+def contact_values(sc: Any, key: str, nc: int) -> np.ndarray:
+    """Per-contact values of `contact{i}_<key>` (gamma, gamma0, sigma_gamma0, ...), i = 1..nc."""
+    return np.array([float(scenario_value(sc, f"contact{i}_{key}")) for i in range(1, nc + 1)])
+
+
+def body_values(sc: Any, prefix: str, nq: int) -> np.ndarray:
+    """Per-body values `<prefix><i>` (q0_, v0_), i = 1..nq."""
+    return np.array([float(scenario_value(sc, f"{prefix}{i}")) for i in range(1, nq + 1)])
+
+
+def read_input_csv(path: Any, n_inputs: int) -> Tuple[np.ndarray, np.ndarray]:
+    """(t (M,), u (M, ni)) from a CSV with a header line and columns t,u1[,u2] (extra columns ignored)."""
+    with open(path, encoding="utf-8") as f:
+        header = [c.strip() for c in f.readline().split(",")]
+    want = ["t"] + (["u1"] if n_inputs == 1 and "u1" in header else
+                    ["u"] if n_inputs == 1 else [f"u{i}" for i in range(1, n_inputs + 1)])
+    missing = [c for c in want if c not in header]
+    if missing:
+        raise ValueError(f"{path}: missing column '{missing[0]}' (need t,u1[,u2] for {n_inputs} inputs)")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    t = data[:, header.index("t")]
+    if len(t) < 2 or not np.all(np.isfinite(data)) or np.any(np.diff(t) <= 0):
+        raise ValueError(f"{path}: t must be finite and strictly increasing over >= 2 rows, u finite")
+    return t, np.column_stack([data[:, header.index(c)] for c in want[1:]])
+
+
+class InputSeries:
+    """Inputs from samples (t_j, u_j): linear interpolation, end values held outside [t_0, t_last]."""
+
+    def __init__(self, t: np.ndarray, u: np.ndarray) -> None:
+        self.t = np.asarray(t, dtype=float)
+        self.u = np.asarray(u, dtype=float).reshape(len(self.t), -1)
+
+    def __call__(self, t: "np.ndarray | float") -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        cols = [np.interp(t, self.t, self.u[:, i]) for i in range(self.u.shape[1])]
+        return np.stack(cols, axis=-1)
+
