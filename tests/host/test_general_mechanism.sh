@@ -12,34 +12,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fails=0 passes=0
 
-check() { # name, condition status (0 ok), detail
-    if [[ $2 == 0 ]]; then passes=$((passes + 1)); else echo "FAIL $1: $3"; fails=$((fails + 1)); fi
-}
-val() { sed -nE "s/^$2[[:space:]]*=[[:space:]]*\"?([^ #\"]+)\"?.*/\\1/p" "$1"; } # file, key
-kind_prefix() { case $1 in position|0) echo y ;; velocity|1) echo yv ;; esac; }
-
-# The header the scenario's mechanism asks for, built from its keys (not from the tools).
-expected_truth_header() { # scenario
-    local f=$1 ni ns nq nc i h=t
-    ni=$(val "$f" inputs); ns=$(val "$f" sensors); nq=$(val "$f" bodies); nc=$(val "$f" contacts)
-    if [[ $ni -eq 1 ]]; then h+=",u"; else for ((i = 1; i <= ni; i++)); do h+=",u$i"; done; fi
-    for ((i = 1; i <= ns; i++)); do h+=",$(kind_prefix "$(val "$f" "sensor${i}_kind")")$(val "$f" "sensor${i}_body")"; done
-    for ((i = 1; i <= nq; i++)); do h+=",q$i"; done
-    for ((i = 1; i <= nq; i++)); do h+=",v$i"; done
-    if [[ $nc -eq 1 ]]; then h+=",delta"; else for ((i = 1; i <= nc; i++)); do h+=",delta$i"; done; fi
-    echo "$h"
-}
-expected_replay_header() { # scenario
-    local f=$1 nq nc i h=t
-    nq=$(val "$f" bodies); nc=$(val "$f" contacts)
-    for ((i = 1; i <= nq; i++)); do h+=",q$i"; done
-    for ((i = 1; i <= nq; i++)); do h+=",v$i"; done
-    for ((i = 1; i <= nc; i++)); do h+=",gamma$([[ $i -gt 1 ]] && echo $i)"; done
-    h+=",p_norm"
-    for ((i = 1; i <= nc; i++)); do h+=",p_gg$([[ $i -gt 1 ]] && echo $i)"; done
-    echo "$h,flags,newton_iters,nis"
-}
-col() { head -1 "$1" | tr ',' '\n' | grep -nx "$2" | cut -d: -f1; } # file, column name -> index
+. "$(dirname "$0")/mechanism_lib.sh"
 
 # --- truth: columns, rows, sensors -------------------------------------------------------------
 "$truth" --scenario "$scenario" --out "$tmp/truth.csv" --quiet; rc=$?
@@ -93,12 +66,7 @@ check truth-inputs-zero "$([[ $moved -eq 0 ]]; echo $?)" "$moved rows with q1 !=
 check replay-runs $rc "exit $rc: $(cat "$tmp/summary")"
 want=$(expected_replay_header "$scenario")
 check replay-header "$([[ $(head -1 "$tmp/est.csv") == "$want" ]]; echo $?)" "header '$(head -1 "$tmp/est.csv")', want '$want'"
-g_true=$(val "$scenario" contact1_gamma) g0=$(val "$scenario" contact1_gamma0)
-g_end=$(awk -F, -v g="$(col "$tmp/est.csv" gamma)" 'NR > 1 { x = $g } END { printf "%.17g", x }' "$tmp/est.csv")
-# the error must shrink at least tenfold from the initial estimate's
-ok=$(awk -v e="$g_end" -v t="$g_true" -v s="$g0" 'BEGIN { a = e - t; b = s - t; if (a < 0) a = -a; if (b < 0) b = -b; print ((a <= 0.1 * b) ? 0 : 1) }')
-check replay-gamma-converges "$ok" "final gamma $g_end, true $g_true, initial $g0"
-echo "general mechanism: final gamma $g_end (true $g_true, initial $g0): error $(awk -v e="$g_end" -v t="$g_true" 'BEGIN { printf "%+.4f %%", 100 * (e / t - 1) }')"
+check_gamma_converges "$scenario" "$tmp/est.csv" 0.1
 
 # --- no contacts: no delta, gamma or p_gg columns -------------------------------------------------
 grep -Ev '^contact1_' "$scenario" | sed -E 's/^contacts[[:space:]]*=.*/contacts = 0/' > "$tmp/free.toml"
