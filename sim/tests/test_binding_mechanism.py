@@ -239,3 +239,38 @@ def test_c_truth_refuses_a_general_mechanism(general):
         "sensor2 is not the paper's position sensor on body 4"
     assert binding.paper_mismatch(paper.replace(contact1_n=1.0)).startswith("contact1 is not the paper's")
     assert binding.paper_mismatch(paper.replace(input1_body=2)).startswith("input1_body = 2")
+
+
+
+def test_campaign_binding_estimator_runs_any_mechanism(general, record):
+    from caekf_sim.campaign.estimate import estimate
+
+    u, y = record
+    est = estimate(general, "switched", general.dt * np.arange(1, STEPS + 1), u, y)
+    assert np.array_equal(est.gamma, caekf_sim.run(general, u, y, experiment="switched").gamma)
+    assert est.p_gg.shape == est.nis.shape == (STEPS,)
+
+
+@pytest.mark.parametrize("caller", ["replay", "numpy", "numpy truth", "c truth", "tune", "run_family"])
+def test_paper_only_callers_refuse_in_one_line(general, record, caller):
+    """Every truth, the replay and numpy estimator backends and tune handle the paper's mechanism only."""
+    from caekf_sim.campaign.estimate import estimate
+    from caekf_sim.campaign.runner import run_family, truth_arrays
+    from caekf_sim.campaign.spec import Family, Run
+    from caekf_sim.tune import Record, tune
+
+    u, y = record
+    t = general.dt * np.arange(1, STEPS + 1)
+    family = Family(name="f", runs=(Run(run=0, scenario=general, values={}, source="general.toml"),))
+    call, what = {
+        "replay": (lambda: estimate(general, "switched", t, u, y, backend="replay"), "the replay estimator backend"),
+        "numpy": (lambda: estimate(general, "switched", t, u, y, backend="numpy"), "the numpy estimator backend"),
+        "numpy truth": (lambda: truth_arrays(general, "numpy"), "the numpy truth"),
+        "c truth": (lambda: truth_arrays(general, "c"), "the c truth"),
+        "tune": (lambda: tune(general, [Record("r", t, u, y)]), "tune"),
+        "run_family": (lambda: run_family(family, ["switched"], workers=1, progress=False),
+                       r"run 0 \(general.toml\): the binding truth"),
+    }[caller]
+    with pytest.raises(ValueError, match=rf"^{what} handles the paper's mechanism only: bodies = 3 "
+                                         r"\(the paper's chain has 4\)$"):
+        call()
