@@ -219,6 +219,11 @@ class RunResult:
         return len(self.t)
 
 
+def _c_size(name: str, doc: str) -> property:
+    """A read-only int property of Estimator: the C object's attribute `name`."""
+    return property(lambda self: int(getattr(self._c, name)), doc=doc)
+
+
 class Estimator:
     """The C estimator (caekf_t) of one precision.
 
@@ -269,28 +274,12 @@ class Estimator:
     def precision(self) -> str:
         return self.settings.precision
 
-    @property
-    def n(self) -> int:
-        """States: 2 bodies + contacts (caekf_get_sizes)."""
-        return self._c.n
-
-    @property
-    def sensors(self) -> int:
-        """Measurements per step (caekf_get_sizes)."""
-        return self._c.sensors
-
-    @property
-    def inputs(self) -> int:
-        """Input forces per step (caekf_get_sizes)."""
-        return self._c.inputs
-
-    @property
-    def bodies(self) -> int:
-        return self._c.bodies
-
-    @property
-    def contacts(self) -> int:
-        return self._c.contacts
+    # The mechanism's sizes (int), read from the C object (caekf_get_sizes after init).
+    n = _c_size("n", "States: 2 bodies + contacts.")
+    sensors = _c_size("sensors", "Measurements per step (one per sensor).")
+    inputs = _c_size("inputs", "Input forces per step.")
+    bodies = _c_size("bodies", "Bodies (positions q and velocities v).")
+    contacts = _c_size("contacts", "Contacts (one gamma each).")
 
     @property
     def gamma_index(self) -> int:
