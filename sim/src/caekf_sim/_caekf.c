@@ -537,7 +537,7 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
         r[i] = sd * sd;
         log_r2 += 2.0 * log(r[i]);
         for (j = 0; j < ny; ++j) {
-            const int si = e->sensor_state[i], sj = e->sensor_state[j];
+            const int si = e->dims.h[i], sj = e->dims.h[j];
             /* caekf_get_covariance's expression, element by element (the same bits) */
             a[i][j] = (i == j ? r[i] : 0.0) - (double)(e->P[si * n + sj] * e->scale[si] * e->scale[sj]);
         }
@@ -906,6 +906,7 @@ typedef struct {
     double *t, *u, *y, *q, *v, *delta;
     int32_t *iters, *failed;
     long n, k;
+    int ni, ny, nq, nc; /* row widths: inputs, sensors, bodies, contacts */
 } truth_ctx_t;
 
 static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
@@ -917,14 +918,19 @@ static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
         return -1;
     }
     c->t[k] = s->t;
-    c->u[k] = s->u;
-    c->y[2 * k] = s->y1;
-    c->y[2 * k + 1] = s->y4;
-    for (i = 0; i < 4; ++i) {
-        c->q[4 * k + i] = s->q[i];
-        c->v[4 * k + i] = s->v[i];
+    for (i = 0; i < c->ni; ++i) {
+        c->u[c->ni * k + i] = s->u[i];
     }
-    c->delta[k] = s->delta;
+    for (i = 0; i < c->ny; ++i) {
+        c->y[c->ny * k + i] = s->y[i];
+    }
+    for (i = 0; i < c->nq; ++i) {
+        c->q[c->nq * k + i] = s->q[i];
+        c->v[c->nq * k + i] = s->v[i];
+    }
+    for (i = 0; i < c->nc; ++i) {
+        c->delta[c->nc * k + i] = s->delta[i];
+    }
     c->iters[k] = s->newton_iters;
     c->failed[k] = s->newton_failed;
     c->k = k + 1;
@@ -932,7 +938,8 @@ static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
 }
 
 /* truth(scenario, t, u, y, q, v, delta, newton_iters, newton_failed) -> None: caekf_truth_run into the
- * arrays (n = round(t_end / dt) rows; y n*2, q and v n*4 doubles, the counts int32), without the GIL. */
+ * arrays (n = round(t_end / dt) rows of the mechanism's widths: u n*inputs, y n*sensors, q and v
+ * n*bodies, delta n*contacts doubles, the counts int32), without the GIL. */
 static PyObject *mod_truth(PyObject *m, PyObject *args)
 {
     PyObject *o[9];
@@ -940,7 +947,7 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
     static const char *const names[8] = {"t", "u", "y", "q", "v", "delta", "newton_iters", "newton_failed"};
     static const char fmts[8] = {'d', 'd', 'd', 'd', 'd', 'd', 'i', 'i'};
     static const Py_ssize_t sizes[8] = {8, 8, 8, 8, 8, 8, 4, 4};
-    static const int per[8] = {1, 1, 2, 4, 4, 1, 1, 1};
+    int per[8] = {1, 1, 1, 1, 1, 1, 1, 1};
     caekf_scenario_t sc;
     truth_ctx_t ctx;
     long n;
@@ -952,13 +959,14 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
     if (scenario_from_dict(o[0], &sc, 1) != 0) {
         return NULL;
     }
-    {
-        char text[160];
-        if (paper_mismatch(&sc, text, sizeof text) != 0) { /* host/common/truth.c integrates the paper's chain */
-            PyErr_Format(PyExc_ValueError, "the C truth simulates the paper's mechanism only: %s", text);
-            return NULL;
-        }
-    }
+    ctx.ni = (int)sc.inputs;
+    ctx.ny = (int)sc.sensors;
+    ctx.nq = (int)sc.bodies;
+    ctx.nc = (int)sc.contacts;
+    per[1] = ctx.ni;
+    per[2] = ctx.ny;
+    per[3] = per[4] = ctx.nq;
+    per[5] = ctx.nc;
     if (!(sc.dt > 0) || !(sc.t_end > 0) || !(sc.truth_substeps >= 1)) {
         PyErr_SetString(PyExc_ValueError, "truth needs dt > 0, t_end > 0, truth_substeps >= 1");
         return NULL;
@@ -996,7 +1004,7 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
         PyBuffer_Release(&b[i]);
     }
     if (rc != 0 || ctx.k != n) {
-        PyErr_SetString(PyExc_ValueError, "truth refused the scenario's plant (caekf_model_init)");
+        PyErr_SetString(PyExc_ValueError, "truth refused the scenario's plant (settings or integration)");
         return NULL;
     }
     Py_RETURN_NONE;

@@ -434,14 +434,19 @@ def truth(sc: Scenario) -> "Truth":
     samples as `caekf-truth` writes, bit for bit, far faster than caekf_sim.truth.simulate (whose noise
     generator differs: numpy's, not splitmix64). Returns caekf_sim.truth.Truth (t [s], u [N], y [m],
     q [m], v [m/s], delta [m]); a pure function, picklable for process pools and Dask. The C truth
-    integrates the paper's mechanism only: another is refused with a one-line ValueError."""
+    integrates any mechanism the scenario describes (docs/mechanism.md)."""
     from .settings_adapter import scenario_dict
     from .truth import Truth
 
+    from .mechanism import Mechanism
+
+    mech = Mechanism.from_scenario(sc)
     x = sc.t_end / sc.dt
     n = int(math.floor(x + 0.5)) if x > 0 else 0  # caekf_scenario_steps: lround
-    t, u, delta = np.empty(n), np.empty(n), np.empty(n)
-    y, q, v = np.empty((n, 2)), np.empty((n, 4)), np.empty((n, 4))
+    t = np.empty(n)
+    u, delta = np.empty((n, sc.inputs)), np.empty((n, sc.contacts))
+    y, q, v = np.empty((n, sc.sensors)), np.empty((n, sc.bodies)), np.empty((n, sc.bodies))
     iters, failed = np.empty(n, dtype=np.int32), np.empty(n, dtype=np.int32)
     _module("double").truth(scenario_dict(sc), t, u, y, q, v, delta, iters, failed)
-    return Truth(t=t, u=u, y=y, q=q, v=v, delta=delta)
+    return Truth(t=t, u=u[:, 0] if sc.inputs == 1 else u, y=y, q=q, v=v,
+                 delta=delta[:, 0] if sc.contacts == 1 else delta, y_names=mech.sensor_names())
