@@ -26,6 +26,10 @@ COMMAND_MODULES = (
 EXIT_USAGE, EXIT_BAD_INPUT, EXIT_IO, EXIT_NUMERIC = 2, 3, 4, 5
 
 
+class UsageError(Exception):
+    """Options that do not go together (argparse checks the rest): exit 2."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="caekf-sim",
@@ -58,6 +62,8 @@ def exit_code(exc: BaseException) -> int:
     """The exit-code table: bad input 3 (scenario, settings, measurements), I/O 4, numerical failure 5."""
     from .scenario import ScenarioError
 
+    if isinstance(exc, UsageError):
+        return EXIT_USAGE
     if isinstance(exc, (ScenarioError, ValueError, KeyError, TypeError)):
         return EXIT_BAD_INPUT
     if isinstance(exc, (OSError, EOFError)):

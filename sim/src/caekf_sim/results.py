@@ -26,13 +26,25 @@ def write_result_csv(res: EstimateResult, path: PathLike) -> None:
 
 
 def read_result_csv(path: PathLike) -> EstimateResult:
-    """Read an estimate CSV (ours or caekf-replay's); columns matched by header name."""
-    with open(path, encoding="utf-8") as f:
-        header = [c.strip() for c in f.readline().split(",")]
-    missing = [c for c in RESULT_COLUMNS if c not in header]
-    if missing:
-        raise ValueError(f"{path}: missing columns {missing}")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    """Read an estimate CSV (ours or caekf-replay's); columns matched by header name. A file that is not one
+    is a one-line MeasurementError naming it (a missing file: OSError)."""
+    from .measurements import MeasurementError, check_input_file
+
+    p = check_input_file(path)
+    try:
+        with open(p, encoding="utf-8") as f:
+            header = [c.strip() for c in f.readline().split(",")]
+        missing = [c for c in RESULT_COLUMNS if c not in header]
+        if missing:
+            raise MeasurementError(f"{p}: not an estimate CSV: missing columns {', '.join(missing)}")
+        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+    except MeasurementError:
+        raise
+    except ValueError as exc:  # numpy's parse errors, UnicodeDecodeError
+        raise MeasurementError(f"{p}: not an estimate CSV: {' '.join(str(exc).split())}") from None
+    if data.shape[0] == 0 or data.shape[1] != len(header):
+        raise MeasurementError(f"{p}: not an estimate CSV: no rows" if data.shape[0] == 0 else
+                               f"{p}: {data.shape[1]} columns, the header has {len(header)}")
     col = {name: data[:, header.index(name)] for name in RESULT_COLUMNS}
     x = np.column_stack([col[c] for c in RESULT_COLUMNS[1:10]])
     return EstimateResult(

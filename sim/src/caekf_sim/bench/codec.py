@@ -47,8 +47,10 @@ INPUT_MESSAGES = ("BENCH_U", "BENCH_Y1", "BENCH_Y4")
 
 
 def default_dbc_path() -> Path:
-    """firmware/protocol/caekf.dbc of the source tree this package lives in."""
-    return Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
+    """firmware/protocol/caekf.dbc of the source tree this package lives in, else the copy a wheel installs
+    (caekf_sim/data/caekf.dbc, sim/CMakeLists.txt)."""
+    src = Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
+    return src if src.is_file() else Path(__file__).resolve().parents[1] / "data" / "caekf.dbc"
 
 
 @dataclass(frozen=True)
