@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from typing import List, Optional
+from typing import List, NoReturn, Optional
 
 COMMAND_MODULES = (
     "caekf_sim.commands.run",  # truth, estimate, experiments
@@ -30,8 +30,15 @@ class UsageError(Exception):
     """Options that do not go together (argparse checks the rest): exit 2."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit 2), like every other error of the tools."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: {' '.join(message.split())} (see --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="caekf-sim",
         description="Truth model, numpy AEKF, figures and checks for the caekf project.",
     )

@@ -1,6 +1,7 @@
 """Estimate CSV (same columns as the C `caekf-replay` output) and its reader."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Union
 
@@ -37,7 +38,9 @@ def read_result_csv(path: PathLike) -> EstimateResult:
         missing = [c for c in RESULT_COLUMNS if c not in header]
         if missing:
             raise MeasurementError(f"{p}: not an estimate CSV: missing columns {', '.join(missing)}")
-        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+        with warnings.catch_warnings():  # an empty body is reported below, not as numpy's warning
+            warnings.simplefilter("ignore")
+            data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
     except MeasurementError:
         raise
     except ValueError as exc:  # numpy's parse errors, UnicodeDecodeError

@@ -9,6 +9,7 @@ from typing import Any, Dict
 
 import numpy as np
 
+from ..cli import UsageError
 from ..estimator import EstimateResult
 from ..experiments import EXPERIMENTS, experiment_config, format_table, run_experiment, summarize
 from ..results import write_result_csv
@@ -83,7 +84,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     sc = scenario_from_args(args, truth_optional=True)
     check_output_file(args.out)
     if args.run is not None and args.candump is None:
-        raise MeasurementError("--run selects a run of a --candump log")
+        raise UsageError("--run selects a run of a --candump log")
     meas = read_measurements(args.candump or args.measurements, sc.dt, candump=args.candump is not None,
                              run=args.run)
     overrides: Dict[str, Any] = {}
