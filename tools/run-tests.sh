@@ -50,7 +50,8 @@ stage_lint() {
     tools/lint-c.sh "$REPO/build/host-double"
 }
 
-# MCU targets: every Unity suite and the replay image under QEMU (needs host-double's test data).
+# MCU targets: every Unity suite and the replay image under QEMU (the presets build the host tools that make
+# their test data themselves: cmake/HostTools.cmake).
 # The instructions-per-step goal is reported by tools/mcu-report.py, not asserted here (label icount).
 run_target() {
     local preset="$1"

@@ -24,7 +24,8 @@ def check_output_file(path: PathLike) -> Path:
         raise IsADirectoryError(f"{p}: is a directory, expected an output file name")
     parent = p.parent
     if not parent.is_dir():
-        raise FileNotFoundError(f"{p}: cannot write: {'not a directory' if parent.exists() else 'No such file or directory'}: {parent}")
+        why = "not a directory" if parent.exists() else "No such file or directory"
+        raise FileNotFoundError(f"{p}: cannot write: {why}: {parent}")
     if not os.access(parent, os.W_OK):
         raise PermissionError(f"{p}: cannot write: Permission denied")
     return p

@@ -32,7 +32,7 @@ import numpy as np
 from .. import schema
 from . import e2e
 from .codec import RECORD, RECORD_SIZE, Codec, records_array
-from .profiles import DIAGNOSTICS, Profile, get_profile
+from .profiles import Profile, get_profile
 from .transport import Transport, make_transport, open_bus
 
 STEP_MOD = 1 << 16

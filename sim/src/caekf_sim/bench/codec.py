@@ -200,7 +200,6 @@ class Codec:
     def quantize(self, name: str, signal: str, values) -> np.ndarray:
         """What the receiver decodes after this value went over the bus (e.g. y rounded to the
         1e-12 m LSB, u rounded to float32)."""
-        sig = self.messages[name].signals[signal]
         p = self.pack(name, {signal: np.atleast_1d(np.asarray(values, dtype=float))})
         return self.unpack(name, p, [signal])[signal]
 

@@ -33,7 +33,8 @@ def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")
     it = c["newton_iters"][m]
     x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
     return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
-                          flags=c["flags"][m].astype(np.int64), newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
+                          flags=c["flags"][m].astype(np.int64),
+                          newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
                           wall_time=wall_time)
 
 
@@ -327,7 +328,8 @@ class Agreement:
                 f"{self.newton_mismatch}")
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
+                        profile: Optional[Profile] = None) -> Agreement:
     """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
     the scaled integers (after clipping to the signal range: the estimator saturates and flags),
     within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags

@@ -7,7 +7,7 @@ from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
-from .spec import Family, Split
+from .spec import Family
 
 SUMMARY_COLUMNS = ("experiment", "group", "n", "within_1pct", "within_5pct", "diverged", "consistent_3sigma",
                    "median_abs_err")

@@ -19,7 +19,6 @@ import time
 from pathlib import Path
 from typing import Any, Dict, List
 
-import numpy as np
 
 from ..cli import UsageError
 from ..outputs import check_output_file, write_text_atomic
@@ -122,7 +121,8 @@ def _bench_binding(args: argparse.Namespace) -> int:
             s = caekf_sim.settings_for(sc, e, precision)
             caekf_sim.run(s, u[:100], y[:100])  # modules loaded before the clock starts
             dt = _best(lambda: caekf_sim.run(s, u, y), args.repeats)
-            rows.append(_row("caekf_sim.run", precision, e, n, dt, f"x, P diag, flags, nis, iters; best of {args.repeats}"))
+            rows.append(_row("caekf_sim.run", precision, e, n, dt,
+                             f"x, P diag, flags, nis, iters; best of {args.repeats}"))
     m = min(args.step_calls, n)
     for precision in ("double", "float"):
         est = caekf_sim.Estimator(sc, precision=precision)

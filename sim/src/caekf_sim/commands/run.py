@@ -13,7 +13,7 @@ from ..cli import UsageError
 from ..estimator import EstimateResult
 from ..experiments import EXPERIMENTS, experiment_config, format_table, run_experiment, summarize
 from ..results import write_result_csv
-from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, read_truth_csv, simulate,
+from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, simulate,
                      write_truth_csv)
 from ..measurements import MeasurementError, Measurements, read_measurements
 from ..outputs import atomic_output, check_output_dir, check_output_file, write_text_atomic
@@ -69,7 +69,7 @@ def cmd_truth(args: argparse.Namespace) -> int:
         write_truth_csv(truth, tmp)
     eps = contact_episodes(truth.t, truth.delta, merge_gap=0.1)
     print(f"wrote {args.out}: {len(truth)} samples in {wall:.1f} s")
-    print(f"contact episodes: " + ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in eps))
+    print("contact episodes: " + ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in eps))
     if args.method == CONTINUOUS:
         print(f"max penetration {truth.delta.max():.4g} m; contact events located {stats.events}, "
               f"right-hand side evaluations {stats.rhs_evals}")
