@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 import math
-from typing import Tuple, Union
+from typing import Any, List, Tuple, Union
 
 import numpy as np
 
@@ -79,6 +79,8 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
     method: "continuous" (event-located solve_ivp with `integrator`, "DOP853" or "Radau", at
     rtol / atol_q [m] / atol_v [m/s]) or "backward-euler" (eq. 19 at dt/truth_substeps).
     """
+    q: Any  # (N, 4) arrays in the continuous branch, plain float lists in the backward-Euler hot loop
+    v: Any
     if method == CONTINUOUS:
         q, v, stats = continuous_states(sc, integrator=integrator, rtol=rtol, atol_q=atol_q, atol_v=atol_v)
         truth = _sampled(sc, q, v)
@@ -92,7 +94,7 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
     solver = StepSolver(plant, h, max_iter=TRUTH_NEWTON_MAX_ITER)
 
     # u at every substep time t_j = j*h, evaluated in one vectorised call.
-    u_sub = plant.force(np.arange(1, n * sub + 1, dtype=float) * h).tolist()
+    u_sub = np.asarray(plant.force(np.arange(1, n * sub + 1, dtype=float) * h)).tolist()
 
     # Contact-free substeps are an affine map of (q, v): v' = J0^-1 (M/h v - K q + e1 u).
     # Keep the hot loop in plain floats over the precomputed rows: much faster than numpy
@@ -154,7 +156,7 @@ def _sampled(sc: Scenario, q: np.ndarray, v: np.ndarray) -> Truth:
     t = np.arange(1, n + 1, dtype=float) * sc.dt
     noise = np.random.default_rng(sc.seed).standard_normal((n, 2)) * sc.noise_std
     y = q[:, [0, 3]] + noise
-    return Truth(t=t, u=np.asarray(plant.force(t)), y=y, q=q, v=v, delta=plant.penetration(q))
+    return Truth(t=t, u=np.asarray(plant.force(t)), y=y, q=q, v=v, delta=np.asarray(plant.penetration(q)))
 
 
 def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TRUTH_RTOL,
@@ -258,7 +260,7 @@ def contact_episodes(t: np.ndarray, delta: np.ndarray, merge_gap: float = 0.0):
     edges = np.diff(active.astype(np.int8), prepend=0, append=0)
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1) - 1
-    eps = []
+    eps: List[Tuple[float, float]] = []
     for s, e in zip(starts, ends):
         if eps and t[s] - eps[-1][1] <= merge_gap:
             eps[-1] = (eps[-1][0], float(t[e]))

@@ -84,7 +84,7 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
     for f in frames:
         if not f.sent_by_bench or f.frame_id not in ids or not crc_ok(data_id[f.frame_id], f.data):
             continue
-        name = ids[f.frame_id]
+        name: str = ids[f.frame_id]
         if name == "CTRL_RESET":
             if segments[-1]:
                 segments.append([])

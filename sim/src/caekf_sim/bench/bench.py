@@ -609,7 +609,7 @@ class Bench:
             if not sel.any():
                 continue
             d = data[sel]
-            good = e2e.e2e_crc_np(info.data_id, d) == d[:, 0]
+            good = e2e.e2e_crc_np(np.asarray(info.data_id), d) == d[:, 0]
             out.bad_crc += int(np.sum(~good))
             d = d[good]
             if not len(d):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -228,7 +228,7 @@ def bridged_rows(inputs: StepInputs, estimated: Sequence[int],
         src.append(np.minimum(rows[g] + 1 + np.arange(k), n_in - 1))
         pred.append(np.ones(k, dtype=bool))
         urow.append(np.full(k, rows[g]))
-        prev = g + 1
+        prev = int(g) + 1
     src.append(rows[prev:])
     pred.append(np.zeros(len(rows) - prev, dtype=bool))
     urow.append(rows[prev:])
@@ -394,7 +394,7 @@ def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
     import json
 
     arrays: Dict[str, np.ndarray] = {}
-    meta = {"header": header, "runs": []}
+    meta: Dict[str, Any] = {"header": header, "runs": []}
     if runs:
         inp = runs[0].inputs
         arrays.update(t=inp.t, u_seen=inp.u_seen, y_seen=inp.y_seen, wire_steps=inp.wire_steps)
@@ -410,12 +410,12 @@ def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
             arrays[f"{i}.col.{col}"] = v
         arrays[f"{i}.complete"] = dec.complete
         arrays[f"{i}.step_status"] = dec.step_status
-        if rec.t_sent is not None:
+        if rec.t_sent is not None and rec.t_rx is not None:  # realtime runs record both
             arrays[f"{i}.t_sent"] = rec.t_sent
             arrays[f"{i}.t_rx"] = rec.t_rx
     arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
-    np.savez(path, **arrays)
+    np.savez(path, **arrays)  # type: ignore[arg-type]  # numpy's stub types **kwds like its allow_pickle flag
     return path
 
 
@@ -459,7 +459,7 @@ def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scena
             ref = run_c_replay(replay_bin, scenario, inp, r.experiment, out / f"replay-{r.experiment}.csv")
         else:
             # steps lost on the bus: replay the steps the estimator ran, gaps bridged as the app does
-            res, src, pred = replay_estimated(replay_bin, scenario, r.experiment, r.inputs, est + start,
+            res, src, pred = replay_estimated(replay_bin, scenario, r.experiment, r.inputs, list(est + start),
                                               out / f"replay-{r.experiment}.csv")
             ref = aligned_result(res, src, pred, r.inputs.t[start:stop], start)
             bridged = (f" ({stop - start - len(est)} steps never estimated (lost on the bus, not counted as missing "

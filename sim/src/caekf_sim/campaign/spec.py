@@ -55,10 +55,10 @@ class Split:
                 out[np.isclose(x, v, rtol=1e-12, atol=0.0)] = i
             return out
         e = np.asarray(self.edges, dtype=float)
-        i = np.searchsorted(e, x, side="right") - 1
-        i[x == e[-1]] = len(e) - 2  # the last edge closes the last bin
-        i[(x < e[0]) | (x > e[-1])] = -1
-        return i
+        idx = np.searchsorted(e, x, side="right") - 1
+        idx[x == e[-1]] = len(e) - 2  # the last edge closes the last bin
+        idx[(x < e[0]) | (x > e[-1])] = -1
+        return idx
 
 
 @dataclass(frozen=True)
