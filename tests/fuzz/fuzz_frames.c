@@ -13,25 +13,11 @@
  *         a payload sealed by caekf_e2e_protect passes caekf_e2e_check on a fresh receiver, a second copy
  *         is a duplicate, a payload with byte 0 changed fails the CRC and leaves the receiver as it was.
  */
-#include <stdint.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
+#include "fuzz_common.h"
 
 #include "caekf/caekf_crc8.h"
 #include "caekf/caekf_e2e.h"
 #include "caekf/caekf_proto.h"
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define FZ_CHECK(cond, what)                                                                           \
-    do {                                                                                               \
-        if (!(cond)) {                                                                                 \
-            fprintf(stderr, "FUZZ INVARIANT VIOLATED %s:%d: %s [%s]\n", __FILE__, __LINE__, (what),     \
-                    #cond);                                                                            \
-            abort();                                                                                   \
-        }                                                                                              \
-    } while (0)
 
 #define DLC CAEKF_CAN_DLC
 
