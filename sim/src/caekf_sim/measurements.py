@@ -151,7 +151,7 @@ def read_candump(path: PathLike, dt: float, run: Optional[int] = None) -> Measur
         import can  # noqa: F401  (python-can reads the log, cantools the DBC: the [hil] extra)
         import cantools  # noqa: F401
     except ImportError as exc:
-        raise RuntimeError(f"reading a candump log needs python-can and cantools ({exc}): "
+        raise ImportError(f"reading a candump log needs python-can and cantools ({exc}): "
                            "pip install 'caekf-sim[hil]'") from None
     try:
         records = read_candump_records(p, dt)
