@@ -187,7 +187,8 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
                    help="noise settings to tune, comma-separated (default: all four)")
     p.add_argument("--experiment", default="switched",
                    help="experiment whose settings the runs use (default switched)")
-    p.add_argument("--precision", choices=["double", "float"], default="double")
+    p.add_argument("--precision", choices=["double", "float"], default="double",
+                   help="scalar type of the C estimator tuned (default double)")
     p.add_argument("--gamma-true", type=float, default=None,
                    help="true gamma for the reported error (default: the scenario's gamma)")
     p.add_argument("--burn-in", type=float, default=0.5, help="seconds of each run left out of the NIS (default 0.5)")

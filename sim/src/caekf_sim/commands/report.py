@@ -41,8 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_filterpy)
 
     p = sub.add_parser("truth-diff", help="max |difference| between two truth CSVs (e.g. C vs numpy)")
-    p.add_argument("a", type=Path)
-    p.add_argument("b", type=Path)
+    p.add_argument("a", type=Path, help="truth CSV")
+    p.add_argument("b", type=Path, help="the other truth CSV")
     p.add_argument("--tol", type=float, default=2e-10, help="max allowed |dq| [m] (default: twice the truths' bound)")
     p.set_defaults(func=cmd_truth_diff)
 

@@ -52,7 +52,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("experiments", help="truth + the four experiments + summary table")
     add_scenario_arg(p, t_end=True)
-    p.add_argument("--outdir", type=Path, required=True)
+    p.add_argument("--outdir", type=Path, required=True,
+                   help="folder for truth.csv, one CSV per experiment and summary.txt (made if needed)")
     p.add_argument("--plots", action="store_true", help="also write the figures into OUTDIR")
     p.add_argument("--format", choices=PLOT_FORMATS, default="png", help="figure format (default png)")
     add_progress_arg(p)
