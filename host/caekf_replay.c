@@ -229,7 +229,7 @@ int main(int argc, char **argv)
         /* One row: experiment scalar rows rejected final_err_% min_gamma max_pnorm iters_mean iters_max flags */
         fprintf(stderr, "%-28s %-6s %7ld %5ld %+10.4f %12.4e %12.4e %6.3f %4d ",
                 experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
-                sum.rows, sum.rejected, 100.0 * (sum.gamma_last / sc.gamma - 1.0), sum.gamma_min_seen, sum.p_norm_max,
+                sum.rows, sum.rejected, 100.0 * (sum.gamma_last / sc.contact1_gamma - 1.0), sum.gamma_min_seen, sum.p_norm_max,
                 sum.rows ? (double)sum.iters_sum / (double)sum.rows : 0.0, sum.iters_max);
         print_flags(stderr, sum.flags_seen);
         fputc('\n', stderr);

@@ -68,11 +68,11 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
         est->q_diag[NQ + i] = sq(s->sigma_qx_v / s->sigma_v0);
     }
-    est->scale[IG] = s->sigma_gamma0;
-    est->z[IG] = s->gamma0 / s->sigma_gamma0;
-    est->q_diag[IG] = s->q_gamma_scale * sq(s->sigma_q_gamma / s->sigma_gamma0);
+    est->scale[IG] = s->sigma_gamma0[0];
+    est->z[IG] = s->gamma0[0] / s->sigma_gamma0[0];
+    est->q_diag[IG] = s->q_gamma_scale * sq(s->sigma_q_gamma[0] / s->sigma_gamma0[0]);
     est->r_scaled = sq(s->sigma_r / s->sigma_q0);
-    est->gamma_min_scaled = s->gamma_min / s->sigma_gamma0;
+    est->gamma_min_scaled = s->gamma_min[0] / s->sigma_gamma0[0];
     for (i = 0; i < N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
         for (j = 0; j < N; ++j) {
             est->P[i][j] = (i == j) ? 1 : 0;
@@ -182,7 +182,7 @@ static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar
                                   policy, est->cfg.gamma_gate_nis, &nis, &flags);
         /* Inequality constraint, eqs. (28)-(30). */
         if (est->cfg.constraint_enabled) {
-            caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min, &flags);
+            caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min[0], &flags);
         }
     } else {
         flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */

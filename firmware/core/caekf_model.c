@@ -1,6 +1,8 @@
 /* The contact model: eq. (16) contact law, eq. (19) residual and Jacobians, Newton, eq. (10) F. */
 #include "caekf_model_internal.h"
 
+#include "caekf/caekf.h"
+
 #include <stddef.h>
 
 #include "caekf_linalg.h"
@@ -13,21 +15,76 @@
 CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, model_has_four_bodies);
 CAEKF_STATIC_ASSERT(CAEKF_N == 2 * CAEKF_NQ + 1, augmented_state_is_q_v_gamma);
 
-/* Parameters are checked scalar by scalar in declaration order: masses, springs and dt must be > 0,
- * dampers and gap >= 0. (caekf_settings_validate reports which one, from the schema's table.) */
-#define PARAM_SLOT(field) (offsetof(caekf_model_params_t, field) / sizeof(caekf_scalar_t))
-#define PARAM_NONNEG (0x1Fu << PARAM_SLOT(c1)) /* c1, c12, c34, c4, gap */
-CAEKF_STATIC_ASSERT(PARAM_SLOT(k1) == CAEKF_NQ && PARAM_SLOT(c1) == CAEKF_NQ + 4 && PARAM_SLOT(gap) == CAEKF_NQ + 8 &&
-                        PARAM_SLOT(dt) == CAEKF_NQ + 9 &&
-                        sizeof(caekf_model_params_t) == (CAEKF_NQ + 10) * sizeof(caekf_scalar_t),
-                    params_are_scalars_in_declared_order);
+/* The paper's chain, the one mechanism this core computes: links (a, b) in this order, the contact
+ * (2, 3) with the Hertz law, the input on body 1, position sensors on bodies 1 and 4. */
+static const signed char chain_links[4][2] = {{1, 0}, {1, 2}, {3, 4}, {4, 0}};
+static const signed char chain_sensors[2] = {1, 4};
+CAEKF_STATIC_ASSERT(CAEKF_MAX_SPRINGS == 4 && CAEKF_MAX_SENSORS == 2 && CAEKF_MAX_INPUTS == 1 &&
+                        CAEKF_MAX_CONTACTS == 1,
+                    core_is_sized_for_the_chain);
 
+int caekf_model_unsupported(const caekf_model_params_t *p)
+{
+    int i;
+    if (p->bodies != CAEKF_NQ) {
+        return (int)CAEKF_PARAM_BODIES;
+    }
+    if (p->springs != 4) {
+        return (int)CAEKF_PARAM_SPRINGS;
+    }
+    for (i = 0; i < 4; ++i) {
+        if (p->spring_a[i] != chain_links[i][0]) {
+            return (int)CAEKF_PARAM_SPRING_A + i;
+        }
+        if (p->spring_b[i] != chain_links[i][1]) {
+            return (int)CAEKF_PARAM_SPRING_B + i;
+        }
+    }
+    if (p->inputs != 1 || p->input_body[0] != 1) {
+        return p->inputs != 1 ? (int)CAEKF_PARAM_INPUTS : (int)CAEKF_PARAM_INPUT_BODY;
+    }
+    if (p->sensors != 2) {
+        return (int)CAEKF_PARAM_SENSORS;
+    }
+    for (i = 0; i < 2; ++i) {
+        if (p->sensor_body[i] != chain_sensors[i]) {
+            return (int)CAEKF_PARAM_SENSOR_BODY + i;
+        }
+        if (p->sensor_kind[i] != CAEKF_SENSOR_POSITION) {
+            return (int)CAEKF_PARAM_SENSOR_KIND + i;
+        }
+    }
+    if (p->contacts != 1) {
+        return (int)CAEKF_PARAM_CONTACTS;
+    }
+    if (p->contact_a[0] != B2 + 1 || p->contact_b[0] != B3 + 1) {
+        return p->contact_a[0] != B2 + 1 ? (int)CAEKF_PARAM_CONTACT_A : (int)CAEKF_PARAM_CONTACT_B;
+    }
+    if (p->contact_n[0] != CAEKF_C(1.5)) {
+        return (int)CAEKF_PARAM_CONTACT_N;
+    }
+    if (p->contact_lambda[0] != 0) {
+        return (int)CAEKF_PARAM_CONTACT_LAMBDA;
+    }
+    return -1;
+}
+
+/* The model's own defence: finite values, masses and dt > 0, links and gap >= 0, a supported mechanism. */
 int caekf_model_params_check(const caekf_model_params_t *p)
 {
-    unsigned i;
-    for (i = 0; i <= PARAM_SLOT(dt); ++i) {
-        caekf_scalar_t x = *(const caekf_scalar_t *)(const void *)((const char *)p + i * sizeof(caekf_scalar_t));
-        if (!CAEKF_ISFINITE(x) || !(x > 0 || (((PARAM_NONNEG >> i) & 1u) && x == 0))) {
+    int i;
+    if (caekf_model_unsupported(p) >= 0 || !CAEKF_ISFINITE(p->dt) || !(p->dt > 0) ||
+        !CAEKF_ISFINITE(p->contact_gap[0]) || !(p->contact_gap[0] >= 0)) {
+        return 1;
+    }
+    for (i = 0; i < CAEKF_NQ; ++i) {
+        if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
+            return 1;
+        }
+    }
+    for (i = 0; i < 4; ++i) {
+        if (!CAEKF_ISFINITE(p->spring_k[i]) || !(p->spring_k[i] >= 0) || !CAEKF_ISFINITE(p->spring_c[i]) ||
+            !(p->spring_c[i] >= 0)) {
             return 1;
         }
     }
@@ -76,7 +133,7 @@ NOINLINE static void chain_matrix(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], caekf_
 void caekf_model_contact(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], caekf_scalar_t gamma,
                          caekf_contact_t *c)
 {
-    caekf_scalar_t d = q[B2] - q[B3] - m->p.gap;
+    caekf_scalar_t d = q[B2] - q[B3] - m->p.contact_gap[0];
     c->delta = d;
     if (d > 0) {
         caekf_scalar_t sd = CAEKF_SQRT(d);
@@ -301,8 +358,8 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         return -1;
     }
     m->p = *p;
-    chain_matrix(m->K, p->k1, p->k12, p->k34, p->k4);
-    chain_matrix(m->C, p->c1, p->c12, p->c34, p->c4);
+    chain_matrix(m->K, p->spring_k[0], p->spring_k[1], p->spring_k[2], p->spring_k[3]);
+    chain_matrix(m->C, p->spring_c[0], p->spring_c[1], p->spring_c[2], p->spring_c[3]);
     m->A0_absmax_out = 0;
     for (i = 0; i < CAEKF_NQ; ++i) {
         m->m_dt[i] = p->m[i] / p->dt;

@@ -7,6 +7,9 @@
 
 #include "caekf/caekf_model.h"
 
+/* The first parameter id of a mechanism this core does not compute, or -1 (it computes the paper's chain). */
+int caekf_model_unsupported(const caekf_model_params_t *p);
+
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 

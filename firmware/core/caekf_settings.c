@@ -4,6 +4,7 @@
 #include <stddef.h>
 
 #include "caekf_math.h"
+#include "caekf_model_internal.h"
 
 caekf_status_t caekf_settings_default(caekf_settings_t *s)
 {
@@ -19,6 +20,10 @@ caekf_status_t caekf_settings_default(caekf_settings_t *s)
 }
 
 CAEKF_STATIC_ASSERT(CAEKF_PARAM_COUNT <= 255u && CAEKF_SETTING_COUNT <= 255u, ids_fit_a_byte);
+CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES <= CAEKF_WIRE_MAX_BODIES && CAEKF_MAX_SPRINGS <= CAEKF_WIRE_MAX_SPRINGS &&
+                        CAEKF_MAX_INPUTS <= CAEKF_WIRE_MAX_INPUTS && CAEKF_MAX_SENSORS <= CAEKF_WIRE_MAX_SENSORS &&
+                        CAEKF_MAX_CONTACTS <= CAEKF_WIRE_MAX_CONTACTS,
+                    capacities_fit_the_wire);
 
 /* The table row and element of a parameter id; 0 when there is none. Rows are in id order. */
 static const caekf_setting_rule_t *locate(unsigned param_id, unsigned *setting, unsigned *index)
@@ -76,6 +81,9 @@ caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double
         }
         return CAEKF_ERR_SETTINGS;
     }
+    if (index >= r->stored) { /* the wire carries more elements than this build stores */
+        return refuse(err, CAEKF_SETTING_OVER_CAPACITY, param_id);
+    }
     if (r->storage == CAEKF_SETTING_REAL) {
         *ELEMENT(caekf_scalar_t, s, r, index) = (caekf_scalar_t)value; /* range: at validation */
         return CAEKF_OK;
@@ -95,7 +103,7 @@ caekf_status_t caekf_settings_get(const caekf_settings_t *s, unsigned param_id, 
         return CAEKF_ERR_NULL;
     }
     r = locate(param_id, &setting, &index);
-    if (r == 0) {
+    if (r == 0 || index >= r->stored) {
         return CAEKF_ERR_SETTINGS;
     }
     *value = r->storage == CAEKF_SETTING_REAL ? (double)*CELEMENT(caekf_scalar_t, s, r, index)
@@ -115,6 +123,8 @@ int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
         return v >= 0;
     case CAEKF_RULE_OPEN01:
         return v > 0 && v < 1;
+    case CAEKF_RULE_GE1:
+        return v >= 1;
     case CAEKF_RULE_INT:
         return v >= lo && v <= hi && v == (double)(long)v;
     default:
@@ -130,84 +140,119 @@ static int in_range(const caekf_settings_t *s, const caekf_setting_rule_t *r, un
     return caekf_setting_rule_ok(r->rule, r->lo, r->hi, v);
 }
 
-/* A derived check forms r = num / den (num + the next slot if SUM), squares it if SQ, multiplies it by
- * fac and needs r finite, and > 0 if POS. Operands are slots, indices of scalar fields in the settings
- * read as an array of scalars, or the constants ONE and RQ: a few bytes a check keep the table small on
- * the MCU. */
-enum { SUM = 1, SQ = 2, POS = 4 };
-#define SLOT(field) (offsetof(caekf_settings_t, field) / sizeof(caekf_scalar_t))
-#define ONE 0xFE /* operand 1 */
-#define RQ 0xFF  /* operand sigma_q0 / sigma_v0 */
-#define CHECK(param, num, den, fac, flags)                                                                             \
-    {(unsigned char)(num), (unsigned char)(den), (unsigned char)(fac), (unsigned char)(flags), (unsigned char)(param)}
-CAEKF_STATIC_ASSERT(offsetof(caekf_settings_t, gamma_min) % sizeof(caekf_scalar_t) == 0 &&
-                        offsetof(caekf_settings_t, sigma_q_gamma) % sizeof(caekf_scalar_t) == 0 &&
-                        SLOT(sigma_q_gamma) < ONE,
-                    settings_slots_fit_a_byte);
-CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, checks_list_four_bodies);
-
-typedef struct {
-    unsigned char num, den, fac, flags, param;
-} check_t;
-
-/* Values caekf_init derives must be usable in this scalar type too: finite settings can still
- * overflow or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in
- * float, subnormal sigmas in double). Each check repeats the operations of the value it guards and
- * blames the setting it divides. */
-#define SCALED_BODY(i)                                                                                                 \
-    CHECK(CAEKF_PARAM_Q0 + (i), SLOT(q0[i]), SLOT(sigma_q0), ONE, 0),                                                 \
-        CHECK(CAEKF_PARAM_V0 + (i), SLOT(v0[i]), SLOT(sigma_v0), ONE, 0),                                             \
-        CHECK(CAEKF_PARAM_M + (i), SLOT(model.m[i]), SLOT(model.dt), ONE, POS)
-static const check_t derived_checks[] = {
-    SCALED_BODY(0),
-    SCALED_BODY(1),
-    SCALED_BODY(2),
-    SCALED_BODY(3),
-    /* The diagonal of A0 = M/dt + C + dt K: dt (k1 + k12) and dt (k34 + k4). */
-    CHECK(CAEKF_PARAM_DT, SLOT(model.k1), ONE, SLOT(model.dt), SUM),
-    CHECK(CAEKF_PARAM_DT, SLOT(model.k34), ONE, SLOT(model.dt), SUM),
-    CHECK(CAEKF_PARAM_GAMMA0, SLOT(gamma0), SLOT(sigma_gamma0), ONE, 0),
-    CHECK(CAEKF_PARAM_GAMMA_MIN, SLOT(gamma_min), SLOT(sigma_gamma0), ONE, 0),
-    CHECK(CAEKF_PARAM_SIGMA_QX_Q, SLOT(sigma_qx_q), SLOT(sigma_q0), ONE, SQ),
-    CHECK(CAEKF_PARAM_SIGMA_QX_V, SLOT(sigma_qx_v), SLOT(sigma_v0), ONE, SQ),
-    CHECK(CAEKF_PARAM_SIGMA_Q_GAMMA, SLOT(sigma_q_gamma), SLOT(sigma_gamma0), SLOT(q_gamma_scale), SQ),
-    CHECK(CAEKF_PARAM_SIGMA_R, SLOT(sigma_r), SLOT(sigma_q0), ONE, SQ | POS),
-    /* The scaled transition S^-1 F S multiplies by rq, 1 / rq, dt / rq and sigma_gamma0 / sigma_v0. */
-    CHECK(CAEKF_PARAM_SIGMA_V0, SLOT(sigma_q0), SLOT(sigma_v0), ONE, POS),
-    CHECK(CAEKF_PARAM_SIGMA_V0, ONE, RQ, ONE, POS),
-    CHECK(CAEKF_PARAM_SIGMA_V0, SLOT(model.dt), RQ, ONE, POS),
-    CHECK(CAEKF_PARAM_SIGMA_V0, SLOT(sigma_gamma0), SLOT(sigma_v0), ONE, POS),
-};
-CAEKF_STATIC_ASSERT(SLOT(model.k12) == SLOT(model.k1) + 1 && SLOT(model.k4) == SLOT(model.k34) + 1, sum_slots_adjacent);
-
-static caekf_scalar_t operand(const caekf_settings_t *s, unsigned op)
+/* How many elements of a row are in use: its count setting's value (range-checked before, so within
+ * the stored capacity), or all it stores. */
+static unsigned elements_in_use(const caekf_settings_t *s, const caekf_setting_rule_t *r)
 {
-    if (op == ONE) {
-        return 1;
+    int n;
+    if (r->in_use == CAEKF_ALL_IN_USE) {
+        return r->stored;
     }
-    if (op == RQ) {
-        return s->sigma_q0 / s->sigma_v0;
+    n = *(const int *)(const void *)((const char *)s + r->in_use);
+    return n < 0 ? 0u : ((unsigned)n < r->stored ? (unsigned)n : r->stored);
+}
+
+/* Values caekf_init derives must be usable in this scalar type too: finite settings can still overflow
+ * or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in float,
+ * subnormal sigmas in double). Each check repeats the operation of the value it guards: the quotient
+ * num / den (squared if sq, times fac) must be finite, and > 0 if pos. Returns 1 if it passes. */
+static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, int sq, int pos)
+{
+    caekf_scalar_t r = num / den;
+    if (sq) {
+        r *= r;
     }
-    return *(const caekf_scalar_t *)(const void *)((const char *)s + op * sizeof(caekf_scalar_t));
+    r *= fac;
+    return CAEKF_ISFINITE(r) && (!pos || r > 0);
 }
 
 /* The blamed parameter id of the first failing derived check, or -1. */
 static int first_unscalable(const caekf_settings_t *s)
 {
-    unsigned n;
-    const check_t *c = derived_checks;
-    for (n = sizeof derived_checks / sizeof derived_checks[0]; n > 0; --n, ++c) {
-        caekf_scalar_t r = operand(s, c->num);
-        if (c->flags & SUM) {
-            r += operand(s, c->num + 1u);
+    const caekf_model_params_t *m = &s->model;
+    const caekf_scalar_t rq = s->sigma_q0 / s->sigma_v0;
+    int i;
+    for (i = 0; i < m->bodies; ++i) {
+        if (!usable(s->q0[i], s->sigma_q0, 1, 0, 0)) {
+            return (int)CAEKF_PARAM_Q0 + i;
         }
-        r /= operand(s, c->den);
-        if (c->flags & SQ) {
-            r *= r;
+        if (!usable(s->v0[i], s->sigma_v0, 1, 0, 0)) {
+            return (int)CAEKF_PARAM_V0 + i;
         }
-        r *= operand(s, c->fac);
-        if (!CAEKF_ISFINITE(r) || ((c->flags & POS) && !(r > 0))) {
-            return c->param;
+        if (!usable(m->m[i], m->dt, 1, 0, 1)) {
+            return (int)CAEKF_PARAM_M + i;
+        }
+    }
+    for (i = 0; i < m->springs; ++i) { /* A0 = M/dt + C + dt K takes dt k of each link */
+        if (!usable(m->spring_k[i], 1, m->dt, 0, 0)) {
+            return (int)CAEKF_PARAM_DT;
+        }
+    }
+    for (i = 0; i < m->contacts; ++i) {
+        if (!usable(s->gamma0[i], s->sigma_gamma0[i], 1, 0, 0)) {
+            return (int)CAEKF_PARAM_GAMMA0 + i;
+        }
+        if (!usable(s->gamma_min[i], s->sigma_gamma0[i], 1, 0, 0)) {
+            return (int)CAEKF_PARAM_GAMMA_MIN + i;
+        }
+        if (!usable(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, 1, 0)) {
+            return (int)CAEKF_PARAM_SIGMA_Q_GAMMA + i;
+        }
+        /* The scaled transition multiplies by sigma_gamma0 / sigma_v0. */
+        if (!usable(s->sigma_gamma0[i], s->sigma_v0, 1, 0, 1)) {
+            return (int)CAEKF_PARAM_SIGMA_V0;
+        }
+    }
+    if (!usable(s->sigma_qx_q, s->sigma_q0, 1, 1, 0)) {
+        return (int)CAEKF_PARAM_SIGMA_QX_Q;
+    }
+    if (!usable(s->sigma_qx_v, s->sigma_v0, 1, 1, 0)) {
+        return (int)CAEKF_PARAM_SIGMA_QX_V;
+    }
+    if (!usable(s->sigma_r, s->sigma_q0, 1, 1, 1)) {
+        return (int)CAEKF_PARAM_SIGMA_R;
+    }
+    /* The scaled transition S^-1 F S multiplies by rq, 1 / rq and dt / rq. */
+    if (!usable(s->sigma_q0, s->sigma_v0, 1, 0, 1) || !usable(1, rq, 1, 0, 1) || !usable(m->dt, rq, 1, 0, 1)) {
+        return (int)CAEKF_PARAM_SIGMA_V0;
+    }
+    return -1;
+}
+
+/* A body number: 1..bodies, or also 0 (the ground) where allowed. */
+static int body_ok(const caekf_model_params_t *m, int body, int ground_ok)
+{
+    return body <= m->bodies && (body >= 1 || (ground_ok && body == 0));
+}
+
+/* The mechanism's references between its elements; returns the first offending parameter id or -1. */
+static int first_bad_body(const caekf_model_params_t *m)
+{
+    int i;
+    for (i = 0; i < m->springs; ++i) {
+        if (!body_ok(m, m->spring_a[i], 1)) {
+            return (int)CAEKF_PARAM_SPRING_A + i;
+        }
+        if (!body_ok(m, m->spring_b[i], 1) || m->spring_b[i] == m->spring_a[i]) {
+            return (int)CAEKF_PARAM_SPRING_B + i;
+        }
+    }
+    for (i = 0; i < m->inputs; ++i) {
+        if (!body_ok(m, m->input_body[i], 0)) {
+            return (int)CAEKF_PARAM_INPUT_BODY + i;
+        }
+    }
+    for (i = 0; i < m->sensors; ++i) {
+        if (!body_ok(m, m->sensor_body[i], 0)) {
+            return (int)CAEKF_PARAM_SENSOR_BODY + i;
+        }
+    }
+    for (i = 0; i < m->contacts; ++i) {
+        if (!body_ok(m, m->contact_a[i], 1)) {
+            return (int)CAEKF_PARAM_CONTACT_A + i;
+        }
+        if (!body_ok(m, m->contact_b[i], 1) || m->contact_b[i] == m->contact_a[i]) {
+            return (int)CAEKF_PARAM_CONTACT_B + i;
         }
     }
     return -1;
@@ -220,19 +265,40 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
+    /* Rows are in id order and every count precedes the arrays it counts: an array's in-use count has
+     * passed its range and capacity checks when the array is checked. */
     for (k = 0; k < CAEKF_SETTING_COUNT; ++k) {
         const caekf_setting_rule_t *r = &caekf_setting_rules[k];
-        for (i = 0; i < r->count; ++i) {
+        unsigned n = elements_in_use(s, r);
+        for (i = 0; i < n; ++i) {
             if (!in_range(s, r, i)) {
                 return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, r->id + i);
             }
+        }
+        if (r->limit != 0 && *CELEMENT(int, s, r, 0) > (int)r->limit) {
+            return refuse(err, CAEKF_SETTING_OVER_CAPACITY, r->id);
         }
     }
     if (s->newton_max_iter > CAEKF_NEWTON_MAX_ITER) {
         return refuse(err, CAEKF_SETTING_OVER_CAPACITY, CAEKF_PARAM_NEWTON_MAX_ITER);
     }
-    if (s->constraint_enabled && s->gamma0 < s->gamma_min) {
-        return refuse(err, CAEKF_SETTING_BELOW_GAMMA_MIN, CAEKF_PARAM_GAMMA0);
+    bad = first_bad_body(&s->model);
+    if (bad >= 0) {
+        return refuse(err, CAEKF_SETTING_BAD_BODY, (unsigned)bad);
+    }
+    for (i = 0; i < (unsigned)s->model.sensors; ++i) {
+        if (s->model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY && !(s->sigma_rv > 0)) {
+            return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, CAEKF_PARAM_SIGMA_RV);
+        }
+    }
+    bad = caekf_model_unsupported(&s->model);
+    if (bad >= 0) {
+        return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);
+    }
+    for (i = 0; i < (unsigned)s->model.contacts; ++i) {
+        if (s->constraint_enabled && s->gamma0[i] < s->gamma_min[i]) {
+            return refuse(err, CAEKF_SETTING_BELOW_GAMMA_MIN, CAEKF_PARAM_GAMMA0 + i);
+        }
     }
     bad = first_unscalable(s);
     if (bad >= 0) {

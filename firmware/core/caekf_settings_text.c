@@ -40,10 +40,16 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
         why = "a value the estimator derives from it is not finite in " CAEKF_SCALAR_NAME;
         break;
     case CAEKF_SETTING_OVER_CAPACITY:
-        why = "exceeds the build's capacity (caekf_config.h)";
+        why = "exceeds the build's capacity (CAEKF_MAX_* and CAEKF_NEWTON_MAX_ITER, caekf_config.h)";
         break;
     case CAEKF_SETTING_NOT_INTEGER:
         why = "must be an integer";
+        break;
+    case CAEKF_SETTING_BAD_BODY:
+        why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
+        break;
+    case CAEKF_SETTING_UNSUPPORTED:
+        why = "this build's estimator core computes the paper's chain only (docs/mechanism.md)";
         break;
     default:
         why = caekf_setting_rule_text(err->setting);

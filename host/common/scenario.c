@@ -23,10 +23,39 @@ static char *trim(char *s)
 }
 
 #define NKEYS CAEKF_SCENARIO_KEY_COUNT
+#define NROWS CAEKF_SCENARIO_ROW_COUNT
 
 static double *slot(caekf_scenario_t *sc, unsigned k)
 {
     return (double *)(void *)((char *)sc + caekf_scenario_keys[k].offset);
+}
+
+/* An enum written by name ("velocity", quoted as TOML wants): its index in names ("a|b"), or -1. */
+static int enum_index(const char *names, const char *val)
+{
+    size_t n = strlen(val);
+    int i = 0;
+    if (names == NULL || n < 2 || val[0] != '"' || val[n - 1] != '"') {
+        return -1;
+    }
+    while (*names != '\0') {
+        size_t len = strcspn(names, "|");
+        if (len == n - 2 && strncmp(names, val + 1, len) == 0) {
+            return i;
+        }
+        names += len + (names[len] == '|');
+        ++i;
+    }
+    return -1;
+}
+
+/* Whether key k's element is in use: its array's count (already final) covers it. */
+static int in_use(const caekf_scenario_t *sc, unsigned k)
+{
+    const caekf_scenario_key_t *key = &caekf_scenario_keys[k];
+    return key->in_use_key < 0 ||
+           (double)key->index < *(const double *)(const void *)((const char *)sc +
+                                                                caekf_scenario_keys[key->in_use_key].offset);
 }
 
 
@@ -78,19 +107,24 @@ int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsig
         *eq = '\0';
         key = trim(key);
         val = trim(eq + 1);
-        for (i = 0; i < NKEYS; ++i) {
+        for (i = 0; i < NROWS; ++i) {
             if (strcmp(key, caekf_scenario_keys[i].key) == 0) {
                 break;
             }
         }
-        if (i == NKEYS) {
+        if (i == NROWS) {
             return fail(f, err, err_len, "%s:%u: unknown key '%s'", path, lineno, key);
         }
+        i = caekf_scenario_keys[i].canonical; /* an alias sets its key */
         if (seen[i]) {
-            return fail(f, err, err_len, "%s:%u: duplicate key '%s'", path, lineno, key);
+            return fail(f, err, err_len, "%s:%u: duplicate key '%s' (or another name of it)", path, lineno, key);
         }
         errno = 0;
         v = strtod(val, &end);
+        if (enum_index(caekf_scenario_keys[i].enum_names, val) >= 0) {
+            v = (double)enum_index(caekf_scenario_keys[i].enum_names, val);
+            end = val + strlen(val);
+        }
         if (*val == '\0' || *end != '\0' || errno == ERANGE || !caekf_setting_rule_ok((unsigned)caekf_scenario_keys[i].rule_code, caekf_scenario_keys[i].lo,
                                                                         caekf_scenario_keys[i].hi, v)) {
             char what[160];
@@ -103,8 +137,14 @@ int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsig
     }
     fclose(f);
     for (i = 0; i < NKEYS; ++i) {
-        if (!seen[i] && caekf_scenario_keys[i].required) {
-            snprintf(err, err_len, "%s: missing key '%s' (it has no default)", path, caekf_scenario_keys[i].key);
+        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
+        if (seen[i] && !in_use(sc, i)) {
+            snprintf(err, err_len, "%s: %s is given, but %s = %g leaves it unused", path, k->key,
+                     caekf_scenario_keys[k->in_use_key].key, *slot(sc, (unsigned)k->in_use_key));
+            return -1;
+        }
+        if (!seen[i] && k->required && in_use(sc, i)) {
+            snprintf(err, err_len, "%s: missing key '%s' (it has no default)", path, k->key);
             return -1;
         }
     }
@@ -173,7 +213,7 @@ void caekf_scenario_model(const caekf_scenario_t *sc, double dt, caekf_model_par
 
 double caekf_scenario_input(const caekf_scenario_t *sc, double t)
 {
-    return sc->u_amp * sin(2.0 * CAEKF_PI * sc->u_freq * t + sc->u_phase);
+    return sc->input1_amp * sin(2.0 * CAEKF_PI * sc->input1_freq * t + sc->input1_phase);
 }
 
 long caekf_scenario_steps(const caekf_scenario_t *sc) { return lround(sc->t_end / sc->dt); }

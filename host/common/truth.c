@@ -51,7 +51,7 @@ static void sample_fill(const caekf_scenario_t *sc, long k, const double x[TRUTH
         out->q[i] = x[i];
         out->v[i] = x[4 + i];
     }
-    out->delta = x[1] - x[2] - sc->gap;
+    out->delta = x[1] - x[2] - sc->contact1_gap;
     out->y1 = out->q[0];
     out->y4 = out->q[3];
     if (sc->noise_std > 0) {
@@ -78,7 +78,7 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, int (*emit)(cons
     if (caekf_model_init(&model, &p) != 0) {
         return -1;
     }
-    x[CAEKF_IG] = sc->gamma;
+    x[CAEKF_IG] = sc->contact1_gamma;
     for (k = 1; k <= steps; ++k) {
         caekf_truth_sample_t out = {0};
         for (s = 1; s <= sub; ++s) {
@@ -142,9 +142,9 @@ static void rhs(const plant_t *p, double t, const double x[TRUTH_N], double f[TR
     }
     a[0] += caekf_scenario_input(p->sc, t);
     if (p->closed) {
-        double d = x[1] - x[2] - p->sc->gap;
+        double d = x[1] - x[2] - p->sc->contact1_gap;
         if (d > 0) {
-            double fc = p->sc->gamma * d * sqrt(d);
+            double fc = p->sc->contact1_gamma * d * sqrt(d);
             a[1] -= fc;
             a[2] += fc;
         }
@@ -203,7 +203,7 @@ static double dop853_step(const plant_t *p, double t, const double y[TRUTH_N], c
 /* delta signed so that > 0 means "past the event" for the current mode. */
 static double event_g(const plant_t *p, const double x[TRUTH_N])
 {
-    double d = x[1] - x[2] - p->sc->gap;
+    double d = x[1] - x[2] - p->sc->contact1_gap;
     return p->closed ? -d : d;
 }
 
@@ -317,8 +317,8 @@ static int truth_run_dop853(const caekf_scenario_t *sc, const caekf_truth_option
     p.sc = sc;
     p.rtol = opt->rtol;
     p.closed = 0;
-    chain(sc->k1, sc->k12, sc->k34, sc->k4, p.K);
-    chain(sc->c1, sc->c12, sc->c34, sc->c4, p.C);
+    chain(sc->spring1_k, sc->spring2_k, sc->spring3_k, sc->spring4_k, p.K);
+    chain(sc->spring1_c, sc->spring2_c, sc->spring3_c, sc->spring4_c, p.C);
     rhs(&p, t, y, k0);
     h = fmin(sc->dt, 1e-4);
     for (k = 1; k <= steps; ++k) {

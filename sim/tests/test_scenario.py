@@ -33,7 +33,7 @@ def _text_without(key: str) -> str:
 
 
 def test_missing_key_is_an_error():
-    with pytest.raises(ScenarioError, match="missing key 'gap'"):
+    with pytest.raises(ScenarioError, match="missing key 'contact1_gap'"):
         scenario_from_text(_text_without("gap"))
 
 

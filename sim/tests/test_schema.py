@@ -31,7 +31,7 @@ def test_ids_are_dense_and_keys_unique():
 
 
 def test_schema_errors_are_one_line(tmp_path):
-    bad = (codegen.SCHEMA_PATH.read_text()).replace("id = 5\n", "id = 6\n", 1)
+    bad = (codegen.SCHEMA_PATH.read_text()).replace("id = 10\n", "id = 11\n", 1)
     p = tmp_path / "s.toml"
     p.write_text(bad)
     with pytest.raises(codegen.SchemaError, match="dense"):
@@ -44,7 +44,7 @@ def test_generated_c_tables_follow_the_schema(tmp_path):
     for s in schema.SCHEMA.wire:
         assert f"#define CAEKF_PARAM_{s.name.upper()} {s.id}u" in header
     table = files["caekf_settings_table.c"]
-    assert table.count("offsetof(caekf_settings_t,") == len(schema.SCHEMA.wire)
+    assert table.count("{(uint16_t)offsetof(caekf_settings_t,") == len(schema.SCHEMA.wire)
 
 
 def test_shortest_decimal_round_trips():

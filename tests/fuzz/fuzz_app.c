@@ -124,7 +124,7 @@ static int settings_equal(const caekf_settings_t *a, const caekf_settings_t *b)
            SAME(a->sigma_q0, b->sigma_q0) && SAME(a->sigma_v0, b->sigma_v0) &&
            SAME(a->sigma_gamma0, b->sigma_gamma0) && SAME(a->sigma_qx_q, b->sigma_qx_q) &&
            SAME(a->sigma_qx_v, b->sigma_qx_v) && SAME(a->sigma_q_gamma, b->sigma_q_gamma) &&
-           SAME(a->q_gamma_scale, b->q_gamma_scale) && SAME(a->sigma_r, b->sigma_r) && a->mode == b->mode &&
+           SAME(a->q_gamma_scale, b->q_gamma_scale) && SAME(a->sigma_r, b->sigma_r) && SAME(a->sigma_rv, b->sigma_rv) && a->mode == b->mode &&
            a->switchoff == b->switchoff && a->cov_update == b->cov_update &&
            a->constraint_enabled == b->constraint_enabled && SAME(a->gamma_min, b->gamma_min) &&
            a->cov_repair_enabled == b->cov_repair_enabled && a->psd_check_period == b->psd_check_period &&
@@ -139,35 +139,32 @@ static int app_settings_equal(const caekf_app_settings_t *a, const caekf_app_set
 
 /* The real-valued parameters by id (caekf.dbc's PARAM_ID table: arrays take consecutive ids); NULL for
  * the others. */
+/* id within the n elements an array setting stores from `first`. */
+#define IN(first, n) (id >= (unsigned)(first) && id < (unsigned)(first) + (unsigned)(n))
+
 static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
 {
     caekf_model_params_t *m = &s->model;
+    if (IN(CAEKF_PARAM_M, CAEKF_MAX_BODIES)) return &m->m[id - CAEKF_PARAM_M];
+    if (IN(CAEKF_PARAM_SPRING_K, CAEKF_MAX_SPRINGS)) return &m->spring_k[id - CAEKF_PARAM_SPRING_K];
+    if (IN(CAEKF_PARAM_SPRING_C, CAEKF_MAX_SPRINGS)) return &m->spring_c[id - CAEKF_PARAM_SPRING_C];
+    if (IN(CAEKF_PARAM_CONTACT_GAP, CAEKF_MAX_CONTACTS)) return &m->contact_gap[id - CAEKF_PARAM_CONTACT_GAP];
+    if (IN(CAEKF_PARAM_CONTACT_N, CAEKF_MAX_CONTACTS)) return &m->contact_n[id - CAEKF_PARAM_CONTACT_N];
+    if (IN(CAEKF_PARAM_CONTACT_LAMBDA, CAEKF_MAX_CONTACTS)) return &m->contact_lambda[id - CAEKF_PARAM_CONTACT_LAMBDA];
+    if (IN(CAEKF_PARAM_Q0, CAEKF_MAX_BODIES)) return &s->q0[id - CAEKF_PARAM_Q0];
+    if (IN(CAEKF_PARAM_V0, CAEKF_MAX_BODIES)) return &s->v0[id - CAEKF_PARAM_V0];
+    if (IN(CAEKF_PARAM_GAMMA0, CAEKF_MAX_CONTACTS)) return &s->gamma0[id - CAEKF_PARAM_GAMMA0];
+    if (IN(CAEKF_PARAM_SIGMA_GAMMA0, CAEKF_MAX_CONTACTS)) return &s->sigma_gamma0[id - CAEKF_PARAM_SIGMA_GAMMA0];
+    if (IN(CAEKF_PARAM_SIGMA_Q_GAMMA, CAEKF_MAX_CONTACTS)) return &s->sigma_q_gamma[id - CAEKF_PARAM_SIGMA_Q_GAMMA];
+    if (IN(CAEKF_PARAM_GAMMA_MIN, CAEKF_MAX_CONTACTS)) return &s->gamma_min[id - CAEKF_PARAM_GAMMA_MIN];
     switch (id) {
-    case CAEKF_PARAM_M: case CAEKF_PARAM_M + 1: case CAEKF_PARAM_M + 2: case CAEKF_PARAM_M + 3:
-        return &m->m[id - CAEKF_PARAM_M];
-    case CAEKF_PARAM_K1: return &m->k1;
-    case CAEKF_PARAM_K12: return &m->k12;
-    case CAEKF_PARAM_K34: return &m->k34;
-    case CAEKF_PARAM_K4: return &m->k4;
-    case CAEKF_PARAM_C1: return &m->c1;
-    case CAEKF_PARAM_C12: return &m->c12;
-    case CAEKF_PARAM_C34: return &m->c34;
-    case CAEKF_PARAM_C4: return &m->c4;
-    case CAEKF_PARAM_GAP: return &m->gap;
     case CAEKF_PARAM_DT: return &m->dt;
-    case CAEKF_PARAM_Q0: case CAEKF_PARAM_Q0 + 1: case CAEKF_PARAM_Q0 + 2: case CAEKF_PARAM_Q0 + 3:
-        return &s->q0[id - CAEKF_PARAM_Q0];
-    case CAEKF_PARAM_V0: case CAEKF_PARAM_V0 + 1: case CAEKF_PARAM_V0 + 2: case CAEKF_PARAM_V0 + 3:
-        return &s->v0[id - CAEKF_PARAM_V0];
-    case CAEKF_PARAM_GAMMA0: return &s->gamma0;
     case CAEKF_PARAM_SIGMA_Q0: return &s->sigma_q0;
     case CAEKF_PARAM_SIGMA_V0: return &s->sigma_v0;
-    case CAEKF_PARAM_SIGMA_GAMMA0: return &s->sigma_gamma0;
     case CAEKF_PARAM_SIGMA_QX_Q: return &s->sigma_qx_q;
     case CAEKF_PARAM_SIGMA_QX_V: return &s->sigma_qx_v;
-    case CAEKF_PARAM_SIGMA_Q_GAMMA: return &s->sigma_q_gamma;
     case CAEKF_PARAM_SIGMA_R: return &s->sigma_r;
-    case CAEKF_PARAM_GAMMA_MIN: return &s->gamma_min;
+    case CAEKF_PARAM_SIGMA_RV: return &s->sigma_rv;
     case CAEKF_PARAM_Q_GAMMA_SCALE: return &s->q_gamma_scale;
     case CAEKF_PARAM_NEWTON_RTOL: return &s->newton_rtol;
     case CAEKF_PARAM_GAMMA_GATE_NIS: return &s->gamma_gate_nis;
@@ -175,19 +172,42 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     }
 }
 
-/* The integer, enum and bool parameters: writes v to the field of `id`; 0, or -1 if `id` is not one. */
+/* The integer, enum and bool parameters: the field of `id`, or NULL if `id` is not one. */
+static int *model_int_field(caekf_settings_t *s, unsigned id)
+{
+    caekf_model_params_t *m = &s->model;
+    if (IN(CAEKF_PARAM_SPRING_A, CAEKF_MAX_SPRINGS)) return &m->spring_a[id - CAEKF_PARAM_SPRING_A];
+    if (IN(CAEKF_PARAM_SPRING_B, CAEKF_MAX_SPRINGS)) return &m->spring_b[id - CAEKF_PARAM_SPRING_B];
+    if (IN(CAEKF_PARAM_INPUT_BODY, CAEKF_MAX_INPUTS)) return &m->input_body[id - CAEKF_PARAM_INPUT_BODY];
+    if (IN(CAEKF_PARAM_SENSOR_BODY, CAEKF_MAX_SENSORS)) return &m->sensor_body[id - CAEKF_PARAM_SENSOR_BODY];
+    if (IN(CAEKF_PARAM_SENSOR_KIND, CAEKF_MAX_SENSORS)) return &m->sensor_kind[id - CAEKF_PARAM_SENSOR_KIND];
+    if (IN(CAEKF_PARAM_CONTACT_A, CAEKF_MAX_CONTACTS)) return &m->contact_a[id - CAEKF_PARAM_CONTACT_A];
+    if (IN(CAEKF_PARAM_CONTACT_B, CAEKF_MAX_CONTACTS)) return &m->contact_b[id - CAEKF_PARAM_CONTACT_B];
+    switch (id) {
+    case CAEKF_PARAM_BODIES: return &m->bodies;
+    case CAEKF_PARAM_SPRINGS: return &m->springs;
+    case CAEKF_PARAM_INPUTS: return &m->inputs;
+    case CAEKF_PARAM_SENSORS: return &m->sensors;
+    case CAEKF_PARAM_CONTACTS: return &m->contacts;
+    case CAEKF_PARAM_SWITCHOFF: return &s->switchoff;
+    case CAEKF_PARAM_COV_UPDATE: return &s->cov_update;
+    case CAEKF_PARAM_COV_REPAIR_ENABLED: return &s->cov_repair_enabled;
+    case CAEKF_PARAM_NEWTON_MAX_ITER: return &s->newton_max_iter;
+    case CAEKF_PARAM_MODE: return &s->mode;
+    case CAEKF_PARAM_CONSTRAINT_ENABLED: return &s->constraint_enabled;
+    case CAEKF_PARAM_PSD_CHECK_PERIOD: return &s->psd_check_period;
+    default: return NULL;
+    }
+}
+
 static int model_int_set(caekf_settings_t *s, unsigned id, int v)
 {
-    switch (id) {
-    case CAEKF_PARAM_SWITCHOFF: s->switchoff = v; return 0;
-    case CAEKF_PARAM_COV_UPDATE: s->cov_update = v; return 0;
-    case CAEKF_PARAM_COV_REPAIR_ENABLED: s->cov_repair_enabled = v; return 0;
-    case CAEKF_PARAM_NEWTON_MAX_ITER: s->newton_max_iter = v; return 0;
-    case CAEKF_PARAM_MODE: s->mode = v; return 0;
-    case CAEKF_PARAM_CONSTRAINT_ENABLED: s->constraint_enabled = v; return 0;
-    case CAEKF_PARAM_PSD_CHECK_PERIOD: s->psd_check_period = v; return 0;
-    default: return -1;
+    int *f = model_int_field(s, id);
+    if (f == NULL) {
+        return -1;
     }
+    *f = v;
+    return 0;
 }
 
 /* Sets a parameter as the model understands it, and checks caekf_app_settings_set agrees. 0 if set.
@@ -200,8 +220,9 @@ static int model_set(caekf_app_settings_t *s, unsigned id, double value)
     const caekf_app_status_t ast = caekf_app_settings_set(&other, id, value);
     caekf_scalar_t *f = model_real_field(&s->est, id);
     int ok;
-    if (id >= (unsigned)CAEKF_PARAM_COUNT) {
-        ok = 0;
+    double stored;
+    if (id >= (unsigned)CAEKF_PARAM_COUNT || caekf_settings_get(&s->est, id, &stored) != CAEKF_OK) {
+        ok = 0; /* no such id, or an element beyond this build's capacity */
     } else if (f != NULL) {
         *f = (caekf_scalar_t)value;
         ok = 1;

@@ -53,13 +53,13 @@ static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned i, double *typic
 {
     caekf_model_params_t *m = &s->model;
     caekf_scalar_t *const f[N_REAL_FIELDS] = {
-        &m->m[0],    &m->m[1],        &m->m[2],        &m->m[3],       &m->k1,         &m->k12,
-        &m->k34,     &m->k4,          &m->c1,          &m->c12,        &m->c34,        &m->c4,
-        &m->gap,     &m->dt,          &s->q0[0],       &s->q0[1],      &s->q0[2],      &s->q0[3],
-        &s->v0[0],   &s->v0[1],       &s->v0[2],       &s->v0[3],      &s->gamma0,     &s->sigma_q0,
-        &s->sigma_v0, &s->sigma_gamma0, &s->sigma_qx_q, &s->sigma_qx_v, &s->sigma_q_gamma, &s->q_gamma_scale,
-        &s->sigma_r, &s->gamma_min,   &s->newton_rtol,
-        &s->gamma_gate_nis, &s->gamma0, &s->gamma_min}; /* the contact and constraint fields twice: more often */
+        &m->m[0],    &m->m[1],        &m->m[2],        &m->m[3],       &m->spring_k[0], &m->spring_k[1],
+        &m->spring_k[2], &m->spring_k[3], &m->spring_c[0], &m->spring_c[1], &m->spring_c[2], &m->spring_c[3],
+        &m->contact_gap[0], &m->dt,          &s->q0[0],       &s->q0[1],      &s->q0[2],      &s->q0[3],
+        &s->v0[0],   &s->v0[1],       &s->v0[2],       &s->v0[3],      &s->gamma0[0],  &s->sigma_q0,
+        &s->sigma_v0, &s->sigma_gamma0[0], &s->sigma_qx_q, &s->sigma_qx_v, &s->sigma_q_gamma[0], &s->q_gamma_scale,
+        &s->sigma_r, &s->gamma_min[0], &s->newton_rtol,
+        &s->gamma_gate_nis, &s->gamma0[0], &s->gamma_min[0]}; /* the contact and constraint fields twice: more often */
     /* Typical magnitudes for fields whose current value may be 0. */
     static const double typ[N_REAL_FIELDS] = {1, 1, 1, 1, 2e3, 1e4, 1e4, 1e4, 5, 5, 5, 5, 1e-3, 1e-3,
                                               1e-3, 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2, 1e-2, 7.5e7, 1e-6,
@@ -147,13 +147,13 @@ static void dump_settings(const caekf_settings_t *s)
             "  q0 %g %g %g %g v0 %g %g %g %g gamma0 %g sigma0 %g %g %g\n"
             "  sigma_qx %g %g sigma_q_gamma %g q_gamma_scale %g sigma_r %g gamma_min %g rtol %g gate %g\n"
             "  mode %d switchoff %d cov_update %d constraint %d repair %d psd_period %d newton_max %d\n",
-            (double)m->m[0], (double)m->m[1], (double)m->m[2], (double)m->m[3], (double)m->k1, (double)m->k12,
-            (double)m->k34, (double)m->k4, (double)m->c1, (double)m->c12, (double)m->c34, (double)m->c4,
-            (double)m->gap, (double)m->dt, (double)s->q0[0], (double)s->q0[1], (double)s->q0[2],
+            (double)m->m[0], (double)m->m[1], (double)m->m[2], (double)m->m[3], (double)m->spring_k[0], (double)m->spring_k[1],
+            (double)m->spring_k[2], (double)m->spring_k[3], (double)m->spring_c[0], (double)m->spring_c[1], (double)m->spring_c[2], (double)m->spring_c[3],
+            (double)m->contact_gap[0], (double)m->dt, (double)s->q0[0], (double)s->q0[1], (double)s->q0[2],
             (double)s->q0[3], (double)s->v0[0], (double)s->v0[1], (double)s->v0[2], (double)s->v0[3],
-            (double)s->gamma0, (double)s->sigma_q0, (double)s->sigma_v0, (double)s->sigma_gamma0,
-            (double)s->sigma_qx_q, (double)s->sigma_qx_v, (double)s->sigma_q_gamma, (double)s->q_gamma_scale,
-            (double)s->sigma_r, (double)s->gamma_min, (double)s->newton_rtol, (double)s->gamma_gate_nis, (int)s->mode, (int)s->switchoff,
+            (double)s->gamma0[0], (double)s->sigma_q0, (double)s->sigma_v0, (double)s->sigma_gamma0[0],
+            (double)s->sigma_qx_q, (double)s->sigma_qx_v, (double)s->sigma_q_gamma[0], (double)s->q_gamma_scale,
+            (double)s->sigma_r, (double)s->gamma_min[0], (double)s->newton_rtol, (double)s->gamma_gate_nis, (int)s->mode, (int)s->switchoff,
             (int)s->cov_update, s->constraint_enabled, s->cov_repair_enabled, s->psd_check_period,
             s->newton_max_iter);
 }
@@ -256,7 +256,7 @@ static void one_step(caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], int nor
         check_flags(&est, &rep);
         FZ_CHECK(caekf_get_gamma(&est, &gamma) == CAEKF_OK, "get_gamma");
         if (est.cfg.constraint_enabled) {
-            FZ_CHECK(gamma >= est.cfg.gamma_min, "constrained: gamma >= gamma_min");
+            FZ_CHECK(gamma >= est.cfg.gamma_min[0], "constrained: gamma >= gamma_min");
         }
         if ((rep.flags & CAEKF_FLAG_GAMMA_FROZEN) && !(rep.flags & CAEKF_FLAG_CONSTRAINT_APPLIED)) {
             /* Numerically equal (-0 may come back as +0: z + 0 * e). */

@@ -105,7 +105,7 @@ def _validation_cases(bench, sc):
         ("dt = -1e-3", [("dt", -1e-3)], "REFUSED_SETTINGS", "dt"),
         ("non-finite sigma_r (PARAM_EXP10 = 31: not a finite exact value)", "exp10", "REFUSED_PARAM", "sigma_r"),
         (f"gamma_min = {2 * g0:g} > gamma0 (constrained)", [("constraint_enabled", 1.0), ("gamma_min", 2 * g0)],
-         "REFUSED_SETTINGS", "gamma0"),
+         "REFUSED_SETTINGS", "contact1_gamma0"),
         ("unknown mode 7", [("mode", 7.0)], "REFUSED_SETTINGS", "mode"),
         ("unknown parameter id 200", "id200", "REFUSED_PARAM", "200"),
     ]

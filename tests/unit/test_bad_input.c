@@ -97,17 +97,20 @@ static void test_bad_settings_are_refused(void)
     REFUSE(model.dt, nan, CAEKF_PARAM_DT);
     REFUSE(model.m[2], -1, CAEKF_PARAM_M + 2);
     REFUSE(model.m[0], 0, CAEKF_PARAM_M);
-    REFUSE(model.k12, 0, CAEKF_PARAM_K12);
-    REFUSE(model.k4, inf, CAEKF_PARAM_K4);
-    REFUSE(model.c34, -5, CAEKF_PARAM_C34);
-    REFUSE(model.gap, nan, CAEKF_PARAM_GAP);
+    REFUSE(model.spring_k[1], -1, CAEKF_PARAM_SPRING_K + 1);
+    REFUSE(model.spring_k[3], inf, CAEKF_PARAM_SPRING_K + 3);
+    REFUSE(model.spring_c[2], -5, CAEKF_PARAM_SPRING_C + 2);
+    REFUSE(model.contact_gap[0], nan, CAEKF_PARAM_CONTACT_GAP);
+    REFUSE(model.contact_n[0], (caekf_scalar_t)0.5, CAEKF_PARAM_CONTACT_N);
+    REFUSE(model.spring_b[1], 9, CAEKF_PARAM_SPRING_B + 1);
+    REFUSE(model.bodies, 0, CAEKF_PARAM_BODIES);
     REFUSE(q0[1], inf, CAEKF_PARAM_Q0 + 1);
     REFUSE(v0[3], nan, CAEKF_PARAM_V0 + 3);
-    REFUSE(gamma0, nan, CAEKF_PARAM_GAMMA0);
+    REFUSE(gamma0[0], nan, CAEKF_PARAM_GAMMA0);
     REFUSE(sigma_q0, 0, CAEKF_PARAM_SIGMA_Q0);
-    REFUSE(sigma_gamma0, -1, CAEKF_PARAM_SIGMA_GAMMA0);
+    REFUSE(sigma_gamma0[0], -1, CAEKF_PARAM_SIGMA_GAMMA0);
     REFUSE(sigma_r, 0, CAEKF_PARAM_SIGMA_R);
-    REFUSE(sigma_q_gamma, -1, CAEKF_PARAM_SIGMA_Q_GAMMA);
+    REFUSE(sigma_q_gamma[0], -1, CAEKF_PARAM_SIGMA_Q_GAMMA);
     REFUSE(q_gamma_scale, nan, CAEKF_PARAM_Q_GAMMA_SCALE);
     REFUSE(mode, 7, CAEKF_PARAM_MODE);
     REFUSE(switchoff, -1, CAEKF_PARAM_SWITCHOFF);
@@ -122,7 +125,7 @@ static void test_bad_settings_are_refused(void)
     REFUSE(gamma_gate_nis, nan, CAEKF_PARAM_GAMMA_GATE_NIS);
     {
         caekf_settings_t b = good;
-        b.gamma_min = (caekf_scalar_t)1e9; /* above gamma0 with the constraint on */
+        b.gamma_min[0] = (caekf_scalar_t)1e9; /* above gamma0 with the constraint on */
         expect_refused(&b, CAEKF_PARAM_GAMMA0, CAEKF_SETTING_BELOW_GAMMA_MIN, "gamma0 < gamma_min");
     }
     /* Finite settings whose scaled values overflow or underflow in this scalar type (fuzz findings). */
@@ -151,7 +154,7 @@ static void test_bad_settings_are_refused(void)
         b.v0[0] = 1e20f;
         expect_refused(&b, CAEKF_PARAM_V0, CAEKF_SETTING_NOT_SCALABLE, "scaled state overflows");
 #else
-        b.sigma_gamma0 = 1.9e-318; /* subnormal: gamma0 / sigma_gamma0 overflows */
+        b.sigma_gamma0[0] = 1.9e-318; /* subnormal: gamma0 / sigma_gamma0 overflows */
         expect_refused(&b, CAEKF_PARAM_GAMMA0, CAEKF_SETTING_NOT_SCALABLE, "scaled state overflows");
 #endif
     }
@@ -159,7 +162,7 @@ static void test_bad_settings_are_refused(void)
     {
         caekf_settings_t b = good;
         b.constraint_enabled = 0;
-        b.gamma_min = (caekf_scalar_t)1e9;
+        b.gamma_min[0] = (caekf_scalar_t)1e9;
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&b, NULL));
     }
 }
@@ -209,11 +212,17 @@ static void test_set_by_id_reaches_every_element(void)
                        id == CAEKF_PARAM_COV_REPAIR_ENABLED || id == CAEKF_PARAM_CONSTRAINT_ENABLED)
                           ? 1.0
                           : (double)(id + 2);
+        if (caekf_settings_get(&b, id, &v) != CAEKF_OK) { /* beyond this build's capacity: refused */
+            TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, id, want, &err));
+            TEST_ASSERT_EQUAL_INT(CAEKF_SETTING_OVER_CAPACITY, err.reason);
+            TEST_ASSERT_EQUAL_UINT(id, err.param_id);
+            continue;
+        }
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_set(&b, id, want, &err));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_get(&b, id, &v));
         TEST_ASSERT_TRUE(v == want);
     }
-    TEST_ASSERT_TRUE(b.model.m[3] == 5 && b.q0[2] == CAEKF_PARAM_Q0 + 4 && b.v0[0] == CAEKF_PARAM_V0 + 2);
+    TEST_ASSERT_TRUE(b.model.m[3] == CAEKF_PARAM_M + 3 + 2 && b.q0[2] == CAEKF_PARAM_Q0 + 4 && b.v0[0] == CAEKF_PARAM_V0 + 2);
     TEST_ASSERT_TRUE(b.gamma_gate_nis == CAEKF_PARAM_GAMMA_GATE_NIS + 2 && b.mode == CAEKF_MODE_SWITCHED);
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, CAEKF_PARAM_COUNT, 1.0, &err));
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNKNOWN_ID, err.reason);
@@ -222,7 +231,8 @@ static void test_set_by_id_reaches_every_element(void)
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_NOT_INTEGER, err.reason);
     TEST_ASSERT_EQUAL_INT(7, b.newton_max_iter); /* refused: nothing written */
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, CAEKF_PARAM_MODE, (double)NAN, &err));
-    TEST_ASSERT_EQUAL_STRING("sigma_q_gamma", caekf_param_key(CAEKF_PARAM_SIGMA_Q_GAMMA));
+    TEST_ASSERT_EQUAL_STRING("contact1_sigma_q_gamma", caekf_param_key(CAEKF_PARAM_SIGMA_Q_GAMMA));
+    TEST_ASSERT_EQUAL_STRING("spring2_k", caekf_param_key(CAEKF_PARAM_SPRING_K + 1));
     TEST_ASSERT_EQUAL_STRING("m3", caekf_param_key(CAEKF_PARAM_M + 2));
     TEST_ASSERT_NULL(caekf_param_key(CAEKF_PARAM_COUNT));
 }

@@ -58,10 +58,10 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
     double K[4][4] = {{0}}, C[4][4] = {{0}}, A[NX][NX] = {{0}}, B[NX][NX] = {{0}};
     int i, j, k;
     double dt = (double)p->dt;
-    K[0][0] = (double)p->k1 + (double)p->k12; K[0][1] = K[1][0] = -(double)p->k12; K[1][1] = (double)p->k12;
-    K[2][2] = (double)p->k34; K[2][3] = K[3][2] = -(double)p->k34; K[3][3] = (double)p->k34 + (double)p->k4;
-    C[0][0] = (double)p->c1 + (double)p->c12; C[0][1] = C[1][0] = -(double)p->c12; C[1][1] = (double)p->c12;
-    C[2][2] = (double)p->c34; C[2][3] = C[3][2] = -(double)p->c34; C[3][3] = (double)p->c34 + (double)p->c4;
+    K[0][0] = (double)p->spring_k[0] + (double)p->spring_k[1]; K[0][1] = K[1][0] = -(double)p->spring_k[1]; K[1][1] = (double)p->spring_k[1];
+    K[2][2] = (double)p->spring_k[2]; K[2][3] = K[3][2] = -(double)p->spring_k[2]; K[3][3] = (double)p->spring_k[2] + (double)p->spring_k[3];
+    C[0][0] = (double)p->spring_c[0] + (double)p->spring_c[1]; C[0][1] = C[1][0] = -(double)p->spring_c[1]; C[1][1] = (double)p->spring_c[1];
+    C[2][2] = (double)p->spring_c[2]; C[2][3] = C[3][2] = -(double)p->spring_c[2]; C[3][3] = (double)p->spring_c[2] + (double)p->spring_c[3];
     for (i = 0; i < 4; ++i) {
         kf->m[i] = (double)p->m[i];
         A[i][i] = 1;
@@ -139,7 +139,7 @@ static void compare_with_linear_kf(int mode)
     int i, j;
     paper_settings(&s, EXP_SWITCHED);
     s.mode = mode;
-    s.model.gap = 1; /* 1 m: contact is never active */
+    s.model.contact_gap[0] = 1; /* 1 m: contact is never active */
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
     (void)caekf_get_gamma(&est, &gamma0);
     kf_init(&kf, &s);

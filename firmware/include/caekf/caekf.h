@@ -66,16 +66,18 @@ typedef struct {
 
     /* Initial estimate and its standard deviations (P0 diagonal). All sigma0 must be > 0: they also
      * set the internal state scaling that keeps P well conditioned in float. */
-    caekf_scalar_t q0[CAEKF_NQ];
-    caekf_scalar_t v0[CAEKF_NQ];
-    caekf_scalar_t gamma0;
-    caekf_scalar_t sigma_q0, sigma_v0, sigma_gamma0;
+    caekf_scalar_t q0[CAEKF_MAX_BODIES];
+    caekf_scalar_t v0[CAEKF_MAX_BODIES];
+    caekf_scalar_t gamma0[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t sigma_gamma0[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t sigma_q0, sigma_v0;
 
     /* Process noise std per step (Q diagonal) and measurement noise std (R diagonal). */
     caekf_scalar_t sigma_qx_q, sigma_qx_v;
-    caekf_scalar_t sigma_q_gamma;  /* Q_gamma = q_gamma_scale * sigma_q_gamma^2 */
+    caekf_scalar_t sigma_q_gamma[CAEKF_MAX_CONTACTS]; /* Q_gamma = q_gamma_scale * sigma_q_gamma^2 */
     caekf_scalar_t q_gamma_scale;  /* 1 for Sec. 4.1, 1000 for Sec. 4.2 */
-    caekf_scalar_t sigma_r;        /* > 0 */
+    caekf_scalar_t sigma_r;        /* > 0: position sensors */
+    caekf_scalar_t sigma_rv;       /* velocity sensors (> 0 when there is one) */
 
     /* Enumerated settings are stored as int (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t), so
      * the settings table addresses them the same way whatever size a compiler gives an enum. */
@@ -83,7 +85,7 @@ typedef struct {
     int switchoff;  /* caekf_switchoff_t */
     int cov_update; /* caekf_cov_update_t */
     int constraint_enabled;        /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
-    caekf_scalar_t gamma_min;
+    caekf_scalar_t gamma_min[CAEKF_MAX_CONTACTS];
     int cov_repair_enabled;        /* repair P when it loses PSD (always flagged); default on */
     int psd_check_period;          /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
                                     * screen runs every step and triggers the full test at once) */
@@ -140,7 +142,10 @@ typedef enum {
     CAEKF_SETTING_NOT_SCALABLE = 3,     /* finite, but a value init derives from it is not (this scalar type) */
     CAEKF_SETTING_OVER_CAPACITY = 4,    /* above a compile-time bound (newton_max_iter > CAEKF_NEWTON_MAX_ITER) */
     CAEKF_SETTING_UNKNOWN_ID = 5,       /* caekf_settings_set: no such parameter id */
-    CAEKF_SETTING_NOT_INTEGER = 6       /* caekf_settings_set: an int, enum or bool setting got a fraction */
+    CAEKF_SETTING_NOT_INTEGER = 6,      /* caekf_settings_set: an int, enum or bool setting got a fraction */
+    CAEKF_SETTING_BAD_BODY = 7,         /* names a body beyond `bodies` (or the ground where a body is needed,
+                                         * or both ends the same) */
+    CAEKF_SETTING_UNSUPPORTED = 8       /* a mechanism this build's estimator core does not compute */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
@@ -156,12 +161,16 @@ typedef struct {
  * caekf_settings_t and the range rule validation applies to each of its elements. */
 typedef struct {
     uint16_t offset;  /* byte offset of element 0 in caekf_settings_t */
+    uint16_t in_use;  /* byte offset of the int giving how many elements are in use, or CAEKF_ALL_IN_USE */
     uint8_t id;       /* CTRL_PARAM id of element 0 */
-    uint8_t count;    /* elements */
+    uint8_t count;    /* elements on the wire: ids id .. id+count-1 */
+    uint8_t stored;   /* elements this build stores (its capacity; <= count) */
+    uint8_t limit;    /* for a count of elements: the build's capacity it must not exceed, else 0 */
     uint8_t storage;  /* CAEKF_SETTING_REAL or CAEKF_SETTING_INT */
     uint8_t rule;     /* CAEKF_RULE_* */
     uint16_t lo, hi;  /* integer range of CAEKF_RULE_INT */
 } caekf_setting_rule_t;
+#define CAEKF_ALL_IN_USE 0xFFFFu
 extern const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT];
 
 /* Fills the schema's defaults (switched, consistent, standard update, constraint off, repair on, gate

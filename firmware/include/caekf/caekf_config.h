@@ -6,9 +6,15 @@
  *                            setting `newton_max_iter` may only lower it.
  *   CAEKF_JACOBI_MAX_SWEEPS  bound on cyclic Jacobi sweeps used by the eigen routines (P norm and
  *                            covariance repair; default 12, 9x9 converges in about 6).
+ *   CAEKF_MAX_BODIES, CAEKF_MAX_SPRINGS, CAEKF_MAX_INPUTS, CAEKF_MAX_SENSORS, CAEKF_MAX_CONTACTS
+ *                            the mechanism capacity of the build: storage for that many bodies, links,
+ *                            input forces, sensors and contacts (default: the paper's mechanism). The
+ *                            settings say how many are in use; they must fit. At most the wire's
+ *                            capacities (CAEKF_WIRE_MAX_*, generated from the settings schema).
  *
- * Dimensions are fixed by the model (4 bodies on a line, one contact parameter, two position sensors)
- * and checked with static asserts; they are not options.
+ * This estimator core runs the paper's chain (4 bodies, 4 links, 1 input, 2 position sensors, 1 contact)
+ * and refuses other mechanisms (CAEKF_SETTING_OVER_CAPACITY / UNSUPPORTED); the settings already
+ * describe any mechanism (docs/mechanism.md).
  */
 #ifndef CAEKF_CONFIG_H
 #define CAEKF_CONFIG_H
@@ -39,14 +45,35 @@ typedef double caekf_scalar_t;
 #define CAEKF_SCALAR_NAME "double"
 #endif
 
+/* Mechanism capacity. */
+#ifndef CAEKF_MAX_BODIES
+#define CAEKF_MAX_BODIES 4
+#endif
+#ifndef CAEKF_MAX_SPRINGS
+#define CAEKF_MAX_SPRINGS 4
+#endif
+#ifndef CAEKF_MAX_INPUTS
+#define CAEKF_MAX_INPUTS 1
+#endif
+#ifndef CAEKF_MAX_SENSORS
+#define CAEKF_MAX_SENSORS 2
+#endif
+#ifndef CAEKF_MAX_CONTACTS
+#define CAEKF_MAX_CONTACTS 1
+#endif
+
 /* Model dimensions. */
-#define CAEKF_NQ 4                        /* bodies (positions) */
+#define CAEKF_NQ CAEKF_MAX_BODIES         /* bodies (positions) */
 #define CAEKF_NX (2 * CAEKF_NQ)           /* mechanical state [q; v] */
-#define CAEKF_N (CAEKF_NX + 1)            /* augmented state [q; v; gamma] */
-#define CAEKF_NY 2                        /* measurements y = [q1, q4] */
+#define CAEKF_N (CAEKF_NX + CAEKF_MAX_CONTACTS) /* augmented state [q; v; gamma] */
+#define CAEKF_NY CAEKF_MAX_SENSORS        /* measurements y */
 #define CAEKF_IG (CAEKF_N - 1)            /* index of gamma in the augmented state */
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]
+
+CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES >= 1 && CAEKF_MAX_SPRINGS >= 0 && CAEKF_MAX_INPUTS >= 0 &&
+                        CAEKF_MAX_SENSORS >= 1 && CAEKF_MAX_CONTACTS >= 0,
+                    capacities_are_counts);
 
 #endif /* CAEKF_CONFIG_H */

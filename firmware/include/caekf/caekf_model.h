@@ -1,11 +1,14 @@
 /*
- * The 4-body contact model of the paper (Sec. 3.1) discretised by backward Euler: eq. (19) plus the
- * damping term C v_k that the paper's equation omits.
+ * The lumped contact model (paper Sec. 3.1) discretised by backward Euler: eq. (19) plus the damping
+ * term C v_k that the paper's equation omits. The mechanism is described by the settings
+ * (docs/mechanism.md): bodies on a line, spring-damper links between two bodies or a body and ground
+ * (body 0), input forces, sensors and contacts. A contact between bodies a and b has penetration
+ * delta = q_a - q_b - gap; its force f = gamma delta^n (1 + lambda d delta/dt) for delta > 0 acts -f on
+ * a and +f on b.
  *
- * Conventions: q_i are displacements from rest, positive from body 1 towards body 4. Bodies 1 and 4
- * are tied to ground (k1/c1, k4/c4), 1-2 and 3-4 are coupled (k12/c12, k34/c34). The penetration is
- * delta = q2 - q3 - gap; the Hertz force f_c = gamma * delta^1.5 for delta > 0 (else 0) acts -f_c on
- * body 2 and +f_c on body 3. The input u is a force on body 1.
+ * This core computes the paper's chain: ground -1- 1 -2- 2 | 3 -3- 4 -4- ground, contact (2, 3),
+ * n = 1.5, lambda = 0, input on body 1, position sensors on bodies 1 and 4. caekf_model_supported says
+ * whether the settings describe it.
  */
 #ifndef CAEKF_MODEL_H
 #define CAEKF_MODEL_H
@@ -16,13 +19,29 @@
 extern "C" {
 #endif
 
-/* Physical parameters. Plain data, so a const instance can live in flash. */
+/* Sensor kinds (caekf_model_params_t.sensor_kind). */
+typedef enum { CAEKF_SENSOR_POSITION = 0, CAEKF_SENSOR_VELOCITY = 1 } caekf_sensor_kind_t;
+
+/* The mechanism. Plain data, so a const instance can live in flash. Body numbers are 1-based, 0 is the
+ * ground; only the first `bodies`, `springs`, ... elements of each array are in use. */
 typedef struct {
-    caekf_scalar_t m[CAEKF_NQ];          /* masses [kg] */
-    caekf_scalar_t k1, k12, k34, k4;     /* springs [N/m] */
-    caekf_scalar_t c1, c12, c34, c4;     /* dampers [N s/m] */
-    caekf_scalar_t gap;                  /* contact gap [m] */
-    caekf_scalar_t dt;                   /* step [s] */
+    caekf_scalar_t dt;                              /* step [s] */
+    int bodies;
+    caekf_scalar_t m[CAEKF_MAX_BODIES];             /* masses [kg] */
+    int springs;
+    int spring_a[CAEKF_MAX_SPRINGS], spring_b[CAEKF_MAX_SPRINGS]; /* link ends */
+    caekf_scalar_t spring_k[CAEKF_MAX_SPRINGS];     /* [N/m] */
+    caekf_scalar_t spring_c[CAEKF_MAX_SPRINGS];     /* [N s/m] */
+    int inputs;
+    int input_body[CAEKF_MAX_INPUTS];
+    int sensors;
+    int sensor_body[CAEKF_MAX_SENSORS];
+    int sensor_kind[CAEKF_MAX_SENSORS];             /* caekf_sensor_kind_t */
+    int contacts;
+    int contact_a[CAEKF_MAX_CONTACTS], contact_b[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS]; /* [m] */
+    caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];   /* exponent, >= 1 */
+    caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS]; /* Hunt-Crossley damping [s/m] */
 } caekf_model_params_t;
 
 /* Matrices derived once from the parameters. */

@@ -63,7 +63,10 @@ static int settings_from_values(PyObject *seq_obj, caekf_settings_t *s)
     }
     for (i = 0; i < n && rc == 0; ++i) {
         caekf_setting_error_t err;
-        double v = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+        double v = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i)), stored;
+        if (v == 0.0 && caekf_settings_get(s, (unsigned)i, &stored) != CAEKF_OK) {
+            continue; /* an element beyond this build's capacity reads as 0 (settings_to_values) */
+        }
         if (v == -1.0 && PyErr_Occurred()) {
             PyErr_Format(PyExc_TypeError, "setting %s needs a number", caekf_param_key((unsigned)i));
             rc = -1;

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import Any, Dict, Union
 
-from .schema import SCHEMA, setting_of
+from .schema import ALIASES, SCHEMA, canonical, setting_of
 
 PathLike = Union[str, Path]
 
@@ -32,9 +32,12 @@ class _ScenarioBase:
         return int(round(self.t_end / self.dt))
 
     def replace(self, **changes: float) -> Any:
-        """Copy with some values changed (handy for shortened test runs); checked like a file."""
-        values = {**dataclasses.asdict(self), **changes}  # type: ignore[call-overload]
-        return scenario_from_values(values, "replace()", truth_optional=not self.has_truth)
+        """Copy with some values changed (handy for shortened test runs); checked like a file. Elements
+        a change of a count leaves unused are dropped."""
+        values = {**self.values(), **{canonical(k): v for k, v in changes.items()}}
+        unused = [k for k, s, i in _KEYS if not SCHEMA.in_use(s, i, values)]
+        return scenario_from_values({k: v for k, v in values.items() if k not in unused}, "replace()",
+                                    truth_optional=not self.has_truth)
 
     @property
     def has_truth(self) -> bool:
@@ -43,15 +46,27 @@ class _ScenarioBase:
                        if setting_of(k).kind == "truth")
 
     def values(self) -> Dict[str, float]:
-        """Every key's value, by scenario key."""
-        return dict(dataclasses.asdict(self))  # type: ignore[call-overload]
+        """Every key's value, by scenario key; elements not in use (m5 of a 4-body mechanism) are left out."""
+        values = dict(dataclasses.asdict(self))  # type: ignore[call-overload]
+        return {k: v for k, v in values.items() if SCHEMA.in_use(_SETTINGS[k], _INDEX[k], values)}
 
 
 _KEYS = SCHEMA.keys()
 _TYPES = {k: (float if s.type == "real" else int) for k, s, _ in _KEYS}
+# The paper's flat names of single elements (k12 -> spring2_k): accepted in files and replace(), and
+# readable as attributes.
+_INDEX = {k: i for k, _, i in _KEYS}
+_SETTINGS = {k: s for k, s, _ in _KEYS}
+
+
+def _alias_property(key: str) -> property:
+    return property(lambda self: getattr(self, key), doc=f"{key} (its paper name)")
+
+
 Scenario: Any = dataclasses.make_dataclass(
     "Scenario", [(k, _TYPES[k]) for k, _, _ in _KEYS], bases=(_ScenarioBase,), frozen=True,
-    namespace={"__doc__": "Every value of a scenario, SI units; the fields are the schema's keys."})
+    namespace={"__doc__": "Every value of a scenario, SI units; the fields are the schema's keys.",
+               **{a: _alias_property(k) for a, k in ALIASES.items()}})
 Scenario.__module__ = __name__  # picklable (process pools, Dask): found as caekf_sim.scenario.Scenario
 
 
@@ -73,7 +88,7 @@ def parse_flat(text: str, source: str = "<text>") -> Dict[str, "tuple[int, str]"
 
 
 def _check(key: str, v: float, where: str, text: str = "") -> Any:
-    setting = setting_of(key)
+    setting = setting_of(canonical(key))
     if not setting.check(v):
         raise ScenarioError(f"{where}: {key} = {text or format(v, 'g')}: {setting.rule_text()}")
     return int(v) if setting.type != "real" else float(v)
@@ -83,20 +98,32 @@ def scenario_from_values(values: Dict[str, Any], source: str, truth_optional: bo
     """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked. With
     `truth_optional`, a truth-only key without a default (gamma, u_amp, ...: the simulated plant) may be
     absent or NaN: it is NaN in the Scenario (estimating from measurements needs none of them)."""
-    unknown = sorted(set(values) - set(_TYPES))
+    unknown = sorted(set(values) - set(_TYPES) - set(ALIASES))
     if unknown:
         raise ScenarioError(f"{source}: unknown key '{unknown[0]}'")
+    given: Dict[str, Any] = {}
+    for key, v in values.items():
+        name = canonical(key)
+        if name in given:
+            raise ScenarioError(f"{source}: duplicate key '{key}' (or another name of it)")
+        given[name] = v
     out: Dict[str, Any] = {}
-    for key, setting, _ in _KEYS:
-        if truth_optional and setting.kind == "truth" and setting.required \
-                and (key not in values or math.isnan(float(values[key]))):
+    for key, setting, index in _KEYS:
+        used = SCHEMA.in_use(setting, index, given)
+        if key in given and not used:
+            counter = SCHEMA.by_name(setting.in_use_by or "").keys[0]
+            raise ScenarioError(f"{source}: {key} is given, but {counter} = {given.get(counter, 'its default')} "
+                                "leaves it unused")
+        if truth_optional and setting.kind == "truth" and setting.element_required(index) and used \
+                and (key not in given or math.isnan(float(given[key]))):
             out[key] = math.nan
-        elif key in values:
-            out[key] = _check(key, float(values[key]), source)
-        elif setting.required:
+        elif key in given:
+            out[key] = _check(key, float(given[key]), source)
+        elif setting.element_required(index) and used:
             raise ScenarioError(f"{source}: missing key '{key}' (it has no default)")
         else:
-            out[key] = _check(key, setting.default_value(), source)
+            out[key] = _check(key, setting.default_value(index=index), source) if not setting.element_required(
+                index) else (0 if setting.type != "real" else 0.0)
     return Scenario(**out)
 
 
@@ -104,10 +131,15 @@ def scenario_from_text(text: str, source: str = "<text>", truth_optional: bool =
     """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required."""
     values: Dict[str, float] = {}
     for key, (lineno, value) in parse_flat(text, source).items():
-        if key not in _TYPES:
+        if key not in _TYPES and key not in ALIASES:
             raise ScenarioError(f"{source}:{lineno}: unknown key '{key}'")
+        setting = setting_of(canonical(key))
         try:
-            v = float(value)
+            if setting.type == "enum" and len(value) >= 2 and value[0] == value[-1] == '"' \
+                    and value[1:-1] in setting.values:
+                v = float(setting.values.index(value[1:-1]))  # an enum by name
+            else:
+                v = float(value)
         except ValueError:
             v = math.nan
         if not math.isfinite(v):

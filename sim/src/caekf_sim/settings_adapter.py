@@ -9,6 +9,7 @@ schema's (caekf_sim.schema), and a scenario maps to settings through the C funct
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Optional, Tuple
 
@@ -33,6 +34,7 @@ class Settings:
 
     def __getattr__(self, key: str) -> float:
         ids = schema.param_ids()
+        key = schema.canonical(key)
         if key in ids:
             return self.values[ids[key]]
         raise AttributeError(f"no setting {key!r}")
@@ -47,6 +49,7 @@ class Settings:
         ids = schema.param_ids()
         values = list(self.values)
         for key, v in changes.items():
+            key = schema.canonical(key)
             if key not in ids:
                 raise ValueError(f"unknown setting {key!r}")
             setting = schema.setting_of(key)
@@ -75,7 +78,7 @@ def check_precision(precision: str) -> str:
 
 def scenario_dict(sc: Scenario) -> Dict[str, float]:
     """The scenario as the C struct caekf_scenario_t holds it (all doubles)."""
-    return {k: float(v) for k, v in sc.values().items()}
+    return {k: float(v) for k, v in dataclasses.asdict(sc).items()}
 
 
 def settings_for(sc: Scenario, experiment: Optional[str] = None, precision: str = "double",

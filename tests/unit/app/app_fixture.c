@@ -48,7 +48,7 @@ void fixture_paper_settings(caekf_app_settings_t *s, int preset)
     }
     /* spot checks against the literal scenario values */
     TEST_ASSERT_TRUE(s->est.model.dt == (caekf_scalar_t)1.0e-3);
-    TEST_ASSERT_TRUE(s->est.gamma0 == (caekf_scalar_t)7.5e7);
+    TEST_ASSERT_TRUE(s->est.gamma0[0] == (caekf_scalar_t)7.5e7);
     TEST_ASSERT_TRUE(s->est.sigma_r == (caekf_scalar_t)1.0e-7);
 }
 

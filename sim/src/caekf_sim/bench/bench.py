@@ -275,7 +275,7 @@ class Bench:
 
     def param_frame(self, name: str, value: float) -> bytes:
         mant, exp10 = e2e.to_mantissa_exp10(value)
-        return self.frame("CTRL_PARAM", {"PARAM_ID": self.codec.param_ids[name], "PARAM_EXP10": exp10,
+        return self.frame("CTRL_PARAM", {"PARAM_ID": self.codec.param_ids[schema.canonical(name)], "PARAM_EXP10": exp10,
                                          "PARAM_MANTISSA": mant})
 
     def configure(self, label: str, params: Sequence[Tuple[str, float]] = (), timeout: float = 2.0,

@@ -21,6 +21,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 import numpy as np
 
 from ..scenario import Scenario, load_scenario
+from ..schema import ALIASES, canonical
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -145,11 +146,13 @@ def draw(rng: np.random.Generator, name: str, d: Mapping[str, Any]) -> float:
 # ---------------------------------------------------------------- loading
 
 def scenario_from_values(base: Scenario, values: Mapping[str, float]) -> Scenario:
-    """The base scenario with the drawn values, checked against the schema's ranges (ScenarioError)."""
+    """base with the drawn values of its keys (aliases such as k12 included; other names are ignored), checked
+    against the schema's ranges (ScenarioError)."""
     changes: Dict[str, Any] = {}
     for k, v in values.items():
-        if k in SCENARIO_FIELDS:
-            changes[k] = int(round(v)) if k in INT_FIELDS else float(v)
+        key = canonical(k)
+        if key in SCENARIO_FIELDS:
+            changes[key] = int(round(v)) if key in INT_FIELDS else float(v)
     return base.replace(**changes)
 
 
@@ -191,7 +194,8 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
         values: Dict[str, float] = {}
         for name, d in draws.items():
             values[name] = draw(rng, name, d)
-        known = {**{k: float(getattr(base, k)) for k in SCENARIO_FIELDS}, **values}
+        known = {**{k: float(v) for k, v in base.values().items()},
+                 **{a: float(getattr(base, a)) for a in ALIASES}, **values}
         for name, expr in sets.items():
             v = evaluate(str(expr), known)
             values[name] = known[name] = v
@@ -239,7 +243,6 @@ def load_family(spec_or_folder: PathLike, runs: Optional[int] = None, seed: Opti
 def scenario_text(sc: Scenario) -> str:
     """A scenario file (flat key = value, %.17g) for the C tools."""
     lines = []
-    for name in SCENARIO_FIELDS:
-        v = getattr(sc, name)
-        lines.append(f"{name} = {v:d}" if name in INT_FIELDS else f"{name} = {float(v):.17g}")
+    for name, v in sc.values().items():
+        lines.append(f"{name} = {int(v):d}" if name in INT_FIELDS else f"{name} = {float(v):.17g}")
     return "\n".join(lines) + "\n"

@@ -12,10 +12,18 @@ from .codegen import Preset, Schema, SchemaError, Setting, load
 
 SCHEMA: Schema = load()
 
-__all__ = ["SCHEMA", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
+__all__ = ["ALIASES", "SCHEMA", "canonical", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
            "setting_of", "wire_values"]
 
 _SETTING_OF_KEY: Dict[str, Setting] = {k: s for k, s, _ in SCHEMA.keys()}
+ALIASES: Dict[str, str] = dict(SCHEMA.aliases())
+
+
+def canonical(key: str) -> str:
+    """The key a paper name stands for ("k12" -> "spring2_k"); other keys are returned as they are."""
+    return ALIASES.get(key, key)
+
+_SETTING_OF_KEY.update({a: _SETTING_OF_KEY[k] for a, k in SCHEMA.aliases()})
 
 
 def setting_of(key: str) -> Setting:
@@ -24,7 +32,7 @@ def setting_of(key: str) -> Setting:
 
 
 def param_ids() -> Dict[str, int]:
-    """CTRL_PARAM id of every wire key ("m3" -> 2)."""
+    """CTRL_PARAM id of every wire key ("m3" -> 4); aliases are not wire keys (the DBC names ids by key)."""
     return {k: s.id + i for s in SCHEMA.wire for i, k in enumerate(s.keys)}  # type: ignore[operator]
 
 
@@ -44,14 +52,15 @@ def wire_values(values: Dict[str, float], preset_name: Optional[str] = None) -> 
     order: exactly what the estimator needs to be configured over the bus."""
     ids = param_ids()
     out: Dict[str, float] = {}
-    for key, setting, _ in SCHEMA.keys():
-        if key not in ids or key not in values:
+    canonical = {**values, **{k: values[a] for a, k in SCHEMA.aliases() if a in values}}
+    for key, setting, index in SCHEMA.keys():
+        if key not in ids or key not in canonical or not SCHEMA.in_use(setting, index, canonical):
             continue
         # A default relative to the build's epsilon (newton_rtol) is the estimator's own business: it is
         # sent only when the scenario chose a value.
-        if isinstance(setting.default, str) and float(values[key]) == setting.default_value():
+        if isinstance(setting.default, str) and float(canonical[key]) == setting.default_value():
             continue
-        out[key] = float(values[key])
+        out[key] = float(canonical[key])
     if preset_name is not None:
         for name, v in preset(preset_name).values.items():
             out[SCHEMA.by_name(name).keys[0]] = v

@@ -32,10 +32,11 @@ SCHEMA_PATH = Path(__file__).with_name("settings.toml")
 TYPES = ("real", "int", "enum", "bool")
 KINDS = ("model", "noise", "estimator", "runtime", "truth")
 # C rule codes; the same numbers are written into caekf_settings_schema.h.
-RULES = {"finite": 0, "> 0": 1, ">= 0": 2, "(0, 1)": 3, "int": 4}
-RULE_MACROS = {"finite": "FINITE", "> 0": "POS", ">= 0": "NONNEG", "(0, 1)": "OPEN01", "int": "INT"}
+RULES = {"finite": 0, "> 0": 1, ">= 0": 2, "(0, 1)": 3, "int": 4, ">= 1": 5}
+RULE_MACROS = {"finite": "FINITE", "> 0": "POS", ">= 0": "NONNEG", "(0, 1)": "OPEN01", "int": "INT", ">= 1": "GE1"}
+CAPACITIES = ("bodies", "springs", "inputs", "sensors", "contacts")
 C_ENUMS = {"mode": ("caekf_mode_t", "CAEKF_MODE_"), "switchoff": ("caekf_switchoff_t", "CAEKF_SWITCHOFF_"),
-           "cov_update": ("caekf_cov_update_t", "CAEKF_COV_")}
+           "cov_update": ("caekf_cov_update_t", "CAEKF_COV_"), "sensor_kind": ("caekf_sensor_kind_t", "CAEKF_SENSOR_")}
 GENERATED = "GENERATED from sim/src/caekf_sim/schema/settings.toml by codegen.py: do not edit"
 
 
@@ -59,10 +60,23 @@ class Setting:
     lo: float = -math.inf
     hi: float = math.inf
     field: str = ""
+    capacity: Optional[str] = None  # an array over the mechanism's bodies, springs, ... (count = its capacity)
+    counts: Optional[str] = None  # this setting is the number of elements in use of that capacity
+    in_use_by: Optional[str] = None  # name of the setting giving how many elements are in use
+    aliases: Tuple[Tuple[str, int], ...] = ()  # (key, element index)
 
     @property
     def required(self) -> bool:
         return self.default is None
+
+    def element_default(self, index: int) -> Any:
+        """The default of one element (None: required when in use)."""
+        if isinstance(self.default, list):
+            return self.default[index] if index < len(self.default) else None
+        return self.default
+
+    def element_required(self, index: int) -> bool:
+        return self.element_default(index) is None
 
     @property
     def on_wire(self) -> bool:
@@ -96,10 +110,13 @@ class Setting:
             "> 0": v > 0,
             ">= 0": v >= 0,
             "(0, 1)": 0 < v < 1,
+            ">= 1": v >= 1,
         }[self.range]
 
-    def default_value(self, eps: float = sys.float_info.epsilon) -> float:
-        d = self.default
+    def default_value(self, eps: float = sys.float_info.epsilon, index: int = 0) -> float:
+        d = self.element_default(index)
+        if d is None:
+            return 0.0
         if isinstance(d, str):
             if self.type == "enum":
                 return float(self.values.index(d))
@@ -120,6 +137,7 @@ class Preset:
 class Schema:
     settings: Tuple[Setting, ...]
     presets: Tuple[Preset, ...]
+    capacity: Dict[str, int] = field(default_factory=dict)
 
     def by_name(self, name: str) -> Setting:
         for s in self.settings:
@@ -136,8 +154,19 @@ class Schema:
         return sum(s.count for s in self.wire)
 
     def keys(self) -> List[Tuple[str, Setting, int]]:
-        """Every scenario key with its setting and element index."""
+        """Every scenario key with its setting and element index (canonical keys, no aliases)."""
         return [(k, s, i) for s in self.settings for i, k in enumerate(s.keys)]
+
+    def aliases(self) -> List[Tuple[str, str]]:
+        """(alias, canonical key) of every alias."""
+        return [(a, s.keys[i]) for s in self.settings for a, i in s.aliases]
+
+    def in_use(self, s: Setting, index: int, values: Dict[str, float]) -> bool:
+        """Whether element `index` of s is in use for these values (by key; absent: the default)."""
+        if s.in_use_by is None:
+            return True
+        counter = self.by_name(s.in_use_by)
+        return index < int(values.get(counter.keys[0], counter.default_value()))
 
 
 def _parse_range(s: Setting, text: str) -> Tuple[str, float, float]:
@@ -158,14 +187,31 @@ def _parse_range(s: Setting, text: str) -> Tuple[str, float, float]:
 def load(path: Path = SCHEMA_PATH) -> Schema:
     """Read and check the schema (unique names, ids and keys; ids dense from 0)."""
     raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    capacity = {k: int(v) for k, v in raw.get("capacity", {}).items()}
+    if sorted(capacity) != sorted(CAPACITIES):
+        raise SchemaError(f"[capacity] must give exactly {', '.join(CAPACITIES)}")
     settings: List[Setting] = []
+    counters = {e["counts"]: e["name"] for e in raw.get("setting", []) if "counts" in e}
     for entry in raw.get("setting", []):
         e = dict(entry)
         name = e.pop("name")
-        count = int(e.pop("count", 1))
-        keys = tuple(e.pop("keys", [name] if count == 1 else []))
+        cap = e.pop("capacity", None)
+        if cap is not None and (cap not in capacity or cap not in counters):
+            raise SchemaError(f"{name}: capacity {cap!r} has no [capacity] entry or no setting counting it")
+        count = capacity[cap] if cap is not None else int(e.pop("count", 1))
+        pattern = e.pop("key", None)
+        if pattern is not None:
+            keys = tuple(pattern.format(i=i + 1) for i in range(count))
+        else:
+            keys = tuple(e.pop("keys", [name] if count == 1 else []))
         if len(keys) != count:
             raise SchemaError(f"{name}: {count} elements but {len(keys)} keys")
+        aliases = tuple((a, int(i) - 1) for a, i in e.pop("aliases", {}).items())
+        if any(not 0 <= i < count for _, i in aliases):
+            raise SchemaError(f"{name}: an alias names an element out of 1..{count}")
+        counts = e.pop("counts", None)
+        if counts is not None and counts not in capacity:
+            raise SchemaError(f"{name}: counts unknown capacity {counts!r}")
         typ = e.pop("type")
         if typ not in TYPES:
             raise SchemaError(f"{name}: unknown type {typ!r}")
@@ -175,7 +221,10 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
         s = Setting(name=name, type=typ, unit=e.pop("unit"), kind=kind, doc=e.pop("doc"),
                     id=e.pop("id", None), count=count, keys=keys,
                     values=tuple(e.pop("values", [])), default=e.pop("default", None),
-                    field=e.pop("field", name if kind != "truth" else ""))
+                    field=e.pop("field", name if kind != "truth" else ""), capacity=cap, counts=counts,
+                    in_use_by=counters[cap] if cap is not None else None, aliases=aliases)
+        if isinstance(s.default, list) and len(s.default) > count:
+            raise SchemaError(f"{name}: more defaults than elements")
         rng = e.pop("range", "finite")
         rule, lo, hi = _parse_range(s, rng)
         s = Setting(**{**s.__dict__, "range": rule if rule == "int" else rng, "lo": lo, "hi": hi})
@@ -185,7 +234,7 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
             raise SchemaError(f"{name}: truth settings have no id, all others need one")
         settings.append(s)
     names = [s.name for s in settings]
-    all_keys = [k for s in settings for k in s.keys]
+    all_keys = [k for s in settings for k in s.keys] + [a for s in settings for a, _ in s.aliases]
     for what, items in (("name", names), ("key", all_keys)):
         dup = sorted({x for x in items if items.count(x) > 1})
         if dup:
@@ -206,7 +255,7 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
             if not st.check(vals[k]):
                 raise SchemaError(f"preset {pname}: {k} = {v}: {st.rule_text()}")
         presets.append(Preset(name=pname, doc=p["doc"], values=vals))
-    return Schema(settings=tuple(settings), presets=tuple(presets))
+    return Schema(settings=tuple(settings), presets=tuple(presets), capacity=capacity)
 
 
 # ---- C --------------------------------------------------------------------------------------------
@@ -228,7 +277,9 @@ def c_core(schema: Schema) -> Dict[str, str]:
     for s in wire:
         h.append(f"#define CAEKF_PARAM_{_macro(s.name)} {s.id}u /* {s.doc} */")
     h += [f"#define CAEKF_PARAM_COUNT {schema.param_count}u", f"#define CAEKF_SETTING_COUNT {len(wire)}u", "",
-          "/* Range rules of caekf_setting_rule_t.rule. */"]
+          "/* The mechanism's capacities on the wire (and the most a build may have: caekf_config.h). */"]
+    h += [f"#define CAEKF_WIRE_MAX_{_macro(c)} {n}u" for c, n in schema.capacity.items()]
+    h += ["", "/* Range rules of caekf_setting_rule_t.rule. */"]
     for text, code in RULES.items():
         h.append(f"#define CAEKF_RULE_{RULE_MACROS[text]} {code}u")
     h += ["", "/* Storage of a setting in caekf_settings_t. */",
@@ -248,27 +299,36 @@ def c_core(schema: Schema) -> Dict[str, str]:
         rule = RULE_MACROS[s.range]
         lo = 0 if s.range != "int" else int(s.lo)
         hi = 0 if s.range != "int" else int(s.hi)
-        c.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {s.field}), {s.id}u, {s.count}u, {storage}, "
-                 f"CAEKF_RULE_{rule}, {lo}u, {hi}u}}, /* {s.name} */")
+        stored = f"CAEKF_MAX_{_macro(s.capacity)}" if s.capacity else f"{s.count}u"
+        in_use = (f"(uint16_t)offsetof(caekf_settings_t, {schema.by_name(s.in_use_by).field})" if s.in_use_by
+                  else "CAEKF_ALL_IN_USE")
+        limit = f"CAEKF_MAX_{_macro(s.counts)}" if s.counts else "0u"
+        c.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {s.field}), {in_use}, {s.id}u, {s.count}u, {stored}, "
+                 f"{limit}, {storage}, CAEKF_RULE_{rule}, {lo}u, {hi}u}}, /* {s.name} */")
     c += ["};", "", "caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s)", "{",
-          "    if (s == 0) {", "        return CAEKF_ERR_NULL;", "    }"]
+          "    unsigned i;", "    if (s == 0) {", "        return CAEKF_ERR_NULL;", "    }"]
     for s in wire:
-        if s.required:
-            continue
-        d = s.default
-        if isinstance(d, str) and d.endswith("eps"):
-            expr = f"(caekf_scalar_t){d.split()[0]} * CAEKF_EPS"
-        elif s.type == "real":
-            expr = f"(caekf_scalar_t){_c_double(float(d))}"
-        else:
-            expr = str(int(s.default_value()))
         for i in range(s.count):
-            lhs = f"s->{s.field}" + (f"[{i}]" if s.count > 1 else "")
-            if s.type == "enum":
-                c.append(f"    {lhs} = {C_ENUMS[s.name][1]}{_macro(str(d))};")
+            d = s.element_default(i)
+            if d is None:
+                continue
+            if isinstance(d, str) and d.endswith("eps"):
+                expr = f"(caekf_scalar_t){d.split()[0]} * CAEKF_EPS"
+            elif s.type == "enum":
+                expr = f"{C_ENUMS[s.name][1]}{_macro(str(d))}"
+            elif s.type == "real":
+                expr = f"(caekf_scalar_t){_c_double(float(d))}"
             else:
-                c.append(f"    {lhs} = {expr};")
-    c += ["    return CAEKF_OK;", "}", ""]
+                expr = str(int(s.default_value(index=i)))
+            if s.capacity is None:
+                c.append(f"    s->{s.field}{f'[{i}]' if s.count > 1 else ''} = {expr};")
+            elif isinstance(s.default, list) or i == 0:
+                # Arrays over a capacity: the build may store fewer elements than the wire carries.
+                lhs = f"s->{s.field}[{i}]" if isinstance(s.default, list) else f"s->{s.field}[i]"
+                guard = (f"    if (CAEKF_MAX_{_macro(s.capacity)} > {i}u) {{" if isinstance(s.default, list)
+                         else f"    for (i = 0; i < CAEKF_MAX_{_macro(s.capacity)}; ++i) {{")
+                c += [guard, f"        {lhs} = {expr};", "    }"]
+    c += ["    (void)i;", "    return CAEKF_OK;", "}", ""]
     # Names: only host tools and messages need them; a separate object the MCU links only if used.
     n = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "",
          "static const char *const setting_names[CAEKF_SETTING_COUNT] = {"]
@@ -297,8 +357,12 @@ const char *caekf_param_key(unsigned param_id)
 
 def c_host(schema: Schema) -> Dict[str, str]:
     keys = schema.keys()
+    row_of = {k: n for n, (k, _, _) in enumerate(keys)}
+    rows = [(k, k, s, i) for k, s, i in keys] + [(a, k, *next((s, i) for kk, s, i in keys if kk == k))
+                                                 for a, k in schema.aliases()]
     h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SCENARIO_SCHEMA_H", "#define CAEKF_SCENARIO_SCHEMA_H", "",
-         f"#define CAEKF_SCENARIO_KEY_COUNT {len(keys)}u", "",
+         f"#define CAEKF_SCENARIO_KEY_COUNT {len(keys)}u /* canonical keys: one double each */",
+         f"#define CAEKF_SCENARIO_ROW_COUNT {len(rows)}u /* the keys, then their aliases */", "",
          "/* Every scenario key, in schema order (array elements by their own keys). */",
          "typedef struct {"]
     h += [f"    double {k}; /* {s.unit or '-'}: {s.doc if i == 0 else s.element(i)} */" for k, s, i in keys]
@@ -306,16 +370,20 @@ def c_host(schema: Schema) -> Dict[str, str]:
           "} caekf_scenario_t;", "",
           "typedef struct {",
           "    const char *key;",
+          "    unsigned canonical;   /* the key this row sets (an alias row names another) */",
           "    unsigned offset;      /* of the double in caekf_scenario_t */",
           "    int param_id;         /* CTRL_PARAM id, or -1 for a truth-only key */",
-          "    int required;         /* no default: the file must give it */",
+          "    int required;         /* no default: the file must give it when it is in use */",
           "    double default_value; /* when not required (newton_rtol: double epsilon based) */",
           "    int is_integer;       /* int, enum or bool */",
           "    const char *rule;     /* the range rule as a message states it */",
           "    int rule_code;        /* CAEKF_RULE_* of caekf_settings_schema.h */",
           "    double lo, hi;        /* integer range */",
+          "    const char *enum_names; /* an enum's value names, '|'-separated (a file may write \"name\"), or 0 */",
+          "    int in_use_key;       /* key giving how many elements of this array are in use, or -1 */",
+          "    unsigned index;       /* element of an array setting */",
           "} caekf_scenario_key_t;", "",
-          "extern const caekf_scenario_key_t caekf_scenario_keys[CAEKF_SCENARIO_KEY_COUNT];", "",
+          "extern const caekf_scenario_key_t caekf_scenario_keys[CAEKF_SCENARIO_ROW_COUNT];", "",
           "typedef struct {",
           "    const char *name;",
           "    const char *doc;",
@@ -326,15 +394,18 @@ def c_host(schema: Schema) -> Dict[str, str]:
           f"#define CAEKF_PRESET_COUNT {len(schema.presets)}u",
           "extern const caekf_preset_t caekf_presets[CAEKF_PRESET_COUNT];", "", "#endif", ""]
     c = [f"/* {GENERATED}. */", '#include "caekf_scenario_schema.h"', "", "#include <math.h>", "#include <stddef.h>", "",
-         "const caekf_scenario_key_t caekf_scenario_keys[CAEKF_SCENARIO_KEY_COUNT] = {"]
-    for k, s, i in keys:
+         "const caekf_scenario_key_t caekf_scenario_keys[CAEKF_SCENARIO_ROW_COUNT] = {"]
+    for k, canon, s, i in rows:
         pid = -1 if s.id is None else s.id + i
-        dv = 0.0 if s.required else s.default_value()
+        req = s.element_required(i)
+        dv = 0.0 if req else s.default_value(index=i)
         rule = RULES[s.range]
         lo = 0.0 if s.range != "int" else s.lo
         hi = 0.0 if s.range != "int" else s.hi
-        c.append(f'    {{"{k}", (unsigned)offsetof(caekf_scenario_t, {k}), {pid}, {int(s.required)}, {dv!r}, '
-                 f'{int(s.type != "real")}, "{s.rule_text()}", {rule}, {lo!r}, {hi!r}}},')
+        names = '"' + "|".join(s.values) + '"' if s.type == "enum" else "0"
+        in_use = row_of[schema.by_name(s.in_use_by).keys[0]] if s.in_use_by else -1
+        c.append(f'    {{"{k}", {row_of[canon]}u, (unsigned)offsetof(caekf_scenario_t, {canon}), {pid}, {int(req)}, '
+                 f'{dv!r}, {int(s.type != "real")}, "{s.rule_text()}", {rule}, {lo!r}, {hi!r}, {names}, {in_use}, {i}u}},')
     c += ["};", "", "const caekf_preset_t caekf_presets[CAEKF_PRESET_COUNT] = {"]
     for p in schema.presets:
         if len(p.values) > 8:
@@ -363,16 +434,23 @@ def shortest_decimal(v: float) -> Tuple[int, int]:
 def read_scenario_values(schema: Schema, path: Path, wire_only: bool = True) -> Dict[str, float]:
     """The settings a scenario file gives (flat `key = value`), by key: the wire ones or all."""
     raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    known = {k for k, s, _ in schema.keys() if s.on_wire or not wire_only}
-    unknown = sorted(set(raw) - {k for k, _, _ in schema.keys()})
+    canonical = {**{k: k for k, _, _ in schema.keys()}, **dict(schema.aliases())}
+    setting = {k: s for k, s, _ in schema.keys()}
+    unknown = sorted(set(raw) - set(canonical))
     if unknown:
         raise SchemaError(f"{path}: unknown keys {unknown}")
-    return {k: float(v) for k, v in raw.items() if k in known}
+    out: Dict[str, float] = {}
+    for k, v in raw.items():
+        s = setting[canonical[k]]
+        if s.on_wire or not wire_only:
+            out[k] = float(s.values.index(v)) if isinstance(v, str) else float(v)
+    return out
 
 
 def c_fixture(schema: Schema, scenario: Path) -> Dict[str, str]:
     given = read_scenario_values(schema, scenario)
     ids = {k: s.id + i for k, s, i in schema.keys() if s.on_wire}  # type: ignore[operator]
+    ids.update({a: ids[k] for a, k in schema.aliases() if k in ids})
     rows = []
     for k, v in given.items():
         mant, e10 = shortest_decimal(v)
