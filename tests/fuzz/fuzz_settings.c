@@ -14,12 +14,12 @@
  *         same fields (PARAM_ID, EXP10, MANTISSA).
  *   param_value: OK exactly when |exp10| <= 22, and then finite and equal to mantissa * 10^exp10 as a
  *         correctly rounded double (checked against strtod of the decimal text).
- *   settings_set: a refusal (unknown id, a fraction for an integer setting) names that id and leaves the
- *         settings byte for byte unchanged; an accepted value reads back (caekf_settings_get) as the value
- *         in the storage type (caekf_scalar_t for reals).
- *   settings_validate: OK exactly when every element satisfies its range rule (caekf_setting_rules via
- *         caekf_setting_rule_ok) and the cross-checks pass; a range refusal names an element that breaks
- *         its rule, and every element before it in id order satisfies its own.
+ *   settings_set: a refusal (unknown id, an element beyond what this build stores, a fraction for an
+ *         integer setting) names that id and leaves the settings byte for byte unchanged; an accepted value
+ *         reads back (caekf_settings_get) as the value in the storage type (caekf_scalar_t for reals).
+ *   settings_validate: accepted only when every element in use (the row's in-use count, or all it stores)
+ *         satisfies its range rule (caekf_setting_rules via caekf_setting_rule_ok); a range refusal names an
+ *         element that breaks its rule.
  */
 #include "fuzz_common.h"
 
@@ -39,7 +39,7 @@ static void check_param_value(const caekf_msg_param_t *m)
     }
 }
 
-/* The element of parameter id `id`: its rule row (NULL when unknown) and element index. */
+/* The rule row of parameter id `id` (NULL when unknown). */
 static const caekf_setting_rule_t *rule_of(unsigned id)
 {
     unsigned i;
@@ -83,8 +83,11 @@ static void set_one(caekf_settings_t *s, const uint8_t payload[CAEKF_CAN_DLC])
         FZ_CHECK(memcmp(&before, s, sizeof before) == 0, "a refused set leaves the settings untouched");
         FZ_CHECK(e.param_id == m.param_id, "the refusal names the id");
         FZ_CHECK((r == NULL) == (e.reason == CAEKF_SETTING_UNKNOWN_ID), "unknown id exactly when not in the table");
-        FZ_CHECK(r == NULL || (e.reason == CAEKF_SETTING_NOT_INTEGER && r->storage != CAEKF_SETTING_REAL),
-                 "a known id is refused only for a fraction in an integer setting");
+        FZ_CHECK(r == NULL || (e.reason == CAEKF_SETTING_OVER_CAPACITY) == (m.param_id - r->id >= r->stored),
+                 "over capacity exactly for an element beyond what the build stores");
+        FZ_CHECK(r == NULL || m.param_id - r->id >= r->stored ||
+                     (e.reason == CAEKF_SETTING_NOT_INTEGER && r->storage != CAEKF_SETTING_REAL),
+                 "a stored element is refused only for a fraction in an integer setting");
         return;
     }
     FZ_CHECK(rule_of(m.param_id) != NULL, "an accepted id is in the table");
@@ -97,33 +100,46 @@ static void set_one(caekf_settings_t *s, const uint8_t payload[CAEKF_CAN_DLC])
     }
 }
 
+/* Elements of row r in use: its in-use count (clamped to what the build stores), or all it stores. */
+static unsigned in_use(const caekf_settings_t *s, const caekf_setting_rule_t *r)
+{
+    int n;
+    if (r->in_use == CAEKF_ALL_IN_USE) {
+        return r->stored;
+    }
+    memcpy(&n, (const char *)s + r->in_use, sizeof n);
+    return n < 0 ? 0u : ((unsigned)n < r->stored ? (unsigned)n : r->stored);
+}
+
+static int element_ok(const caekf_settings_t *s, unsigned id)
+{
+    const caekf_setting_rule_t *r = rule_of(id);
+    double v = 0.0;
+    FZ_CHECK(r != NULL && caekf_settings_get(s, id, &v) == CAEKF_OK, "settings_get of a stored table id");
+    return caekf_setting_rule_ok(r->rule, (double)r->lo, (double)r->hi, v);
+}
+
 static void check_validate(const caekf_settings_t *s)
 {
     caekf_setting_error_t e;
-    unsigned i, k, first_bad = 256u;
+    unsigned i, k;
     const caekf_status_t st = caekf_settings_validate(s, &e);
-    for (i = 0; i < CAEKF_SETTING_COUNT && first_bad == 256u; ++i) {
-        const caekf_setting_rule_t *r = &caekf_setting_rules[i];
-        for (k = 0; k < r->count; ++k) {
-            double v = 0.0;
-            FZ_CHECK(caekf_settings_get(s, (unsigned)r->id + k, &v) == CAEKF_OK, "settings_get of a table id");
-            if (!caekf_setting_rule_ok(r->rule, (double)r->lo, (double)r->hi, v)) {
-                first_bad = (unsigned)r->id + k;
-                break;
+    if (st == CAEKF_OK) {
+        FZ_CHECK(e.reason == CAEKF_SETTING_OK, "validate OK: reason OK");
+        for (i = 0; i < CAEKF_SETTING_COUNT; ++i) {
+            const caekf_setting_rule_t *r = &caekf_setting_rules[i];
+            for (k = 0; k < in_use(s, r); ++k) {
+                FZ_CHECK(element_ok(s, (unsigned)r->id + k), "validate accepted an element that breaks its rule");
             }
         }
-    }
-    if (st == CAEKF_OK) {
-        FZ_CHECK(first_bad == 256u, "validate accepted an element that breaks its rule");
-        FZ_CHECK(e.reason == CAEKF_SETTING_OK, "validate OK: reason OK");
         return;
     }
     FZ_CHECK(st == CAEKF_ERR_SETTINGS, "validate: OK or ERR_SETTINGS");
-    FZ_CHECK(e.reason >= CAEKF_SETTING_OUT_OF_RANGE && e.reason <= CAEKF_SETTING_OVER_CAPACITY,
-             "validate: a reason of validation");
+    FZ_CHECK(e.reason != CAEKF_SETTING_OK && e.reason != CAEKF_SETTING_UNKNOWN_ID &&
+                 e.reason != CAEKF_SETTING_NOT_INTEGER,
+             "validate: a reason of validation (not one of caekf_settings_set's)");
     if (e.reason == CAEKF_SETTING_OUT_OF_RANGE) {
-        FZ_CHECK(first_bad != 256u, "a range refusal with every element in range");
-        FZ_CHECK(e.param_id == first_bad, "the range refusal names the first element that breaks its rule");
+        FZ_CHECK(!element_ok(s, e.param_id), "a range refusal names an element that breaks its rule");
     }
 }
 
