@@ -6,6 +6,7 @@
 
 #include "common/csv.h" /* CAEKF_CSV_MAX_ROWS: the truth is the replay's input */
 #include "common/scenario.h"
+#include "common/tool.h"
 #include "common/truth.h"
 
 typedef struct {
@@ -31,7 +32,8 @@ static void usage(FILE *f)
           "located and the integration restarted there (rtol 1e-13, atol 1e-15 m, 1e-13 m/s by default).\n"
           "backward-euler: eq. (19) at dt/truth_substeps, Newton-solved (the truth of earlier versions).\n"
           "A summary (contact episodes, max penetration, steps or Newton iterations) goes to stderr.\n"
-          "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge.\n",
+          "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge; outputs are\n"
+          "written to temporary files renamed at the end, so a failed run leaves none.\n",
           f);
 }
 
@@ -95,7 +97,8 @@ int main(int argc, char **argv)
     caekf_scenario_t sc;
     truth_sink_t sink;
     caekf_truth_options_t opt;
-    char err[512];
+    char err[512] = "";
+    caekf_output_t o_csv, o_bin;
     int i, rc;
     memset(&sink, 0, sizeof sink);
     caekf_truth_options_default(&opt);
@@ -160,14 +163,23 @@ int main(int argc, char **argv)
                 scenario, sc.t_end / sc.dt, CAEKF_CSV_MAX_ROWS);
         return 3;
     }
-    sink.csv = out == NULL ? NULL : strcmp(out, "-") == 0 ? stdout : fopen(out, "w");
-    if (out != NULL && sink.csv == NULL) {
-        perror(out);
-        return 4;
+    /* Outputs are temporary files renamed at the end (common/tool.h): a failed run leaves nothing behind. */
+    if (out != NULL) {
+        if (caekf_output_open(&o_csv, out, err, sizeof err) != 0) {
+            fprintf(stderr, "caekf-truth: %s\n", err);
+            return 4;
+        }
+        sink.csv = o_csv.f;
     }
-    if (bin != NULL && (sink.bin = fopen(bin, "wb")) == NULL) {
-        perror(bin);
-        return 4;
+    if (bin != NULL) {
+        if (caekf_output_open(&o_bin, bin, err, sizeof err) != 0) {
+            fprintf(stderr, "caekf-truth: %s\n", err);
+            if (out != NULL) {
+                caekf_output_abort(&o_csv);
+            }
+            return 4;
+        }
+        sink.bin = o_bin.f;
     }
     if (sink.csv != NULL) {
         fputs("t,u,y1,y4,q1,q2,q3,q4,v1,v2,v3,v4,delta\n", sink.csv);
@@ -176,19 +188,35 @@ int main(int argc, char **argv)
     if (sink.in_contact && !sink.quiet) {
         fputs(" (still in contact)\n", stderr);
     }
-    if (sink.csv != NULL && sink.csv != stdout && fclose(sink.csv) != 0) {
-        rc = -1;
+    if (rc == 0 && sink.newton_failed == 0) {
+        if (out != NULL && caekf_output_commit(&o_csv, err, sizeof err) != 0) {
+            out = NULL; /* removed by the failed commit */
+            rc = -1;
+        } else {
+            out = NULL;
+        }
+        if (rc == 0 && bin != NULL && caekf_output_commit(&o_bin, err, sizeof err) != 0) {
+            rc = -1;
+        }
+        bin = NULL;
     }
-    if (sink.bin != NULL && fclose(sink.bin) != 0) {
-        rc = -1;
+    if (out != NULL) {
+        caekf_output_abort(&o_csv);
+    }
+    if (bin != NULL) {
+        caekf_output_abort(&o_bin);
     }
     if (rc < 0) {
-        fprintf(stderr, "caekf-truth: failed writing output or setting up the model\n");
+        fprintf(stderr, "caekf-truth: %s\n", err[0] != '\0' ? err : "failed writing output or setting up the model");
         return 4;
     }
     if (rc > 0) {
-        fprintf(stderr, "caekf-truth: integration failed at t = %.6f s (step size below 1e-14 s or step budget)\n",
-                (double)sink.samples * sc.dt);
+        fprintf(stderr, "caekf-truth: integration failed at t = %.6f s (step size below 1e-14 s or step budget): "
+                "nothing written\n", (double)sink.samples * sc.dt);
+        return 5;
+    }
+    if (sink.newton_failed) {
+        fprintf(stderr, "caekf-truth: %ld Newton solves did not converge: nothing written\n", sink.newton_failed);
         return 5;
     }
     if (!sink.quiet && opt.method == CAEKF_TRUTH_DOP853) {
@@ -204,5 +232,5 @@ int main(int argc, char **argv)
                 (double)sink.newton_iters / ((double)sink.samples * sc.truth_substeps), sink.newton_max,
                 sink.newton_failed);
     }
-    return sink.newton_failed ? 5 : 0;
+    return 0;
 }

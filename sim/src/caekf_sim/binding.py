@@ -295,7 +295,8 @@ class Estimator:
         self._c._set_raw(state["raw"])
 
     def __repr__(self) -> str:
-        return f"Estimator({self.precision}, mode={self.settings.mode}, gamma={self.gamma:.6g}, steps={self.step_count})"
+        return (f"Estimator({self.precision}, mode={self.settings.mode}, gamma={self.gamma:.6g}, "
+                f"steps={self.step_count})")
 
 
 def run(scenario_or_settings: ScenarioOrSettings, u: np.ndarray, y: np.ndarray, *,

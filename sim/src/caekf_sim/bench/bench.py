@@ -32,7 +32,7 @@ import numpy as np
 from .. import schema
 from . import e2e
 from .codec import RECORD, RECORD_SIZE, Codec, records_array
-from .profiles import DIAGNOSTICS, Profile, get_profile
+from .profiles import Profile, get_profile
 from .transport import Transport, make_transport, open_bus
 
 STEP_MOD = 1 << 16
@@ -609,7 +609,7 @@ class Bench:
             if not sel.any():
                 continue
             d = data[sel]
-            good = e2e.e2e_crc_np(info.data_id, d) == d[:, 0]
+            good = e2e.e2e_crc_np(np.asarray(info.data_id), d) == d[:, 0]
             out.bad_crc += int(np.sum(~good))
             d = d[good]
             if not len(d):

@@ -16,7 +16,7 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 
@@ -47,8 +47,10 @@ INPUT_MESSAGES = ("BENCH_U", "BENCH_Y1", "BENCH_Y4")
 
 
 def default_dbc_path() -> Path:
-    """firmware/protocol/caekf.dbc of the source tree this package lives in."""
-    return Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
+    """firmware/protocol/caekf.dbc of the source tree this package lives in, else the copy a wheel installs
+    (caekf_sim/data/caekf.dbc, sim/CMakeLists.txt)."""
+    src = Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
+    return src if src.is_file() else Path(__file__).resolve().parents[1] / "data" / "caekf.dbc"
 
 
 @dataclass(frozen=True)
@@ -92,7 +94,10 @@ class Codec:
         import cantools  # a [dev] dependency of caekf-sim
 
         self.path = Path(dbc_path) if dbc_path else default_dbc_path()
-        self.db = cantools.database.load_file(str(self.path))
+        db = cantools.database.load_file(str(self.path))
+        if not isinstance(db, cantools.database.can.Database):
+            raise ValueError(f"{self.path}: not a CAN database (DBC)")
+        self.db: cantools.database.can.Database = db
         self.messages: Dict[str, MessageInfo] = {}
         self.by_id: Dict[int, MessageInfo] = {}
         for m in self.db.messages:
@@ -104,6 +109,8 @@ class Codec:
                     raise ValueError(f"{m.name}.{s.name}: only little-endian signals are supported")
                 sigs[s.name] = SignalLayout(s.name, s.start, s.length, s.is_signed, s.is_float,
                                             float(s.scale), float(s.offset), s.minimum, s.maximum)
+            if m.dbc is None:
+                raise ValueError(f"{m.name}: no DBC attributes (E2E_DataID)")
             info = MessageInfo(m.name, m.frame_id, int(m.dbc.attributes["E2E_DataID"].value),
                                m.senders == ["BENCH"], sigs)
             self.messages[m.name] = info
@@ -120,7 +127,7 @@ class Codec:
 
     def _choices(self, message: str, signal: str) -> Dict[str, int]:
         sig = self.db.get_message_by_name(message).get_signal_by_name(signal)
-        return {str(name): int(value) for value, name in sig.choices.items()}
+        return {str(name): int(value) for value, name in (sig.choices or {}).items()}
 
     # --- one frame, through cantools ---------------------------------------------------------
 
@@ -132,7 +139,9 @@ class Codec:
         return e2e.seal(info.data_id, counter, body)
 
     def decode(self, frame_id: int, data: bytes) -> Dict[str, float]:
-        return dict(self.db.decode_message(frame_id, bytes(data), decode_choices=False))
+        decoded = self.db.decode_message(frame_id, bytes(data), decode_choices=False)
+        assert isinstance(decoded, dict)  # a plain message, not a container frame
+        return cast(Dict[str, float], dict(decoded))  # numbers only: decode_choices=False
 
     def record(self, name_or_id: Union[str, int], data: bytes, dlc: Optional[int] = None) -> bytes:
         """A 16-byte struct can_frame; dlc other than len(data) makes a deliberately wrong frame."""
@@ -198,7 +207,6 @@ class Codec:
     def quantize(self, name: str, signal: str, values) -> np.ndarray:
         """What the receiver decodes after this value went over the bus (e.g. y rounded to the
         1e-12 m LSB, u rounded to float32)."""
-        sig = self.messages[name].signals[signal]
         p = self.pack(name, {signal: np.atleast_1d(np.asarray(values, dtype=float))})
         return self.unpack(name, p, [signal])[signal]
 

@@ -10,7 +10,7 @@ Also the CTRL_PARAM value encoding: value = mantissa * 10**exp10 in its shortest
 from __future__ import annotations
 
 from decimal import Decimal
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -52,7 +52,7 @@ def seal(data_id: int, counter: int, payload: bytes) -> bytes:
     """Write the alive counter (bits 8..11) and then the CRC (byte 0) into an 8-byte payload."""
     b = bytearray(payload)
     b[1] = (b[1] & 0xF0) | (counter & COUNTER_MASK)
-    b[0] = e2e_crc(data_id, b)
+    b[0] = e2e_crc(data_id, bytes(b))
     return bytes(b)
 
 
@@ -96,7 +96,7 @@ class E2EReceiver:
     def __init__(self, data_id: int, max_delta: int = 1) -> None:
         self.data_id = data_id
         self.max_delta = max_delta
-        self.last = None  # type: ignore[assignment]
+        self.last: Optional[int] = None
         self.lost = 0
 
     def check(self, payload: bytes) -> str:
@@ -137,9 +137,11 @@ def to_mantissa_exp10(value: float, max_digits: int = 11) -> Tuple[int, int]:
         return 0, 0
     d = d.normalize()
     sign, digits, exp = d.as_tuple()
+    assert isinstance(exp, int)  # a finite value (repr of a float that is not nan/inf)
     if len(digits) > max_digits:
         d = d.quantize(Decimal(1).scaleb(exp + len(digits) - max_digits)).normalize()
         sign, digits, exp = d.as_tuple()
+        assert isinstance(exp, int)
     mant = int("".join(map(str, digits)))
     return (-mant if sign else mant), int(exp)
 

@@ -88,7 +88,8 @@ def nonfinite_u(bench: Bench, inputs: StepInputs, row: int, i: int) -> bytes:
 
 def out_of_range_param(bench: Bench, i: int) -> bytes:
     """A configuration with a value outside its parameter's range, committed by CTRL_RESET(N_PARAMS=1):
-    even i: PARAM_ID beyond the table (len(param_ids)..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer parameter).
+    even i: PARAM_ID beyond the table (len(param_ids)..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer
+    parameter).
     Refused with EST_ACK REFUSED_PARAM: CFG_REFUSED +1, the running estimator untouched."""
     n_ids = len(bench.codec.param_ids)
     if i % 2 == 0:

@@ -83,7 +83,9 @@ class BusRecorder:
             self.hdr[i].msg_hdr.msg_iov = ctypes.pointer(self.iov[i])
             self.hdr[i].msg_hdr.msg_iovlen = 1
             self.hdr[i].msg_hdr.msg_control = cbase + i * CTRL_SIZE
-        self._ctrl_np = np.frombuffer(self.ctrl, dtype=np.int64).reshape(batch, CTRL_SIZE // 8)
+        # a ctypes array is a buffer, which numpy's stubs do not list among frombuffer's arguments
+        self._ctrl_np = np.frombuffer(self.ctrl, dtype=np.int64).reshape(  # type: ignore[call-overload]
+            batch, CTRL_SIZE // 8)
         self.records: List[bytes] = []
         self.stamps: List[np.ndarray] = []
         self._timeout: Optional[float] = None

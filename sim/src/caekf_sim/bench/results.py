@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -33,7 +33,8 @@ def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")
     it = c["newton_iters"][m]
     x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
     return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
-                          flags=c["flags"][m].astype(np.int64), newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
+                          flags=c["flags"][m].astype(np.int64),
+                          newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
                           wall_time=wall_time)
 
 
@@ -227,7 +228,7 @@ def bridged_rows(inputs: StepInputs, estimated: Sequence[int],
         src.append(np.minimum(rows[g] + 1 + np.arange(k), n_in - 1))
         pred.append(np.ones(k, dtype=bool))
         urow.append(np.full(k, rows[g]))
-        prev = g + 1
+        prev = int(g) + 1
     src.append(rows[prev:])
     pred.append(np.zeros(len(rows) - prev, dtype=bool))
     urow.append(rows[prev:])
@@ -327,7 +328,8 @@ class Agreement:
                 f"{self.newton_mismatch}")
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
+                        profile: Optional[Profile] = None) -> Agreement:
     """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
     the scaled integers (after clipping to the signal range: the estimator saturates and flags),
     within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags
@@ -392,7 +394,7 @@ def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
     import json
 
     arrays: Dict[str, np.ndarray] = {}
-    meta = {"header": header, "runs": []}
+    meta: Dict[str, Any] = {"header": header, "runs": []}
     if runs:
         inp = runs[0].inputs
         arrays.update(t=inp.t, u_seen=inp.u_seen, y_seen=inp.y_seen, wire_steps=inp.wire_steps)
@@ -408,12 +410,12 @@ def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
             arrays[f"{i}.col.{col}"] = v
         arrays[f"{i}.complete"] = dec.complete
         arrays[f"{i}.step_status"] = dec.step_status
-        if rec.t_sent is not None:
+        if rec.t_sent is not None and rec.t_rx is not None:  # realtime runs record both
             arrays[f"{i}.t_sent"] = rec.t_sent
             arrays[f"{i}.t_rx"] = rec.t_rx
     arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
-    np.savez(path, **arrays)
+    np.savez(path, **arrays)  # type: ignore[arg-type]  # numpy's stub types **kwds like its allow_pickle flag
     return path
 
 
@@ -457,7 +459,7 @@ def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scena
             ref = run_c_replay(replay_bin, scenario, inp, r.experiment, out / f"replay-{r.experiment}.csv")
         else:
             # steps lost on the bus: replay the steps the estimator ran, gaps bridged as the app does
-            res, src, pred = replay_estimated(replay_bin, scenario, r.experiment, r.inputs, est + start,
+            res, src, pred = replay_estimated(replay_bin, scenario, r.experiment, r.inputs, list(est + start),
                                               out / f"replay-{r.experiment}.csv")
             ref = aligned_result(res, src, pred, r.inputs.t[start:stop], start)
             bridged = (f" ({stop - start - len(est)} steps never estimated (lost on the bus, not counted as missing "

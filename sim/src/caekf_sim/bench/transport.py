@@ -22,7 +22,7 @@ import select
 import socket
 import struct
 import time
-from typing import Iterable, List
+from typing import Iterable, List, Optional
 
 from .codec import RECORD, RECORD_SIZE
 
@@ -129,7 +129,7 @@ class SocketcanTransport(Transport):
             except OSError:
                 continue
         self.sock.setblocking(True)
-        self._timeout = None  # current SO_RCVTIMEO
+        self._timeout: Optional[float] = None  # current SO_RCVTIMEO
         self.libc = _libc() if use_mmsg else None
         if self.libc is not None:
             self.name = "socketcan (CAN_RAW, sendmmsg/recvmmsg)"
@@ -198,6 +198,7 @@ class SocketcanTransport(Transport):
 
     def _recvmmsg(self, flags: int) -> bytes:
         """One recvmmsg() batch as concatenated records; b"" when nothing came (timeout, EINTR)."""
+        assert self.libc is not None  # only with use_mmsg
         n = self.libc.recvmmsg(self.fd, self.rx.hdr, self.rx.n, flags, None)
         if n < 0:
             e = ctypes.get_errno()

@@ -21,7 +21,6 @@ import time
 from pathlib import Path
 from typing import Dict, List
 
-import numpy as np
 
 from .. import schema
 from . import add_scenario_arg, scenario_from_args
@@ -189,7 +188,8 @@ def _realtime_report(runs, args, dt: float) -> str:
         blocks.append(format_paced(f"realtime {r.experiment}, {r.record.n} steps at {1 / dt:g} Hz",
                                    paced_stats(p, args.bitrate), dt, args.bitrate))
         if args.log is not None:
-            path = args.log if len(runs) == 1 else args.log.with_name(f"{args.log.stem}-{r.experiment}{args.log.suffix}")
+            path = args.log if len(runs) == 1 else \
+                args.log.with_name(f"{args.log.stem}-{r.experiment}{args.log.suffix}")
             n = write_candump(path, args.iface, p.frames_t_ns, p.frames)
             blocks.append(f"hil: wrote {n} frames to {path} (candump -L, kernel timestamps)")
     return "\n".join(blocks)
