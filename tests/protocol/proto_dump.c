@@ -137,7 +137,7 @@ static int run(char *line)
         printf("%d %u %u %u %d\n", st, m.step, m.flags, m.newton_iters, m.status);
     } else if (strcmp(a[0], "enc_yp") == 0 && n == 4) {
         caekf_msg_yp_t m;
-        m.step = (uint16_t)strtoul(a[1], NULL, 0);
+        m.step = (uint8_t)strtoul(a[1], NULL, 0);
         m.y1 = strtod(a[2], NULL);
         m.y4 = strtod(a[3], NULL);
         print_hex(caekf_proto_encode_yp(&m, d), d);

@@ -242,13 +242,13 @@ def test_int36_out_of_range_saturates_at_the_dbc_limits(db, dump):
 
 def test_position_resolution_is_far_below_a_micrometre(db):
     """Diagnostics profile scaled signals; the production profile's BENCH_YP trades resolution for room
-    (LSB 2e-8 m, +/-2.6 mm: the scenarios' positions stay within 1.4 mm) and its outputs are float32."""
+    (LSB 1e-9 m, +/-2.1 mm: the scenarios' positions stay within 1.4 mm) and its outputs are float32."""
     for msg in db.messages:
         for sig in msg.signals:
             if sig.is_float:
                 continue
             if msg.name == "BENCH_YP":
-                assert sig.unit != "m" or (sig.scale <= 2e-8 and sig.maximum >= 0.0026), sig.name
+                assert sig.unit != "m" or (sig.scale <= 1e-9 and sig.maximum >= 0.0020), sig.name
                 continue
             if sig.unit == "m":
                 assert sig.scale <= 1e-12 and sig.maximum >= 0.03, sig.name
@@ -283,11 +283,13 @@ def _f32(rng):
 def test_yp_frame(db, dump):
     rng = random.Random(RNG_SEED + 11)
     sig = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1")
+    half = 1 << (sig.length - 1)
+    lim = half * sig.scale
     cases = []
     for _ in range(300):
-        raw1, raw4 = rng.randrange(-(1 << 17), 1 << 17), rng.randrange(-(1 << 17), 1 << 17)
-        cases.append(dict(STEP=rng.randrange(65536), Y1=raw1 * sig.scale, Y4=raw4 * sig.scale,
-                          r1=rng.uniform(-2.6e-3, 2.6e-3), r4=rng.uniform(-2.6e-3, 2.6e-3)))
+        raw1, raw4 = rng.randrange(-half, half), rng.randrange(-half, half)
+        cases.append(dict(STEP=rng.randrange(256), Y1=raw1 * sig.scale, Y4=raw4 * sig.scale,
+                          r1=rng.uniform(-lim, lim), r4=rng.uniform(-lim, lim)))
     # values on the LSB grid and arbitrary values: both sides round the same way
     enc = dump.run([f"enc_yp {c['STEP']} {c['Y1']!r} {c['Y4']!r}" for c in cases] +
                    [f"enc_yp {c['STEP']} {c['r1']!r} {c['r4']!r}" for c in cases])
@@ -302,7 +304,7 @@ def test_yp_frame(db, dump):
     # beyond the range: clipped to the DBC's ends and flagged
     st, payload = dump.one("enc_yp 1 0.5 -0.5").split()
     ref = db.decode_message("BENCH_YP", bytes.fromhex(payload))
-    assert int(st) == 1 and (ref["Y1"], ref["Y4"]) == ((2 ** 17 - 1) * sig.scale, -(2 ** 17) * sig.scale)
+    assert int(st) == 1 and (ref["Y1"], ref["Y4"]) == ((half - 1) * sig.scale, -half * sig.scale)
 
 
 def test_prod_frame(db, dump):

@@ -1,7 +1,8 @@
 /* Step assembly: collects BENCH_U, BENCH_Y1, BENCH_Y4 (or BENCH_U, BENCH_YP) of one STEP, then runs the
  * estimator once.
  * One slot is enough: the bench sends a step's frames together, so a frame of a newer step means the
- * open step will never complete. STEP is 16 bits on the wire, compared modulo 2^16. */
+ * open step will never complete. STEP is 16 bits on the wire (8 in BENCH_YP, unwrapped), compared modulo
+ * 2^16. */
 #include <stddef.h>
 
 #include "app_internal.h"
@@ -76,6 +77,23 @@ static void run_step(caekf_app_t *app)
     caekf_app_send_estimate(app, step, st, &report, app_flags);
 }
 
+/* BENCH_YP carries STEP modulo 2^8: the 16-bit step nearest to the step being assembled (or the one after
+ * the last closed step) with those low 8 bits. The bench keeps fewer than 128 steps in flight. */
+static uint16_t unwrap_step8(const caekf_app_t *app, uint8_t step8)
+{
+    uint16_t ref;
+    uint8_t d;
+    if (app->slot.open) {
+        ref = app->slot.step;
+    } else if (app->have_closed) {
+        ref = (uint16_t)(app->last_closed_step + 1u);
+    } else {
+        return step8;
+    }
+    d = (uint8_t)(step8 - (uint8_t)ref); /* forward distance modulo 2^8; >= 128 means behind */
+    return (d < 128u) ? (uint16_t)(ref + d) : (uint16_t)(ref + d - 256u);
+}
+
 /* Decides where a frame of `step` goes; returns 1 if it belongs to the (possibly new) open slot. */
 static int route(caekf_app_t *app, uint16_t step, uint32_t now_us)
 {
@@ -111,7 +129,7 @@ void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t d
     yp.y4 = 0.0;
     if (msg == CAEKF_MSG_BENCH_YP) {
         st = caekf_proto_decode_yp(data, &yp);
-        step = yp.step;
+        step = unwrap_step8(app, yp.step);
     } else {
         st = caekf_proto_decode_value(msg, data, &step, &value);
     }

@@ -1487,17 +1487,17 @@ int caekf_can_bench_yp_pack(
 
     dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
-    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
-    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
-    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u8(src_p->step, 4u, 0x0fu);
     y1 = (uint32_t)src_p->y1;
-    dst_p[3] |= pack_left_shift_u32(y1, 4u, 0xf0u);
-    dst_p[4] |= pack_right_shift_u32(y1, 4u, 0xffu);
-    dst_p[5] |= pack_right_shift_u32(y1, 12u, 0x3fu);
+    dst_p[2] |= pack_left_shift_u32(y1, 4u, 0xf0u);
+    dst_p[3] |= pack_right_shift_u32(y1, 4u, 0xffu);
+    dst_p[4] |= pack_right_shift_u32(y1, 12u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(y1, 20u, 0x03u);
     y4 = (uint32_t)src_p->y4;
-    dst_p[5] |= pack_left_shift_u32(y4, 6u, 0xc0u);
-    dst_p[6] |= pack_right_shift_u32(y4, 2u, 0xffu);
-    dst_p[7] |= pack_right_shift_u32(y4, 10u, 0xffu);
+    dst_p[5] |= pack_left_shift_u32(y4, 2u, 0xfcu);
+    dst_p[6] |= pack_right_shift_u32(y4, 6u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(y4, 14u, 0xffu);
 
     return (8);
 }
@@ -1516,24 +1516,24 @@ int caekf_can_bench_yp_unpack(
 
     dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
-    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
-    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
-    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
-    y1 = unpack_right_shift_u32(src_p[3], 4u, 0xf0u);
-    y1 |= unpack_left_shift_u32(src_p[4], 4u, 0xffu);
-    y1 |= unpack_left_shift_u32(src_p[5], 12u, 0x3fu);
+    dst_p->step = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u8(src_p[2], 4u, 0x0fu);
+    y1 = unpack_right_shift_u32(src_p[2], 4u, 0xf0u);
+    y1 |= unpack_left_shift_u32(src_p[3], 4u, 0xffu);
+    y1 |= unpack_left_shift_u32(src_p[4], 12u, 0xffu);
+    y1 |= unpack_left_shift_u32(src_p[5], 20u, 0x03u);
 
-    if ((y1 & (1u << 17)) != 0u) {
-        y1 |= 0xfffc0000u;
+    if ((y1 & (1u << 21)) != 0u) {
+        y1 |= 0xffc00000u;
     }
 
     dst_p->y1 = (int32_t)y1;
-    y4 = unpack_right_shift_u32(src_p[5], 6u, 0xc0u);
-    y4 |= unpack_left_shift_u32(src_p[6], 2u, 0xffu);
-    y4 |= unpack_left_shift_u32(src_p[7], 10u, 0xffu);
+    y4 = unpack_right_shift_u32(src_p[5], 2u, 0xfcu);
+    y4 |= unpack_left_shift_u32(src_p[6], 6u, 0xffu);
+    y4 |= unpack_left_shift_u32(src_p[7], 14u, 0xffu);
 
-    if ((y4 & (1u << 17)) != 0u) {
-        y4 |= 0xfffc0000u;
+    if ((y4 & (1u << 21)) != 0u) {
+        y4 |= 0xffc00000u;
     }
 
     dst_p->y4 = (int32_t)y4;
@@ -1572,7 +1572,7 @@ bool caekf_can_bench_yp_e2_e_counter_is_in_phys_range(double value)
     return ((value >= 0.0) && (value <= 15.0));
 }
 
-bool caekf_can_bench_yp_step_is_in_range(uint16_t value)
+bool caekf_can_bench_yp_step_is_in_range(uint8_t value)
 {
     (void)value;
 
@@ -1581,27 +1581,27 @@ bool caekf_can_bench_yp_step_is_in_range(uint16_t value)
 
 bool caekf_can_bench_yp_step_is_in_phys_range(double value)
 {
-    return ((value >= 0.0) && (value <= 65535.0));
+    return ((value >= 0.0) && (value <= 255.0));
 }
 
 bool caekf_can_bench_yp_y1_is_in_range(int32_t value)
 {
-    return ((value >= -131072) && (value <= 131071));
+    return ((value >= -2097152) && (value <= 2097151));
 }
 
 bool caekf_can_bench_yp_y1_is_in_phys_range(double value)
 {
-    return ((value >= -0.00262144) && (value <= 0.00262142));
+    return ((value >= -0.002097152) && (value <= 0.002097151));
 }
 
 bool caekf_can_bench_yp_y4_is_in_range(int32_t value)
 {
-    return ((value >= -131072) && (value <= 131071));
+    return ((value >= -2097152) && (value <= 2097151));
 }
 
 bool caekf_can_bench_yp_y4_is_in_phys_range(double value)
 {
-    return ((value >= -0.00262144) && (value <= 0.00262142));
+    return ((value >= -0.002097152) && (value <= 0.002097151));
 }
 
 int caekf_can_est_prod_pack(

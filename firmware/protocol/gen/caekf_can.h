@@ -972,28 +972,28 @@ struct caekf_can_bench_yp_t {
     uint8_t e2_e_counter;
 
     /**
-     * Bench step index k modulo 2^16; ties the frames of one step together.
+     * Bench step index k modulo 2^8; the estimator unwraps it against the step being assembled (BENCH_U carries all 16 bits): keep fewer than 128 steps in flight.
      *
-     * Range: 0..65535 (0..65535 -)
+     * Range: 0..255 (0..255 -)
      * Scale: 1
      * Offset: 0
      */
-    uint16_t step;
+    uint8_t step;
 
     /**
-     * Measurement y1 = q1. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
+     * Measurement y1 = q1. int22, LSB 1e-9 m (quantisation <= 5e-10 m, a 200th of the paper's sigma_r), range +/-2.10 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
      *
-     * Range: -131072..131071 (-0.00262..0.00262 m)
-     * Scale: 2e-08
+     * Range: -2097152..2097151 (-0.0021..0.0021 m)
+     * Scale: 1e-09
      * Offset: 0
      */
     int32_t y1;
 
     /**
-     * Measurement y2 = q4. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
+     * Measurement y2 = q4. int22, LSB 1e-9 m (quantisation <= 5e-10 m, a 200th of the paper's sigma_r), range +/-2.10 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
      *
-     * Range: -131072..131071 (-0.00262..0.00262 m)
-     * Scale: 2e-08
+     * Range: -2097152..2097151 (-0.0021..0.0021 m)
+     * Scale: 1e-09
      * Offset: 0
      */
     int32_t y4;
@@ -3433,7 +3433,7 @@ bool caekf_can_bench_yp_e2_e_counter_is_in_phys_range(double value);
  *
  * @return true if in range, false otherwise.
  */
-bool caekf_can_bench_yp_step_is_in_range(uint16_t value);
+bool caekf_can_bench_yp_step_is_in_range(uint8_t value);
 
 /**
  * Check that given physical value is in allowed range before encoding.

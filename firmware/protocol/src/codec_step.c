@@ -183,8 +183,8 @@ caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    clipped = caekf_scaled_to_raw(m->y1, CAEKF_YP_LSB, 18u, &r1);
-    clipped |= caekf_scaled_to_raw(m->y4, CAEKF_YP_LSB, 18u, &r4);
+    clipped = caekf_scaled_to_raw(m->y1, CAEKF_YP_LSB, CAEKF_YP_BITS, &r1);
+    clipped |= caekf_scaled_to_raw(m->y4, CAEKF_YP_LSB, CAEKF_YP_BITS, &r4);
     memset(&g, 0, sizeof g);
     g.step = m->step;
     g.y1 = (int32_t)r1;

@@ -22,16 +22,21 @@ void setUp(void)
 }
 void tearDown(void) {}
 
-static void bench_prod_step(uint16_t step, double u, double y1, double y4)
+static void bench_yp(uint16_t step, double y1, double y4)
 {
     caekf_can_frame_t f;
     caekf_msg_yp_t yp;
-    bench_value(&fake, CAEKF_MSG_BENCH_U, step, u);
-    yp.step = step;
+    yp.step = (uint8_t)(step & 0xFFu); /* BENCH_YP carries STEP modulo 2^8 */
     yp.y1 = y1;
     yp.y4 = y4;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_yp(&yp, f.data));
     bench_send(&fake, CAEKF_MSG_BENCH_YP, &f);
+}
+
+static void bench_prod_step(uint16_t step, double u, double y1, double y4)
+{
+    bench_value(&fake, CAEKF_MSG_BENCH_U, step, u);
+    bench_yp(step, y1, y4);
 }
 
 /* float32 of a value, as EST_PROD/EST_PAGE carry it */
@@ -159,11 +164,41 @@ static void test_yp_after_y1_repeats_and_a_status_request_restarts_the_pages(voi
     TEST_ASSERT_EQUAL_UINT(0, fake_tx_count(&fake, CAEKF_MSG_EST_STEP));
 }
 
+static void test_yp_step_modulo_256_is_unwrapped_against_the_open_or_next_step(void)
+{
+    uint16_t k;
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
+    /* across 2^8 and 2^16: BENCH_YP first (unwrapped against the step after the last closed one),
+     * then BENCH_U (unwrapped against the open step) - every step completes, none late or superseded */
+    bench_prod_step(65530u, 0.1, 1e-6, 0.0);
+    fixture_poll_all();
+    for (k = 65531u; k != 262u; k++) {
+        if (k & 1u) {
+            bench_yp(k, 1e-6, 0.0);
+            bench_value(&fake, CAEKF_MSG_BENCH_U, k, 0.1);
+        } else {
+            bench_prod_step(k, 0.1, 1e-6, 0.0);
+        }
+        fixture_poll_all();
+        fake_tx_clear(&fake);
+    }
+    TEST_ASSERT_EQUAL_UINT32(268u, counter(CAEKF_CNT_STEPS_DONE));
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_STEPS_SKIPPED));
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_STEPS_SUPERSEDED));
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_RX_LATE));
+    /* a BENCH_YP of an already closed step (5 behind: low byte 0x00 after 0x05) is late, not step 256 */
+    bench_yp(256u, 1e-6, 0.0);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_RX_LATE));
+    TEST_ASSERT_EQUAL_UINT32(268u, counter(CAEKF_CNT_STEPS_DONE));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_init_refuses_a_page_period_shorter_than_the_pages_and_unknown_profiles);
     RUN_TEST(test_two_input_frames_make_a_step_and_each_value_equals_the_estimator);
     RUN_TEST(test_yp_after_y1_repeats_and_a_status_request_restarts_the_pages);
+    RUN_TEST(test_yp_step_modulo_256_is_unwrapped_against_the_open_or_next_step);
     return UNITY_END();
 }

@@ -73,7 +73,7 @@ typedef enum {
     CAEKF_LAYOUT_INT36,   /* STEP (16 bits at bit 12) + scaled signed 36-bit value at bit 28 */
     CAEKF_LAYOUT_FLOAT32, /* STEP (16 bits at bit 12) + IEEE float32 at bit 32 */
     CAEKF_LAYOUT_STEP,    /* STEP + FLAGS + NEWTON_ITERS + STEP_STATUS */
-    CAEKF_LAYOUT_YP,      /* STEP + Y1 + Y4 (18-bit scaled) */
+    CAEKF_LAYOUT_YP,      /* STEP mod 2^8 + Y1 + Y4 (22-bit scaled) */
     CAEKF_LAYOUT_PROD,    /* STEP low byte + FLAGS (12 bits) + GAMMA float32 */
     CAEKF_LAYOUT_PAGE     /* PAGE (multiplexer) + STEP + one page of the estimate */
 } caekf_layout_t;
@@ -100,6 +100,18 @@ typedef struct {
 caekf_proto_status_t caekf_proto_msg_info(caekf_msg_t msg, const caekf_msg_info_t **info);
 /* CAEKF_PROTO_ERR_MSG for IDs that are not in the protocol (extended IDs included). */
 caekf_proto_status_t caekf_proto_msg_from_id(uint32_t can_id, caekf_msg_t *msg);
+
+/* Runtime ID base, for a bus that already uses the DBC's IDs: every message travels at its DBC ID +
+ * id_offset. The block moves as a whole (relative order, hence arbitration priority, kept); the E2E
+ * data IDs stay the DBC's. An offset is valid when every ID stays within 0..CAEKF_CAN_SFF_MAX
+ * (CAEKF_PROTO_ERR_RANGE otherwise; caekf_proto_bus_id refuses invalid offsets the same way). */
+#define CAEKF_CAN_SFF_MAX 0x7FFu
+caekf_proto_status_t caekf_proto_id_offset_check(int32_t id_offset);
+/* The bus ID of msg at id_offset. */
+caekf_proto_status_t caekf_proto_bus_id(caekf_msg_t msg, int32_t id_offset, uint32_t *can_id);
+/* The message travelling at bus ID can_id with id_offset (CAEKF_PROTO_ERR_MSG: not ours). Per frame, so
+ * the offset is not re-checked: check it once (caekf_app_init does). */
+caekf_proto_status_t caekf_proto_msg_from_bus_id(uint32_t can_id, int32_t id_offset, caekf_msg_t *msg);
 
 /* Sets ID and DLC, writes the alive counter and the CRC. */
 caekf_proto_status_t caekf_proto_seal(caekf_msg_t msg, uint8_t counter, caekf_can_frame_t *frame);

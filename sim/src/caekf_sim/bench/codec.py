@@ -125,8 +125,11 @@ class Codec:
     # --- one frame, through cantools ---------------------------------------------------------
 
     def encode(self, name: str, values: Mapping[str, float], counter: int) -> bytes:
-        """cantools encode with E2E_CRC = 0 and the counter, then the CRC inserted."""
+        """cantools encode with E2E_CRC = 0 and the counter, then the CRC inserted. STEP is taken
+        modulo its signal's width (16 bits, 8 in BENCH_YP and EST_PROD), as `pack` does."""
         info = self.messages[name]
+        if "STEP" in values and "STEP" in info.signals:
+            values = {**values, "STEP": int(values["STEP"]) & info.signals["STEP"].mask}
         body = self.db.encode_message(name, {"E2E_CRC": 0, "E2E_COUNTER": counter & 15, **values},
                                       strict=True)
         return e2e.seal(info.data_id, counter, body)

@@ -162,7 +162,8 @@ class PacedRun:
 
 
 def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel: str, in_id: int, out_id: int,
-              grace: float = 0.5, start_delay: float = 0.05, out_step_bits: int = 16) -> PacedRun:
+              grace: float = 0.5, start_delay: float = 0.05, out_step_bits: int = 16,
+              in_step_bits: int = 16) -> PacedRun:
     """Send blobs[k] at T0 + k*dt (absolute, CLOCK_REALTIME); record the bus; match by STEP."""
     libc = _libc()
     rec = BusRecorder(channel)
@@ -188,7 +189,7 @@ def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel
         rec.close()
     t_ns, frames = rec.frames()
     deadlines = t0 + dt_ns * np.arange(n, dtype=np.int64)
-    t_in = _first_by_step(t_ns, frames, in_id, wire)
+    t_in = _first_by_step(t_ns, frames, in_id, wire, in_step_bits)
     t_out = _first_by_step(t_ns, frames, out_id, wire, out_step_bits)
     return PacedRun(n, dt, deadlines, t_in, t_out, t_ns, frames)
 
@@ -201,7 +202,7 @@ def _realtime_ns() -> int:
 
 def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int], step_bits: int = 16) -> np.ndarray:
     """Per row: the timestamp of the first frame `fid` whose STEP (bits 12.., step_bits wide: 16, or 8 for
-    the production profile's EST_PROD, unwrapped in bus order) is that row's."""
+    the production profile's BENCH_YP and EST_PROD, unwrapped in bus order) is that row's."""
     n = len(wire)
     out = np.full(n, -1, dtype=np.int64)
     if n == 0 or len(frames) == 0:
