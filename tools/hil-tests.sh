@@ -4,9 +4,9 @@
 #
 #   tools/hil-tests.sh [PYTEST ARGS...]     e.g. tools/hil-tests.sh -k bad_traffic
 #
-# Two passes: the whole suite in the diagnostics profile, then test_hil_experiments.py and
-# test_hil_bad_traffic.py and the reduced fault matrix (test_hil_fault_matrix_reduced.py: the non-destructive
-# classes) in the production profile (CAEKF_HIL_PROFILE=production; out/hil-tests/production/).
+# Two passes: the whole suite in the diagnostics profile, then test_hil_experiments.py,
+# test_hil_bad_traffic.py, test_hil_id_offset.py and the reduced fault matrix (test_hil_fault_matrix_reduced.py:
+# the non-destructive classes) in the production profile (CAEKF_HIL_PROFILE=production; out/hil-tests/production/).
 # HIL_PROFILES="diagnostics" runs only the first. The full fault matrix runs in diagnostics (its schedule and
 # expected counts are written for that profile's three input frames per step).
 #
@@ -33,7 +33,7 @@ for profile in $profiles; do
 	if [ "$profile" != diagnostics ]; then
 		pout=$out/$profile
 		tests=("$root/tests/hil/test_hil_experiments.py" "$root/tests/hil/test_hil_bad_traffic.py"
-			"$root/tests/hil/test_hil_fault_matrix_reduced.py")
+			"$root/tests/hil/test_hil_fault_matrix_reduced.py" "$root/tests/hil/test_hil_id_offset.py")
 		mkdir -p "$pout"
 	fi
 	prc=0

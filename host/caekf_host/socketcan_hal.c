@@ -34,14 +34,16 @@ static uint32_t clock_us(void)
     return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
 }
 
-static int set_filters(int fd)
+static int set_filters(int fd, int32_t id_offset)
 {
     struct can_filter filters[CAEKF_MSG_COUNT];
     unsigned i, n = 0;
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         const caekf_msg_info_t *info;
-        if (caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->dir == CAEKF_DIR_TO_ESTIMATOR) {
-            filters[n].can_id = info->can_id;
+        uint32_t id = 0;
+        if (caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->dir == CAEKF_DIR_TO_ESTIMATOR &&
+            caekf_proto_bus_id((caekf_msg_t)i, id_offset, &id) == CAEKF_PROTO_OK) {
+            filters[n].can_id = id;
             /* the flag bits in the mask make extended and remote frames with the same number miss */
             filters[n].can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
             n++;
@@ -50,7 +52,8 @@ static int set_filters(int fd)
     return setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, (socklen_t)(n * sizeof filters[0]));
 }
 
-int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *err, unsigned err_len)
+int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, int32_t id_offset, char *err,
+                   unsigned err_len)
 {
     struct sockaddr_can addr;
     struct ifreq ifr;
@@ -88,7 +91,7 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
             (void)setsockopt(s->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
         }
     }
-    if (kernel_filter && set_filters(s->fd) != 0) {
+    if (kernel_filter && set_filters(s->fd, id_offset) != 0) {
         snprintf(err, err_len, "setsockopt(CAN_RAW_FILTER) failed: %s", strerror(errno));
         socketcan_close(s);
         return -1;

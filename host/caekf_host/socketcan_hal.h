@@ -33,8 +33,9 @@ typedef struct {
  * counts each foreign one (RX_UNKNOWN_ID): nothing on the bus goes unseen. kernel_filter != 0 installs
  * kernel acceptance filters for exactly the messages the estimator receives (standard data frames),
  * as a busy real bus may need: foreign traffic is then dropped uncounted, like behind an MCU's
- * hardware filter. Returns 0, or -1 with a human-readable reason in err. */
-int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *err, unsigned err_len);
+ * hardware filter (at the bus IDs: DBC ID + id_offset). Returns 0, or -1 with a human-readable reason in err. */
+int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, int32_t id_offset, char *err,
+                   unsigned err_len);
 void socketcan_close(socketcan_t *s);
 
 /* Waits until frames are readable or timeout_ms passed and takes up to SOCKETCAN_BATCH of them in one

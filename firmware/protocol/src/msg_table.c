@@ -48,12 +48,45 @@ caekf_proto_status_t caekf_proto_msg_info(caekf_msg_t msg, const caekf_msg_info_
 
 caekf_proto_status_t caekf_proto_msg_from_id(uint32_t can_id, caekf_msg_t *msg)
 {
+    return caekf_proto_msg_from_bus_id(can_id, 0, msg);
+}
+
+caekf_proto_status_t caekf_proto_id_offset_check(int32_t id_offset)
+{
+    unsigned i;
+    for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
+        const int32_t id = (int32_t)msg_table[i].can_id + id_offset;
+        if (id < 0 || id > (int32_t)CAEKF_CAN_SFF_MAX) {
+            return CAEKF_PROTO_ERR_RANGE;
+        }
+    }
+    return CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_bus_id(caekf_msg_t msg, int32_t id_offset, uint32_t *can_id)
+{
+    if (can_id == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if ((unsigned)msg >= (unsigned)CAEKF_MSG_COUNT) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    if (caekf_proto_id_offset_check(id_offset) != CAEKF_PROTO_OK) {
+        return CAEKF_PROTO_ERR_RANGE;
+    }
+    *can_id = (uint32_t)((int32_t)msg_table[msg].can_id + id_offset);
+    return CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_msg_from_bus_id(uint32_t can_id, int32_t id_offset, caekf_msg_t *msg)
+{
     unsigned i;
     if (msg == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
-        if (msg_table[i].can_id == can_id) { /* extended IDs carry the flag bit: never equal */
+        /* extended IDs carry the flag bit: never equal */
+        if ((uint32_t)((int32_t)msg_table[i].can_id + id_offset) == can_id) {
             *msg = (caekf_msg_t)i;
             return CAEKF_PROTO_OK;
         }

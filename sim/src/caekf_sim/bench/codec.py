@@ -27,6 +27,7 @@ PathLike = Union[str, Path]
 
 RECORD = struct.Struct("<IB3x8s")  # struct can_frame (classic CAN)
 RECORD_SIZE = RECORD.size  # 16
+CAN_SFF_MAX = 0x7FF  # largest 11-bit ID
 E2E_SIGNALS = ("E2E_CRC", "E2E_COUNTER")
 
 # The paper's four experiments: presets of the settings schema, sent as ordinary CTRL_PARAMs.
@@ -86,13 +87,21 @@ class MessageInfo:
 
 
 class Codec:
-    """cantools' database of caekf.dbc plus the numpy packers built from it."""
+    """cantools' database of caekf.dbc plus the numpy packers built from it.
 
-    def __init__(self, dbc_path: Optional[PathLike] = None) -> None:
+    id_offset is the runtime CAN ID base (caekf-host --id-offset): every message travels at its DBC ID +
+    id_offset (`MessageInfo.frame_id` is that bus ID); E2E data IDs stay the DBC's."""
+
+    def __init__(self, dbc_path: Optional[PathLike] = None, id_offset: int = 0) -> None:
         import cantools  # a [dev] dependency of caekf-sim
 
         self.path = Path(dbc_path) if dbc_path else default_dbc_path()
         self.db = cantools.database.load_file(str(self.path))
+        ids = [m.frame_id for m in self.db.messages]
+        if ids and not (0 <= min(ids) + id_offset and max(ids) + id_offset <= CAN_SFF_MAX):
+            raise ValueError(f"CAN ID offset {id_offset:#x} moves the IDs 0x{min(ids):03X}..0x{max(ids):03X} out of "
+                             f"0..0x{CAN_SFF_MAX:03X} (valid: {-min(ids):#x}..{CAN_SFF_MAX - max(ids):#x})")
+        self.id_offset = int(id_offset)
         self.messages: Dict[str, MessageInfo] = {}
         self.by_id: Dict[int, MessageInfo] = {}
         for m in self.db.messages:
@@ -104,10 +113,10 @@ class Codec:
                     raise ValueError(f"{m.name}.{s.name}: only little-endian signals are supported")
                 sigs[s.name] = SignalLayout(s.name, s.start, s.length, s.is_signed, s.is_float,
                                             float(s.scale), float(s.offset), s.minimum, s.maximum)
-            info = MessageInfo(m.name, m.frame_id, int(m.dbc.attributes["E2E_DataID"].value),
+            info = MessageInfo(m.name, m.frame_id + self.id_offset, int(m.dbc.attributes["E2E_DataID"].value),
                                m.senders == ["BENCH"], sigs)
             self.messages[m.name] = info
-            self.by_id[m.frame_id] = info
+            self.by_id[info.frame_id] = info
         self.to_estimator_ids = sorted(i.frame_id for i in self.messages.values() if i.to_estimator)
         self.from_estimator_ids = sorted(i.frame_id for i in self.messages.values() if not i.to_estimator)
         self.param_ids = self._choices("CTRL_PARAM", "PARAM_ID")
@@ -135,7 +144,8 @@ class Codec:
         return e2e.seal(info.data_id, counter, body)
 
     def decode(self, frame_id: int, data: bytes) -> Dict[str, float]:
-        return dict(self.db.decode_message(frame_id, bytes(data), decode_choices=False))
+        """Decode a frame seen on the bus (frame_id: the bus ID, DBC ID + id_offset)."""
+        return dict(self.db.decode_message(frame_id - self.id_offset, bytes(data), decode_choices=False))
 
     def record(self, name_or_id: Union[str, int], data: bytes, dlc: Optional[int] = None) -> bytes:
         """A 16-byte struct can_frame; dlc other than len(data) makes a deliberately wrong frame."""

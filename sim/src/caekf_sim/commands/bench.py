@@ -42,6 +42,25 @@ def _bus_args(p: argparse.ArgumentParser) -> None:
                    help="use python-can Messages even on SocketCAN (no CAN_RAW/mmsg fast path)")
     p.add_argument("--profile", choices=["diagnostics", "production"], default="diagnostics",
                    help="protocol profile, as the estimator's (caekf-host --profile; default diagnostics)")
+    p.add_argument("--id-offset", type=_id_offset, default=0, metavar="N",
+                   help="runtime CAN ID base: every message at its DBC ID + N (decimal or 0x hex, may be "
+                        "negative), as the estimator's (caekf-host --id-offset; default 0)")
+
+
+def _id_offset(text: str) -> int:
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r} (decimal or 0x hex)") from None
+
+
+def _codec(args):
+    from ..bench.codec import Codec
+
+    try:
+        return Codec(id_offset=getattr(args, "id_offset", 0))
+    except ValueError as e:
+        raise SystemExit(f"caekf-sim hil: --id-offset: {e}") from None
 
 
 def _progress_args(p: argparse.ArgumentParser) -> None:
@@ -152,7 +171,7 @@ def _open_bench(args, record_log: bool = False):
                          "SocketCAN: run through tools/with-vcan.sh (it boots user-mode Linux with vcan0), or pass "
                          "--iface/--interface for real hardware.")
     return Bench.open(args.interface, args.iface, fast=not args.slow_path, record_log=record_log,
-                      profile=getattr(args, "profile", "diagnostics"))
+                      profile=getattr(args, "profile", "diagnostics"), codec=_codec(args))
 
 
 def cmd_hil_echo_probe(args: argparse.Namespace) -> int:
