@@ -485,7 +485,7 @@ def _table(fr, m):
     s, d = _fmt_rec(rec.get("reorder"))
     rows.append(["reordered pair", f"{n['reorder']} (3 steps lost each)",
                  f"RX_COUNTER_JUMP {3 * fr['inputs_per_step']} each, STEPS_SKIPPED +{h['STEPS_SKIPPED']} (incl. silence), "
-                 (f"{m['gap_flagged']} EST_STEP with STEP_GAP (one per run of lost steps; episodes that touch merge)"
+                 + (f"{m['gap_flagged']} EST_STEP with STEP_GAP (one per run of lost steps; episodes that touch merge)"
                   if fr["gap_every_step"] else "STEP_GAP on EST_PAGE page 10 only in this profile"), s, d])
     s, d = _fmt_rec(rec.get("silence"))
     rows.append([f"bus silence {SILENCE_LEN} steps", f"{n['silence']} episodes ({n['silence'] * SILENCE_LEN} steps)",
