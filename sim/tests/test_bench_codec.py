@@ -218,3 +218,28 @@ def test_compare_with_replay_accepts_the_encoding_and_nothing_more(bench, codec)
     agr = compare_with_replay(dec, off, codec)
     assert not agr.ok
     assert agr.mismatched["q2"] == 1 and agr.mismatched["gamma"] == 1 and agr.flags_mismatch == 1
+
+
+def test_id_offset_moves_every_frame_id_and_keeps_the_data_ids(codec):
+    moved = Codec(id_offset=0x400)
+    for name, info in codec.messages.items():
+        m = moved.messages[name]
+        assert m.frame_id == info.frame_id + 0x400 and m.data_id == info.data_id
+        assert moved.by_id[m.frame_id] is m
+    body = moved.encode("BENCH_U", {"STEP": 7, "U": 1.5}, 3)
+    assert body == codec.encode("BENCH_U", {"STEP": 7, "U": 1.5}, 3)  # same bytes, same E2E
+    assert moved.decode(0x500, body)["U"] == 1.5
+    assert moved.from_estimator_ids == [i + 0x400 for i in codec.from_estimator_ids]
+    for bad in (0x7FF - 0x191 + 1, -0x0C1):
+        with pytest.raises(ValueError, match="out of 0..0x7FF"):
+            Codec(id_offset=bad)
+    assert Codec(id_offset=-0x0C0).messages["CTRL_RESET"].frame_id == 0
+
+
+def test_step_is_taken_modulo_its_signal_width(codec):
+    """BENCH_YP and EST_PROD carry STEP mod 2^8: encode (cantools) and pack (numpy) agree on any step."""
+    for step in (5, 255, 256, 261, 65535):
+        vals = {"STEP": step, "Y1": 1e-6, "Y4": -2e-6}
+        body = codec.encode("BENCH_YP", vals, 2)
+        assert codec.decode(codec.messages["BENCH_YP"].frame_id, body)["STEP"] == step % 256
+        assert codec.pack("BENCH_YP", {k: np.array([v]) for k, v in vals.items()}, 2)[0].tobytes() == body
