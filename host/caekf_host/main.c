@@ -59,7 +59,9 @@ static void usage(FILE *out)
             "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
             "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
             "  --profile NAME          estimate frames: diagnostics (12 per step, default) or production\n"
-            "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus)\n"
+            "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus) or fd\n"
+            "                          (BENCH_FD in, EST_FD out: one 20- and one 64-byte CAN FD frame per\n"
+            "                          step; vcan0 needs `ip link set vcan0 mtu 72`)\n"
             "  --page-period N         production: the 11 EST_PAGE pages at the first 11 steps of every N\n"
             "                          (0 = only after a status request, else >= 11; default 20)\n"
             "  --id-offset N           move every CAN ID by N (decimal or 0x hex, may be negative), for a\n"
@@ -71,7 +73,7 @@ static void usage(FILE *out)
             "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
             "                          buses; they are then not counted). Default: every frame reaches\n"
             "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
-            "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP; a step's last input frame)\n"
+            "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP, fd: BENCH_FD; a step's last input frame)\n"
             "                          is sent straight back with EST_STEP's ID and its own bytes, so the\n"
             "                          bench measures the bus and the machine without the estimator\n"
             "  --quiet                 print only errors and the final counters\n");
@@ -147,6 +149,8 @@ static int parse_args(int argc, char **argv, options_t *o)
                 o->profile = (int)CAEKF_PROFILE_DIAGNOSTICS;
             } else if (strcmp(v, "production") == 0) {
                 o->profile = (int)CAEKF_PROFILE_PRODUCTION;
+            } else if (strcmp(v, "fd") == 0) {
+                o->profile = (int)CAEKF_PROFILE_FD;
             } else {
                 bad = 1;
             }
@@ -265,6 +269,9 @@ int main(int argc, char **argv)
     char err[ERR_LEN];
     uint32_t seen_accepted = 0, seen_refused = 0;
     uint32_t echo_in = 0, echo_out = 0;
+    static const caekf_msg_t echo_msgs[CAEKF_PROFILE_COUNT][2] = {{CAEKF_MSG_BENCH_Y4, CAEKF_MSG_EST_STEP},
+                                                                 {CAEKF_MSG_BENCH_YP, CAEKF_MSG_EST_PROD},
+                                                                 {CAEKF_MSG_BENCH_FD, CAEKF_MSG_EST_FD}};
     unsigned long echoed = 0;
     int rc = parse_args(argc, argv, &o);
     if (rc != 0) {
@@ -311,13 +318,9 @@ int main(int argc, char **argv)
         }
     }
     /* the step's last input frame, answered as the frame that closes a step in this profile (its STEP
-     * field starts at bit 12 in both, so the bench reads the step it sent) */
-    if (o.echo && (caekf_proto_bus_id(o.profile == (int)CAEKF_PROFILE_PRODUCTION ? CAEKF_MSG_BENCH_YP
-                                                                                 : CAEKF_MSG_BENCH_Y4,
-                                      cfg.id_offset, &echo_in) != CAEKF_PROTO_OK ||
-                   caekf_proto_bus_id(o.profile == (int)CAEKF_PROFILE_PRODUCTION ? CAEKF_MSG_EST_PROD
-                                                                                 : CAEKF_MSG_EST_STEP,
-                                      cfg.id_offset, &echo_out) != CAEKF_PROTO_OK)) {
+     * field starts at the same bit in both, so the bench reads the step it sent) */
+    if (o.echo && (caekf_proto_bus_id(echo_msgs[o.profile][0], cfg.id_offset, &echo_in) != CAEKF_PROTO_OK ||
+                   caekf_proto_bus_id(echo_msgs[o.profile][1], cfg.id_offset, &echo_out) != CAEKF_PROTO_OK)) {
         fprintf(stderr, "caekf-host: --echo: message table incomplete\n");
         return 1;
     }

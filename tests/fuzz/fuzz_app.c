@@ -53,8 +53,11 @@ enum {
 static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
                                                      0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
                                                      0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B,
-                                                     0x103, 0x190, 0x191};
-static int is_bench_msg(unsigned m) { return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP; }
+                                                     0x103, 0x190, 0x191, 0x104, 0x192};
+static int is_bench_msg(unsigned m)
+{
+    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP || m == (unsigned)CAEKF_MSG_BENCH_FD;
+}
 static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
 
 /* ---- bits and CRC (own implementation) -------------------------------------------------------- */
@@ -592,7 +595,7 @@ static void model_rx(const caekf_can_frame_t *f, uint32_t now)
     if (M.synced[m] && (uint32_t)(now - M.last_us[m]) > M.cfg.e2e_resync_us) {
         M.synced[m] = 0; /* silence: a new sender, any counter goes */
     }
-    if (f->dlc != 8u) {
+    if (f->dlc != (m == (unsigned)CAEKF_MSG_BENCH_FD ? 20u : 8u)) { /* the harness's frames have <= 15 bytes */
         M.cnt[CAEKF_CNT_RX_BAD_DLC]++;
         return;
     }

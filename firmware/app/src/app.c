@@ -81,7 +81,10 @@ static int e2e_accept(caekf_app_t *app, caekf_msg_t msg, const caekf_msg_info_t 
     if (app->rx[msg].synced && (uint32_t)(now_us - app->rx_last_us[msg]) > app->cfg.e2e_resync_us) {
         (void)caekf_e2e_rx_init(&app->rx[msg]); /* the sender went quiet (e.g. a new bench run) */
     }
-    st = caekf_e2e_check(&app->rx[msg], info->data_id, app->cfg.e2e_max_delta, f->data, f->dlc, &lost);
+    st = (info->len > CAEKF_CAN_DLC)
+             ? caekf_e2e_check_fd(&app->rx[msg], info->data_id, app->cfg.e2e_max_delta, f->data, f->dlc, info->len,
+                                  &lost)
+             : caekf_e2e_check(&app->rx[msg], info->data_id, app->cfg.e2e_max_delta, f->data, f->dlc, &lost);
     if (st != CAEKF_E2E_ERR_DLC && st != CAEKF_E2E_ERR_CRC) {
         app->rx_last_us[msg] = now_us;
     }

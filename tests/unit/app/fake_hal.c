@@ -147,6 +147,9 @@ int fake_tx_e2e_ok(fake_hal_t *f, unsigned index)
     if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
         return 0;
     }
+    if (info->len > CAEKF_CAN_DLC) {
+        return caekf_e2e_check_fd(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, info->len, NULL) == CAEKF_E2E_OK;
+    }
     return caekf_e2e_check(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, NULL) == CAEKF_E2E_OK;
 }
 

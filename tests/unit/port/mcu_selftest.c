@@ -99,7 +99,7 @@ static int bench_send(caekf_mcu_selftest_t *t, caekf_msg_t msg, const uint8_t da
     caekf_can_frame_t f;
     caekf_bxcan_frame_t bx;
     unsigned i;
-    memcpy(f.data, data, sizeof f.data);
+    memcpy(f.data, data, CAEKF_CAN_DLC);
     CHECK(t, caekf_proto_seal(msg, t->bench_counter[msg], &f) == CAEKF_PROTO_OK, "bench: seal", msg);
     t->bench_counter[msg] = (uint8_t)((t->bench_counter[msg] + 1u) & CAEKF_E2E_COUNTER_MASK);
     for (i = 0u; i < PUMP_LIMIT && t->fake.fifo_count >= CAEKF_BXCAN_RX_FIFO_DEPTH; i++) {
@@ -379,7 +379,7 @@ static int check_overrun(caekf_mcu_selftest_t *t)
         req.token = (uint8_t)(0x10u + i);
         memset(d, 0, sizeof d);
         CHECK(t, caekf_proto_encode_status_req(&req, d) == CAEKF_PROTO_OK, "bench: encode CTRL_STATUS_REQ", i);
-        memcpy(f.data, d, sizeof f.data);
+        memcpy(f.data, d, CAEKF_CAN_DLC);
         CHECK(t, caekf_proto_seal(CAEKF_MSG_CTRL_STATUS_REQ, t->bench_counter[CAEKF_MSG_CTRL_STATUS_REQ], &f) ==
                      CAEKF_PROTO_OK,
               "bench: seal", i);

@@ -72,16 +72,16 @@ static void accept_all(void)
 static void test_rx_ids_are_the_protocol_inputs(void)
 {
     uint16_t ids[CAEKF_MSG_COUNT];
-    const uint16_t expect[7] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u};
+    const uint16_t expect[8] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u, 0x104u};
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(0, ids, (unsigned)CAEKF_MSG_COUNT));
-    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 7);
+    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0, ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 8);
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(0, ids, 2u)); /* count, but only 2 written */
+    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0, ids, 2u)); /* count, but only 2 written */
     TEST_ASSERT_EQUAL_HEX16(0x0C1u, ids[1]);
     TEST_ASSERT_EQUAL_HEX16(0u, ids[2]);
     /* the runtime ID base moves them all; an offset leaving 0..0x7FF gives none */
-    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(0x500, ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0x500, ids, (unsigned)CAEKF_MSG_COUNT));
     TEST_ASSERT_EQUAL_HEX16(0x5C0u, ids[0]);
     TEST_ASSERT_EQUAL_HEX16(0x603u, ids[6]);
     TEST_ASSERT_EQUAL_UINT(0u, caekf_mcu_hal_rx_ids(0x700, ids, (unsigned)CAEKF_MSG_COUNT));
@@ -95,7 +95,7 @@ static void test_program_filters_uses_two_list_banks(void)
     TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FA1R);
     TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FM1R);
     TEST_ASSERT_EQUAL_HEX32(0x18201800u, fake.regs.filter[4].FR1);
-    TEST_ASSERT_EQUAL_HEX32(0x20602060u, fake.regs.filter[5].FR2); /* 0x103, repeated as the filler */
+    TEST_ASSERT_EQUAL_HEX32(0x20802060u, fake.regs.filter[5].FR2); /* 0x103, 0x104 (BENCH_FD) */
 }
 
 static void test_receive_maps_frames(void)

@@ -71,7 +71,7 @@ static int hal_receive(void *ctx, caekf_can_frame_t *out)
     }
     out->id = fr.ide ? (fr.id | CAEKF_CAN_ID_EXT_FLAG) : fr.id;
     out->dlc = (uint8_t)(fr.dlc > CAEKF_CAN_DLC ? CAEKF_CAN_DLC : fr.dlc);
-    memcpy(out->data, fr.data, sizeof out->data);
+    memcpy(out->data, fr.data, sizeof fr.data);
     return 1;
 }
 

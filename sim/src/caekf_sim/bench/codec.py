@@ -84,6 +84,8 @@ class MessageInfo:
     data_id: int
     to_estimator: bool
     signals: Dict[str, SignalLayout]
+    length: int = 8  # payload bytes: 8, or a CAN FD frame's length (E2E with CRC-16, e2e.seal_fd)
+    is_fd: bool = False
 
 
 class Codec:
@@ -105,8 +107,8 @@ class Codec:
         self.messages: Dict[str, MessageInfo] = {}
         self.by_id: Dict[int, MessageInfo] = {}
         for m in self.db.messages:
-            if m.length != 8 or m.is_extended_frame:
-                raise ValueError(f"{m.name}: the bench expects classic 8-byte frames with 11-bit IDs")
+            if m.is_extended_frame or not (m.length == 8 or (m.is_fd and 8 < m.length <= 64)):
+                raise ValueError(f"{m.name}: the bench expects 11-bit IDs and classic 8-byte or CAN FD frames")
             sigs = {}
             for s in m.signals:
                 if s.byte_order != "little_endian":
@@ -114,7 +116,7 @@ class Codec:
                 sigs[s.name] = SignalLayout(s.name, s.start, s.length, s.is_signed, s.is_float,
                                             float(s.scale), float(s.offset), s.minimum, s.maximum)
             info = MessageInfo(m.name, m.frame_id + self.id_offset, int(m.dbc.attributes["E2E_DataID"].value),
-                               m.senders == ["BENCH"], sigs)
+                               m.senders == ["BENCH"], sigs, m.length, bool(m.is_fd))
             self.messages[m.name] = info
             self.by_id[info.frame_id] = info
         self.to_estimator_ids = sorted(i.frame_id for i in self.messages.values() if i.to_estimator)
@@ -141,7 +143,7 @@ class Codec:
             values = {**values, "STEP": int(values["STEP"]) & info.signals["STEP"].mask}
         body = self.db.encode_message(name, {"E2E_CRC": 0, "E2E_COUNTER": counter & 15, **values},
                                       strict=True)
-        return e2e.seal(info.data_id, counter, body)
+        return (e2e.seal_fd if info.is_fd else e2e.seal)(info.data_id, counter, body)
 
     def decode(self, frame_id: int, data: bytes) -> Dict[str, float]:
         """Decode a frame seen on the bus (frame_id: the bus ID, DBC ID + id_offset)."""
@@ -161,6 +163,8 @@ class Codec:
         `counters` (scalar or (n,)). Missing signals are 0."""
         info = self.messages[name]
         n = len(next(iter(columns.values())))
+        if info.is_fd:
+            return self._pack_fd(info, columns, n, counters)
         word = np.zeros(n, dtype=np.uint64)
         for sname, values in columns.items():
             sig = info.signals[sname]
@@ -168,6 +172,19 @@ class Codec:
             word |= (raw & np.uint64(sig.mask)) << np.uint64(sig.start)
         payloads = word.astype("<u8").view(np.uint8).reshape(n, 8)
         return e2e.seal_np(info.data_id, counters, payloads)
+
+    def _pack_fd(self, info: MessageInfo, columns: Mapping[str, np.ndarray], n: int, counters) -> np.ndarray:
+        """pack() of a CAN FD message (any length), through a bit matrix; sealed with CRC-16."""
+        bits = np.zeros((n, 8 * info.length), dtype=np.uint8)
+        for sname, values in columns.items():
+            sig = info.signals[sname]
+            raw = self.raw_values(sig, values) & np.uint64(sig.mask)
+            for b in range(sig.length):
+                bits[:, sig.start + b] = ((raw >> np.uint64(b)) & np.uint64(1)).astype(np.uint8)
+        payloads = np.packbits(bits, axis=1, bitorder="little")
+        c = np.broadcast_to(np.asarray(counters, dtype=np.int64), (n,))
+        return np.array([np.frombuffer(e2e.seal_fd(info.data_id, int(c[i]), payloads[i].tobytes()), np.uint8)
+                         for i in range(n)], dtype=np.uint8).reshape(n, info.length)
 
     @staticmethod
     def raw_values(sig: SignalLayout, values) -> np.ndarray:
@@ -190,12 +207,20 @@ class Codec:
                scaled: bool = True) -> Dict[str, np.ndarray]:
         """Decode columns of payloads (n, 8) like cantools' decode_message (raw * scale + offset)."""
         info = self.messages[name]
-        p = np.ascontiguousarray(np.asarray(payloads, dtype=np.uint8).reshape(-1, 8))
-        word = p.view("<u8").reshape(-1)
+        p = np.ascontiguousarray(np.asarray(payloads, dtype=np.uint8).reshape(-1, info.length))
+        if info.is_fd:
+            bits = np.unpackbits(p, axis=1, bitorder="little").astype(np.uint64)
+        else:
+            word = p.view("<u8").reshape(-1)
         out = {}
         for sname in signals or info.signals:
             sig = info.signals[sname]
-            raw = (word >> np.uint64(sig.start)) & np.uint64(sig.mask)
+            if info.is_fd:
+                raw = np.zeros(len(p), dtype=np.uint64)
+                for b in range(sig.length):
+                    raw |= bits[:, sig.start + b] << np.uint64(b)
+            else:
+                raw = (word >> np.uint64(sig.start)) & np.uint64(sig.mask)
             if sig.is_float:
                 out[sname] = raw.astype("<u4").view("<f4").astype(float)
                 continue

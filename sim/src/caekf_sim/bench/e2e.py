@@ -64,6 +64,43 @@ def crc_ok(data_id: int, payload: bytes) -> bool:
     return len(payload) == 8 and payload[0] == e2e_crc(data_id, payload)
 
 
+# --- CAN FD frames: CRC-16/CCITT-FALSE in bytes 0..1, counter in bits 16..19 (profile-5 style) ----
+
+CRC16_POLY = 0x1021
+CRC16_INIT = 0xFFFF
+
+
+def crc16_ccitt_false(data: bytes, crc: int = CRC16_INIT) -> int:
+    """CRC-16/CCITT-FALSE of `data` (check value of b"123456789" is 0x29B1)."""
+    for b in data:
+        crc ^= b << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ CRC16_POLY) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+    return crc
+
+
+def e2e_crc16(data_id: int, payload: bytes) -> int:
+    """The CRC-16 of a CAN FD payload (bytes 0..1 themselves are not covered)."""
+    return crc16_ccitt_false(bytes(payload[2:]), crc16_ccitt_false(bytes((data_id & 0xFF, data_id >> 8))))
+
+
+def seal_fd(data_id: int, counter: int, payload: bytes) -> bytes:
+    """Write the alive counter (bits 16..19) and then the CRC-16 (bytes 0..1, little-endian)."""
+    b = bytearray(payload)
+    b[2] = (b[2] & 0xF0) | (counter & COUNTER_MASK)
+    crc = e2e_crc16(data_id, b)
+    b[0], b[1] = crc & 0xFF, crc >> 8
+    return bytes(b)
+
+
+def crc16_ok(data_id: int, payload: bytes) -> bool:
+    return len(payload) >= 3 and int.from_bytes(payload[:2], "little") == e2e_crc16(data_id, payload)
+
+
+def counter_of_fd(payload: bytes) -> int:
+    return payload[2] & COUNTER_MASK
+
+
 # --- vectorised ------------------------------------------------------------------------------
 
 def e2e_crc_np(data_ids: np.ndarray, payloads: np.ndarray) -> np.ndarray:
