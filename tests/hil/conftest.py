@@ -85,16 +85,16 @@ def truth(binaries, out_dir):
 
 
 @contextlib.contextmanager
-def host_process(iface: str, binaries, log_path: Path, *extra: str):
-    """caekf-host on the interface while the block runs (profile PROFILE, extra options); its log is printed
-    at the end. Fails the test with the log if it exits at start-up."""
+def host_process(iface: str, binaries, log_path: Path, *extra: str, profile: str = PROFILE):
+    """caekf-host on the interface while the block runs (profile, extra options); its log is printed at the
+    end. Fails the test with the log if it exits at start-up."""
     log = open(log_path, "w")
     # --step-timeout-ms: the bench sends a step's three frames in one burst, so a partial step can only come
     # from the machine stalling between them; a QEMU TCG guest on a busy host stalls for tens of ms at times,
     # and the app's 20 ms default (a real-time setting) then drops the step, shifting the estimator against
     # the truth for the rest of the run. A second keeps the comparison with caekf-replay about the estimator.
     proc = subprocess.Popen([str(binaries["host"]), "--iface", iface, "--status-period-ms", "0",
-                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS, "--profile", PROFILE, *extra], stdout=log,
+                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS, "--profile", profile, *extra], stdout=log,
                             stderr=subprocess.STDOUT)
     time.sleep(0.2)
     if proc.poll() is not None:

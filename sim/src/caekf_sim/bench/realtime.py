@@ -53,6 +53,7 @@ def _libc():
                                      ctypes.POINTER(_Timespec)]
     libc.clock_nanosleep.restype = ctypes.c_int
     libc.recvmmsg.restype = ctypes.c_int
+    libc.sendmmsg.restype = ctypes.c_int
     return libc
 
 

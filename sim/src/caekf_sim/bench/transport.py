@@ -60,17 +60,19 @@ class _MMsgHdr(ctypes.Structure):
 
 
 class _MMsgBatch:
-    """A fixed array of mmsghdr, each pointing at one 16-byte slot of one buffer."""
+    """A fixed array of mmsghdr, each pointing at one slot of `size` bytes (a struct can_frame, or a
+    struct canfd_frame for the CAN FD profile) of one buffer."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, size: int = RECORD_SIZE) -> None:
         self.n = n
-        self.buf = ctypes.create_string_buffer(n * RECORD_SIZE)
+        self.size = size
+        self.buf = ctypes.create_string_buffer(n * size)
         self.iov = (_IOVec * n)()
         self.hdr = (_MMsgHdr * n)()
         base = ctypes.addressof(self.buf)
         for i in range(n):
-            self.iov[i].iov_base = base + i * RECORD_SIZE
-            self.iov[i].iov_len = RECORD_SIZE
+            self.iov[i].iov_base = base + i * size
+            self.iov[i].iov_len = size
             self.hdr[i].msg_hdr.msg_iov = ctypes.pointer(self.iov[i])
             self.hdr[i].msg_hdr.msg_iovlen = 1
 
