@@ -170,17 +170,26 @@ class FdStepper:
                 out.append(data[:length])
         return out
 
+    def frame(self, payload: bytes, frame_id: Optional[int] = None) -> bytes:
+        """A struct canfd_frame record (bit-rate switch) of `payload`, BENCH_FD's ID unless given."""
+        fid = self.in_info.frame_id if frame_id is None else frame_id
+        return CANFD_FRAME.pack(fid, len(payload), CANFD_BRS | CANFD_FDF, bytes(payload))
+
+    def send_records(self, records: List[bytes]) -> None:
+        """Raw CAN FD records on the bus (for injected faults), in one sendmmsg batch."""
+        self._send(records)
+
     def run(self, inputs: StepInputs, rows: int, window: int = 32, timeout: float = 2.0,
-            dt: Optional[float] = None, record: bool = False) -> FdRun:
-        """Rows [0, rows): lockstep with `window` steps in flight, or paced at dt (absolute deadlines)."""
+            dt: Optional[float] = None, record: bool = False, start: int = 0) -> FdRun:
+        """Rows [start, rows): lockstep with `window` steps in flight, or paced at dt (absolute deadlines)."""
         from .realtime import CLOCK_REALTIME, TIMER_ABSTIME, _realtime_ns, _Timespec
 
-        frames = [CANFD_FRAME.pack(self.in_info.frame_id, self.in_info.length, CANFD_BRS | CANFD_FDF, p.tobytes())
-                  for p in self.payloads(inputs, 0, rows)]
+        frames = [self.frame(p.tobytes()) for p in self.payloads(inputs, start, rows)]
+        rows -= start
         rec = FdRecorder(self.channel) if record else None
         got: List[Optional[bytes]] = [None] * rows
         order: List[bytes] = []  # EST_FD payloads in arrival order (E2E continuity)
-        wire0 = int(inputs.wire_steps[0])
+        wire0 = int(inputs.wire_steps[start])
         sent = done = late = 0
         ts = _Timespec()
         t0_ns = _realtime_ns() + 50_000_000
