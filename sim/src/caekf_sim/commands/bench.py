@@ -379,13 +379,13 @@ def cmd_busload(args: argparse.Namespace) -> int:
             seconds = float(t_all.max() - t_all.min()) + 135e-6 if len(t_all) else 0.0
             ll = log_load(t, ids, dlc, data, args.bitrate, seconds)
             fd_s = fd_log_seconds(len_fd, args.bitrate, args.data_bitrate)  # CAN FD frames: worst case
-            steps = max(1.0, ll.seconds * args.rate)
+            steps = max(1.0, seconds * args.rate)
             frames = ll.frames + len(len_fd)
             for kind, bits in (("worst", ll.bits_worst), ("exact", ll.bits_exact)):
                 s = bits / args.bitrate + fd_s
                 print(f"{name:<12}  {'measured, ' + path.name + f' ({kind})':<40}  {frames / steps:>11.2f}  "
                       f"{1e6 * s / steps:>8.1f}  {100 * s / seconds if seconds else float('nan'):>6.1f}%")
-            print(f"{'':<12}  (log: {frames} frames ({len(len_fd)} CAN FD) over {ll.seconds:.3f} s; exact = the "
+            print(f"{'':<12}  (log: {frames} frames ({len(len_fd)} CAN FD) over {seconds:.3f} s; exact = the "
                   "stuff bits of the recorded classic contents, CAN FD frames at their worst case)")
     return 0
 
