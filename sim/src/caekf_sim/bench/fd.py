@@ -31,7 +31,7 @@ from . import e2e
 from .bench import Bench, BenchError, Decoded, StepInputs
 from .profiles import FD
 from .realtime import _libc
-from .transport import MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVBUFFORCE, SO_RCVTIMEO, _MMsgBatch
+from .transport import MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVTIMEO, _MMsgBatch, set_rcvbuf
 
 CANFD_FRAME = struct.Struct("<IBBxx64s")  # struct canfd_frame
 CAN_FRAME = struct.Struct("<IB3x8s")  # struct can_frame (classic frames on the same socket)
@@ -46,12 +46,7 @@ class FdRecorder:
 
     def __init__(self, channel: str, rcvbuf: int = 32 << 20) -> None:
         self.sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
-            try:
-                self.sock.setsockopt(socket.SOL_SOCKET, opt, rcvbuf)
-                break
-            except OSError:
-                continue
+        set_rcvbuf(self.sock, rcvbuf)
         self.sock.setsockopt(socket.SOL_CAN_RAW, CAN_RAW_FD_FRAMES, 1)
         self.sock.bind((channel,))
         self.sock.setblocking(False)

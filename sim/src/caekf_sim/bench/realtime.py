@@ -32,8 +32,8 @@ import numpy as np
 
 from .busload import frame_bits_worst
 from .codec import RECORD_SIZE, records_array
-from .transport import (MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVBUFFORCE, SO_RCVTIMEO,  # declared once
-                        _IOVec, _MMsgHdr)
+from .transport import (MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVTIMEO, _IOVec, _MMsgHdr,  # declared once
+                        set_rcvbuf)
 
 CLOCK_REALTIME = 0
 TIMER_ABSTIME = 1
@@ -62,12 +62,7 @@ class BusRecorder:
 
     def __init__(self, channel: str, batch: int = 512, rcvbuf: int = 32 << 20) -> None:
         self.sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
-            try:
-                self.sock.setsockopt(socket.SOL_SOCKET, opt, rcvbuf)
-                break
-            except OSError:
-                continue
+        set_rcvbuf(self.sock, rcvbuf)
         self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         self.sock.bind((channel,))
         self.fd = self.sock.fileno()

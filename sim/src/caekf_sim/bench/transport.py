@@ -39,6 +39,16 @@ def open_bus(interface: str = "socketcan", channel: str = "vcan0", **kwargs):
     return can.Bus(interface=interface, channel=channel, **kwargs)
 
 
+def set_rcvbuf(sock: socket.socket, size: int) -> None:
+    """A deep receive queue (SO_RCVBUFFORCE works as root, else SO_RCVBUF, capped by the kernel)."""
+    for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, opt, size)
+            return
+        except OSError:
+            continue
+
+
 def interface_exists(channel: str) -> bool:
     """True when a network interface of that name exists (Linux); for SocketCAN only."""
     return os.path.exists(f"/sys/class/net/{channel}")
@@ -124,12 +134,7 @@ class SocketcanTransport(Transport):
         self.sock: socket.socket = bus.socket
         self.fd = self.sock.fileno()
         self.set_filter(rx_ids)
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):  # FORCE works as root (the VM), else capped
-            try:
-                self.sock.setsockopt(socket.SOL_SOCKET, opt, rcvbuf)
-                break
-            except OSError:
-                continue
+        set_rcvbuf(self.sock, rcvbuf)
         self.sock.setblocking(True)
         self._timeout = None  # current SO_RCVTIMEO
         self.libc = _libc() if use_mmsg else None
