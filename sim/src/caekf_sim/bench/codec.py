@@ -174,14 +174,16 @@ class Codec:
         return e2e.seal_np(info.data_id, counters, payloads)
 
     def _pack_fd(self, info: MessageInfo, columns: Mapping[str, np.ndarray], n: int, counters) -> np.ndarray:
-        """pack() of a CAN FD message (any length), through a bit matrix; sealed with CRC-16."""
-        bits = np.zeros((n, 8 * info.length), dtype=np.uint8)
+        """pack() of a CAN FD message (any length): each signal shifted into the bytes it spans (<= 56 bits
+        wide, so at most 8 bytes); sealed with CRC-16."""
+        payloads = np.zeros((n, info.length), dtype=np.uint8)
         for sname, values in columns.items():
             sig = info.signals[sname]
-            raw = self.raw_values(sig, values) & np.uint64(sig.mask)
-            for b in range(sig.length):
-                bits[:, sig.start + b] = ((raw >> np.uint64(b)) & np.uint64(1)).astype(np.uint8)
-        return e2e.seal_fd_np(info.data_id, counters, np.packbits(bits, axis=1, bitorder="little"))
+            v = (self.raw_values(sig, values) & np.uint64(sig.mask)) << np.uint64(sig.start % 8)
+            first = sig.start // 8
+            for k in range((sig.start % 8 + sig.length + 7) // 8):
+                payloads[:, first + k] |= ((v >> np.uint64(8 * k)) & np.uint64(0xFF)).astype(np.uint8)
+        return e2e.seal_fd_np(info.data_id, counters, payloads)
 
     @staticmethod
     def raw_values(sig: SignalLayout, values) -> np.ndarray:
@@ -205,17 +207,17 @@ class Codec:
         """Decode columns of payloads (n, 8) like cantools' decode_message (raw * scale + offset)."""
         info = self.messages[name]
         p = np.ascontiguousarray(np.asarray(payloads, dtype=np.uint8).reshape(-1, info.length))
-        if info.is_fd:
-            bits = np.unpackbits(p, axis=1, bitorder="little").astype(np.uint64)
-        else:
+        if not info.is_fd:
             word = p.view("<u8").reshape(-1)
         out = {}
         for sname in signals or info.signals:
             sig = info.signals[sname]
-            if info.is_fd:
+            if info.is_fd:  # the <= 8 bytes the signal spans, as one little-endian word
+                first = sig.start // 8
                 raw = np.zeros(len(p), dtype=np.uint64)
-                for b in range(sig.length):
-                    raw |= bits[:, sig.start + b] << np.uint64(b)
+                for k in range((sig.start % 8 + sig.length + 7) // 8):
+                    raw |= p[:, first + k].astype(np.uint64) << np.uint64(8 * k)
+                raw = (raw >> np.uint64(sig.start % 8)) & np.uint64(sig.mask)
             else:
                 raw = (word >> np.uint64(sig.start)) & np.uint64(sig.mask)
             if sig.is_float:
