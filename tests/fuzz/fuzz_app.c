@@ -57,8 +57,11 @@ enum {
 static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
                                                      0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
                                                      0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B,
-                                                     0x103, 0x190, 0x191};
-static int is_bench_msg(unsigned m) { return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP; }
+                                                     0x103, 0x190, 0x191, 0x104, 0x192};
+static int is_bench_msg(unsigned m)
+{
+    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP || m == (unsigned)CAEKF_MSG_BENCH_FD;
+}
 static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
 
 /* ---- bits and CRC (own implementation) -------------------------------------------------------- */
@@ -414,14 +417,19 @@ static void model_run_step(void)
 
 static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
 {
-    const uint16_t step = (uint16_t)get_bits(d, 12, 16);
+    uint16_t step = (uint16_t)get_bits(d, 12, 16);
     const unsigned bit = (msg == CAEKF_MSG_BENCH_U) ? 1u : (msg == CAEKF_MSG_BENCH_Y1) ? 2u
                          : (msg == CAEKF_MSG_BENCH_Y4) ? 4u : 6u; /* BENCH_YP carries y1 and y4 */
     double v = 0.0;
     double yp1 = 0.0, yp4 = 0.0;
     if (msg == CAEKF_MSG_BENCH_YP) {
-        yp1 = (double)get_sbits(d, 28, 18) * 2e-8; /* LSB 2e-8 m, as cantools: raw * scale */
-        yp4 = (double)get_sbits(d, 46, 18) * 2e-8;
+        /* STEP mod 2^8: the 16-bit step within -128..+127 of the open step (or the one after the last
+         * closed step) with these low bits */
+        const unsigned s8 = (unsigned)get_bits(d, 12, 8);
+        const unsigned ref = M.open ? M.step : M.have_closed ? (unsigned)(uint16_t)(M.last_closed + 1u) : s8;
+        step = (uint16_t)(ref + (unsigned)((int)(((s8 - ref) & 0xFFu) ^ 0x80u) - 0x80));
+        yp1 = (double)get_sbits(d, 20, 22) * 1e-9; /* LSB 1e-9 m, as cantools: raw * scale */
+        yp4 = (double)get_sbits(d, 42, 22) * 1e-9;
     } else if (msg == CAEKF_MSG_BENCH_U) {
         const uint32_t fb = (uint32_t)get_bits(d, 32, 32);
         if (((fb >> 23) & 0xFFu) == 0xFFu) { /* NaN or infinity: refused */
@@ -612,7 +620,7 @@ static void model_rx(const caekf_can_frame_t *f, uint32_t now)
     if (M.synced[m] && (uint32_t)(now - M.last_us[m]) > M.cfg.e2e_resync_us) {
         M.synced[m] = 0; /* silence: a new sender, any counter goes */
     }
-    if (f->dlc != 8u) {
+    if (f->dlc != (m == (unsigned)CAEKF_MSG_BENCH_FD ? 20u : 8u)) { /* the harness's frames have <= 15 bytes */
         M.cnt[CAEKF_CNT_RX_BAD_DLC]++;
         return;
     }

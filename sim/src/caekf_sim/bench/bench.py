@@ -560,11 +560,12 @@ class Bench:
         import socket as _socket
 
         sock.setsockopt(_socket.SOL_CAN_RAW, _socket.CAN_RAW_FILTER, b"")  # the recorder sees the bus
+        last_in = self.codec.messages[self.profile.input_messages[-1]]
         try:
-            paced = run_paced(self.transport, blobs, wire, dt, self.channel,
-                              self.codec.messages[self.profile.input_messages[-1]].frame_id,
+            paced = run_paced(self.transport, blobs, wire, dt, self.channel, last_in.frame_id,
                               self.codec.messages[self.profile.closing].frame_id,
-                              grace=grace, out_step_bits=self.profile.closing_step_bits)
+                              grace=grace, out_step_bits=self.profile.closing_step_bits,
+                              in_step_bits=last_in.signals["STEP"].length)
         finally:
             self.transport.set_filter(self.codec.from_estimator_ids)
         est = np.isin(paced.frames["id"], self.codec.from_estimator_ids)

@@ -7,7 +7,7 @@ what each one must do to the estimator (caekf_app, EST_HEALTH counters) is said 
 from __future__ import annotations
 
 import math
-from typing import Dict, List, Sequence
+from typing import Dict, List, Sequence, Tuple
 
 from .bench import Bench, StepInputs
 
@@ -27,6 +27,15 @@ def unchecked_frame(bench: Bench, name: str, values, advance: bool = True) -> by
     if advance:
         bench.tx_counter[name] = (c + 1) & 15
     return bench.codec.record(name, e2e.seal(info.data_id, c, body))
+
+
+def position_frames(bench: Bench) -> Tuple[str, str]:
+    """The profile's position frames in the roles of BENCH_Y1 (wrong DLC, duplicate) and BENCH_Y4 (counter
+    jump): BENCH_YP for both in production."""
+    names = bench.profile.input_messages
+    if "BENCH_YP" in names:
+        return "BENCH_YP", "BENCH_YP"
+    return "BENCH_Y1", "BENCH_Y4"
 
 
 def _y_values(name: str, step: int, inputs: StepInputs, row: int) -> Dict[str, float]:

@@ -328,32 +328,21 @@ class Agreement:
                 f"{self.newton_mismatch}")
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
-                        profile: Optional[Profile] = None) -> Agreement:
-    """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
-    the scaled integers (after clipping to the signal range: the estimator saturates and flags),
-    within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags
-    (core bits) and Newton iterations equal. A profile that carries a value only at some steps
-    (production: EST_PAGE) is compared at those steps (dec.carried)."""
+def value_ratios(dec: Decoded, ref_cols: Dict[str, np.ndarray], codec: Codec,
+                 profile: Optional[Profile] = None) -> Dict[str, np.ndarray]:
+    """Per column of ref_cols and per row: |CAN - ref| in units of the signal's resolution (half an LSB for
+    the scaled integers, after clipping the reference to the signal range: the estimator saturates and
+    flags; half a float32 ULP for the float signals); 0 where both are NaN or the same infinity, inf for a
+    NaN on one side only, NaN on rows that did not carry the column (incomplete, or EST_PAGE not sent)."""
     profile = profile or DIAGNOSTICS
-    n = len(ref.t)
-    cols = dec.columns
-    rows = min(n, len(dec.complete))
-    ref_cols = {"q1": ref.x[:, 0], "q2": ref.x[:, 1], "q3": ref.x[:, 2], "q4": ref.x[:, 3], "v1": ref.x[:, 4],
-                "v2": ref.x[:, 5], "v3": ref.x[:, 6], "v4": ref.x[:, 7], "gamma": ref.x[:, 8],
-                "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    rows = min(len(dec.complete), min(len(v) for v in ref_cols.values()))
     have = dec.complete[:rows]
-    worst, mism = {}, {}
-    def rows_of(col: str) -> np.ndarray:
-        c = dec.carried.get(col)
-        return have if c is None else have & np.asarray(c[:rows], dtype=bool)
-
-    carried_rows = {}
+    out = {}
     for col, want in ref_cols.items():
         src = profile.results[col]
         lay = codec.messages[src.message].signals[src.signal]
         w = np.asarray(want[:rows], dtype=float)
-        got = cols[col][:rows]
+        got = dec.columns[col][:rows]
         if not lay.is_float:
             lo = -(2 ** (lay.length - 1)) * lay.scale
             hi = (2 ** (lay.length - 1) - 1) * lay.scale
@@ -366,11 +355,36 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
         same_inf = np.isinf(w) & (w == got)
         with np.errstate(invalid="ignore"):
             ratio = np.where(both_nan | same_inf, 0.0, np.abs(got - w) / tol)
-        sel = rows_of(col)
+        ratio = np.where(np.isnan(ratio), np.inf, ratio)
+        c = dec.carried.get(col)
+        sel = have if c is None else have & np.asarray(c[:rows], dtype=bool)
+        out[col] = np.where(sel, ratio, np.nan)
+    return out
+
+
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
+    """Each CAN value must be the replay's value as the signal encodes it (`value_ratios` <= 1); NaN only
+    where the replay has NaN; flags (core bits) and Newton iterations equal. A profile that carries a value
+    only at some steps (production: EST_PAGE) is compared at those steps (dec.carried)."""
+    profile = profile or DIAGNOSTICS
+    n = len(ref.t)
+    cols = dec.columns
+    rows = min(n, len(dec.complete))
+    ref_cols = {"q1": ref.x[:, 0], "q2": ref.x[:, 1], "q3": ref.x[:, 2], "q4": ref.x[:, 3], "v1": ref.x[:, 4],
+                "v2": ref.x[:, 5], "v3": ref.x[:, 6], "v4": ref.x[:, 7], "gamma": ref.x[:, 8],
+                "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    have = dec.complete[:rows]
+    worst, mism, carried_rows = {}, {}, {}
+    for col, r in value_ratios(dec, ref_cols, codec, profile).items():
+        sel = ~np.isnan(r)
         carried_rows[col] = int(sel.sum())
-        ratio = np.where(np.isnan(ratio), np.inf, ratio)[sel]
-        worst[col] = float(ratio.max()) if ratio.size else 0.0
-        mism[col] = int(np.sum(ratio > 1.0))
+        worst[col] = float(r[sel].max()) if sel.any() else 0.0
+        mism[col] = int(np.sum(r[sel] > 1.0))
+
+    def rows_of(col: str) -> np.ndarray:
+        c = dec.carried.get(col)
+        return have if c is None else have & np.asarray(c[:rows], dtype=bool)
+
     fsel, isel = rows_of("flags"), rows_of("newton_iters")
     fl_can = cols["flags"][:rows][fsel].astype(np.int64) & CORE_FLAG_MASK
     fl_ref = ref.flags[:rows][fsel] & CORE_FLAG_MASK
