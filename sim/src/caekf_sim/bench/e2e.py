@@ -122,7 +122,7 @@ def seal_fd(data_id: int, counter: int, payload: bytes) -> bytes:
     """Write the alive counter (bits 16..19) and then the CRC-16 (bytes 0..1, little-endian)."""
     b = bytearray(payload)
     b[2] = (b[2] & 0xF0) | (counter & COUNTER_MASK)
-    crc = e2e_crc16(data_id, b)
+    crc = e2e_crc16(data_id, bytes(b))
     b[0], b[1] = crc & 0xFF, crc >> 8
     return bytes(b)
 

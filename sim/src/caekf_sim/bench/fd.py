@@ -111,7 +111,7 @@ class FdStepper:
                                              "extended": False}])
         except (OSError, can.CanError) as e:
             raise BenchError(f"cannot open {channel} for CAN FD: {e}") from None
-        self.sock: socket.socket = self.bus.socket
+        self.sock: socket.socket = self.bus.socket  # type: ignore[attr-defined]  # SocketcanBus, opened above
         self.fd = self.sock.fileno()
         self.libc = _libc()
         self.tx = _MMsgBatch(256, CANFD_FRAME.size)
@@ -245,7 +245,8 @@ class FdStepper:
             columns[col] = np.where(complete, v, np.nan)
         arrived = np.frombuffer(b"".join(d.ljust(self.out_info.length, b"\0") for d in order), dtype=np.uint8)
         arrived = arrived.reshape(len(order), self.out_info.length)
-        crc_ok = e2e.e2e_crc16_np(self.out_info.data_id, arrived) == (arrived[:, 0] | (arrived[:, 1].astype(np.int64) << 8))
+        sent_crc = arrived[:, 0] | (arrived[:, 1].astype(np.int64) << 8)
+        crc_ok = e2e.e2e_crc16_np(self.out_info.data_id, arrived) == sent_crc
         bad_crc = int(np.sum(~crc_ok))
         dup, jumps, _ = e2e.counter_errors_np(arrived[crc_ok, 2] & e2e.COUNTER_MASK)
         status = np.where(complete, cols["STEP_STATUS"], 0).astype(np.int64)

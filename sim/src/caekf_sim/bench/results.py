@@ -362,7 +362,8 @@ def value_ratios(dec: Decoded, ref_cols: Dict[str, np.ndarray], codec: Codec,
     return out
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
+                        profile: Optional[Profile] = None) -> Agreement:
     """Each CAN value must be the replay's value as the signal encodes it (`value_ratios` <= 1); NaN only
     where the replay has NaN; flags (core bits) and Newton iterations equal. A profile that carries a value
     only at some steps (production: EST_PAGE) is compared at those steps (dec.carried)."""

@@ -21,6 +21,8 @@ import time
 from pathlib import Path
 from typing import Dict, List
 
+import numpy as np
+
 
 from .. import schema
 from . import add_scenario_arg, scenario_from_args
