@@ -41,7 +41,8 @@ static void usage(FILE *f)
           "located and the integration restarted there (rtol 1e-13, atol 1e-15 m, 1e-13 m/s by default).\n"
           "backward-euler: eq. (19) at dt/truth_substeps, Newton-solved (the truth of earlier versions).\n"
           "A summary (contact episodes, max penetration, steps or Newton iterations) goes to stderr.\n"
-          "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge.\n"
+          "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge; outputs are\n"
+          "written to temporary files renamed at the end, so a failed run leaves none.\n"
           CAEKF_EXIT_TABLE,
           f);
 }
@@ -143,7 +144,7 @@ int main(int argc, char **argv)
     caekf_output_t ocsv, obin;
     truth_sink_t sink;
     caekf_truth_options_t opt;
-    char err[512];
+    char err[512] = "";
     int i, rc;
     memset(&sink, 0, sizeof sink);
     memset(&series, 0, sizeof series);
@@ -260,7 +261,9 @@ int main(int argc, char **argv)
         return CAEKF_EXIT_IO;
     }
     if (rc > 0) {
-        fprintf(stderr, "caekf-truth: integration failed at t = %.6f s (step size below 1e-14 s or step budget)\n",
+        fprintf(stderr,
+                "caekf-truth: integration failed at t = %.6f s (step size below 1e-14 s or step budget): nothing "
+                "written\n",
                 (double)sink.samples * sc.dt);
         return CAEKF_EXIT_NUMERIC;
     }

@@ -12,7 +12,8 @@
 #   --seconds N     run time per harness (CI runs --seconds 20)
 #   --jobs J        harnesses run side by side (default 1; each uses one core)
 #   --keep-corpus   grow build/fuzz/work/<harness>/corpus across runs instead of starting from the seeds
-#   HARNESS...      a subset of: fuzz_app fuzz_app_f32 fuzz_estimator fuzz_estimator_f32
+#   HARNESS...      a subset of: fuzz_app fuzz_app_f32 fuzz_estimator fuzz_estimator_f32 fuzz_settings
+#                   fuzz_settings_f32 fuzz_frames
 #
 # Findings land in build/fuzz/findings/<harness>/. To keep one as a regression input, copy it to
 # tests/fuzz/corpus/<corpus>/crash-<what>, where ctest's fuzz_corpus_* replays it in every host preset.
@@ -21,7 +22,7 @@ set -euo pipefail
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="$REPO/build/fuzz"
-ALL=(fuzz_app fuzz_app_f32 fuzz_estimator fuzz_estimator_f32)
+ALL=(fuzz_app fuzz_app_f32 fuzz_estimator fuzz_estimator_f32 fuzz_settings fuzz_settings_f32 fuzz_frames)
 
 SECONDS_PER=300
 JOBS=1
@@ -32,7 +33,7 @@ while [ "$#" -gt 0 ]; do
         --seconds) SECONDS_PER="${2:?--seconds needs a value}"; shift 2 ;;
         --jobs) JOBS="${2:?--jobs needs a value}"; shift 2 ;;
         --keep-corpus) KEEP=1; shift ;;
-        -h|--help) sed -n '2,22p' "${BASH_SOURCE[0]}"; exit 0 ;;
+        -h|--help) sed -n '2,23p' "${BASH_SOURCE[0]}"; exit 0 ;;
         -*) echo "fuzz.sh: unknown option $1" >&2; exit 2 ;;
         *) SELECTED+=("$1"); shift ;;
     esac
@@ -55,7 +56,7 @@ cmake -S "$REPO/tests/fuzz" -B "$BUILD" -G Ninja -DCMAKE_C_COMPILER="$CC_FUZZ" >
 cmake --build "$BUILD" --parallel 2 -- "${SELECTED[@]}" >"$BUILD/build.log" 2>&1 \
     || { cat "$BUILD/build.log"; log "build failed (libFuzzer runtime missing? apt install libclang-rt-dev)"; exit 2; }
 
-corpus_of() { case "$1" in fuzz_app*) echo fuzz_app ;; *) echo fuzz_estimator ;; esac; }
+corpus_of() { echo "${1%_f32}"; } # the _f32 harnesses share the double ones' seeds
 
 run_one() {
     local h="$1"

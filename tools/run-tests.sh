@@ -42,15 +42,18 @@ stage_host_float()  { run_preset host-float; }
 stage_host_asan()   { run_preset host-asan; }
 
 # C static analysis: cppcheck over firmware/ and host/ (tools/lint-c.sh), with the flags of the host-double
-# build (configured and built here if needed: the generated settings headers are included). Zero findings,
-# or an inline suppression that says why.
+# build (configured and built here if needed: the generated settings headers are included); then ruff and
+# mypy on sim/ (their configuration and pinned versions: sim/pyproject.toml). Zero findings, or an inline
+# suppression that says why.
 stage_lint() {
     cmake --preset host-double
     cmake --build --preset host-double --parallel "$JOBS"
     tools/lint-c.sh "$REPO/build/host-double"
+    ( cd sim && "$VENV_PY" -m ruff check src tests && "$VENV_PY" -m mypy )
 }
 
-# MCU targets: every Unity suite and the replay image under QEMU (needs host-double's test data).
+# MCU targets: every Unity suite and the replay image under QEMU (the presets build the host tools that make
+# their test data themselves: cmake/HostTools.cmake).
 # The instructions-per-step goal is reported by tools/mcu-report.py, not asserted here (label icount).
 run_target() {
     local preset="$1"

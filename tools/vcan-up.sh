@@ -48,6 +48,7 @@ for ifc in "$@"; do
 	fi
 	if ! is_up "$ifc"; then
 		need_ip "bring $ifc up"
+		as_root ip link set dev "$ifc" mtu 72 || true # CAN FD frames (the fd profile); only while down
 		as_root ip link set up dev "$ifc" || die "cannot bring $ifc up"
 	fi
 done

@@ -38,6 +38,7 @@ typedef struct {
     long max_delta;
     int profile;          /* caekf_profile_t */
     long page_period;     /* steps, PRODUCTION */
+    long id_offset;       /* runtime CAN ID base: DBC ID + this on the bus */
     long poll_ms;
     double run_for_s; /* 0: until a signal */
     int quiet;
@@ -58,32 +59,42 @@ static void usage(FILE *out)
             "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
             "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
             "  --profile NAME          estimate frames: diagnostics (12 per step, default) or production\n"
-            "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus)\n"
+            "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus) or fd\n"
+            "                          (BENCH_FD in, EST_FD out: one 20- and one 64-byte CAN FD frame per\n"
+            "                          step; vcan0 needs `ip link set vcan0 mtu 72`)\n"
             "  --page-period N         production: the 11 EST_PAGE pages at the first 11 steps of every N\n"
             "                          (0 = only after a status request, else >= 11; default 20)\n"
+            "  --id-offset N           move every CAN ID by N (decimal or 0x hex, may be negative), for a\n"
+            "                          bus that already uses the DBC's IDs; all must stay within\n"
+            "                          0..0x7FF. The bench takes the same (caekf-sim hil run --id-offset)\n"
             "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
             "  --poll-ms N             longest wait for a frame before the app checks timeouts (default 5)\n"
             "  --run-for SECONDS       exit by itself after this long (default: run until SIGINT/SIGTERM)\n"
             "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
             "                          buses; they are then not counted). Default: every frame reaches\n"
             "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
-            "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP; a step's last input frame)\n"
+            "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP, fd: BENCH_FD; a step's last input frame)\n"
             "                          is sent straight back with EST_STEP's ID and its own bytes, so the\n"
             "                          bench measures the bus and the machine without the estimator\n"
             "  --quiet                 print only errors and the final counters\n");
 }
 
-static int parse_long(const char *text, long lo, long hi, long *out)
+static int parse_long_base(const char *text, int base, long lo, long hi, long *out)
 {
     char *end = NULL;
     long v;
     errno = 0;
-    v = strtol(text, &end, 10);
+    v = strtol(text, &end, base);
     if (errno != 0 || end == text || *end != '\0' || v < lo || v > hi) {
         return -1;
     }
     *out = v;
     return 0;
+}
+
+static int parse_long(const char *text, long lo, long hi, long *out)
+{
+    return parse_long_base(text, 10, lo, hi, out);
 }
 
 /* Returns 0 to run, 1 to exit 0 (help), 2 on a usage error. */
@@ -97,6 +108,7 @@ static int parse_args(int argc, char **argv, options_t *o)
     o->status_period_ms = 1000;
     o->profile = (int)CAEKF_PROFILE_DIAGNOSTICS;
     o->page_period = 20;
+    o->id_offset = 0;
     o->max_delta = 1;
     o->poll_ms = 5;
     o->run_for_s = 0.0;
@@ -137,11 +149,16 @@ static int parse_args(int argc, char **argv, options_t *o)
                 o->profile = (int)CAEKF_PROFILE_DIAGNOSTICS;
             } else if (strcmp(v, "production") == 0) {
                 o->profile = (int)CAEKF_PROFILE_PRODUCTION;
+            } else if (strcmp(v, "fd") == 0) {
+                o->profile = (int)CAEKF_PROFILE_FD;
             } else {
                 bad = 1;
             }
         } else if (strcmp(a, "--page-period") == 0) {
             bad = parse_long(v, 0, 65535, &o->page_period) || (o->page_period != 0 && o->page_period < (long)CAEKF_PAGE_COUNT);
+        } else if (strcmp(a, "--id-offset") == 0) {
+            bad = parse_long_base(v, 0, -(long)CAEKF_CAN_SFF_MAX, (long)CAEKF_CAN_SFF_MAX, &o->id_offset) ||
+                  caekf_proto_id_offset_check((int32_t)o->id_offset) != CAEKF_PROTO_OK;
         } else if (strcmp(a, "--max-delta") == 0) {
             bad = parse_long(v, 1, 15, &o->max_delta);
         } else if (strcmp(a, "--poll-ms") == 0) {
@@ -251,7 +268,10 @@ int main(int argc, char **argv)
     struct timespec t0;
     char err[ERR_LEN];
     uint32_t seen_accepted = 0, seen_refused = 0;
-    const caekf_msg_info_t *echo_in = NULL, *echo_out = NULL;
+    uint32_t echo_in = 0, echo_out = 0;
+    static const caekf_msg_t echo_msgs[CAEKF_PROFILE_COUNT][2] = {{CAEKF_MSG_BENCH_Y4, CAEKF_MSG_EST_STEP},
+                                                                 {CAEKF_MSG_BENCH_YP, CAEKF_MSG_EST_PROD},
+                                                                 {CAEKF_MSG_BENCH_FD, CAEKF_MSG_EST_FD}};
     unsigned long echoed = 0;
     int rc = parse_args(argc, argv, &o);
     if (rc != 0) {
@@ -267,6 +287,7 @@ int main(int argc, char **argv)
     cfg.e2e_max_delta = (uint8_t)o.max_delta;
     cfg.profile = (uint8_t)o.profile;
     cfg.page_period_steps = (uint16_t)o.page_period;
+    cfg.id_offset = (int16_t)o.id_offset;
     socketcan_hal(&can, &hal);
     if (caekf_app_init(&app, &hal, &cfg) != CAEKF_APP_OK) {
         fprintf(stderr, "caekf-host: app initialisation failed\n");
@@ -275,7 +296,7 @@ int main(int argc, char **argv)
     if (o.scenario != NULL && configure_from_scenario(&app, &o) != 0) {
         return 1;
     }
-    if (socketcan_open(&can, o.iface, o.kernel_filter, err, sizeof err) != 0) {
+    if (socketcan_open(&can, o.iface, o.kernel_filter, cfg.id_offset, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-host: %s\n", err);
         return 1;
     }
@@ -289,24 +310,23 @@ int main(int argc, char **argv)
     if (!o.quiet) {
         printf("caekf-host: ready on %s (ifindex %u), scalar %s, %s\n", o.iface, can.ifindex, CAEKF_SCALAR_NAME,
                o.scenario ? "configured from the scenario" : "waiting for CTRL_PARAM/CTRL_RESET");
+        if (o.id_offset != 0) {
+            printf("caekf-host: CAN IDs moved by %+ld (0x%03lX..)\n", o.id_offset, 0x0C0ul + (unsigned long)o.id_offset);
+        }
         if (o.scenario) {
             printf("caekf-host: preset %s\n", o.preset != NULL ? o.preset : "none (scenario and defaults)");
         }
     }
     /* the step's last input frame, answered as the frame that closes a step in this profile (its STEP
-     * field starts at bit 12 in both, so the bench reads the step it sent) */
-    if (o.echo && (caekf_proto_msg_info(o.profile == (int)CAEKF_PROFILE_PRODUCTION ? CAEKF_MSG_BENCH_YP
-                                                                                   : CAEKF_MSG_BENCH_Y4,
-                                        &echo_in) != CAEKF_PROTO_OK ||
-                   caekf_proto_msg_info(o.profile == (int)CAEKF_PROFILE_PRODUCTION ? CAEKF_MSG_EST_PROD
-                                                                                   : CAEKF_MSG_EST_STEP,
-                                        &echo_out) != CAEKF_PROTO_OK)) {
+     * field starts at the same bit in both, so the bench reads the step it sent) */
+    if (o.echo && (caekf_proto_bus_id(echo_msgs[o.profile][0], cfg.id_offset, &echo_in) != CAEKF_PROTO_OK ||
+                   caekf_proto_bus_id(echo_msgs[o.profile][1], cfg.id_offset, &echo_out) != CAEKF_PROTO_OK)) {
         fprintf(stderr, "caekf-host: --echo: message table incomplete\n");
         return 1;
     }
     if (o.echo && !o.quiet) {
-        printf("caekf-host: ECHO PROBE: no estimator; 0x%03lX answered as 0x%03lX\n", (unsigned long)echo_in->can_id,
-               (unsigned long)echo_out->can_id);
+        printf("caekf-host: ECHO PROBE: no estimator; 0x%03lX answered as 0x%03lX\n", (unsigned long)echo_in,
+               (unsigned long)echo_out);
     }
     clock_gettime(CLOCK_MONOTONIC, &t0);
     rc = 0;
@@ -317,7 +337,7 @@ int main(int argc, char **argv)
             break;
         }
         if (o.echo) {
-            echoed += echo_frames(&hal, echo_in->can_id, echo_out->can_id);
+            echoed += echo_frames(&hal, echo_in, echo_out);
         } else {
             (void)caekf_app_poll(&app);
         }

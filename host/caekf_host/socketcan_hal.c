@@ -14,13 +14,6 @@
 #include <time.h>
 #include <unistd.h>
 
-/* struct can_frame's length field was renamed from can_dlc to len in Linux 5.11. */
-#ifdef CAN_MAX_RAW_DLC
-#define FRAME_LEN(cf) ((cf).len)
-#else
-#define FRAME_LEN(cf) ((cf).can_dlc)
-#endif
-
 static int fail(char *err, unsigned err_len, const char *fmt, const char *a, const char *b)
 {
     snprintf(err, err_len, fmt, a, b);
@@ -34,14 +27,16 @@ static uint32_t clock_us(void)
     return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
 }
 
-static int set_filters(int fd)
+static int set_filters(int fd, int32_t id_offset)
 {
     struct can_filter filters[CAEKF_MSG_COUNT];
     unsigned i, n = 0;
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         const caekf_msg_info_t *info;
-        if (caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->dir == CAEKF_DIR_TO_ESTIMATOR) {
-            filters[n].can_id = info->can_id;
+        uint32_t id = 0;
+        if (caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->dir == CAEKF_DIR_TO_ESTIMATOR &&
+            caekf_proto_bus_id((caekf_msg_t)i, id_offset, &id) == CAEKF_PROTO_OK) {
+            filters[n].can_id = id;
             /* the flag bits in the mask make extended and remote frames with the same number miss */
             filters[n].can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
             n++;
@@ -50,7 +45,8 @@ static int set_filters(int fd)
     return setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, (socklen_t)(n * sizeof filters[0]));
 }
 
-int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *err, unsigned err_len)
+int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, int32_t id_offset, char *err,
+                   unsigned err_len)
 {
     struct sockaddr_can addr;
     struct ifreq ifr;
@@ -88,7 +84,11 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, char *e
             (void)setsockopt(s->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
         }
     }
-    if (kernel_filter && set_filters(s->fd) != 0) {
+    {
+        int on = 1;
+        s->fd_frames = setsockopt(s->fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof on) == 0;
+    }
+    if (kernel_filter && set_filters(s->fd, id_offset) != 0) {
         snprintf(err, err_len, "setsockopt(CAN_RAW_FILTER) failed: %s", strerror(errno));
         socketcan_close(s);
         return -1;
@@ -189,14 +189,14 @@ int socketcan_flush(socketcan_t *s)
 static int hal_receive(void *ctx, caekf_can_frame_t *frame)
 {
     socketcan_t *s = (socketcan_t *)ctx;
-    const struct can_frame *cf;
+    const struct canfd_frame *cf;
     unsigned len, i;
     if (s->rx_i >= s->rx_n) {
         return 0; /* the batch is used up; the main loop waits for the next */
     }
     i = s->rx_i++;
     cf = &s->rx[i];
-    if (s->rx_msg[i].msg_len != sizeof *cf) {
+    if (s->rx_msg[i].msg_len != CAN_MTU && s->rx_msg[i].msg_len != CANFD_MTU) {
         s->rx_dropped_foreign++;
         return -EMSGSIZE;
     }
@@ -206,24 +206,37 @@ static int hal_receive(void *ctx, caekf_can_frame_t *frame)
     }
     frame->id = (cf->can_id & CAN_EFF_FLAG) ? ((cf->can_id & CAN_EFF_MASK) | CAEKF_CAN_ID_EXT_FLAG)
                                             : (cf->can_id & CAN_SFF_MASK);
-    len = FRAME_LEN(*cf);
+    len = cf->len; /* struct can_frame's length byte sits at the same offset */
+    if (len > sizeof frame->data) {
+        s->rx_dropped_foreign++;
+        return -EMSGSIZE;
+    }
     frame->dlc = (uint8_t)len;
-    memcpy(frame->data, cf->data, sizeof frame->data);
+    memcpy(frame->data, cf->data, len);
     return 1;
 }
 
 static int hal_transmit(void *ctx, const caekf_can_frame_t *frame)
 {
     socketcan_t *s = (socketcan_t *)ctx;
-    struct can_frame *cf;
+    struct canfd_frame *cf;
+    if (frame->dlc > sizeof cf->data || (frame->dlc > CAN_MAX_DLEN && !s->fd_frames)) {
+        return -EMSGSIZE;
+    }
     if (s->tx_n >= SOCKETCAN_BATCH && socketcan_flush(s) != 0) {
         return -EIO;
     }
-    cf = &s->tx[s->tx_n++];
+    cf = &s->tx[s->tx_n];
     memset(cf, 0, sizeof *cf);
     cf->can_id = frame->id & CAN_SFF_MASK;
-    FRAME_LEN(*cf) = frame->dlc;
-    memcpy(cf->data, frame->data, sizeof cf->data);
+    cf->len = frame->dlc;
+    memcpy(cf->data, frame->data, frame->dlc);
+    s->tx_iov[s->tx_n].iov_len = CAN_MTU;
+    if (frame->dlc > CAN_MAX_DLEN) { /* a CAN FD frame, data phase at the data bit rate */
+        cf->flags = CANFD_BRS | CANFD_FDF;
+        s->tx_iov[s->tx_n].iov_len = CANFD_MTU;
+    }
+    s->tx_n++;
     return 0;
 }
 

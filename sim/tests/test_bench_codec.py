@@ -218,3 +218,59 @@ def test_compare_with_replay_accepts_the_encoding_and_nothing_more(bench, codec)
     agr = compare_with_replay(dec, off, codec)
     assert not agr.ok
     assert agr.mismatched["q2"] == 1 and agr.mismatched["gamma"] == 1 and agr.flags_mismatch == 1
+
+
+def test_id_offset_moves_every_frame_id_and_keeps_the_data_ids(codec):
+    moved = Codec(id_offset=0x400)
+    for name, info in codec.messages.items():
+        m = moved.messages[name]
+        assert m.frame_id == info.frame_id + 0x400 and m.data_id == info.data_id
+        assert moved.by_id[m.frame_id] is m
+    body = moved.encode("BENCH_U", {"STEP": 7, "U": 1.5}, 3)
+    assert body == codec.encode("BENCH_U", {"STEP": 7, "U": 1.5}, 3)  # same bytes, same E2E
+    assert moved.decode(0x500, body)["U"] == 1.5
+    assert moved.from_estimator_ids == [i + 0x400 for i in codec.from_estimator_ids]
+    for bad in (0x7FF - 0x191 + 1, -0x0C1):
+        with pytest.raises(ValueError, match="out of 0..0x7FF"):
+            Codec(id_offset=bad)
+    assert Codec(id_offset=-0x0C0).messages["CTRL_RESET"].frame_id == 0
+
+
+def test_step_is_taken_modulo_its_signal_width(codec):
+    """BENCH_YP and EST_PROD carry STEP mod 2^8: encode (cantools) and pack (numpy) agree on any step."""
+    for step in (5, 255, 256, 261, 65535):
+        vals = {"STEP": step, "Y1": 1e-6, "Y4": -2e-6}
+        body = codec.encode("BENCH_YP", vals, 2)
+        assert codec.decode(codec.messages["BENCH_YP"].frame_id, body)["STEP"] == step % 256
+        assert codec.pack("BENCH_YP", {k: np.array([v]) for k, v in vals.items()}, 2)[0].tobytes() == body
+
+
+def test_fd_frames_pack_and_unpack_like_cantools_with_a_crc16_seal(codec):
+    """CAN FD messages (BENCH_FD 20 bytes, EST_FD 64): numpy pack/unpack through the bit matrix equal
+    cantools' encode/decode, and the CRC-16 seal (bytes 0..1, counter bits 16..19) equals the scalar one."""
+    assert e2e.crc16_ccitt_false(b"123456789") == 0x29B1
+    rng = np.random.default_rng(11)
+    n = 50
+    for name in ("BENCH_FD", "EST_FD"):
+        info = codec.messages[name]
+        assert info.is_fd and info.length in (20, 64)
+        msg = codec.db.get_message_by_name(name)
+        cols = {}
+        for s in msg.signals:
+            if s.name in ("E2E_CRC", "E2E_COUNTER"):
+                continue
+            if s.is_float:
+                cols[s.name] = (rng.normal(size=n) * 1e3).astype(np.float32).astype(float)
+            elif s.scale != 1:
+                cols[s.name] = rng.integers(-(1 << (s.length - 1)), 1 << (s.length - 1), n) * s.scale
+            else:
+                cols[s.name] = rng.integers(s.minimum, s.maximum + 1, n)
+        counters = rng.integers(0, 16, n)
+        packed = codec.pack(name, cols, counters)
+        for i in range(n):
+            want = codec.encode(name, {k: (v[i].item()) for k, v in cols.items()}, int(counters[i]))
+            assert packed[i].tobytes() == want, (name, i)
+            assert e2e.crc16_ok(info.data_id, want) and e2e.counter_of_fd(want) == counters[i]
+        back = codec.unpack(name, packed)
+        for k, v in cols.items():
+            np.testing.assert_array_equal(back[k], v)

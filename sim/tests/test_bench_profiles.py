@@ -93,4 +93,4 @@ def test_paced_matcher_unwraps_the_8_bit_step(codec):
 
 def test_unknown_profile_is_refused():
     with pytest.raises(ValueError, match="unknown profile"):
-        get_profile("fd")
+        get_profile("can-xl")

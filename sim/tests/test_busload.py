@@ -61,3 +61,16 @@ def test_fd_frame_longer_with_more_data_and_shorter_with_faster_data_phase():
     assert fd_time_worst(64, 1e6, 5e6) > fd_time_worst(20, 1e6, 5e6) > fd_time_worst(8, 1e6, 5e6)
     assert fd_time_worst(64, 1e6, 5e6) < fd_time_worst(64, 1e6, 2e6)
     assert fd_time_worst(13, 1e6, 5e6) == fd_time_worst(16, 1e6, 5e6)  # padded to the next FD length
+
+
+def test_fd_profile_from_the_dbc_fits_its_budget():
+    """BENCH_FD (20 bytes) + EST_FD (64 bytes) at 1 Mbit/s arbitration, 5 Mbit/s data: 81.6 + 169.6 us worst case,
+    + 12 EST_HEALTH/s: 25.3 % at 1 kHz (target <= 30 %)."""
+    from caekf_sim.bench.profiles import DATA_BITRATE, FD
+
+    codec = Codec()
+    assert codec.db.get_message_by_name("BENCH_FD").is_fd and codec.db.get_message_by_name("EST_FD").length == 64
+    assert np.isclose(fd_time_worst(20, 1e6, 5e6), 81.6e-6) and np.isclose(fd_time_worst(64, 1e6, 5e6), 169.6e-6)
+    load = dbc_profile_load(codec.db, list(FD.per_step), 1000.0, 1e6, DATA_BITRATE, "fd", FD.per_step)
+    assert np.isclose(load.seconds_per_step, 81.6e-6 + 169.6e-6 + 0.012 * 135e-6)
+    assert load.load <= 0.30

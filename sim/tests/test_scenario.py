@@ -29,7 +29,7 @@ def test_comments_and_blank_lines_are_ignored():
 
 
 def _text_without(key: str) -> str:
-    return "\n".join(l for l in PAPER.read_text().splitlines() if not l.startswith(key + " "))
+    return "\n".join(ln for ln in PAPER.read_text().splitlines() if not ln.startswith(key + " "))
 
 
 def test_missing_key_is_an_error():

@@ -83,7 +83,7 @@ def test_tune_command_writes_a_scenario_the_c_tools_read(recorded, tmp_path, cap
 
 
 def test_tune_errors_are_one_line(tmp_path, capsys):
-    assert main(["tune", "--runs", str(tmp_path / "none.csv")]) == 2
+    assert main(["tune", "--runs", str(tmp_path / "none.csv")]) == 4  # I/O (the exit-code table)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "none.csv" in err
 

@@ -20,7 +20,9 @@
  *     EXPERIMENT field) are filled with fuzz bytes the app must ignore;
  *   - after every accepted step: z and P finite, P exactly symmetric.
  *
- * Input: [cfg] [resync] [init] [time] then operations until the end (see the OP_* list below).
+ * Input: [cfg] [resync] [init] [time] then operations until the end (see the OP_* list below). [init] bit 7:
+ * configured locally with the paper's settings and preset bits 0-1; with bit 6 also, the estimator starts from
+ * snapshot bits 2-3 of that preset (fz_snapshot). At most MAX_FRAMES frames per input.
  */
 #include "caekf/caekf_app.h"
 #include "fuzz_common.h"
@@ -29,8 +31,10 @@
 #define NMSG ((unsigned)CAEKF_MSG_COUNT)
 #define QLEN 256u
 #define TXCAP 4096u
-#define MAX_OPS 2000u
-#define MAX_FRAMES 3000u /* per input: keeps one execution well under a second with the sanitizers */
+/* Per input: short sequences keep the harness at about a thousand executions a second with the sanitizers
+ * (3000 frames gave about 50); a sequence reaches deep states through OP_PAPER_CONFIG and OP_REPEAT_STEPS. */
+#define MAX_OPS 32u
+#define MAX_FRAMES 32u
 #define PRESET_NONE (-1)
 
 enum {
@@ -53,8 +57,11 @@ enum {
 static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
                                                      0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
                                                      0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B,
-                                                     0x103, 0x190, 0x191};
-static int is_bench_msg(unsigned m) { return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP; }
+                                                     0x103, 0x190, 0x191, 0x104, 0x192};
+static int is_bench_msg(unsigned m)
+{
+    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP || m == (unsigned)CAEKF_MSG_BENCH_FD;
+}
 static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
 
 /* ---- bits and CRC (own implementation) -------------------------------------------------------- */
@@ -410,14 +417,19 @@ static void model_run_step(void)
 
 static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
 {
-    const uint16_t step = (uint16_t)get_bits(d, 12, 16);
+    uint16_t step = (uint16_t)get_bits(d, 12, 16);
     const unsigned bit = (msg == CAEKF_MSG_BENCH_U) ? 1u : (msg == CAEKF_MSG_BENCH_Y1) ? 2u
                          : (msg == CAEKF_MSG_BENCH_Y4) ? 4u : 6u; /* BENCH_YP carries y1 and y4 */
     double v = 0.0;
     double yp1 = 0.0, yp4 = 0.0;
     if (msg == CAEKF_MSG_BENCH_YP) {
-        yp1 = (double)get_sbits(d, 28, 18) * 2e-8; /* LSB 2e-8 m, as cantools: raw * scale */
-        yp4 = (double)get_sbits(d, 46, 18) * 2e-8;
+        /* STEP mod 2^8: the 16-bit step within -128..+127 of the open step (or the one after the last
+         * closed step) with these low bits */
+        const unsigned s8 = (unsigned)get_bits(d, 12, 8);
+        const unsigned ref = M.open ? M.step : M.have_closed ? (unsigned)(uint16_t)(M.last_closed + 1u) : s8;
+        step = (uint16_t)(ref + (unsigned)((int)(((s8 - ref) & 0xFFu) ^ 0x80u) - 0x80));
+        yp1 = (double)get_sbits(d, 20, 22) * 1e-9; /* LSB 1e-9 m, as cantools: raw * scale */
+        yp4 = (double)get_sbits(d, 42, 22) * 1e-9;
     } else if (msg == CAEKF_MSG_BENCH_U) {
         const uint32_t fb = (uint32_t)get_bits(d, 32, 32);
         if (((fb >> 23) & 0xFFu) == 0xFFu) { /* NaN or infinity: refused */
@@ -608,7 +620,7 @@ static void model_rx(const caekf_can_frame_t *f, uint32_t now)
     if (M.synced[m] && (uint32_t)(now - M.last_us[m]) > M.cfg.e2e_resync_us) {
         M.synced[m] = 0; /* silence: a new sender, any counter goes */
     }
-    if (f->dlc != 8u) {
+    if (f->dlc != (m == (unsigned)CAEKF_MSG_BENCH_FD ? 20u : 8u)) { /* the harness's frames have <= 15 bytes */
         M.cnt[CAEKF_CNT_RX_BAD_DLC]++;
         return;
     }
@@ -1041,7 +1053,7 @@ static void run_ops(fz_reader_t *r)
             break;
         default: { /* OP_REPEAT_STEPS */
             unsigned n = 1u + fz_u8(r) % 64u;
-            while (n-- > 0u) {
+            while (n-- > 0u && frames_sent < MAX_FRAMES) {
                 bench_step = (uint16_t)(bench_step + 1u);
                 send_step_frames(bench_step, last_u_bits, last_y1, last_y4, 0, 0, 0);
                 H.now += 1000u;
@@ -1108,6 +1120,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         FZ_CHECK(caekf_settings_validate(&s.est, NULL) == CAEKF_OK, "paper settings with a preset are valid");
         FZ_CHECK(caekf_app_configure(&app, &s, NULL) == CAEKF_APP_OK, "paper settings configure");
         model_commit_accepted(&s);
+        if (init & 0x40u) { /* and the estimator (app and shadow) moved to a snapshot state: short inputs reach
+                             * contact (fz_snapshot, bits 2-3 pick it) */
+            app.est = *fz_snapshot(init & 3u, (init >> 2) & 3u);
+            M.est = app.est;
+        }
         check_state();
     }
     run_ops(&r);

@@ -137,4 +137,45 @@ static inline void fz_paper_settings(caekf_settings_t *s, int preset)
     }
 }
 
+/* ---- snapshot states ------------------------------------------------------------------------------ */
+
+#define FZ_SNAPSHOTS 4
+
+/* Snapshot k (any value: taken modulo FZ_SNAPSHOTS) of preset p's estimator, made on first use: each
+ * preset's estimator driven by the reference input u(t) and, as measurements, its own positions one step
+ * ahead (x + dt v), so it follows its model into and out of contact. Kept at 5 s (free motion), 12.9 s and
+ * 14 s (the first contact's onset and middle; the reference truth closes the gap near 12.8 s) and 17.4 s
+ * (just after it opens). */
+static inline const caekf_t *fz_snapshot(unsigned p, unsigned k)
+{
+    static const double at[FZ_SNAPSHOTS] = {5.0, 12.9, 14.0, 17.4};
+    static caekf_t snaps[CAEKF_N_FIXTURE_PRESETS][FZ_SNAPSHOTS];
+    static int made;
+    unsigned i, j;
+    for (i = 0; !made && i < CAEKF_N_FIXTURE_PRESETS; ++i) {
+        caekf_settings_t st;
+        caekf_t e;
+        long step = 0;
+        fz_paper_settings(&st, (int)i);
+        FZ_CHECK(caekf_init(&e, &st) == CAEKF_OK, "snapshot: paper settings accepted");
+        for (j = 0; j < FZ_SNAPSHOTS; ++j) {
+            const long until = (long)(at[j] / CAEKF_PAPER_DT + 0.5);
+            for (; step < until; ++step) {
+                const double t = (double)(step + 1) * CAEKF_PAPER_DT;
+                caekf_scalar_t x[CAEKF_N], y[CAEKF_MAX_SENSORS];
+                caekf_report_t rep;
+                const caekf_scalar_t u = (caekf_scalar_t)(CAEKF_PAPER_U_AMP *
+                    sin(2.0 * 3.14159265358979323846 * CAEKF_PAPER_U_FREQ * t + CAEKF_PAPER_U_PHASE));
+                (void)caekf_get_state(&e, x);
+                y[0] = x[0] + (caekf_scalar_t)CAEKF_PAPER_DT * x[e.model.nq];
+                y[1] = x[3] + (caekf_scalar_t)CAEKF_PAPER_DT * x[e.model.nq + 3];
+                (void)caekf_step(&e, &u, y, &rep);
+            }
+            snaps[i][j] = e;
+        }
+    }
+    made = 1;
+    return &snaps[p % CAEKF_N_FIXTURE_PRESETS][k % FZ_SNAPSHOTS];
+}
+
 #endif /* CAEKF_FUZZ_COMMON_H */

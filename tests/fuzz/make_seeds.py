@@ -3,7 +3,8 @@
 
     tests/fuzz/make_seeds.py [--truth build/host-double/testdata/paper_truth.bin]
 
-The byte layouts are those documented at the top of fuzz_app.c and fuzz_estimator.c. Seeds cover the
+The byte layouts are those documented at the top of fuzz_app.c, fuzz_estimator.c, fuzz_settings.c and
+fuzz_frames.c (whose CAN payloads are encoded from caekf.dbc by cantools, through sim/src/caekf_sim). Seeds cover the
 paths a random start finds slowly: a full configuration over CAN (the paper's settings and a preset of
 the schema as CTRL_PARAMs), steps from the reference truth (free flight and first contact), each
 rejection the protocol defines, configuration refusals, and for the estimator every preset (the paper's
@@ -118,7 +119,75 @@ def estimator_seeds(truth):
     reinit = bytes([0x7E, 2]) + ov_int("mode", 0) + ov_real("sigma_r", 1e-9)
     s["reinit-mid-run"] = est_header(2) + truth_steps(truth, 12760, 40) + reinit + truth_steps(truth, 12800, 40)
     s["defaults-refused"] = est_header(0, default=True) + truth_steps(truth, 0, 10)
+    # header bit 7: start from snapshot k (5, 12.9, 14, 17.4 s) of the preset's estimator, then truth steps
+    for preset in range(4):
+        for k, t0 in enumerate((5000, 12900, 14000, 17400)):
+            s["snapshot-exp%d-%d" % (preset, k)] = bytes([0x80 | preset, k]) + truth_steps(truth, t0, 40)
+    s["snapshot-nonfinite"] = bytes([0x83, 1]) + bytes([0]) + est_special(6) + est_fine(0, 1e-12) + \
+        est_fine(0, 1e-12) + truth_steps(truth, 12900, 10)
     return s
+
+
+# ---- fuzz_settings and fuzz_frames: payloads encoded from the DBC (cantools, through caekf_sim's codec) ---
+
+def _sim():
+    import sys
+
+    sys.path.insert(0, os.path.join(REPO, "sim", "src"))
+    from caekf_sim import schema
+    from caekf_sim.bench.codec import Codec
+    from caekf_sim.bench.e2e import to_mantissa_exp10
+    from caekf_sim.scenario import default_scenario_path, load_scenario
+
+    return schema, Codec(), to_mantissa_exp10, load_scenario(default_scenario_path())
+
+
+def settings_seeds():
+    import numpy as np
+
+    schema, codec, to_me, sc = _sim()
+    ids = schema.param_ids()
+
+    def param(pid, value=None, exp10=None, mant=None):
+        if value is not None:
+            mant, exp10 = to_me(value)
+        cols = {"PARAM_ID": np.array([pid]), "PARAM_EXP10": np.array([exp10]), "PARAM_MANTISSA": np.array([mant])}
+        return codec.pack("CTRL_PARAM", cols)[0].tobytes()
+
+    paper = b"".join(param(ids[k], v) for k, v in schema.wire_values(sc.values()))
+    s = {"paper": bytes([0]) + paper, "defaults-then-paper": bytes([1]) + paper}
+    for i, name in enumerate(schema.preset_names()[:3]):
+        s["paper-preset-%s" % name] = bytes([2 * (i + 1)]) + paper[:64]
+        s["paper-then-%s" % name] = bytes([0]) + paper + b"".join(
+            param(ids[k], v) for k, v in schema.wire_values({}, name))
+    s["refusals"] = bytes([0]) + param(len(ids), 1.0) + param(ids["newton_max_iter"], 2.5) + \
+        param(ids["sigma_r"], exp10=23, mant=1) + param(ids["sigma_r"], 0.0) + param(ids["m2"], -1.0)
+    s["extremes"] = bytes([0]) + param(ids["sigma_gamma0"], exp10=-22, mant=1) + \
+        param(ids["gamma0"], exp10=22, mant=2**37 - 1) + param(ids["gamma_min"], exp10=22, mant=-(2**37))
+    return s
+
+
+def frames_seeds():
+    import numpy as np
+
+    _, codec, _, _ = _sim()
+    s = {}
+    for name, m in sorted(codec.messages.items()):
+        cols = {sig: np.array([0]) for sig in m.signals if sig not in ("E2E_CRC", "E2E_COUNTER")}
+        payload = codec.pack(name, cols, counters=np.array([3]))[0].tobytes()
+        s["msg-%s" % name.lower()] = bytes([_msg_index(name), 3]) + payload
+    s["all-ones"] = b"".join(bytes([i, 15]) + b"\xff" * 8 for i in range(len(MSG_ORDER)))
+    return s
+
+
+# caekf_msg_t order (firmware/protocol/include/caekf/caekf_proto.h): the index byte of a fuzz_frames record
+MSG_ORDER = ("CTRL_RESET", "CTRL_PARAM", "CTRL_STATUS_REQ", "BENCH_U", "BENCH_Y1", "BENCH_Y4", "EST_ACK",
+             "EST_HEALTH", "EST_GAMMA", "EST_Q1", "EST_Q2", "EST_Q3", "EST_Q4", "EST_V1", "EST_V2", "EST_V3",
+             "EST_V4", "EST_P_NORM", "EST_P_GG", "EST_STEP", "BENCH_YP", "EST_PROD", "EST_PAGE")
+
+
+def _msg_index(name):
+    return MSG_ORDER.index(name)
 
 
 # ---- fuzz_app ------------------------------------------------------------------------------------------
@@ -254,6 +323,11 @@ def app_seeds(truth):
     # accepted over CAN although the float build then fails every step (known core issue: scaled Q overflows)
     s["can-config-scaling-overflow"] = app_header() + paper + app_param(23, -22, 1) + app_param(26, 22, 1) + \
         app_reset_n(12) + app_truth_steps(truth, 12780, 10)
+    # init bit 7 + bit 6: configured locally, estimator from snapshot (bits 2-3) of preset (bits 0-1)
+    for preset in range(4):
+        for k, t0 in enumerate((5000, 12900, 14000, 17400)):
+            hdr = bytes([0, 0, 0x80 | 0x40 | (k << 2) | preset, 0])
+            s["snapshot-exp%d-%d" % (preset, k)] = hdr + app_truth_steps(truth, t0, 12)
     return s
 
 
@@ -276,6 +350,8 @@ def main():
     truth = load_truth(args.truth)
     write("fuzz_estimator", estimator_seeds(truth))
     write("fuzz_app", app_seeds(truth))
+    write("fuzz_settings", settings_seeds())
+    write("fuzz_frames", frames_seeds())
 
 
 if __name__ == "__main__":

@@ -3,8 +3,7 @@ and the four experiments over the full scenario in strict lockstep (run once, us
 
 Run it with tools/hil-tests.sh (one user-mode Linux boot when this kernel has no vcan). Without the
 interface or the binaries every test FAILS with the reason: this suite never skips for a missing
-environment. (In the production profile the paper's two convergence claims are skipped with their
-reason: they need the noise-free positions of the diagnostics profile; see test_hil_experiments.py.)
+environment.
 
 Environment:
   CAEKF_HIL_IFACE        CAN interface (default vcan0)
@@ -16,6 +15,7 @@ Environment:
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -84,32 +84,41 @@ def truth(binaries, out_dir):
     return read_truth_csv(path)
 
 
-@pytest.fixture(scope="session")
-def estimator(iface, binaries, out_dir):
-    """caekf-host on the interface for the whole session; its counters are printed at the end."""
-    log_path = out_dir / "caekf-host.log"
+@contextlib.contextmanager
+def host_process(iface: str, binaries, log_path: Path, *extra: str, profile: str = PROFILE):
+    """caekf-host on the interface while the block runs (profile, extra options); its log is printed at the
+    end. Fails the test with the log if it exits at start-up."""
     log = open(log_path, "w")
     # --step-timeout-ms: the bench sends a step's three frames in one burst, so a partial step can only come
     # from the machine stalling between them; a QEMU TCG guest on a busy host stalls for tens of ms at times,
     # and the app's 20 ms default (a real-time setting) then drops the step, shifting the estimator against
     # the truth for the rest of the run. A second keeps the comparison with caekf-replay about the estimator.
     proc = subprocess.Popen([str(binaries["host"]), "--iface", iface, "--status-period-ms", "0",
-                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS, "--profile", PROFILE], stdout=log,
+                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS, "--profile", profile, *extra], stdout=log,
                             stderr=subprocess.STDOUT)
     time.sleep(0.2)
     if proc.poll() is not None:
         log.close()
         pytest.fail(f"HIL: caekf-host exited at start-up ({proc.returncode}): {log_path.read_text()}",
                     pytrace=False)
-    yield proc
-    proc.send_signal(signal.SIGTERM)
     try:
-        proc.wait(10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-    log.close()
-    print(log_path.read_text())
+        yield proc
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        log.close()
+        print(log_path.read_text())
+
+
+@pytest.fixture(scope="session")
+def estimator(iface, binaries, out_dir):
+    """caekf-host on the interface for the whole session; its counters are printed at the end."""
+    with host_process(iface, binaries, out_dir / "caekf-host.log") as proc:
+        yield proc
 
 
 @pytest.fixture(scope="session")

@@ -14,8 +14,8 @@ SCENARIO = REPO / "sim" / "scenarios" / "paper.toml"
 IFACE = os.environ.get("CAEKF_HIL_IFACE", "vcan0")
 HOST_STEP_TIMEOUT_MS = os.environ.get("CAEKF_HIL_STEP_TIMEOUT_MS", "1000")  # see conftest.estimator
 # Protocol profile of caekf-host and the bench (caekf_sim.bench.profiles). tools/hil-tests.sh runs the whole
-# suite in diagnostics and test_hil_experiments.py, test_hil_bad_traffic.py and the reduced fault matrix in
-# production.
+# suite in diagnostics and test_hil_experiments.py, test_hil_bad_traffic.py, the fault matrix and
+# test_hil_id_offset.py in production.
 PROFILE = os.environ.get("CAEKF_HIL_PROFILE", "diagnostics")
 from caekf_sim.schema import preset_names
 

@@ -1,5 +1,9 @@
 """Fault-injection matrix over the HIL bus: one run of the switched experiment, 0-15 s (into the first
 contact, 12.8-17.2 s), strict lockstep, with faults of every class spread over the run (seeded schedule).
+It runs in the profile CAEKF_HIL_PROFILE (tools/hil-tests.sh: diagnostics, then production); the profile's
+position frame takes the roles of BENCH_Y1 (wrong DLC, duplicate) and BENCH_Y4 (counter jump): BENCH_YP in
+production, where a duplicated BENCH_YP completes its step with the step's BENCH_U and the step's own BENCH_YP
+then comes late (RX_LATE instead of RX_REPEATED).
 
 Fault classes (sim/src/caekf_sim/bench/faults.py builds the frames):
   non-destructive -- the estimator still gets every step's valid inputs, so it must run every step and its
@@ -9,7 +13,8 @@ Fault classes (sim/src/caekf_sim/bench/faults.py builds the frames):
     step rate, for 10 steps per episode)
   destructive -- inputs are lost or the estimator is re-initialised:
     reordered pair (steps k+1 and k sent swapped: with a max counter delta of 1 the receiver rejects both
-    and then step k+2 as counter jumps, 9 RX_COUNTER_JUMP, 3 steps skipped), bus silence (100 steps never
+    and then step k+2 as counter jumps, 3 RX_COUNTER_JUMP per input message (9 in diagnostics, 6 in
+    production), 3 steps skipped), bus silence (100 steps never
     sent, 0.1 s of no traffic), reset storm (40 CTRL_RESET, then the bench re-configures and goes on).
 Config validation (nonsense values over CTRL_PARAM/CTRL_RESET) at 3.5 s and during contact at 12.85 s:
 refused with EST_ACK, and the estimator goes on with its previous configuration.
@@ -17,8 +22,9 @@ refused with EST_ACK, and the estimator goes on with its previous configuration.
 Checked:
 - every counter of EST_HEALTH moved by exactly what was injected (nothing lost: every injected frame is
   counted, foreign IDs included: caekf-host hands every frame to the app);
-- exactly the expected steps were answered; every estimate equals caekf-replay on the inputs the estimator
-  actually saw (rows it got, segments split at the resets) within the CAN resolution, with the steps lost
+- exactly the expected steps were answered; every estimate the profile carries equals caekf-replay on the
+  inputs the estimator actually saw (rows it got, segments split at the resets) within its signal's
+  resolution (production: gamma and the core flags every step, the rest on EST_PAGE rows), with the steps lost
   between two estimated steps bridged as the app bridges them: one prediction-only step per lost step
   (caekf_predict, the previous estimated step's decoded u held, y empty: caekf-replay --missing-y-predict);
 - per destructive episode (3 sampled per class): steps until the estimates match, within the CAN
@@ -38,7 +44,7 @@ import time
 import numpy as np
 import pytest
 
-from hilcfg import SCENARIO, report
+from hilcfg import PROFILE, SCENARIO, report
 
 ROWS = 15000
 SEED = 20261121
@@ -144,6 +150,7 @@ def _validate(bench, sc, row):
 def fault_run(bench, sc, inputs):
     from caekf_sim.bench import RunRecord, faults
 
+    y_a, y_b = faults.position_frames(bench)
     params = bench.params_from_scenario(sc, "switched")
     bench.configure("switched", params)
     before = bench.status()
@@ -174,13 +181,13 @@ def fault_run(bench, sc, inputs):
             if kind == "bad_crc":
                 blob = faults.bad_crc(bench, inputs, row)
             elif kind == "wrong_dlc":
-                blob = faults.wrong_dlc(bench, inputs, row)
+                blob = faults.wrong_dlc(bench, inputs, row, y_a)
             elif kind == "unknown_id":
                 blob = faults.unknown_ids(bench, inputs, row)
             elif kind == "counter_jump":
-                blob = faults.counter_jump(bench, inputs, row)
+                blob = faults.counter_jump(bench, inputs, row, y_b)
             elif kind == "duplicate":
-                blob = faults.duplicate(bench, inputs, row)
+                blob = faults.duplicate(bench, inputs, row, y_a)
             elif kind == "nan_inf":
                 blob = faults.nonfinite_u(bench, inputs, row, i)
             else:
@@ -224,7 +231,11 @@ def fault_run(bench, sc, inputs):
     dec = bench.decode_run(rec, inputs)
     return dict(rec=rec, dec=dec, h=health_delta(before, after), n=n, lost=lost, seg_starts=seg_starts,
                 episodes=episodes, storm_acks=storm_acks, acks_in_run=faults.count_acks(bench, rec.chunks),
-                validations=validations, inject_rows=inject_rows, elapsed=elapsed, params=params)
+                validations=validations, inject_rows=inject_rows, elapsed=elapsed, params=params,
+                yp=y_a == "BENCH_YP", inputs_per_step=len(bench.profile.input_messages),
+                # STEP_GAP is an app flag (bit 13): every step in diagnostics (EST_STEP); production carries it
+                # on EST_PAGE page 10 only (EST_PROD has the estimator's bits 0..11)
+                gap_every_step=bench.profile.results["flags"].message == "EST_STEP")
 
 
 # --- references (caekf-replay) ------------------------------------------------------------------------------
@@ -302,26 +313,27 @@ def _sampled(idx_list):
     return [idx_list[0], idx_list[len(idx_list) // 2], idx_list[-1]]
 
 
+COLUMNS = ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma", "p_norm", "p_gg")
+
+
 @pytest.fixture(scope="module")
-def matrix(fault_run, binaries, inputs, out_dir):
-    from caekf_sim.bench.results import CORE_FLAG_MASK
+def matrix(fault_run, binaries, inputs, out_dir, bench):
+    from caekf_sim.bench.results import CORE_FLAG_MASK, value_ratios
 
     fr = fault_run
     dec = fr["dec"]
     ref_x, ref_flags, ref_iters, n_pred = _seen_reference(fr, binaries, inputs, out_dir)
-    got = np.full((ROWS, 11), np.nan)
-    for j, c in enumerate(("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma", "p_norm", "p_gg")):
-        got[:, j] = dec.columns[c]
     answered = dec.complete
-    ratio = np.where(answered & ~fr["lost"], _diff_ratio(got, ref_x), 0.0)
-    # P values (float32 signals): relative float32 resolution
-    with np.errstate(invalid="ignore", divide="ignore"):
-        pr = np.abs(got[:, 9:] - ref_x[:, 9:]) / np.maximum(np.abs(ref_x[:, 9:]) * 2.0**-24, 1e-300)
-    pr = np.where((answered & ~fr["lost"])[:, None], pr, 0.0)
+    # |CAN - replay| per row in the resolution of each signal the profile carries (0 where not carried)
+    vr = value_ratios(dec, {c: ref_x[:, j] for j, c in enumerate(COLUMNS)}, bench.codec, bench.profile)
+    r = np.nan_to_num(np.column_stack([vr[c] for c in COLUMNS]), nan=0.0)
+    r = np.where((answered & ~fr["lost"])[:, None], r, 0.0)
+    ratio, pr = r[:, :9].max(axis=1), r[:, 9:]
     fl = dec.columns["flags"].astype(np.int64)
     flags_bad = int(np.sum((fl[answered] & CORE_FLAG_MASK) != (ref_flags[answered] & CORE_FLAG_MASK)))
-    iters_bad = int(np.sum(dec.columns["newton_iters"][answered].astype(np.int64)
-                           != np.clip(ref_iters[answered], 0, 255)))
+    it_rows = answered & dec.carried.get("newton_iters", answered)
+    iters_bad = int(np.sum(dec.columns["newton_iters"][it_rows].astype(np.int64)
+                           != np.clip(ref_iters[it_rows], 0, 255)))
     gap_rows = answered & ((fl & (1 << 13)) != 0)
     gap_flagged = int(gap_rows.sum())
     # STEP_GAP belongs on the first estimate after each run of lost steps (adjacent episodes merge into one
@@ -392,11 +404,12 @@ def _expected(fr):
         "RX_BAD_CRC": n["bad_crc"],
         "RX_BAD_DLC": n["wrong_dlc"],
         "RX_UNKNOWN_ID": faults.UNKNOWN_IDS_PER_INJECTION * n["unknown_id"] + n["flood"] * FLOOD_LEN * FLOOD_PER_STEP,
-        "RX_COUNTER_JUMP": n["counter_jump"] + 9 * n["reorder"],
+        "RX_COUNTER_JUMP": n["counter_jump"] + 3 * fr["inputs_per_step"] * n["reorder"],
         "RX_DUPLICATE": n["duplicate"],
-        "RX_REPEATED": n["duplicate"],
+        "RX_REPEATED": 0 if fr["yp"] else n["duplicate"],
+        "RX_LATE": n["duplicate"] if fr["yp"] else 0,
         "RX_BAD_VALUE": n["nan_inf"] + oor_bad_value + n_exp10,
-        "RX_LOST": 0, "RX_LATE": 0, "RX_HAL_ERROR": 0, "RX_UNCONFIGURED": 0,
+        "RX_LOST": 0, "RX_HAL_ERROR": 0, "RX_UNCONFIGURED": 0,
         "STEPS_DONE": ROWS - 3 * n["reorder"] - SILENCE_LEN * n["silence"],
         "STEPS_SKIPPED": 3 * n["reorder"] + SILENCE_LEN * n["silence"],
         "STEPS_FAILED": 0, "STEPS_TIMED_OUT": 0, "STEPS_SUPERSEDED": 0, "TX_ERRORS": 0,
@@ -452,8 +465,10 @@ def _table(fr, m):
         ("wrong DLC", "wrong_dlc", f"RX_BAD_DLC +{h['RX_BAD_DLC']}"),
         ("unknown ID (4 frames each)", "unknown_id",
          f"RX_UNKNOWN_ID +{faults.UNKNOWN_IDS_PER_INJECTION * n['unknown_id']} (of +{h['RX_UNKNOWN_ID']} incl. flood)"),
-        ("counter jump", "counter_jump", f"RX_COUNTER_JUMP +{h['RX_COUNTER_JUMP']} (incl. 9/reorder)"),
-        ("duplicate", "duplicate", f"RX_DUPLICATE +{h['RX_DUPLICATE']}, RX_REPEATED +{h['RX_REPEATED']}"),
+        ("counter jump", "counter_jump",
+         f"RX_COUNTER_JUMP +{h['RX_COUNTER_JUMP']} (incl. {3 * fr['inputs_per_step']}/reorder)"),
+        ("duplicate", "duplicate", f"RX_DUPLICATE +{h['RX_DUPLICATE']}, RX_REPEATED +{h['RX_REPEATED']}, "
+                                   f"RX_LATE +{h['RX_LATE']}"),
         ("NaN/Inf U", "nan_inf", f"RX_BAD_VALUE +{h['RX_BAD_VALUE']} (incl. unknown PARAM_ID, EXP10)"),
         ("out-of-range config", "out_of_range",
          f"CFG_REFUSED +{h['CFG_REFUSED']} (incl. validation); EST_ACK REFUSED_PARAM x"
@@ -469,8 +484,9 @@ def _table(fr, m):
     rec = m["recovery"]
     s, d = _fmt_rec(rec.get("reorder"))
     rows.append(["reordered pair", f"{n['reorder']} (3 steps lost each)",
-                 f"RX_COUNTER_JUMP 9 each, STEPS_SKIPPED +{h['STEPS_SKIPPED']} (incl. silence), "
-                 f"{m['gap_flagged']} EST_STEP with STEP_GAP (one per run of lost steps; episodes that touch merge)", s, d])
+                 f"RX_COUNTER_JUMP {3 * fr['inputs_per_step']} each, STEPS_SKIPPED +{h['STEPS_SKIPPED']} (incl. silence), "
+                 + (f"{m['gap_flagged']} EST_STEP with STEP_GAP (one per run of lost steps; episodes that touch merge)"
+                  if fr["gap_every_step"] else "STEP_GAP on EST_PAGE page 10 only in this profile"), s, d])
     s, d = _fmt_rec(rec.get("silence"))
     rows.append([f"bus silence {SILENCE_LEN} steps", f"{n['silence']} episodes ({n['silence'] * SILENCE_LEN} steps)",
                  "STEPS_SKIPPED +100 each, STEP_GAP on the next estimate (bridged: 100 prediction-only steps); "
@@ -497,7 +513,7 @@ def _table(fr, m):
               f"up to row {w['first']}, max |dq| {w['max_dq']:.1e} m, max |dg|/g {w['max_dg']:.1e}; at the end "
               f"(t = {ROWS * 1e-3:.1f} s) |dq| {w['final_dq']:.1e} m, |dg|/g {w['final_dg']:.1e} (gamma {w['g_run']:.4g} "
               f"vs {w['g_und']:.4g} N/m^1.5)")
-    return (f"fault matrix: switched experiment, rows 0..{ROWS} ({ROWS * 1e-3:.1f} s, first contact 12.8 s), "
+    return (f"[{PROFILE}] fault matrix: switched experiment, rows 0..{ROWS} ({ROWS * 1e-3:.1f} s, first contact 12.8 s), "
             f"lockstep, {fr['elapsed']:.1f} s on the bus\n" + format_table(hdr, rows)
             + "\n" + agree + "\nconfig validation over CAN (estimator keeps its configuration):\n" + vt
             + "\nEST_HEALTH deltas: " + ", ".join(f"{k}={v}" for k, v in fr["h"].items() if v))
@@ -517,7 +533,8 @@ def test_fault_matrix_counts(fault_run, matrix, out_dir):
     assert not wrong, f"EST_HEALTH (got, expected): {wrong}"
     assert fr["storm_acks"].get("ACCEPTED", 0) == fr["n"]["storm"] * STORM_LEN
     assert fr["acks_in_run"].get("REFUSED_PARAM", 0) == fr["n"]["out_of_range"]
-    np.testing.assert_array_equal(np.nonzero(matrix["gap_rows"])[0], np.nonzero(matrix["gap_expected"])[0])
+    if fr["gap_every_step"]:  # else (production) the STEPS_SKIPPED count above stands for it
+        np.testing.assert_array_equal(np.nonzero(matrix["gap_rows"])[0], np.nonzero(matrix["gap_expected"])[0])
     # the replay bridged exactly the steps the app counted as skipped (each one prediction-only step)
     assert matrix["n_pred"] == exp["STEPS_SKIPPED"]
 
@@ -529,8 +546,8 @@ def test_fault_matrix_estimates_equal_replay_on_seen_inputs(fault_run, matrix):
     assert float(matrix["ratio"].max()) <= 1.0
     assert float(np.nanmax(matrix["pr"])) <= 1.0
     assert matrix["flags_bad"] == 0 and matrix["iters_bad"] == 0
-    for c, v in fr["dec"].columns.items():
-        assert np.all(np.isfinite(v[matrix["answered"]])), c
+    for c, v in fr["dec"].columns.items():  # finite wherever the profile carried it
+        assert np.all(np.isfinite(v[matrix["answered"] & fr["dec"].carried.get(c, True)])), c
     g = fr["dec"].columns["gamma"]
     assert g[ROWS - 1] != g[12700]  # gamma was estimated during contact
 

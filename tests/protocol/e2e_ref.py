@@ -28,6 +28,26 @@ def seal(data_id: int, counter: int, payload: bytes) -> bytes:
     return bytes(b)
 
 
+def crc16_ccitt_false(data: bytes) -> int:
+    """CRC-16/CCITT-FALSE: poly 0x1021, init 0xFFFF, xorout 0, not reflected."""
+    crc = 0xFFFF
+    for byte in data:
+        crc ^= byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+    return crc
+
+
+def seal_fd(data_id: int, counter: int, payload: bytes) -> bytes:
+    """CAN FD frames: the alive counter in bits 16..19, then the CRC-16 over data ID low byte, high byte and
+    payload bytes 2.. into bytes 0..1 (little-endian)."""
+    b = bytearray(payload)
+    b[2] = (b[2] & 0xF0) | (counter & 0x0F)
+    crc = crc16_ccitt_false(bytes([data_id & 0xFF, data_id >> 8]) + bytes(b[2:]))
+    b[0], b[1] = crc & 0xFF, crc >> 8
+    return bytes(b)
+
+
 def to_mantissa_exp10(value: float, max_digits: int = 11) -> tuple[int, int]:
     """Shortest decimal form of a float as (mantissa, exp10), value = mantissa * 10**exp10.
     Values needing more than max_digits significant digits are rounded to max_digits."""

@@ -1,7 +1,7 @@
 /*
  * caekf_proto_dump: a line-oriented front end to the C codec, so tests/protocol can compare it with
  * cantools' reading of caekf.dbc. One command per input line, one answer line per command:
- *   info                               -> one line per message "NAME CAN_ID DATA_ID LAYOUT DIR LSB", then "end"
+ *   info                               -> one line per message "NAME CAN_ID DATA_ID LAYOUT DIR LEN LSB", then "end"
  *   names param|counter|experiment     -> one line per name, then "end"
  *   enc_value MSG STEP VALUE           -> "STATUS HEX"     (VALUE as C99 hex float, "nan", "inf")
  *   dec_value MSG HEX                  -> "STATUS STEP VALUE" (VALUE printed with %a)
@@ -14,12 +14,18 @@
  *   enc_health PAGE A B                -> "STATUS HEX";     dec_health HEX -> "STATUS PAGE A B"
  *   seal MSG COUNTER HEX               -> "STATUS HEX" (ID/DLC set, counter and CRC written)
  *   crc HEX                            -> "0 CRC" (CRC-8/SAE-J1850 of the bytes)
+ *   crc16 HEX                          -> "0 CRC" (CRC-16/CCITT-FALSE of the bytes)
+ *   enc_fd_in STEP U Y1 Y4             -> "STATUS HEX20";   dec_fd_in HEX20 -> "STATUS STEP U Y1 Y4" (%a)
+ *   enc_fd_out STEP X0..X8 PN PGG FLAGS ITERS STATUS -> "STATUS HEX64"
+ *   dec_fd_out HEX64                   -> "STATUS STEP X0..X8 PN PGG FLAGS ITERS STATUS" (values %a)
+ *   seal_fd MSG COUNTER HEX            -> "STATUS HEX" (the message's length: CRC-16 and counter written)
  * MSG is a message name as in the DBC. HEX is 16 hex digits (8 bytes) unless stated otherwise.
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "caekf/caekf_crc16.h"
 #include "caekf/caekf_crc8.h"
 #include "caekf/caekf_proto.h"
 
@@ -43,14 +49,19 @@ static int parse_hex(const char *s, uint8_t *out, size_t max, size_t *n)
     return 0;
 }
 
-static void print_hex(int st, const uint8_t *d)
+static void print_hex_n(int st, const uint8_t *d, unsigned n)
 {
-    int i;
+    unsigned i;
     printf("%d ", st);
-    for (i = 0; i < 8; i++) {
+    for (i = 0; i < n; i++) {
         printf("%02x", d[i]);
     }
     printf("\n");
+}
+
+static void print_hex(int st, const uint8_t *d)
+{
+    print_hex_n(st, d, 8u);
 }
 
 static int msg_by_name(const char *name, caekf_msg_t *msg)
@@ -78,7 +89,8 @@ static void cmd_info(void)
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         const caekf_msg_info_t *info;
         (void)caekf_proto_msg_info((caekf_msg_t)i, &info);
-        printf("%s %u %u %u %u %.17g\n", info->name, info->can_id, info->data_id, info->layout, info->dir, info->lsb);
+        printf("%s %u %u %u %u %u %.17g\n", info->name, info->can_id, info->data_id, info->layout, info->dir,
+               info->len, info->lsb);
     }
     printf("end\n");
 }
@@ -104,11 +116,17 @@ static void cmd_names(const char *kind)
 
 static int run(char *line)
 {
-    char a[8][128];
+    char a[16][160];
     uint8_t d[8];
     caekf_msg_t msg;
-    int n = sscanf(line, "%127s %127s %127s %127s %127s %127s %127s %127s", a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
+    int n = 0;
+    int used = 0;
     memset(d, 0, sizeof d);
+    while (n < 16 && sscanf(line + used, "%159s", a[n]) == 1) { /* whitespace-separated words */
+        const char *w = strstr(line + used, a[n]);
+        used = (int)(w - line) + (int)strlen(a[n]);
+        n++;
+    }
     if (n < 1) {
         return 0;
     }
@@ -137,7 +155,7 @@ static int run(char *line)
         printf("%d %u %u %u %d\n", st, m.step, m.flags, m.newton_iters, m.status);
     } else if (strcmp(a[0], "enc_yp") == 0 && n == 4) {
         caekf_msg_yp_t m;
-        m.step = (uint16_t)strtoul(a[1], NULL, 0);
+        m.step = (uint8_t)strtoul(a[1], NULL, 0);
         m.y1 = strtod(a[2], NULL);
         m.y4 = strtod(a[3], NULL);
         print_hex(caekf_proto_encode_yp(&m, d), d);
@@ -243,6 +261,73 @@ static int run(char *line)
         }
         (void)caekf_crc8(buf, len, &crc);
         printf("0 %02x\n", crc);
+    } else if (strcmp(a[0], "crc16") == 0 && n == 2) {
+        uint8_t buf[MAX_HEX_BYTES];
+        size_t len;
+        if (parse_hex(a[1], buf, sizeof buf, &len) != 0) {
+            return -1;
+        }
+        printf("0 %04x\n", caekf_crc16_update(CAEKF_CRC16_INIT, buf, len));
+    } else if (strcmp(a[0], "enc_fd_in") == 0 && n == 5) {
+        caekf_msg_fd_in_t m;
+        uint8_t fd[CAEKF_CAN_FD_MAX_LEN];
+        memset(fd, 0, sizeof fd);
+        m.step = (uint16_t)strtoul(a[1], NULL, 0);
+        m.u = strtod(a[2], NULL);
+        m.y1 = strtod(a[3], NULL);
+        m.y4 = strtod(a[4], NULL);
+        print_hex_n(caekf_proto_encode_fd_in(&m, fd), fd, CAEKF_FD_IN_LEN);
+    } else if (strcmp(a[0], "dec_fd_in") == 0 && n == 2) {
+        caekf_msg_fd_in_t m;
+        uint8_t fd[CAEKF_CAN_FD_MAX_LEN];
+        size_t len;
+        int st;
+        memset(&m, 0, sizeof m);
+        if (parse_hex(a[1], fd, sizeof fd, &len) != 0 || len != CAEKF_FD_IN_LEN) {
+            return -1;
+        }
+        st = caekf_proto_decode_fd_in(fd, &m);
+        printf("%d %u %a %a %a\n", st, m.step, m.u, m.y1, m.y4);
+    } else if (strcmp(a[0], "enc_fd_out") == 0 && n == 16) {
+        caekf_msg_fd_out_t m;
+        uint8_t fd[CAEKF_CAN_FD_MAX_LEN];
+        int k;
+        memset(fd, 0, sizeof fd);
+        m.step = (uint16_t)strtoul(a[1], NULL, 0);
+        for (k = 0; k < 9; k++) {
+            m.x[k] = strtod(a[2 + k], NULL);
+        }
+        m.p_norm = strtod(a[11], NULL);
+        m.p_gg = strtod(a[12], NULL);
+        m.info.flags = (uint16_t)strtoul(a[13], NULL, 0);
+        m.info.newton_iters = (uint8_t)strtoul(a[14], NULL, 0);
+        m.info.status = (int8_t)strtol(a[15], NULL, 0);
+        print_hex_n(caekf_proto_encode_fd_out(&m, fd), fd, CAEKF_FD_OUT_LEN);
+    } else if (strcmp(a[0], "dec_fd_out") == 0 && n == 2) {
+        caekf_msg_fd_out_t m;
+        uint8_t fd[CAEKF_CAN_FD_MAX_LEN];
+        size_t len;
+        int st, k;
+        memset(&m, 0, sizeof m);
+        if (parse_hex(a[1], fd, sizeof fd, &len) != 0 || len != CAEKF_FD_OUT_LEN) {
+            return -1;
+        }
+        st = caekf_proto_decode_fd_out(fd, &m);
+        printf("%d %u", st, m.step);
+        for (k = 0; k < 9; k++) {
+            printf(" %a", m.x[k]);
+        }
+        printf(" %a %a %u %u %d\n", m.p_norm, m.p_gg, m.info.flags, m.info.newton_iters, m.info.status);
+    } else if (strcmp(a[0], "seal_fd") == 0 && n == 4 && msg_by_name(a[1], &msg) == 0) {
+        caekf_can_frame_t f;
+        size_t len;
+        int st;
+        memset(&f, 0, sizeof f);
+        if (parse_hex(a[3], f.data, sizeof f.data, &len) != 0) {
+            return -1;
+        }
+        st = caekf_proto_seal(msg, (uint8_t)strtoul(a[2], NULL, 0), &f);
+        print_hex_n(st, f.data, f.dlc);
     } else {
         return -1;
     }

@@ -9,10 +9,10 @@ from decimal import Decimal
 
 import pytest
 
-from e2e_ref import crc8_sae_j1850, e2e_crc, seal, to_mantissa_exp10
+from e2e_ref import crc8_sae_j1850, crc16_ccitt_false, e2e_crc, seal, seal_fd, to_mantissa_exp10
 
 LAYOUT = {"RESET": 0, "PARAM": 1, "STATUS_REQ": 2, "ACK": 3, "HEALTH": 4, "INT36": 5, "FLOAT32": 6, "STEP": 7,
-          "YP": 8, "PROD": 9, "PAGE": 10}
+          "YP": 8, "PROD": 9, "PAGE": 10, "FD_IN": 11, "FD_OUT": 12}
 E2E = ("E2E_CRC", "E2E_COUNTER")
 RNG_SEED = 20240611
 
@@ -20,9 +20,9 @@ RNG_SEED = 20240611
 def c_table(dump):
     rows = {}
     for line in dump.listing("info"):
-        name, can_id, data_id, layout, direction, lsb = line.split()
+        name, can_id, data_id, layout, direction, length, lsb = line.split()
         rows[name] = dict(can_id=int(can_id), data_id=int(data_id), layout=int(layout), dir=int(direction),
-                          lsb=float(lsb))
+                          len=int(length), lsb=float(lsb))
     return rows
 
 
@@ -36,7 +36,7 @@ def dbc_layout(msg):
     names = [s.name for s in msg.signals]
     if msg.name == "EST_STEP":
         return LAYOUT["STEP"]
-    special = {"BENCH_YP": "YP", "EST_PROD": "PROD", "EST_PAGE": "PAGE"}
+    special = {"BENCH_YP": "YP", "EST_PROD": "PROD", "EST_PAGE": "PAGE", "BENCH_FD": "FD_IN", "EST_FD": "FD_OUT"}
     if msg.name in special:
         return LAYOUT[special[msg.name]]
     if msg.name.startswith(("BENCH_", "EST_")) and "STEP" in names:
@@ -67,7 +67,8 @@ def test_ids_data_ids_dlc_direction_layout_and_lsb_match(db, dump):
     for msg in db.messages:
         row = table[msg.name]
         assert row["can_id"] == msg.frame_id and not msg.is_extended_frame, msg.name
-        assert msg.length == 8, msg.name
+        assert msg.length == row["len"] and msg.is_fd == (row["len"] > 8), msg.name
+        assert msg.is_fd or msg.length == 8, msg.name
         assert row["data_id"] == msg.dbc.attributes["E2E_DataID"].value, msg.name
         data_ids.add(row["data_id"])
         assert row["dir"] == (0 if msg.senders == ["BENCH"] else 1), msg.name
@@ -84,8 +85,9 @@ def test_ids_data_ids_dlc_direction_layout_and_lsb_match(db, dump):
 def test_every_frame_starts_with_crc_and_counter(db):
     for msg in db.messages:
         crc, counter = msg.get_signal_by_name("E2E_CRC"), msg.get_signal_by_name("E2E_COUNTER")
-        assert (crc.start, crc.length, crc.byte_order) == (0, 8, "little_endian")
-        assert (counter.start, counter.length) == (8, 4)
+        width = 16 if msg.is_fd else 8  # CAN FD frames: CRC-16 (profile-5 style)
+        assert (crc.start, crc.length, crc.byte_order) == (0, width, "little_endian"), msg.name
+        assert (counter.start, counter.length) == (width, 4), msg.name
         assert all(s.byte_order == "little_endian" for s in msg.signals)
 
 
@@ -139,10 +141,14 @@ def test_seal_matches_reference_for_every_message(db, dump):
     for msg in db.messages:
         data_id = msg.dbc.attributes["E2E_DataID"].value
         for _ in range(20):
-            payload = bytes(rng.randrange(256) for _ in range(8))
+            payload = bytes(rng.randrange(256) for _ in range(msg.length))
             counter = rng.randrange(16)
-            cmds.append(f"seal {msg.name} {counter} {payload.hex()}")
-            expected.append(f"0 {seal(data_id, counter, payload).hex()}")
+            if msg.is_fd:  # CRC-16 over the whole length
+                cmds.append(f"seal_fd {msg.name} {counter} {payload.hex()}")
+                expected.append(f"0 {seal_fd(data_id, counter, payload).hex()}")
+            else:
+                cmds.append(f"seal {msg.name} {counter} {payload.hex()}")
+                expected.append(f"0 {seal(data_id, counter, payload).hex()}")
     assert dump.run(cmds) == expected
 
 
@@ -242,13 +248,13 @@ def test_int36_out_of_range_saturates_at_the_dbc_limits(db, dump):
 
 def test_position_resolution_is_far_below_a_micrometre(db):
     """Diagnostics profile scaled signals; the production profile's BENCH_YP trades resolution for room
-    (LSB 2e-8 m, +/-2.6 mm: the scenarios' positions stay within 1.4 mm) and its outputs are float32."""
+    (LSB 1e-9 m, +/-2.1 mm: the scenarios' positions stay within 1.4 mm) and its outputs are float32."""
     for msg in db.messages:
         for sig in msg.signals:
             if sig.is_float:
                 continue
             if msg.name == "BENCH_YP":
-                assert sig.unit != "m" or (sig.scale <= 2e-8 and sig.maximum >= 0.0026), sig.name
+                assert sig.unit != "m" or (sig.scale <= 1e-9 and sig.maximum >= 0.0020), sig.name
                 continue
             if sig.unit == "m":
                 assert sig.scale <= 1e-12 and sig.maximum >= 0.03, sig.name
@@ -283,11 +289,13 @@ def _f32(rng):
 def test_yp_frame(db, dump):
     rng = random.Random(RNG_SEED + 11)
     sig = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1")
+    half = 1 << (sig.length - 1)
+    lim = half * sig.scale
     cases = []
     for _ in range(300):
-        raw1, raw4 = rng.randrange(-(1 << 17), 1 << 17), rng.randrange(-(1 << 17), 1 << 17)
-        cases.append(dict(STEP=rng.randrange(65536), Y1=raw1 * sig.scale, Y4=raw4 * sig.scale,
-                          r1=rng.uniform(-2.6e-3, 2.6e-3), r4=rng.uniform(-2.6e-3, 2.6e-3)))
+        raw1, raw4 = rng.randrange(-half, half), rng.randrange(-half, half)
+        cases.append(dict(STEP=rng.randrange(256), Y1=raw1 * sig.scale, Y4=raw4 * sig.scale,
+                          r1=rng.uniform(-lim, lim), r4=rng.uniform(-lim, lim)))
     # values on the LSB grid and arbitrary values: both sides round the same way
     enc = dump.run([f"enc_yp {c['STEP']} {c['Y1']!r} {c['Y4']!r}" for c in cases] +
                    [f"enc_yp {c['STEP']} {c['r1']!r} {c['r4']!r}" for c in cases])
@@ -302,7 +310,7 @@ def test_yp_frame(db, dump):
     # beyond the range: clipped to the DBC's ends and flagged
     st, payload = dump.one("enc_yp 1 0.5 -0.5").split()
     ref = db.decode_message("BENCH_YP", bytes.fromhex(payload))
-    assert int(st) == 1 and (ref["Y1"], ref["Y4"]) == ((2 ** 17 - 1) * sig.scale, -(2 ** 17) * sig.scale)
+    assert int(st) == 1 and (ref["Y1"], ref["Y4"]) == ((half - 1) * sig.scale, -half * sig.scale)
 
 
 def test_prod_frame(db, dump):
@@ -424,3 +432,59 @@ def test_generated_c_codec_is_current():
     bad = codegen.stale()
     assert not bad, (f"firmware/protocol/gen/{', '.join(bad)} stale: the DBC or cantools changed; "
                      "run `caekf-sim gen-c` and commit the result")
+
+
+# --- CAN FD profile frames: C (generated pack/unpack + scaling, CRC-16 seal) against cantools --------------
+
+def test_crc16_check_value_and_fd_seal(db, dump):
+    assert crc16_ccitt_false(b"123456789") == 0x29B1
+    assert dump.one("crc16 " + b"123456789".hex()) == "0 29b1"
+    rng = random.Random(RNG_SEED + 21)
+    for name in ("BENCH_FD", "EST_FD"):
+        msg = db.get_message_by_name(name)
+        for counter in (0, 7, 15):
+            body = bytes(rng.randrange(256) for _ in range(msg.length))
+            want = seal_fd(msg.dbc.attributes["E2E_DataID"].value, counter, body)
+            assert dump.one(f"seal_fd {name} {counter} {body.hex()}") == f"0 {want.hex()}"
+
+
+def test_fd_in_frame(db, dump):
+    rng = random.Random(RNG_SEED + 22)
+    sig = db.get_message_by_name("BENCH_FD").get_signal_by_name("Y1")
+    lim = (1 << (sig.length - 1)) * sig.scale
+    cases = [dict(STEP=rng.randrange(65536), U=_f32(rng), Y1=rng.uniform(-lim, lim), Y4=rng.uniform(-lim, lim))
+             for _ in range(300)]
+    enc = dump.run([f"enc_fd_in {c['STEP']} {c['U']!r} {c['Y1']!r} {c['Y4']!r}" for c in cases])
+    assert enc == [f"0 {encode(db, 'BENCH_FD', c)}" for c in cases]
+    for line, c in zip(dump.run([f"dec_fd_in {encode(db, 'BENCH_FD', c)}" for c in cases]), cases):
+        st, step, u, y1, y4 = line.split()
+        ref = db.decode_message("BENCH_FD", bytes.fromhex(encode(db, "BENCH_FD", c)))
+        assert (int(st), int(step), float.fromhex(u), float.fromhex(y1), float.fromhex(y4)) == \
+            (0, ref["STEP"], ref["U"], ref["Y1"], ref["Y4"])
+    # a non-finite U is refused
+    nan = encode(db, "BENCH_FD", dict(STEP=1, U=0.0, Y1=0.0, Y4=0.0))
+    nan = nan[:10] + struct.pack("<f", math.nan).hex() + nan[18:]
+    assert dump.one(f"dec_fd_in {nan}").split()[0] == "-3"
+
+
+def test_fd_out_frame(db, dump):
+    rng = random.Random(RNG_SEED + 23)
+    names = ("Q1", "Q2", "Q3", "Q4", "V1", "V2", "V3", "V4", "GAMMA")
+    msg = db.get_message_by_name("EST_FD")
+    cases = []
+    for _ in range(200):
+        c = {n: (rng.uniform(-0.03, 0.03) if n[0] == "Q" else rng.uniform(-3.0, 3.0) if n[0] == "V" else _f32(rng))
+             for n in names}
+        c.update(STEP=rng.randrange(65536), P_NORM=_f32(rng), P_GAMMA_GAMMA=_f32(rng), FLAGS=rng.randrange(65536),
+                 NEWTON_ITERS=rng.randrange(256), STEP_STATUS=rng.randrange(-128, 128))
+        cases.append(c)
+    cmd = [f"enc_fd_out {c['STEP']} " + " ".join(repr(c[n]) for n in names)
+           + f" {c['P_NORM']!r} {c['P_GAMMA_GAMMA']!r} {c['FLAGS']} {c['NEWTON_ITERS']} {c['STEP_STATUS']}" for c in cases]
+    assert dump.run(cmd) == [f"0 {encode(db, 'EST_FD', c)}" for c in cases]
+    for line, c in zip(dump.run([f"dec_fd_out {encode(db, 'EST_FD', c)}" for c in cases]), cases):
+        f = line.split()
+        ref = db.decode_message("EST_FD", bytes.fromhex(encode(db, "EST_FD", c)))
+        assert int(f[0]) == 0 and int(f[1]) == ref["STEP"]
+        assert [float.fromhex(v) for v in f[2:13]] == [ref[n] for n in names + ("P_NORM", "P_GAMMA_GAMMA")]
+        assert (int(f[13]), int(f[14]), int(f[15])) == (ref["FLAGS"], ref["NEWTON_ITERS"], ref["STEP_STATUS"])
+    assert msg.length == 64

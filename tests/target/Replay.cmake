@@ -1,7 +1,7 @@
 # Replay.cmake (included by tests/target/CMakeLists.txt): the replay image and its checks.
 #
-# Needs the host build's test data, like the unit tests do in the cross builds (build the
-# host-double preset first):
+# Needs host test data, like the unit tests do in the cross builds: made by the host tools this build makes
+# (cmake/HostTools.cmake; or those of CAEKF_HOST_BUILD_DIR):
 #   CAEKF_REPLAY_TRUTH_BIN   caekf-truth --bin record of the reference scenario
 #   CAEKF_HOST_REPLAY        the host caekf-replay (double), for the reference trajectory
 # Tests:
@@ -13,14 +13,10 @@
 #   target_replay.icount     Cortex-M4F only: no step above CAEKF_ICOUNT_BUDGET (8000) instructions
 #                            (tools/qemu-icount)                                   (label budget)
 
-set(CAEKF_HOST_BUILD_DIR "${PROJECT_SOURCE_DIR}/build/host-double" CACHE PATH
-    "A host double build (for the replay image's inputs and reference)")
-set(CAEKF_REPLAY_TRUTH_BIN "${CAEKF_HOST_BUILD_DIR}/testdata/paper_truth.bin" CACHE FILEPATH
-    "caekf-truth --bin record embedded in target_replay")
-set(CAEKF_REPLAY_TRUTH_CSV "${CAEKF_HOST_BUILD_DIR}/testdata/paper_truth.csv" CACHE FILEPATH
-    "The same record as CSV (input of the host caekf-replay)")
-set(CAEKF_HOST_REPLAY "${CAEKF_HOST_BUILD_DIR}/host/caekf-replay" CACHE FILEPATH
-    "Host caekf-replay (double) giving the reference trajectory")
+include("${PROJECT_SOURCE_DIR}/cmake/HostTools.cmake")
+set(CAEKF_REPLAY_TRUTH_BIN "${CAEKF_HOST_TESTDATA_DIR}/paper_truth.bin")  # embedded in target_replay
+set(CAEKF_REPLAY_TRUTH_CSV "${CAEKF_HOST_TESTDATA_DIR}/paper_truth.csv")  # input of the host caekf-replay
+set(CAEKF_HOST_REPLAY "${CAEKF_HOST_REPLAY_TOOL}")  # host caekf-replay (double): the reference trajectory
 # Goals (Cortex-M4F, -Os): <= 512 B of stack, <= 8000 instructions per step. The double build's stack
 # budget is twice the float one. Tests labelled "budget" check them: `ctest -LE budget` skips them.
 if(CAEKF_SCALAR STREQUAL "float")
@@ -38,11 +34,6 @@ if(NOT Python3_FOUND)
 endif()
 if(NOT EXISTS "${PROJECT_SOURCE_DIR}/firmware/core/CMakeLists.txt")
     message(STATUS "tests/target: no firmware/core yet, target_replay is not built")
-    return()
-endif()
-if(NOT EXISTS "${CAEKF_REPLAY_TRUTH_BIN}")
-    message(WARNING "tests/target: ${CAEKF_REPLAY_TRUTH_BIN} not found, target_replay is not built "
-                    "(build the host-double preset first, or set CAEKF_HOST_BUILD_DIR)")
     return()
 endif()
 
@@ -64,7 +55,7 @@ caekf_target_image(target_replay
     DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"")
 add_dependencies(target_replay caekf_fixture_generated)
 
-if(EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}")
+if(TARGET caekf_host_tools OR (EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}"))
     set(_ref "${CMAKE_CURRENT_BINARY_DIR}/replay_host_reference.csv")
     add_custom_command(OUTPUT "${_ref}"
         COMMAND "${CAEKF_HOST_REPLAY}" --scenario "${CAEKF_SCENARIO}" --in "${CAEKF_REPLAY_TRUTH_CSV}"

@@ -39,6 +39,7 @@ done
 ip link set lo up
 for ifc in $iflist; do
 	ip link add dev "$ifc" type vcan || die "cannot create $ifc"
+	ip link set "$ifc" mtu 72 || die "cannot set $ifc to CAN FD (mtu 72)" # classic frames pass too
 	ip link set "$ifc" up || die "cannot bring $ifc up"
 done
 cat /proc/uptime >"$job/booted"

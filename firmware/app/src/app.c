@@ -23,6 +23,7 @@ caekf_app_status_t caekf_app_config_default(caekf_app_config_t *cfg)
     cfg->max_frames_per_poll = DEFAULT_MAX_FRAMES_PER_POLL;
     cfg->profile = (uint8_t)CAEKF_PROFILE_DIAGNOSTICS;
     cfg->page_period_steps = DEFAULT_PAGE_PERIOD_STEPS;
+    cfg->id_offset = 0;
     return CAEKF_APP_OK;
 }
 
@@ -35,7 +36,8 @@ caekf_app_status_t caekf_app_init(caekf_app_t *app, const caekf_app_hal_t *hal, 
     if (hal->receive == NULL || hal->transmit == NULL || hal->now_us == NULL || cfg->e2e_max_delta < 1u ||
         cfg->e2e_max_delta > 15u || cfg->max_frames_per_poll < 1u || cfg->step_timeout_us == 0u ||
         cfg->profile >= (uint8_t)CAEKF_PROFILE_COUNT ||
-        (cfg->page_period_steps != 0u && cfg->page_period_steps < CAEKF_PAGE_COUNT)) {
+        (cfg->page_period_steps != 0u && cfg->page_period_steps < CAEKF_PAGE_COUNT) ||
+        caekf_proto_id_offset_check(cfg->id_offset) != CAEKF_PROTO_OK) {
         return CAEKF_APP_ERR_CONFIG;
     }
     memset(app, 0, sizeof *app);
@@ -61,6 +63,7 @@ void caekf_app_count(caekf_app_t *app, unsigned counter_id, uint32_t n)
 void caekf_app_send(caekf_app_t *app, caekf_msg_t msg, caekf_can_frame_t *frame)
 {
     (void)caekf_proto_seal(msg, app->tx_counter[msg], frame);
+    frame->id = (uint32_t)((int32_t)frame->id + app->cfg.id_offset); /* valid: checked at init */
     app->tx_counter[msg] = (uint8_t)((app->tx_counter[msg] + 1u) & CAEKF_E2E_COUNTER_MASK);
     if (app->hal.transmit(app->hal.ctx, frame) < 0) {
         caekf_app_count(app, CAEKF_CNT_TX_ERRORS, 1u);
@@ -78,7 +81,10 @@ static int e2e_accept(caekf_app_t *app, caekf_msg_t msg, const caekf_msg_info_t 
     if (app->rx[msg].synced && (uint32_t)(now_us - app->rx_last_us[msg]) > app->cfg.e2e_resync_us) {
         (void)caekf_e2e_rx_init(&app->rx[msg]); /* the sender went quiet (e.g. a new bench run) */
     }
-    st = caekf_e2e_check(&app->rx[msg], info->data_id, app->cfg.e2e_max_delta, f->data, f->dlc, &lost);
+    st = (info->len > CAEKF_CAN_DLC)
+             ? caekf_e2e_check_fd(&app->rx[msg], info->data_id, app->cfg.e2e_max_delta, f->data, f->dlc, info->len,
+                                  &lost)
+             : caekf_e2e_check(&app->rx[msg], info->data_id, app->cfg.e2e_max_delta, f->data, f->dlc, &lost);
     if (st != CAEKF_E2E_ERR_DLC && st != CAEKF_E2E_ERR_CRC) {
         app->rx_last_us[msg] = now_us;
     }
@@ -106,7 +112,7 @@ static void handle_frame(caekf_app_t *app, const caekf_can_frame_t *f, uint32_t 
 {
     caekf_msg_t msg;
     const caekf_msg_info_t *info;
-    if (caekf_proto_msg_from_id(f->id, &msg) != CAEKF_PROTO_OK ||
+    if (caekf_proto_msg_from_bus_id(f->id, app->cfg.id_offset, &msg) != CAEKF_PROTO_OK ||
         caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK || info->dir != CAEKF_DIR_TO_ESTIMATOR) {
         caekf_app_count(app, CAEKF_CNT_RX_UNKNOWN_ID, 1u);
         return;

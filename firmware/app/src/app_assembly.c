@@ -1,7 +1,8 @@
-/* Step assembly: collects BENCH_U, BENCH_Y1, BENCH_Y4 (or BENCH_U, BENCH_YP) of one STEP, then runs the
+/* Step assembly: collects BENCH_U, BENCH_Y1, BENCH_Y4 (or BENCH_U, BENCH_YP; or BENCH_FD alone) of one STEP, then runs the
  * estimator once.
  * One slot is enough: the bench sends a step's frames together, so a frame of a newer step means the
- * open step will never complete. STEP is 16 bits on the wire, compared modulo 2^16. */
+ * open step will never complete. STEP is 16 bits on the wire (8 in BENCH_YP, unwrapped), compared modulo
+ * 2^16. */
 #include <stddef.h>
 
 #include "app_internal.h"
@@ -78,6 +79,23 @@ static void run_step(caekf_app_t *app)
     caekf_app_send_estimate(app, step, st, &report, app_flags);
 }
 
+/* BENCH_YP carries STEP modulo 2^8: the 16-bit step nearest to the step being assembled (or the one after
+ * the last closed step) with those low 8 bits. The bench keeps fewer than 128 steps in flight. */
+static uint16_t unwrap_step8(const caekf_app_t *app, uint8_t step8)
+{
+    uint16_t ref;
+    uint8_t d;
+    if (app->slot.open) {
+        ref = app->slot.step;
+    } else if (app->have_closed) {
+        ref = (uint16_t)(app->last_closed_step + 1u);
+    } else {
+        return step8;
+    }
+    d = (uint8_t)(step8 - (uint8_t)ref); /* forward distance modulo 2^8; >= 128 means behind */
+    return (d < 128u) ? (uint16_t)(ref + d) : (uint16_t)(ref + d - 256u);
+}
+
 /* Decides where a frame of `step` goes; returns 1 if it belongs to the (possibly new) open slot. */
 static int route(caekf_app_t *app, uint16_t step, uint32_t now_us)
 {
@@ -102,18 +120,25 @@ static int route(caekf_app_t *app, uint16_t step, uint32_t now_us)
     return 1;
 }
 
-void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint32_t now_us)
+void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_FD_MAX_LEN], uint32_t now_us)
 {
     uint16_t step = 0u;
     double value = 0.0;
     caekf_msg_yp_t yp;
+    caekf_msg_fd_in_t fd;
     uint8_t bits;
     caekf_proto_status_t st;
     yp.y1 = 0.0;
     yp.y4 = 0.0;
+    fd.u = 0.0;
+    fd.y1 = 0.0;
+    fd.y4 = 0.0;
     if (msg == CAEKF_MSG_BENCH_YP) {
         st = caekf_proto_decode_yp(data, &yp);
-        step = yp.step;
+        step = unwrap_step8(app, yp.step);
+    } else if (msg == CAEKF_MSG_BENCH_FD) {
+        st = caekf_proto_decode_fd_in(data, &fd);
+        step = fd.step;
     } else {
         st = caekf_proto_decode_value(msg, data, &step, &value);
     }
@@ -129,6 +154,7 @@ void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t d
     bits = (msg == CAEKF_MSG_BENCH_U)    ? HAVE_U
            : (msg == CAEKF_MSG_BENCH_Y1) ? HAVE_Y1
            : (msg == CAEKF_MSG_BENCH_Y4) ? HAVE_Y4
+           : (msg == CAEKF_MSG_BENCH_FD) ? HAVE_ALL
                                          : (uint8_t)(HAVE_Y1 | HAVE_Y4);
     if (!route(app, step, now_us)) {
         return;
@@ -138,7 +164,11 @@ void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t d
         return;
     }
     app->slot.have = (uint8_t)(app->slot.have | bits);
-    if (bits == HAVE_U) {
+    if (bits == HAVE_ALL) {
+        app->slot.u = fd.u;
+        app->slot.y1 = fd.y1;
+        app->slot.y4 = fd.y4;
+    } else if (bits == HAVE_U) {
         app->slot.u = value;
     } else if (bits == HAVE_Y1) {
         app->slot.y1 = value;

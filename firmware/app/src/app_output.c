@@ -1,5 +1,5 @@
 /* The estimate frames of one step, by profile. DIAGNOSTICS: 12 frames, EST_STEP last (it tells the bench
- * the step is complete). PRODUCTION: EST_PROD (closes the step), then at most one EST_PAGE. */
+ * the step is complete). PRODUCTION: EST_PROD (closes the step), then at most one EST_PAGE. FD: EST_FD. */
 #include <math.h>
 #include <stddef.h>
 
@@ -108,6 +108,46 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
     caekf_app_send(app, CAEKF_MSG_EST_PAGE, &f);
 }
 
+/* State, P (into app->cov_scratch) and the P norm of the step's estimate, for the profiles that send them all;
+ * a norm that cannot be computed is NaN and flagged. */
+static double full_estimate(caekf_app_t *app, caekf_scalar_t x[CAEKF_N], uint16_t *app_flags)
+{
+    caekf_scalar_t p_norm;
+    (void)caekf_get_state(&app->est, x);
+    (void)caekf_get_covariance(&app->est, app->cov_scratch);
+    if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
+        return (double)p_norm;
+    }
+    *app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
+    return (double)NAN;
+}
+
+/* CAN FD: every value in one EST_FD; a clipped value sets the SATURATED flag in that same frame. */
+static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
+                    uint16_t app_flags)
+{
+    caekf_scalar_t x[CAEKF_N];
+    caekf_msg_fd_out_t m;
+    caekf_can_frame_t f;
+    unsigned i;
+    m.p_norm = full_estimate(app, x, &app_flags);
+    for (i = 0; i <= 2u * WIRE_BODIES; i++) { /* q1..q4, v1..v4, gamma */
+        m.x[i] = wire_value(app, x, i);
+    }
+    m.p_gg = wire_p_gg(app);
+    m.step = step;
+    m.info.step = step;
+    m.info.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
+    m.info.newton_iters = clamp_iters(report->newton_iters);
+    m.info.status = (int8_t)status;
+    if (caekf_proto_encode_fd_out(&m, f.data) == CAEKF_PROTO_SATURATED) {
+        caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
+        m.info.flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
+        (void)caekf_proto_encode_fd_out(&m, f.data);
+    }
+    caekf_app_send(app, CAEKF_MSG_EST_FD, &f);
+}
+
 void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
                              uint16_t app_flags)
 {
@@ -116,8 +156,7 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
     static const caekf_msg_t v_msgs[WIRE_BODIES] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3,
                                                  CAEKF_MSG_EST_V4};
     caekf_scalar_t x[CAEKF_N];
-    caekf_scalar_t p_norm;
-    double p_norm_out = (double)NAN; /* sent when the norm cannot be computed */
+    double p_norm_out;
     caekf_msg_step_t sm;
     caekf_can_frame_t f;
     unsigned i;
@@ -126,13 +165,11 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
         send_production(app, step, status, report, app_flags);
         return;
     }
-    (void)caekf_get_state(&app->est, x);
-    (void)caekf_get_covariance(&app->est, app->cov_scratch);
-    if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
-        p_norm_out = (double)p_norm;
-    } else {
-        app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
+    if (app->cfg.profile == (uint8_t)CAEKF_PROFILE_FD) {
+        send_fd(app, step, status, report, app_flags);
+        return;
     }
+    p_norm_out = full_estimate(app, x, &app_flags);
     send_value(app, CAEKF_MSG_EST_GAMMA, step, wire_value(app, x, 2u * WIRE_BODIES), &app_flags);
     for (i = 0; i < WIRE_BODIES; i++) {
         send_value(app, q_msgs[i], step, wire_value(app, x, i), &app_flags);

@@ -1,7 +1,7 @@
 /*
  * app_main.c - the caekf firmware image for an STM32F4/F7 part with bxCAN (image caekf_fw):
  * board bring-up, SysTick microsecond clock, CAN1 at 1 Mbit/s with the protocol's receive filters,
- * the caekf app, and the main loop polling it.
+ * the caekf app in the production profile, and the main loop polling it.
  *
  * It builds in the cortex-m4f / cortex-m7 presets (so size and stack are measured with the real
  * code paths), but it is linked with the port's QEMU mps2 linker script and QEMU's mps2 machines
@@ -38,6 +38,16 @@
 #endif
 #ifndef CAEKF_FW_SAMPLE_PERMILLE
 #define CAEKF_FW_SAMPLE_PERMILLE 875u
+#endif
+/* The protocol profile on the wire: PRODUCTION (BENCH_U + BENCH_YP in, EST_PROD + EST_PAGE pages out: 48 % of
+ * 1 Mbit/s at 1 kHz) fits a real bus; CAEKF_PROFILE_DIAGNOSTICS (15 frames per step) does not. */
+#ifndef CAEKF_FW_PROFILE
+#define CAEKF_FW_PROFILE CAEKF_PROFILE_PRODUCTION
+#endif
+/* Runtime CAN ID base (caekf_app_config_t.id_offset): every ID of caekf.dbc moved by this, for a bus that
+ * already uses them; the receive filters follow. */
+#ifndef CAEKF_FW_ID_OFFSET
+#define CAEKF_FW_ID_OFFSET 0
 #endif
 
 /* STM32F4/F7 RCC and GPIOB (same addresses on both families). */
@@ -76,6 +86,8 @@ int main(void)
     cfg.filter_regs = cfg.regs; /* CAN1 is the master: its filter banks 0.. */
     cfg.now = caekf_us_clock_now_cb;
     cfg.now_ctx = &clk;
+    cfg.app.profile = (uint8_t)CAEKF_FW_PROFILE;
+    cfg.app.id_offset = (int16_t)CAEKF_FW_ID_OFFSET;
     /* wait_hook NULL: each acknowledge wait is CAEKF_BXCAN_DEFAULT_WAIT_LIMIT register reads */
     if (caekf_bxcan_timing_compute(CAEKF_FW_APB1_HZ, CAEKF_FW_BITRATE, CAEKF_FW_SAMPLE_PERMILLE, &cfg.can.timing) !=
         CAEKF_BXCAN_OK) {

@@ -1487,17 +1487,17 @@ int caekf_can_bench_yp_pack(
 
     dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
-    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
-    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
-    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u8(src_p->step, 4u, 0x0fu);
     y1 = (uint32_t)src_p->y1;
-    dst_p[3] |= pack_left_shift_u32(y1, 4u, 0xf0u);
-    dst_p[4] |= pack_right_shift_u32(y1, 4u, 0xffu);
-    dst_p[5] |= pack_right_shift_u32(y1, 12u, 0x3fu);
+    dst_p[2] |= pack_left_shift_u32(y1, 4u, 0xf0u);
+    dst_p[3] |= pack_right_shift_u32(y1, 4u, 0xffu);
+    dst_p[4] |= pack_right_shift_u32(y1, 12u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(y1, 20u, 0x03u);
     y4 = (uint32_t)src_p->y4;
-    dst_p[5] |= pack_left_shift_u32(y4, 6u, 0xc0u);
-    dst_p[6] |= pack_right_shift_u32(y4, 2u, 0xffu);
-    dst_p[7] |= pack_right_shift_u32(y4, 10u, 0xffu);
+    dst_p[5] |= pack_left_shift_u32(y4, 2u, 0xfcu);
+    dst_p[6] |= pack_right_shift_u32(y4, 6u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(y4, 14u, 0xffu);
 
     return (8);
 }
@@ -1516,24 +1516,24 @@ int caekf_can_bench_yp_unpack(
 
     dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
-    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
-    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
-    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
-    y1 = unpack_right_shift_u32(src_p[3], 4u, 0xf0u);
-    y1 |= unpack_left_shift_u32(src_p[4], 4u, 0xffu);
-    y1 |= unpack_left_shift_u32(src_p[5], 12u, 0x3fu);
+    dst_p->step = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u8(src_p[2], 4u, 0x0fu);
+    y1 = unpack_right_shift_u32(src_p[2], 4u, 0xf0u);
+    y1 |= unpack_left_shift_u32(src_p[3], 4u, 0xffu);
+    y1 |= unpack_left_shift_u32(src_p[4], 12u, 0xffu);
+    y1 |= unpack_left_shift_u32(src_p[5], 20u, 0x03u);
 
-    if ((y1 & (1u << 17)) != 0u) {
-        y1 |= 0xfffc0000u;
+    if ((y1 & (1u << 21)) != 0u) {
+        y1 |= 0xffc00000u;
     }
 
     dst_p->y1 = (int32_t)y1;
-    y4 = unpack_right_shift_u32(src_p[5], 6u, 0xc0u);
-    y4 |= unpack_left_shift_u32(src_p[6], 2u, 0xffu);
-    y4 |= unpack_left_shift_u32(src_p[7], 10u, 0xffu);
+    y4 = unpack_right_shift_u32(src_p[5], 2u, 0xfcu);
+    y4 |= unpack_left_shift_u32(src_p[6], 6u, 0xffu);
+    y4 |= unpack_left_shift_u32(src_p[7], 14u, 0xffu);
 
-    if ((y4 & (1u << 17)) != 0u) {
-        y4 |= 0xfffc0000u;
+    if ((y4 & (1u << 21)) != 0u) {
+        y4 |= 0xffc00000u;
     }
 
     dst_p->y4 = (int32_t)y4;
@@ -1572,7 +1572,7 @@ bool caekf_can_bench_yp_e2_e_counter_is_in_phys_range(double value)
     return ((value >= 0.0) && (value <= 15.0));
 }
 
-bool caekf_can_bench_yp_step_is_in_range(uint16_t value)
+bool caekf_can_bench_yp_step_is_in_range(uint8_t value)
 {
     (void)value;
 
@@ -1581,27 +1581,27 @@ bool caekf_can_bench_yp_step_is_in_range(uint16_t value)
 
 bool caekf_can_bench_yp_step_is_in_phys_range(double value)
 {
-    return ((value >= 0.0) && (value <= 65535.0));
+    return ((value >= 0.0) && (value <= 255.0));
 }
 
 bool caekf_can_bench_yp_y1_is_in_range(int32_t value)
 {
-    return ((value >= -131072) && (value <= 131071));
+    return ((value >= -2097152) && (value <= 2097151));
 }
 
 bool caekf_can_bench_yp_y1_is_in_phys_range(double value)
 {
-    return ((value >= -0.00262144) && (value <= 0.00262142));
+    return ((value >= -0.002097152) && (value <= 0.002097151));
 }
 
 bool caekf_can_bench_yp_y4_is_in_range(int32_t value)
 {
-    return ((value >= -131072) && (value <= 131071));
+    return ((value >= -2097152) && (value <= 2097151));
 }
 
 bool caekf_can_bench_yp_y4_is_in_phys_range(double value)
 {
-    return ((value >= -0.00262144) && (value <= 0.00262142));
+    return ((value >= -0.002097152) && (value <= 0.002097151));
 }
 
 int caekf_can_est_prod_pack(
@@ -2158,6 +2158,598 @@ bool caekf_can_est_page_step_status_is_in_range(int8_t value)
 bool caekf_can_est_page_step_status_is_in_phys_range(double value)
 {
     return ((value >= -128.0) && (value <= 127.0));
+}
+
+int caekf_can_bench_fd_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_fd_t *src_p,
+    size_t size)
+{
+    uint32_t u;
+    uint64_t y1;
+    uint64_t y4;
+
+    if (size < 20u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 20);
+
+    dst_p[0] |= pack_left_shift_u16(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_right_shift_u16(src_p->e2_e_crc, 8u, 0xffu);
+    dst_p[2] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[3] |= pack_left_shift_u16(src_p->step, 0u, 0xffu);
+    dst_p[4] |= pack_right_shift_u16(src_p->step, 8u, 0xffu);
+    memcpy(&u, &src_p->u, sizeof(u));
+    dst_p[5] |= pack_left_shift_u32(u, 0u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(u, 8u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(u, 16u, 0xffu);
+    dst_p[8] |= pack_right_shift_u32(u, 24u, 0xffu);
+    y1 = (uint64_t)src_p->y1;
+    dst_p[9] |= pack_left_shift_u64(y1, 0u, 0xffu);
+    dst_p[10] |= pack_right_shift_u64(y1, 8u, 0xffu);
+    dst_p[11] |= pack_right_shift_u64(y1, 16u, 0xffu);
+    dst_p[12] |= pack_right_shift_u64(y1, 24u, 0xffu);
+    dst_p[13] |= pack_right_shift_u64(y1, 32u, 0x0fu);
+    y4 = (uint64_t)src_p->y4;
+    dst_p[13] |= pack_left_shift_u64(y4, 4u, 0xf0u);
+    dst_p[14] |= pack_right_shift_u64(y4, 4u, 0xffu);
+    dst_p[15] |= pack_right_shift_u64(y4, 12u, 0xffu);
+    dst_p[16] |= pack_right_shift_u64(y4, 20u, 0xffu);
+    dst_p[17] |= pack_right_shift_u64(y4, 28u, 0xffu);
+
+    return (20);
+}
+
+int caekf_can_bench_fd_unpack(
+    struct caekf_can_bench_fd_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t u;
+    uint64_t y1;
+    uint64_t y4;
+
+    if (size < 20u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u16(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_crc |= unpack_left_shift_u16(src_p[1], 8u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[2], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[3], 0u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[4], 8u, 0xffu);
+    u = unpack_right_shift_u32(src_p[5], 0u, 0xffu);
+    u |= unpack_left_shift_u32(src_p[6], 8u, 0xffu);
+    u |= unpack_left_shift_u32(src_p[7], 16u, 0xffu);
+    u |= unpack_left_shift_u32(src_p[8], 24u, 0xffu);
+    memcpy(&dst_p->u, &u, sizeof(dst_p->u));
+    y1 = unpack_right_shift_u64(src_p[9], 0u, 0xffu);
+    y1 |= unpack_left_shift_u64(src_p[10], 8u, 0xffu);
+    y1 |= unpack_left_shift_u64(src_p[11], 16u, 0xffu);
+    y1 |= unpack_left_shift_u64(src_p[12], 24u, 0xffu);
+    y1 |= unpack_left_shift_u64(src_p[13], 32u, 0x0fu);
+
+    if ((y1 & (1ull << 35)) != 0ull) {
+        y1 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->y1 = (int64_t)y1;
+    y4 = unpack_right_shift_u64(src_p[13], 4u, 0xf0u);
+    y4 |= unpack_left_shift_u64(src_p[14], 4u, 0xffu);
+    y4 |= unpack_left_shift_u64(src_p[15], 12u, 0xffu);
+    y4 |= unpack_left_shift_u64(src_p[16], 20u, 0xffu);
+    y4 |= unpack_left_shift_u64(src_p[17], 28u, 0xffu);
+
+    if ((y4 & (1ull << 35)) != 0ull) {
+        y4 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->y4 = (int64_t)y4;
+
+    return (0);
+}
+
+int caekf_can_bench_fd_init(struct caekf_can_bench_fd_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_fd_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_fd_e2_e_crc_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_fd_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_fd_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_fd_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_fd_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_fd_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_fd_u_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_bench_fd_u_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_bench_fd_y1_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_fd_y1_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+bool caekf_can_bench_fd_y4_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_fd_y4_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_est_fd_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_fd_t *src_p,
+    size_t size)
+{
+    uint32_t gamma;
+    uint32_t p_gamma_gamma;
+    uint32_t p_norm;
+    uint64_t q1;
+    uint64_t q2;
+    uint64_t q3;
+    uint64_t q4;
+    uint64_t v1;
+    uint64_t v2;
+    uint64_t v3;
+    uint64_t v4;
+    uint8_t step_status;
+
+    if (size < 64u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 64);
+
+    dst_p[0] |= pack_left_shift_u16(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_right_shift_u16(src_p->e2_e_crc, 8u, 0xffu);
+    dst_p[2] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[3] |= pack_left_shift_u16(src_p->step, 0u, 0xffu);
+    dst_p[4] |= pack_right_shift_u16(src_p->step, 8u, 0xffu);
+    memcpy(&gamma, &src_p->gamma, sizeof(gamma));
+    dst_p[5] |= pack_left_shift_u32(gamma, 0u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(gamma, 8u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(gamma, 16u, 0xffu);
+    dst_p[8] |= pack_right_shift_u32(gamma, 24u, 0xffu);
+    memcpy(&p_norm, &src_p->p_norm, sizeof(p_norm));
+    dst_p[9] |= pack_left_shift_u32(p_norm, 0u, 0xffu);
+    dst_p[10] |= pack_right_shift_u32(p_norm, 8u, 0xffu);
+    dst_p[11] |= pack_right_shift_u32(p_norm, 16u, 0xffu);
+    dst_p[12] |= pack_right_shift_u32(p_norm, 24u, 0xffu);
+    memcpy(&p_gamma_gamma, &src_p->p_gamma_gamma, sizeof(p_gamma_gamma));
+    dst_p[13] |= pack_left_shift_u32(p_gamma_gamma, 0u, 0xffu);
+    dst_p[14] |= pack_right_shift_u32(p_gamma_gamma, 8u, 0xffu);
+    dst_p[15] |= pack_right_shift_u32(p_gamma_gamma, 16u, 0xffu);
+    dst_p[16] |= pack_right_shift_u32(p_gamma_gamma, 24u, 0xffu);
+    dst_p[17] |= pack_left_shift_u16(src_p->flags, 0u, 0xffu);
+    dst_p[18] |= pack_right_shift_u16(src_p->flags, 8u, 0xffu);
+    dst_p[19] |= pack_left_shift_u8(src_p->newton_iters, 0u, 0xffu);
+    step_status = (uint8_t)src_p->step_status;
+    dst_p[20] |= pack_left_shift_u8(step_status, 0u, 0xffu);
+    q1 = (uint64_t)src_p->q1;
+    dst_p[21] |= pack_left_shift_u64(q1, 0u, 0xffu);
+    dst_p[22] |= pack_right_shift_u64(q1, 8u, 0xffu);
+    dst_p[23] |= pack_right_shift_u64(q1, 16u, 0xffu);
+    dst_p[24] |= pack_right_shift_u64(q1, 24u, 0xffu);
+    dst_p[25] |= pack_right_shift_u64(q1, 32u, 0x0fu);
+    q2 = (uint64_t)src_p->q2;
+    dst_p[25] |= pack_left_shift_u64(q2, 4u, 0xf0u);
+    dst_p[26] |= pack_right_shift_u64(q2, 4u, 0xffu);
+    dst_p[27] |= pack_right_shift_u64(q2, 12u, 0xffu);
+    dst_p[28] |= pack_right_shift_u64(q2, 20u, 0xffu);
+    dst_p[29] |= pack_right_shift_u64(q2, 28u, 0xffu);
+    q3 = (uint64_t)src_p->q3;
+    dst_p[30] |= pack_left_shift_u64(q3, 0u, 0xffu);
+    dst_p[31] |= pack_right_shift_u64(q3, 8u, 0xffu);
+    dst_p[32] |= pack_right_shift_u64(q3, 16u, 0xffu);
+    dst_p[33] |= pack_right_shift_u64(q3, 24u, 0xffu);
+    dst_p[34] |= pack_right_shift_u64(q3, 32u, 0x0fu);
+    q4 = (uint64_t)src_p->q4;
+    dst_p[34] |= pack_left_shift_u64(q4, 4u, 0xf0u);
+    dst_p[35] |= pack_right_shift_u64(q4, 4u, 0xffu);
+    dst_p[36] |= pack_right_shift_u64(q4, 12u, 0xffu);
+    dst_p[37] |= pack_right_shift_u64(q4, 20u, 0xffu);
+    dst_p[38] |= pack_right_shift_u64(q4, 28u, 0xffu);
+    v1 = (uint64_t)src_p->v1;
+    dst_p[39] |= pack_left_shift_u64(v1, 0u, 0xffu);
+    dst_p[40] |= pack_right_shift_u64(v1, 8u, 0xffu);
+    dst_p[41] |= pack_right_shift_u64(v1, 16u, 0xffu);
+    dst_p[42] |= pack_right_shift_u64(v1, 24u, 0xffu);
+    dst_p[43] |= pack_right_shift_u64(v1, 32u, 0x0fu);
+    v2 = (uint64_t)src_p->v2;
+    dst_p[43] |= pack_left_shift_u64(v2, 4u, 0xf0u);
+    dst_p[44] |= pack_right_shift_u64(v2, 4u, 0xffu);
+    dst_p[45] |= pack_right_shift_u64(v2, 12u, 0xffu);
+    dst_p[46] |= pack_right_shift_u64(v2, 20u, 0xffu);
+    dst_p[47] |= pack_right_shift_u64(v2, 28u, 0xffu);
+    v3 = (uint64_t)src_p->v3;
+    dst_p[48] |= pack_left_shift_u64(v3, 0u, 0xffu);
+    dst_p[49] |= pack_right_shift_u64(v3, 8u, 0xffu);
+    dst_p[50] |= pack_right_shift_u64(v3, 16u, 0xffu);
+    dst_p[51] |= pack_right_shift_u64(v3, 24u, 0xffu);
+    dst_p[52] |= pack_right_shift_u64(v3, 32u, 0x0fu);
+    v4 = (uint64_t)src_p->v4;
+    dst_p[52] |= pack_left_shift_u64(v4, 4u, 0xf0u);
+    dst_p[53] |= pack_right_shift_u64(v4, 4u, 0xffu);
+    dst_p[54] |= pack_right_shift_u64(v4, 12u, 0xffu);
+    dst_p[55] |= pack_right_shift_u64(v4, 20u, 0xffu);
+    dst_p[56] |= pack_right_shift_u64(v4, 28u, 0xffu);
+
+    return (64);
+}
+
+int caekf_can_est_fd_unpack(
+    struct caekf_can_est_fd_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t gamma;
+    uint32_t p_gamma_gamma;
+    uint32_t p_norm;
+    uint64_t q1;
+    uint64_t q2;
+    uint64_t q3;
+    uint64_t q4;
+    uint64_t v1;
+    uint64_t v2;
+    uint64_t v3;
+    uint64_t v4;
+    uint8_t step_status;
+
+    if (size < 64u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u16(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_crc |= unpack_left_shift_u16(src_p[1], 8u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[2], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[3], 0u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[4], 8u, 0xffu);
+    gamma = unpack_right_shift_u32(src_p[5], 0u, 0xffu);
+    gamma |= unpack_left_shift_u32(src_p[6], 8u, 0xffu);
+    gamma |= unpack_left_shift_u32(src_p[7], 16u, 0xffu);
+    gamma |= unpack_left_shift_u32(src_p[8], 24u, 0xffu);
+    memcpy(&dst_p->gamma, &gamma, sizeof(dst_p->gamma));
+    p_norm = unpack_right_shift_u32(src_p[9], 0u, 0xffu);
+    p_norm |= unpack_left_shift_u32(src_p[10], 8u, 0xffu);
+    p_norm |= unpack_left_shift_u32(src_p[11], 16u, 0xffu);
+    p_norm |= unpack_left_shift_u32(src_p[12], 24u, 0xffu);
+    memcpy(&dst_p->p_norm, &p_norm, sizeof(dst_p->p_norm));
+    p_gamma_gamma = unpack_right_shift_u32(src_p[13], 0u, 0xffu);
+    p_gamma_gamma |= unpack_left_shift_u32(src_p[14], 8u, 0xffu);
+    p_gamma_gamma |= unpack_left_shift_u32(src_p[15], 16u, 0xffu);
+    p_gamma_gamma |= unpack_left_shift_u32(src_p[16], 24u, 0xffu);
+    memcpy(&dst_p->p_gamma_gamma, &p_gamma_gamma, sizeof(dst_p->p_gamma_gamma));
+    dst_p->flags = unpack_right_shift_u16(src_p[17], 0u, 0xffu);
+    dst_p->flags |= unpack_left_shift_u16(src_p[18], 8u, 0xffu);
+    dst_p->newton_iters = unpack_right_shift_u8(src_p[19], 0u, 0xffu);
+    step_status = unpack_right_shift_u8(src_p[20], 0u, 0xffu);
+    dst_p->step_status = (int8_t)step_status;
+    q1 = unpack_right_shift_u64(src_p[21], 0u, 0xffu);
+    q1 |= unpack_left_shift_u64(src_p[22], 8u, 0xffu);
+    q1 |= unpack_left_shift_u64(src_p[23], 16u, 0xffu);
+    q1 |= unpack_left_shift_u64(src_p[24], 24u, 0xffu);
+    q1 |= unpack_left_shift_u64(src_p[25], 32u, 0x0fu);
+
+    if ((q1 & (1ull << 35)) != 0ull) {
+        q1 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q1 = (int64_t)q1;
+    q2 = unpack_right_shift_u64(src_p[25], 4u, 0xf0u);
+    q2 |= unpack_left_shift_u64(src_p[26], 4u, 0xffu);
+    q2 |= unpack_left_shift_u64(src_p[27], 12u, 0xffu);
+    q2 |= unpack_left_shift_u64(src_p[28], 20u, 0xffu);
+    q2 |= unpack_left_shift_u64(src_p[29], 28u, 0xffu);
+
+    if ((q2 & (1ull << 35)) != 0ull) {
+        q2 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q2 = (int64_t)q2;
+    q3 = unpack_right_shift_u64(src_p[30], 0u, 0xffu);
+    q3 |= unpack_left_shift_u64(src_p[31], 8u, 0xffu);
+    q3 |= unpack_left_shift_u64(src_p[32], 16u, 0xffu);
+    q3 |= unpack_left_shift_u64(src_p[33], 24u, 0xffu);
+    q3 |= unpack_left_shift_u64(src_p[34], 32u, 0x0fu);
+
+    if ((q3 & (1ull << 35)) != 0ull) {
+        q3 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q3 = (int64_t)q3;
+    q4 = unpack_right_shift_u64(src_p[34], 4u, 0xf0u);
+    q4 |= unpack_left_shift_u64(src_p[35], 4u, 0xffu);
+    q4 |= unpack_left_shift_u64(src_p[36], 12u, 0xffu);
+    q4 |= unpack_left_shift_u64(src_p[37], 20u, 0xffu);
+    q4 |= unpack_left_shift_u64(src_p[38], 28u, 0xffu);
+
+    if ((q4 & (1ull << 35)) != 0ull) {
+        q4 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q4 = (int64_t)q4;
+    v1 = unpack_right_shift_u64(src_p[39], 0u, 0xffu);
+    v1 |= unpack_left_shift_u64(src_p[40], 8u, 0xffu);
+    v1 |= unpack_left_shift_u64(src_p[41], 16u, 0xffu);
+    v1 |= unpack_left_shift_u64(src_p[42], 24u, 0xffu);
+    v1 |= unpack_left_shift_u64(src_p[43], 32u, 0x0fu);
+
+    if ((v1 & (1ull << 35)) != 0ull) {
+        v1 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v1 = (int64_t)v1;
+    v2 = unpack_right_shift_u64(src_p[43], 4u, 0xf0u);
+    v2 |= unpack_left_shift_u64(src_p[44], 4u, 0xffu);
+    v2 |= unpack_left_shift_u64(src_p[45], 12u, 0xffu);
+    v2 |= unpack_left_shift_u64(src_p[46], 20u, 0xffu);
+    v2 |= unpack_left_shift_u64(src_p[47], 28u, 0xffu);
+
+    if ((v2 & (1ull << 35)) != 0ull) {
+        v2 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v2 = (int64_t)v2;
+    v3 = unpack_right_shift_u64(src_p[48], 0u, 0xffu);
+    v3 |= unpack_left_shift_u64(src_p[49], 8u, 0xffu);
+    v3 |= unpack_left_shift_u64(src_p[50], 16u, 0xffu);
+    v3 |= unpack_left_shift_u64(src_p[51], 24u, 0xffu);
+    v3 |= unpack_left_shift_u64(src_p[52], 32u, 0x0fu);
+
+    if ((v3 & (1ull << 35)) != 0ull) {
+        v3 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v3 = (int64_t)v3;
+    v4 = unpack_right_shift_u64(src_p[52], 4u, 0xf0u);
+    v4 |= unpack_left_shift_u64(src_p[53], 4u, 0xffu);
+    v4 |= unpack_left_shift_u64(src_p[54], 12u, 0xffu);
+    v4 |= unpack_left_shift_u64(src_p[55], 20u, 0xffu);
+    v4 |= unpack_left_shift_u64(src_p[56], 28u, 0xffu);
+
+    if ((v4 & (1ull << 35)) != 0ull) {
+        v4 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v4 = (int64_t)v4;
+
+    return (0);
+}
+
+int caekf_can_est_fd_init(struct caekf_can_est_fd_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_fd_t));
+
+    return 0;
+}
+
+bool caekf_can_est_fd_e2_e_crc_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_fd_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_fd_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_fd_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_fd_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_fd_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_fd_gamma_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_fd_gamma_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_fd_p_norm_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_fd_p_norm_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_fd_p_gamma_gamma_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_fd_p_gamma_gamma_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+bool caekf_can_est_fd_flags_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_fd_flags_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_fd_newton_iters_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_fd_newton_iters_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_fd_step_status_is_in_range(int8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_fd_step_status_is_in_phys_range(double value)
+{
+    return ((value >= -128.0) && (value <= 127.0));
+}
+
+bool caekf_can_est_fd_q1_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_q1_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+bool caekf_can_est_fd_q2_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_q2_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+bool caekf_can_est_fd_q3_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_q3_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+bool caekf_can_est_fd_q4_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_q4_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+bool caekf_can_est_fd_v1_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_v1_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+bool caekf_can_est_fd_v2_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_v2_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+bool caekf_can_est_fd_v3_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_v3_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+bool caekf_can_est_fd_v4_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_fd_v4_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
 }
 
 int caekf_can_est_gamma_pack(

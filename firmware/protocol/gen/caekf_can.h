@@ -56,6 +56,8 @@ extern "C" {
 #define CAEKF_CAN_BENCH_YP_FRAME_ID (0x103u)
 #define CAEKF_CAN_EST_PROD_FRAME_ID (0x190u)
 #define CAEKF_CAN_EST_PAGE_FRAME_ID (0x191u)
+#define CAEKF_CAN_BENCH_FD_FRAME_ID (0x104u)
+#define CAEKF_CAN_EST_FD_FRAME_ID (0x192u)
 #define CAEKF_CAN_EST_GAMMA_FRAME_ID (0x180u)
 #define CAEKF_CAN_EST_Q1_FRAME_ID (0x181u)
 #define CAEKF_CAN_EST_Q2_FRAME_ID (0x182u)
@@ -81,6 +83,8 @@ extern "C" {
 #define CAEKF_CAN_BENCH_YP_LENGTH (8u)
 #define CAEKF_CAN_EST_PROD_LENGTH (8u)
 #define CAEKF_CAN_EST_PAGE_LENGTH (8u)
+#define CAEKF_CAN_BENCH_FD_LENGTH (20u)
+#define CAEKF_CAN_EST_FD_LENGTH (64u)
 #define CAEKF_CAN_EST_GAMMA_LENGTH (8u)
 #define CAEKF_CAN_EST_Q1_LENGTH (8u)
 #define CAEKF_CAN_EST_Q2_LENGTH (8u)
@@ -106,6 +110,8 @@ extern "C" {
 #define CAEKF_CAN_BENCH_YP_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_PROD_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_PAGE_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_FD_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_FD_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_GAMMA_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_Q1_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_Q2_IS_EXTENDED (0)
@@ -282,6 +288,8 @@ extern "C" {
 #define CAEKF_CAN_BENCH_YP_NAME "BENCH_YP"
 #define CAEKF_CAN_EST_PROD_NAME "EST_PROD"
 #define CAEKF_CAN_EST_PAGE_NAME "EST_PAGE"
+#define CAEKF_CAN_BENCH_FD_NAME "BENCH_FD"
+#define CAEKF_CAN_EST_FD_NAME "EST_FD"
 #define CAEKF_CAN_EST_GAMMA_NAME "EST_GAMMA"
 #define CAEKF_CAN_EST_Q1_NAME "EST_Q1"
 #define CAEKF_CAN_EST_Q2_NAME "EST_Q2"
@@ -381,6 +389,29 @@ extern "C" {
 #define CAEKF_CAN_EST_PAGE_FLAGS_NAME "FLAGS"
 #define CAEKF_CAN_EST_PAGE_NEWTON_ITERS_NAME "NEWTON_ITERS"
 #define CAEKF_CAN_EST_PAGE_STEP_STATUS_NAME "STEP_STATUS"
+#define CAEKF_CAN_BENCH_FD_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_FD_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_FD_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_FD_U_NAME "U"
+#define CAEKF_CAN_BENCH_FD_Y1_NAME "Y1"
+#define CAEKF_CAN_BENCH_FD_Y4_NAME "Y4"
+#define CAEKF_CAN_EST_FD_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_FD_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_FD_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_FD_GAMMA_NAME "GAMMA"
+#define CAEKF_CAN_EST_FD_P_NORM_NAME "P_NORM"
+#define CAEKF_CAN_EST_FD_P_GAMMA_GAMMA_NAME "P_GAMMA_GAMMA"
+#define CAEKF_CAN_EST_FD_FLAGS_NAME "FLAGS"
+#define CAEKF_CAN_EST_FD_NEWTON_ITERS_NAME "NEWTON_ITERS"
+#define CAEKF_CAN_EST_FD_STEP_STATUS_NAME "STEP_STATUS"
+#define CAEKF_CAN_EST_FD_Q1_NAME "Q1"
+#define CAEKF_CAN_EST_FD_Q2_NAME "Q2"
+#define CAEKF_CAN_EST_FD_Q3_NAME "Q3"
+#define CAEKF_CAN_EST_FD_Q4_NAME "Q4"
+#define CAEKF_CAN_EST_FD_V1_NAME "V1"
+#define CAEKF_CAN_EST_FD_V2_NAME "V2"
+#define CAEKF_CAN_EST_FD_V3_NAME "V3"
+#define CAEKF_CAN_EST_FD_V4_NAME "V4"
 #define CAEKF_CAN_EST_GAMMA_E2_E_CRC_NAME "E2E_CRC"
 #define CAEKF_CAN_EST_GAMMA_E2_E_COUNTER_NAME "E2E_COUNTER"
 #define CAEKF_CAN_EST_GAMMA_STEP_NAME "STEP"
@@ -1053,28 +1084,28 @@ struct caekf_can_bench_yp_t {
     uint8_t e2_e_counter;
 
     /**
-     * Bench step index k modulo 2^16; ties the frames of one step together.
+     * Bench step index k modulo 2^8; the estimator unwraps it against the step being assembled (BENCH_U carries all 16 bits): keep fewer than 128 steps in flight.
      *
-     * Range: 0..65535 (0..65535 -)
+     * Range: 0..255 (0..255 -)
      * Scale: 1
      * Offset: 0
      */
-    uint16_t step;
+    uint8_t step;
 
     /**
-     * Measurement y1 = q1. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
+     * Measurement y1 = q1. int22, LSB 1e-9 m (quantisation <= 5e-10 m, a 200th of the paper's sigma_r), range +/-2.10 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
      *
-     * Range: -131072..131071 (-0.00262..0.00262 m)
-     * Scale: 2e-08
+     * Range: -2097152..2097151 (-0.0021..0.0021 m)
+     * Scale: 1e-09
      * Offset: 0
      */
     int32_t y1;
 
     /**
-     * Measurement y2 = q4. int18, LSB 2e-8 m (quantisation <= 1e-8 m, a tenth of the paper's sigma_r), range +/-2.62 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
+     * Measurement y2 = q4. int22, LSB 1e-9 m (quantisation <= 5e-10 m, a 200th of the paper's sigma_r), range +/-2.10 mm (the scenarios stay within 1.4 mm); saturates at the range ends.
      *
-     * Range: -131072..131071 (-0.00262..0.00262 m)
-     * Scale: 2e-08
+     * Range: -2097152..2097151 (-0.0021..0.0021 m)
+     * Scale: 1e-09
      * Offset: 0
      */
     int32_t y4;
@@ -1294,6 +1325,231 @@ struct caekf_can_est_page_t {
      * Offset: 0
      */
     int8_t step_status;
+};
+
+/**
+ * Signals in message BENCH_FD.
+ *
+ * CAN FD profile step data (one frame per step, 20 bytes, bit-rate switch): force u, measurements y1 = q1 and y2 = q4 at the diagnostics profile's resolution.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_fd_t {
+    /**
+     * CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, xorout 0; check(123456789) = 0x29B1) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 2..N-1 (AUTOSAR profile-5 style for the long CAN FD payload).
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Input force u. IEEE-754 float32; the estimator refuses NaN and infinities.
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 N)
+     * Scale: 1
+     * Offset: 0
+     */
+    float u;
+
+    /**
+     * Measurement y1 = q1. int36, LSB 1e-12 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t y1;
+
+    /**
+     * Measurement y2 = q4. int36, LSB 1e-12 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t y4;
+};
+
+/**
+ * Signals in message EST_FD.
+ *
+ * CAN FD profile: the whole estimate of step STEP in one 64-byte frame (bit-rate switch), at the diagnostics profile's resolutions; closes the step.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_fd_t {
+    /**
+     * CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, xorout 0; check(123456789) = 0x29B1) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 2..N-1 (AUTOSAR profile-5 style for the long CAN FD payload).
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16 of this estimate.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated contact stiffness gamma. IEEE-754 float32.
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 N/m^1.5)
+     * Scale: 1
+     * Offset: 0
+     */
+    float gamma;
+
+    /**
+     * Spectral norm of the covariance P (NaN if it could not be computed). IEEE-754 float32.
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    float p_norm;
+
+    /**
+     * Variance of gamma. IEEE-754 float32.
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 (N/m^1.5)^2)
+     * Scale: 1
+     * Offset: 0
+     */
+    float p_gamma_gamma;
+
+    /**
+     * Health flags as EST_STEP.FLAGS: estimator bits 0..11, app bits 12..14.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t flags;
+
+    /**
+     * Newton iterations of this step.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t newton_iters;
+
+    /**
+     * caekf_step status (0 OK, negative: refused).
+     *
+     * Range: -128..127 (-128..127 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    int8_t step_status;
+
+    /**
+     * Estimated position q1. int36, LSB 1e-12 m.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q1;
+
+    /**
+     * Estimated position q2. int36, LSB 1e-12 m.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q2;
+
+    /**
+     * Estimated position q3. int36, LSB 1e-12 m.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q3;
+
+    /**
+     * Estimated position q4. int36, LSB 1e-12 m.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q4;
+
+    /**
+     * Estimated velocity v1. int36, LSB 1e-10 m/s.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v1;
+
+    /**
+     * Estimated velocity v2. int36, LSB 1e-10 m/s.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v2;
+
+    /**
+     * Estimated velocity v3. int36, LSB 1e-10 m/s.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v3;
+
+    /**
+     * Estimated velocity v4. int36, LSB 1e-10 m/s.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v4;
 };
 
 /**
@@ -3514,7 +3770,7 @@ bool caekf_can_bench_yp_e2_e_counter_is_in_phys_range(double value);
  *
  * @return true if in range, false otherwise.
  */
-bool caekf_can_bench_yp_step_is_in_range(uint16_t value);
+bool caekf_can_bench_yp_step_is_in_range(uint8_t value);
 
 /**
  * Check that given physical value is in allowed range before encoding.
@@ -4130,6 +4386,586 @@ bool caekf_can_est_page_step_status_is_in_range(int8_t value);
  * @return true if in range, false otherwise.
  */
 bool caekf_can_est_page_step_status_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_FD.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_fd_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_fd_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_FD.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_fd_unpack(
+    struct caekf_can_bench_fd_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_FD.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_fd_init(struct caekf_can_bench_fd_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_e2_e_crc_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_u_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_u_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_y1_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_y1_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_y4_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_fd_y4_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_FD.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_fd_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_fd_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_FD.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_fd_unpack(
+    struct caekf_can_est_fd_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_FD.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_fd_init(struct caekf_can_est_fd_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_e2_e_crc_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_gamma_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_gamma_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_p_norm_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_p_norm_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_p_gamma_gamma_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_p_gamma_gamma_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_flags_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_flags_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_newton_iters_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_newton_iters_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_step_status_is_in_range(int8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_step_status_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q1_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q1_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q2_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q2_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q3_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q3_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q4_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_q4_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v1_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v1_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v2_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v2_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v3_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v3_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v4_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_fd_v4_is_in_phys_range(double value);
 
 /**
  * Pack message EST_GAMMA.

@@ -183,8 +183,8 @@ caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    clipped = caekf_scaled_to_raw(m->y1, CAEKF_YP_LSB, 18u, &r1);
-    clipped |= caekf_scaled_to_raw(m->y4, CAEKF_YP_LSB, 18u, &r4);
+    clipped = caekf_scaled_to_raw(m->y1, CAEKF_YP_LSB, CAEKF_YP_BITS, &r1);
+    clipped |= caekf_scaled_to_raw(m->y4, CAEKF_YP_LSB, CAEKF_YP_BITS, &r4);
     memset(&g, 0, sizeof g);
     g.step = m->step;
     g.y1 = (int32_t)r1;
@@ -334,5 +334,118 @@ caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], 
     } else {
         m->value = get_f32(slot[g.page]);
     }
+    return CAEKF_PROTO_OK;
+}
+
+/* --- CAN FD profile ---------------------------------------------------------------------------- */
+
+#define POS_LSB 1e-12 /* m per LSB of the 36-bit positions, as the diagnostics frames */
+#define VEL_LSB 1e-10 /* m/s per LSB of the 36-bit velocities */
+#define FD_SCALED_BITS 36u
+
+caekf_proto_status_t caekf_proto_encode_fd_in(const caekf_msg_fd_in_t *m, uint8_t data[CAEKF_CAN_FD_MAX_LEN])
+{
+    struct caekf_can_bench_fd_t g;
+    int clipped;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    memset(&g, 0, sizeof g);
+    g.step = m->step;
+    clipped = put_f32(&g.u, m->u);
+    clipped |= caekf_scaled_to_raw(m->y1, POS_LSB, FD_SCALED_BITS, &g.y1);
+    clipped |= caekf_scaled_to_raw(m->y4, POS_LSB, FD_SCALED_BITS, &g.y4);
+    if (caekf_can_bench_fd_pack(data, &g, CAEKF_FD_IN_LEN) != (int)CAEKF_FD_IN_LEN) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_in_t *m)
+{
+    struct caekf_can_bench_fd_t g;
+    uint32_t bits;
+    double u = 0.0;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if (caekf_can_bench_fd_unpack(&g, data, CAEKF_FD_IN_LEN) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    memcpy(&bits, &g.u, sizeof bits);
+    if (caekf_float32_value(bits, &u) != 0) {
+        return CAEKF_PROTO_ERR_VALUE; /* inputs: NaN and infinities are refused */
+    }
+    m->step = g.step;
+    m->u = u;
+    m->y1 = (double)g.y1 * POS_LSB; /* as cantools: raw * scale */
+    m->y4 = (double)g.y4 * POS_LSB;
+    return CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint8_t data[CAEKF_CAN_FD_MAX_LEN])
+{
+    struct caekf_can_est_fd_t g;
+    int64_t *scaled[8];
+    int clipped = 0;
+    unsigned i;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    memset(&g, 0, sizeof g);
+    scaled[0] = &g.q1;
+    scaled[1] = &g.q2;
+    scaled[2] = &g.q3;
+    scaled[3] = &g.q4;
+    scaled[4] = &g.v1;
+    scaled[5] = &g.v2;
+    scaled[6] = &g.v3;
+    scaled[7] = &g.v4;
+    for (i = 0; i < 8u; i++) {
+        clipped |= caekf_scaled_to_raw(m->x[i], i < 4u ? POS_LSB : VEL_LSB, FD_SCALED_BITS, scaled[i]);
+    }
+    clipped |= put_f32(&g.gamma, m->x[8]);
+    clipped |= put_f32(&g.p_norm, m->p_norm);
+    clipped |= put_f32(&g.p_gamma_gamma, m->p_gg);
+    g.step = m->step;
+    g.flags = m->info.flags;
+    g.newton_iters = m->info.newton_iters;
+    g.step_status = m->info.status;
+    if (caekf_can_est_fd_pack(data, &g, CAEKF_FD_OUT_LEN) != (int)CAEKF_FD_OUT_LEN) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+}
+
+caekf_proto_status_t caekf_proto_decode_fd_out(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_out_t *m)
+{
+    struct caekf_can_est_fd_t g;
+    const int64_t *scaled[8];
+    unsigned i;
+    if (m == NULL || data == NULL) {
+        return CAEKF_PROTO_ERR_NULL;
+    }
+    if (caekf_can_est_fd_unpack(&g, data, CAEKF_FD_OUT_LEN) != 0) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    scaled[0] = &g.q1;
+    scaled[1] = &g.q2;
+    scaled[2] = &g.q3;
+    scaled[3] = &g.q4;
+    scaled[4] = &g.v1;
+    scaled[5] = &g.v2;
+    scaled[6] = &g.v3;
+    scaled[7] = &g.v4;
+    for (i = 0; i < 8u; i++) {
+        m->x[i] = (double)*scaled[i] * (i < 4u ? POS_LSB : VEL_LSB);
+    }
+    m->x[8] = get_f32(&g.gamma);
+    m->p_norm = get_f32(&g.p_norm);
+    m->p_gg = get_f32(&g.p_gamma_gamma);
+    m->step = g.step;
+    m->info.step = g.step;
+    m->info.flags = g.flags;
+    m->info.newton_iters = g.newton_iters;
+    m->info.status = g.step_status;
     return CAEKF_PROTO_OK;
 }

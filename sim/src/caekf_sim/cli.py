@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from typing import List, Optional
+from typing import List, NoReturn, Optional
 
 COMMAND_MODULES = (
     "caekf_sim.commands.run",  # truth, estimate, experiments
@@ -26,8 +26,19 @@ COMMAND_MODULES = (
 EXIT_USAGE, EXIT_BAD_INPUT, EXIT_IO, EXIT_NUMERIC = 2, 3, 4, 5
 
 
+class UsageError(Exception):
+    """Options that do not go together (argparse checks the rest): exit 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit 2), like every other error of the tools."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: {' '.join(message.split())} (see --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="caekf-sim",
         description="Truth model, numpy AEKF, figures and checks for the caekf project.",
     )
@@ -58,6 +69,8 @@ def exit_code(exc: BaseException) -> int:
     """The exit-code table: bad input 3 (scenario, settings, measurements), I/O 4, numerical failure 5."""
     from .scenario import ScenarioError
 
+    if isinstance(exc, UsageError):
+        return EXIT_USAGE
     if isinstance(exc, (ScenarioError, ValueError, KeyError, TypeError)):
         return EXIT_BAD_INPUT
     if isinstance(exc, (OSError, EOFError)):

@@ -84,7 +84,7 @@ class Summary:
     def row(self) -> List[str]:
         return [
             self.name,
-            f"{100 * self.final_gamma_error:+.3f} %",
+            f"{100 * self.final_gamma_error:+.3f} %" if np.isfinite(self.final_gamma_error) else "-",
             f"{self.min_gamma:.4g}",
             f"{self.max_p_norm:.3g}",
             f"{self.newton_mean:.3f}",

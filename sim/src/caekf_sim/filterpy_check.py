@@ -25,6 +25,8 @@ def _filterpy_ekf_class():
     class NewtonEKF(ExtendedKalmanFilter):
         """FilterPy EKF whose state prediction is our implicit backward-Euler step."""
 
+        x: np.ndarray  # FilterPy's state column (n, 1)
+
         def __init__(self, model: AugmentedEKF) -> None:
             super().__init__(dim_x=NA, dim_z=2)
             self.model = model
@@ -75,6 +77,8 @@ class Agreement:
 
 
 def compare(xs: np.ndarray, Ps: np.ndarray, ref: EstimateResult, gamma_true: float) -> Agreement:
+    if ref.P is None:
+        raise ValueError("the reference run must keep P (keep_P=True)")
     dx = np.abs(xs - ref.x)
     col_scale = np.max(np.abs(ref.x), axis=0)
     state_rel = float(np.max(dx.max(axis=0) / col_scale))

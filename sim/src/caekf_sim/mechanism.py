@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -258,7 +258,7 @@ class Mechanism:
         freq = [_real(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]
         phase = [_real(sc, f"input{i}_phase") for i in range(1, ni + 1)]
         ns = _count(sc, "sensors", 1, MAX_SENSORS)
-        sens = []
+        sens: List[Tuple[int, int]] = []
         for i in range(1, ns + 1):
             s = (_body(sc, f"sensor{i}_body", nq, False), _kind(sc, f"sensor{i}_kind"))
             if s in sens:

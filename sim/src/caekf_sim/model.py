@@ -86,7 +86,7 @@ class StepSolver:
         self.contacts = p.contacts
         self.input_rows = tuple(p.input_body.tolist())
 
-    def penetrations(self, q: np.ndarray) -> List[float]:
+    def penetrations(self, q: "np.ndarray | List[float]") -> List[float]:
         """delta of each contact at positions q (plain floats)."""
         return [(q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap for a, b, gap, _, _ in self.contacts]
 

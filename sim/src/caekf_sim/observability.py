@@ -81,8 +81,8 @@ def pbh(A: np.ndarray, H: np.ndarray, rtol: float = RANK_RTOL) -> List[PbhRow]:
     for lam in np.linalg.eigvals(A):
         if any(abs(lam - r.eigenvalue) <= 1e-9 * max(1.0, abs(lam)) for r in rows):
             continue  # repeated eigenvalue: same matrix
-        O = np.vstack([A - lam * np.eye(n), H.astype(complex)])
-        sv = np.linalg.svd(O, compute_uv=False)
+        pbh = np.vstack([A - lam * np.eye(n), H.astype(complex)])  # the PBH matrix of eq. (20)
+        sv = np.linalg.svd(pbh, compute_uv=False)
         rank = int(np.sum(sv > rtol * sv[0]))
         rows.append(PbhRow(complex(lam), rank, float(sv[-1] / sv[0])))
     return sorted(rows, key=lambda r: (abs(r.eigenvalue), r.eigenvalue.imag))

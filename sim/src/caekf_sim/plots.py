@@ -1,4 +1,5 @@
-"""Figures 3-6 of the paper from results CSVs (matplotlib, Agg backend, PNG)."""
+"""Figures from results CSVs (matplotlib, Agg backend; PNG, SVG or PDF): Figs 3-6 of the paper from the four
+experiments, and `plot_runs` for any run or set of runs, with or without the truth."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,6 +12,7 @@ from .results import read_result_csv
 from .truth import Truth, contact_episodes, read_truth_csv
 
 PathLike = Union[str, Path]
+PLOT_FORMATS = ("png", "svg", "pdf")
 
 # Paper colours: canonical blue, switched red, constrained green, reference black.
 COLORS = {
@@ -29,7 +31,10 @@ LABELS = {
 
 
 def _pyplot():
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError:
+        raise ImportError("figures need matplotlib: pip install 'caekf-sim[plot]'") from None
 
     matplotlib.use("Agg")  # files only, no display
     import matplotlib.pyplot as plt
@@ -37,13 +42,15 @@ def _pyplot():
     return plt
 
 
-def _shade_contact(ax, truth: Truth) -> None:
-    """Grey bands where the truth is in contact (merging the short initial bounces)."""
+def _shade_contact(ax, truth: Optional[Truth]) -> None:
+    """Grey bands where the truth is in contact (merging the short initial bounces); none without truth."""
+    if truth is None:
+        return
     for i, (a, b) in enumerate(contact_episodes(truth.t, truth.delta, merge_gap=0.1)):
         ax.axvspan(a, b, color="0.9", zorder=0, label="contact (truth)" if i == 0 else None)
 
 
-def fig3_p_norm(res: Dict[str, EstimateResult], truth: Truth, out: Path) -> Path:
+def fig3_p_norm(res: Dict[str, EstimateResult], truth: Optional[Truth], out: Path, fmt: str = "png") -> Path:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     _shade_contact(ax, truth)
@@ -55,28 +62,30 @@ def fig3_p_norm(res: Dict[str, EstimateResult], truth: Truth, out: Path) -> Path
     ax.set_title("Fig. 3: norm of the error covariance")
     ax.grid(True, which="major", alpha=0.4)
     ax.legend(loc="upper left")
-    return _save(fig, out / "fig3_p_norm.png")
+    return _save(fig, out / f"fig3_p_norm.{fmt}")
 
 
-def fig4_gamma(res: Dict[str, EstimateResult], truth: Truth, gamma_true: float, out: Path) -> Path:
+def fig4_gamma(res: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: float, out: Path,
+               fmt: str = "png") -> Path:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     _shade_contact(ax, truth)
     for name in ("canonical", "switched"):
         r = res[name]
         ax.plot(r.t, r.gamma, color=COLORS[name], label=LABELS[name])
-    ax.axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
+    if np.isfinite(gamma_true):
+        ax.axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
     ax.set_xlabel("time [s]")
     ax.set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
     ax.set_title("Fig. 4: contact stiffness estimate")
     ax.grid(True, alpha=0.4)
     ax.legend(loc="upper left")
-    return _save(fig, out / "fig4_gamma.png")
+    return _save(fig, out / f"fig4_gamma.{fmt}")
 
 
 def fig5_q2(
     res: Dict[str, EstimateResult], truth: Truth, out: Path,
-    windows: Optional[List[Tuple[float, float]]] = None,
+    windows: Optional[List[Tuple[float, float]]] = None, fmt: str = "png",
 ) -> Path:
     """q2 estimate vs truth and its error around the first two contact events.
 
@@ -113,21 +122,27 @@ def fig5_q2(
         ax_err.grid(True, alpha=0.4)
         ax_err.legend(loc="upper right", fontsize=8)
         ax_err.set_xlim(*window)
-    return _save(fig, out / "fig5_q2.png")
+    return _save(fig, out / f"fig5_q2.{fmt}")
 
 
 def fig6_constrained(
-    res: Dict[str, EstimateResult], truth: Truth, gamma_true: float, gamma_min: float, out: Path,
-    detail: Optional[Tuple[float, float]] = None,
+    res: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: float, gamma_min: float, out: Path,
+    detail: Optional[Tuple[float, float]] = None, fmt: str = "png",
 ) -> List[Path]:
-    """(a) unconstrained vs constrained gamma over the run; (b) zoom on the first contact."""
+    """(a) unconstrained vs constrained gamma over the run; (b) zoom on the first contact (with truth)."""
     plt = _pyplot()
     paths = []
     un, co = res["switched-highq"], res["switched-highq-constrained"]
-    if detail is None:
-        first = contact_episodes(truth.t, truth.delta, merge_gap=0.1)[0]
-        detail = (first[0] - 0.2, first[0] + 1.5)
-    for tag, (t0, t1) in (("a", (truth.t[0], truth.t[-1])), ("b", detail)):
+    views = [("a", (float(co.t[0]), float(co.t[-1])))]
+    if detail is None and truth is not None:
+        episodes = contact_episodes(truth.t, truth.delta, merge_gap=0.1)
+        if episodes:
+            detail = (episodes[0][0] - 0.2, episodes[0][0] + 1.5)
+    if detail is not None:
+        views.append(("b", detail))
+    if not np.isfinite(gamma_true):  # no truth gamma: scale the views on the estimate
+        gamma_true = float(np.nanmax(np.abs(co.gamma)))
+    for tag, (t0, t1) in views:
         fig, ax = plt.subplots(figsize=(8, 4.5))
         _shade_contact(ax, truth)
         for name, r, lw in (("switched-highq", un, 1.0), ("switched-highq-constrained", co, 1.6)):
@@ -155,39 +170,53 @@ def fig6_constrained(
         ax.set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
         ax.grid(True, alpha=0.4)
         ax.legend(loc="lower right" if tag == "a" else "upper right", fontsize=8)
-        paths.append(_save(fig, out / f"fig6{tag}_gamma_constrained.png"))
+        paths.append(_save(fig, out / f"fig6{tag}_gamma_constrained.{fmt}"))
     return paths
 
 
 def _save(fig, path: Path) -> Path:
+    """Write the figure whole or not at all (a temporary file renamed), format from the suffix."""
+    from .outputs import atomic_output
+
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fmt = path.suffix.lstrip(".").lower()
+    if fmt not in PLOT_FORMATS:
+        raise ValueError(f"{path}: unknown figure format '{path.suffix}': use one of "
+                         + ", ".join("." + f for f in PLOT_FORMATS))
     import matplotlib.pyplot as plt
 
-    plt.close(fig)
+    try:
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, dpi=120, format=fmt)
+    finally:
+        plt.close(fig)
     return path
+
+
+EXPERIMENT_FILES = tuple(f"{n}.csv" for n in LABELS)
 
 
 def load_results(results_dir: PathLike, names: Optional[List[str]] = None) -> Dict[str, EstimateResult]:
     d = Path(results_dir)
-    names = names or ["canonical", "switched", "switched-highq", "switched-highq-constrained"]
+    names = names or list(LABELS)
     return {n: read_result_csv(d / f"{n}.csv") for n in names if (d / f"{n}.csv").exists()}
 
 
 def make_all(
-    results: Dict[str, EstimateResult], truth: Truth, gamma_true: float, gamma_min: float,
-    outdir: PathLike,
+    results: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: float, gamma_min: float,
+    outdir: PathLike, fmt: str = "png",
 ) -> List[Path]:
-    """Every figure whose inputs are present; returns the PNG paths."""
+    """Every figure whose inputs are present (Fig. 5 needs the truth); returns the paths."""
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     paths: List[Path] = []
     if {"canonical", "switched"} <= results.keys():
-        paths.append(fig3_p_norm(results, truth, out))
-        paths.append(fig4_gamma(results, truth, gamma_true, out))
-        paths.append(fig5_q2(results, truth, out))
+        paths.append(fig3_p_norm(results, truth, out, fmt=fmt))
+        paths.append(fig4_gamma(results, truth, gamma_true, out, fmt=fmt))
+        if truth is not None:
+            paths.append(fig5_q2(results, truth, out, fmt=fmt))
     if {"switched-highq", "switched-highq-constrained"} <= results.keys():
-        paths.extend(fig6_constrained(results, truth, gamma_true, gamma_min, out))
+        paths.extend(fig6_constrained(results, truth, gamma_true, gamma_min, out, fmt=fmt))
     return paths
 
 
@@ -196,3 +225,33 @@ def make_all_from_files(
     outdir: PathLike,
 ) -> List[Path]:
     return make_all(load_results(results_dir), read_truth_csv(truth_csv), gamma_true, gamma_min, outdir)
+
+
+def plot_runs(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: float, out: PathLike) -> Path:
+    """One figure of any set of runs (estimate CSVs by label): gamma, the norm of P, and with the truth the
+    position error of body 2; contact bands and the reference gamma when known. Format from out's suffix."""
+    plt = _pyplot()
+    with_truth = truth is not None
+    fig, axes = plt.subplots(3 if with_truth else 2, 1, figsize=(9, 8.5 if with_truth else 6), sharex=True)
+    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax in axes:
+        _shade_contact(ax, truth)
+    for i, (label, r) in enumerate(runs.items()):
+        color = cycle[i % len(cycle)]
+        axes[0].plot(r.t, r.gamma, color=color, lw=1.0, label=label)
+        axes[1].semilogy(r.t, r.p_norm, color=color, lw=1.0, label=label)
+        if truth is not None:
+            err = r.x[:, 1] - np.interp(r.t, truth.t, truth.q[:, 1])
+            axes[2].plot(r.t, 1e6 * err, color=color, lw=0.8, label=label)
+    if np.isfinite(gamma_true):
+        axes[0].axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
+    axes[0].set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
+    axes[0].set_title("contact stiffness estimate" + ("" if len(runs) == 1 else f"s of {len(runs)} runs"))
+    axes[1].set_ylabel(r"$\|\mathbf{P}\|_2$")
+    if truth is not None:
+        axes[2].set_ylabel(r"$\hat q_2 - q_2$ [$\mu$m]")
+    axes[-1].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(True, alpha=0.4)
+    axes[0].legend(loc="best", fontsize=8)
+    return _save(fig, Path(out))

@@ -4,6 +4,7 @@ A general mechanism (nq bodies, nc contacts) writes q1..q<nq>, v1..v<nq>, then `
 or gamma1..gamma<nc>; the paper's columns are RESULT_COLUMNS."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Tuple, Union
 
@@ -36,16 +37,31 @@ def write_result_csv(res: EstimateResult, path: PathLike) -> None:
 
 
 def read_result_csv(path: PathLike) -> EstimateResult:
-    """Read an estimate CSV (ours or caekf-replay's); columns matched by header name."""
-    with open(path, encoding="utf-8") as f:
-        header = [c.strip() for c in f.readline().split(",")]
-    nq = sum(1 for c in header if c[:1] == "q" and c[1:].isdigit())
-    nc = 1 if "gamma" in header else sum(1 for c in header if c.startswith("gamma") and c[5:].isdigit())
-    want = result_columns(nq, nc)
-    missing = [c for c in want if c not in header]
-    if missing or nq == 0:
-        raise ValueError(f"{path}: missing columns {missing or ['q1']}")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    """Read an estimate CSV (ours or caekf-replay's); columns matched by header name (any mechanism: q1..,
+    v1.., gamma or gamma1..). A file that is not one is a one-line MeasurementError naming it (a missing
+    file: OSError)."""
+    from .measurements import MeasurementError, check_input_file
+
+    p = check_input_file(path)
+    try:
+        with open(p, encoding="utf-8") as f:
+            header = [c.strip() for c in f.readline().split(",")]
+        nq = sum(1 for c in header if c[:1] == "q" and c[1:].isdigit())
+        nc = 1 if "gamma" in header else sum(1 for c in header if c.startswith("gamma") and c[5:].isdigit())
+        want = result_columns(nq, nc)
+        missing = [c for c in want if c not in header] or (["q1"] if nq == 0 else [])
+        if missing:
+            raise MeasurementError(f"{p}: not an estimate CSV: missing columns {', '.join(missing)}")
+        with warnings.catch_warnings():  # an empty body is reported below, not as numpy's warning
+            warnings.simplefilter("ignore")
+            data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+    except MeasurementError:
+        raise
+    except ValueError as exc:  # numpy's parse errors, UnicodeDecodeError
+        raise MeasurementError(f"{p}: not an estimate CSV: {' '.join(str(exc).split())}") from None
+    if data.shape[0] == 0 or data.shape[1] != len(header):
+        raise MeasurementError(f"{p}: not an estimate CSV: no rows" if data.shape[0] == 0 else
+                               f"{p}: {data.shape[1]} columns, the header has {len(header)}")
     col = {name: data[:, header.index(name)] for name in want}
     x = np.column_stack([col[c] for c in want[1 : 1 + 2 * nq + nc]])
     return EstimateResult(

@@ -36,7 +36,14 @@ class _ScenarioBase:
         a change of a count leaves unused are dropped."""
         values = {**self.values(), **{canonical(k): v for k, v in changes.items()}}
         unused = [k for k, s, i in _KEYS if not SCHEMA.in_use(s, i, values)]
-        return scenario_from_values({k: v for k, v in values.items() if k not in unused}, "replace()")
+        return scenario_from_values({k: v for k, v in values.items() if k not in unused}, "replace()",
+                                    truth_optional=not self.has_truth)
+
+    @property
+    def has_truth(self) -> bool:
+        """False for a scenario loaded with truth_optional whose file left out truth-only keys (NaN)."""
+        return not any(isinstance(v, float) and math.isnan(v) for k, v in self.values().items()
+                       if setting_of(k).kind == "truth")
 
     def values(self) -> Dict[str, float]:
         """Every key's value, by scenario key; elements not in use (m5 of a 4-body mechanism) are left out."""
@@ -87,8 +94,10 @@ def _check(key: str, v: float, where: str, text: str = "") -> Any:
     return int(v) if setting.type != "real" else float(v)
 
 
-def scenario_from_values(values: Dict[str, Any], source: str) -> Any:
-    """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked."""
+def scenario_from_values(values: Dict[str, Any], source: str, truth_optional: bool = False) -> Any:
+    """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked. With
+    `truth_optional`, a truth-only key without a default (gamma, u_amp, ...: the simulated plant) may be
+    absent or NaN: it is NaN in the Scenario (estimating from measurements needs none of them)."""
     unknown = sorted(set(values) - set(_TYPES) - set(ALIASES))
     if unknown:
         raise ScenarioError(f"{source}: unknown key '{unknown[0]}'")
@@ -105,7 +114,10 @@ def scenario_from_values(values: Dict[str, Any], source: str) -> Any:
             counter = SCHEMA.by_name(setting.in_use_by or "").keys[0]
             raise ScenarioError(f"{source}: {key} is given, but {counter} = {given.get(counter, 'its default')} "
                                 "leaves it unused")
-        if key in given:
+        if truth_optional and setting.kind == "truth" and setting.element_required(index) and used \
+                and (key not in given or math.isnan(float(given[key]))):
+            out[key] = math.nan
+        elif key in given:
             out[key] = _check(key, float(given[key]), source)
         elif setting.element_required(index) and used:
             raise ScenarioError(f"{source}: missing key '{key}' (it has no default)")
@@ -115,7 +127,7 @@ def scenario_from_values(values: Dict[str, Any], source: str) -> Any:
     return Scenario(**out)
 
 
-def scenario_from_text(text: str, source: str = "<text>") -> Any:
+def scenario_from_text(text: str, source: str = "<text>", truth_optional: bool = False) -> Any:
     """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required."""
     values: Dict[str, float] = {}
     for key, (lineno, value) in parse_flat(text, source).items():
@@ -134,18 +146,29 @@ def scenario_from_text(text: str, source: str = "<text>") -> Any:
             raise ScenarioError(f"{source}:{lineno}: {key} = {value}: not a finite number")
         _check(key, v, f"{source}:{lineno}", value)
         values[key] = v
-    return scenario_from_values(values, source)
+    return scenario_from_values(values, source, truth_optional)
 
 
-def load_scenario(path: PathLike) -> Any:
+def load_scenario(path: PathLike, truth_optional: bool = False) -> Any:
+    """Read and check a scenario file; `truth_optional`: see scenario_from_values."""
     p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a directory, expected a scenario file")
     try:
         text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{p}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
-    return scenario_from_text(text, str(p))
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{p}: not a text file (bytes that are not UTF-8)") from None
+    except OSError as exc:  # a missing or unreadable file: an I/O error (exit 4), as the C tools say
+        raise OSError(f"{p}: cannot open: {exc.strerror}") from None
+    return scenario_from_text(text, str(p), truth_optional)
 
 
 def default_scenario_path() -> Path:
-    """sim/scenarios/paper.toml when running from the source tree (editable install)."""
-    return Path(__file__).resolve().parents[2] / "scenarios" / "paper.toml"
+    """The reference scenario: the copy installed with the package (caekf_sim/scenarios/paper.toml, put there
+    by sim/CMakeLists.txt from sim/scenarios/paper.toml), else the source tree's (an editable install)."""
+    here = Path(__file__).resolve().parent
+    for p in (here / "scenarios" / "paper.toml", here.parents[1] / "scenarios" / "paper.toml"):
+        if p.is_file():
+            return p
+    raise FileNotFoundError(f"the reference scenario is not installed ({here / 'scenarios' / 'paper.toml'}): "
+                            "give --scenario")

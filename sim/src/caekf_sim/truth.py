@@ -115,6 +115,8 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
     rtol / atol_q [m] / atol_v [m/s]) or "backward-euler" (eq. 19 at dt/truth_substeps).
     inputs: None (the scenario's sines) or samples (t (M,), u (M, ni)) / an InputSeries.
     """
+    q: Any  # (N, nq) arrays in the continuous branch, plain float lists in the backward-Euler hot loop
+    v: Any
     mech = mech if mech is not None else Mechanism.from_scenario(sc)
     ufn = input_function(mech, inputs)
     if method == CONTINUOUS:
@@ -360,7 +362,7 @@ def contact_episodes(t: np.ndarray, delta: np.ndarray, merge_gap: float = 0.0):
     edges = np.diff(active.astype(np.int8), prepend=0, append=0)
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1) - 1
-    eps = []
+    eps: List[Tuple[float, float]] = []
     for s, e in zip(starts, ends):
         if eps and t[s] - eps[-1][1] <= merge_gap:
             eps[-1] = (eps[-1][0], float(t[e]))

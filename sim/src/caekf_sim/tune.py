@@ -16,8 +16,8 @@ filter; its 95 % band for N steps is chi2(2N)/N) and the fraction of steps whose
 per-step 95 % band [chi2.ppf(0.025, 2), chi2.ppf(0.975, 2)] (0.95 for a consistent filter).
 
 Records: t,u,y1,y4 CSVs (extra columns ignored, empty y1 and y4 = lost measurement, bridged by
-caekf_predict), and candump -L logs of the CAN bench (BENCH_U / BENCH_Y1 / BENCH_Y4 frames, one record
-per configuration, i.e. from each CTRL_RESET on).
+caekf_predict), and candump -L logs of the CAN bench (BENCH_U with BENCH_Y1 / BENCH_Y4, or BENCH_YP in the
+production profile; one record per configuration, i.e. from each CTRL_RESET on).
 """
 from __future__ import annotations
 
@@ -77,13 +77,14 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
 
     codec = Codec(dbc) if dbc else Codec()
     frames = read_log(path, codec.from_estimator_ids)
-    ids = {codec.messages[n].frame_id: n for n in ("BENCH_U", "BENCH_Y1", "BENCH_Y4", "CTRL_RESET")}
+    ids = {codec.messages[n].frame_id: n for n in ("BENCH_U", "BENCH_Y1", "BENCH_Y4", "BENCH_YP", "CTRL_RESET")
+           if n in codec.messages}
     data_id = {fid: codec.messages[n].data_id for fid, n in ids.items()}
     segments: List[List[Tuple[str, bytes]]] = [[]]
     for f in frames:
         if not f.sent_by_bench or f.frame_id not in ids or not crc_ok(data_id[f.frame_id], f.data):
             continue
-        name = ids[f.frame_id]
+        name: str = ids[f.frame_id]
         if name == "CTRL_RESET":
             if segments[-1]:
                 segments.append([])
@@ -101,8 +102,9 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
             else:  # unwrap the 16-bit counter (steps move by less than half its range)
                 base += (wire - last + 0x8000) % 0x10000 - 0x8000
             last = wire
-            sig = {"BENCH_U": "U", "BENCH_Y1": "Y1", "BENCH_Y4": "Y4"}[name]
-            steps.setdefault(base, {})[sig] = float(vals[sig][0])
+            sigs = {"BENCH_U": ("U",), "BENCH_Y1": ("Y1",), "BENCH_Y4": ("Y4",), "BENCH_YP": ("Y1", "Y4")}[name]
+            for sig in sigs:
+                steps.setdefault(base, {})[sig] = float(vals[sig][0])
         ks = np.array(sorted(steps))
         k0 = ks[0]
         n = int(ks[-1] - k0 + 1)
@@ -119,7 +121,7 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
         u = np.where(np.isfinite(u[idx]), u[idx], 0.0)
         out.append(Record(f"{Path(path).name}#{i + 1}", (k0 + np.arange(n)) * dt, u, y))
     if not out:
-        raise ValueError(f"{path}: no BENCH_U/BENCH_Y1/BENCH_Y4 frames")
+        raise ValueError(f"{path}: no BENCH_U/BENCH_Y1/BENCH_Y4/BENCH_YP frames")
     return out
 
 

@@ -65,6 +65,7 @@ void fake_tx_clear(fake_hal_t *f)
 void bench_send(fake_hal_t *f, caekf_msg_t msg, caekf_can_frame_t *frame)
 {
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_seal(msg, f->bench_counter[msg], frame));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_bus_id(msg, f->id_offset, &frame->id));
     f->bench_counter[msg] = (uint8_t)((f->bench_counter[msg] + 1u) & 0x0Fu);
     fake_push(f, frame);
 }
@@ -115,11 +116,11 @@ void bench_status_req(fake_hal_t *f, unsigned token)
 
 int fake_tx_find(const fake_hal_t *f, caekf_msg_t msg, unsigned nth)
 {
-    const caekf_msg_info_t *info;
+    uint32_t id = 0;
     unsigned i;
-    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_info(msg, &info));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_bus_id(msg, f->id_offset, &id));
     for (i = 0; i < f->tx_count; i++) {
-        if (f->tx[i].id == info->can_id) {
+        if (f->tx[i].id == id) {
             if (nth == 0u) {
                 return (int)i;
             }
@@ -143,8 +144,11 @@ int fake_tx_e2e_ok(fake_hal_t *f, unsigned index)
     caekf_msg_t msg;
     const caekf_msg_info_t *info;
     const caekf_can_frame_t *fr = &f->tx[index];
-    if (caekf_proto_msg_from_id(fr->id, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
+    if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
         return 0;
+    }
+    if (info->len > CAEKF_CAN_DLC) {
+        return caekf_e2e_check_fd(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, info->len, NULL) == CAEKF_E2E_OK;
     }
     return caekf_e2e_check(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, NULL) == CAEKF_E2E_OK;
 }
@@ -155,7 +159,7 @@ int fake_tx_crc_ok(const fake_hal_t *f, unsigned index)
     const caekf_msg_info_t *info;
     const caekf_can_frame_t *fr = &f->tx[index];
     uint8_t crc = 0;
-    if (caekf_proto_msg_from_id(fr->id, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
+    if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
         return 0;
     }
     (void)caekf_e2e_crc(info->data_id, fr->data, &crc);

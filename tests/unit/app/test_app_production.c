@@ -22,16 +22,21 @@ void setUp(void)
 }
 void tearDown(void) {}
 
-static void bench_prod_step(uint16_t step, double u, double y1, double y4)
+static void bench_yp(uint16_t step, double y1, double y4)
 {
     caekf_can_frame_t f;
     caekf_msg_yp_t yp;
-    bench_value(&fake, CAEKF_MSG_BENCH_U, step, u);
-    yp.step = step;
+    yp.step = (uint8_t)(step & 0xFFu); /* BENCH_YP carries STEP modulo 2^8 */
     yp.y1 = y1;
     yp.y4 = y4;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_yp(&yp, f.data));
     bench_send(&fake, CAEKF_MSG_BENCH_YP, &f);
+}
+
+static void bench_prod_step(uint16_t step, double u, double y1, double y4)
+{
+    bench_value(&fake, CAEKF_MSG_BENCH_U, step, u);
+    bench_yp(step, y1, y4);
 }
 
 /* float32 of a value, as EST_PROD/EST_PAGE carry it */
@@ -159,11 +164,117 @@ static void test_yp_after_y1_repeats_and_a_status_request_restarts_the_pages(voi
     TEST_ASSERT_EQUAL_UINT(0, fake_tx_count(&fake, CAEKF_MSG_EST_STEP));
 }
 
+static void test_yp_step_modulo_256_is_unwrapped_against_the_open_or_next_step(void)
+{
+    uint16_t k;
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
+    /* across 2^8 and 2^16: BENCH_YP first (unwrapped against the step after the last closed one),
+     * then BENCH_U (unwrapped against the open step) - every step completes, none late or superseded */
+    bench_prod_step(65530u, 0.1, 1e-6, 0.0);
+    fixture_poll_all();
+    for (k = 65531u; k != 262u; k++) {
+        if (k & 1u) {
+            bench_yp(k, 1e-6, 0.0);
+            bench_value(&fake, CAEKF_MSG_BENCH_U, k, 0.1);
+        } else {
+            bench_prod_step(k, 0.1, 1e-6, 0.0);
+        }
+        fixture_poll_all();
+        fake_tx_clear(&fake);
+    }
+    TEST_ASSERT_EQUAL_UINT32(268u, counter(CAEKF_CNT_STEPS_DONE));
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_STEPS_SKIPPED));
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_STEPS_SUPERSEDED));
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_RX_LATE));
+    /* a BENCH_YP of an already closed step (5 behind: low byte 0x00 after 0x05) is late, not step 256 */
+    bench_yp(256u, 1e-6, 0.0);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_RX_LATE));
+    TEST_ASSERT_EQUAL_UINT32(268u, counter(CAEKF_CNT_STEPS_DONE));
+}
+
+/* The CAN FD profile: BENCH_FD (u, y1, y4 in one 20-byte frame) makes a step, EST_FD (64 bytes, CRC-16) carries
+ * every value of it, equal to a directly stepped estimator's as the frame encodes it. */
+static void test_fd_profile_one_frame_in_one_frame_out(void)
+{
+    caekf_app_hal_t hal;
+    caekf_app_config_t cfg;
+    caekf_app_settings_t base;
+    caekf_settings_t s;
+    static caekf_t ref;
+    caekf_can_frame_t f;
+    caekf_msg_fd_in_t in;
+    caekf_msg_fd_out_t out, want;
+    uint16_t k;
+    fake_hal_init(&fake, &hal);
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_config_default(&cfg));
+    cfg.status_period_us = 0;
+    cfg.profile = (uint8_t)CAEKF_PROFILE_FD;
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_init(&app, &hal, &cfg));
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
+    fixture_paper_settings(&base, CAEKF_FIXTURE_PRESET_SWITCHED);
+    s = base.est;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&ref, &s));
+    for (k = 1; k <= 30u; k++) {
+        caekf_scalar_t y[2], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn;
+        caekf_report_t rep;
+        uint8_t d[CAEKF_CAN_FD_MAX_LEN];
+        unsigned i;
+        in.step = k;
+        in.u = 0.02 * (double)k;
+        in.y1 = -3.3e-7 * (double)k;
+        in.y4 = 1.1e-8 * (double)k;
+        memset(f.data, 0, sizeof f.data);
+        TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_fd_in(&in, f.data));
+        fake_tx_clear(&fake);
+        bench_send(&fake, CAEKF_MSG_BENCH_FD, &f);
+        TEST_ASSERT_EQUAL_UINT8(CAEKF_FD_IN_LEN, f.dlc);
+        fixture_poll_all();
+        TEST_ASSERT_EQUAL_UINT(1u, fake.tx_count);
+        TEST_ASSERT_EQUAL_INT(0, fake_tx_find(&fake, CAEKF_MSG_EST_FD, 0));
+        TEST_ASSERT_EQUAL_UINT8(CAEKF_FD_OUT_LEN, fake.tx[0].dlc);
+        TEST_ASSERT_TRUE(fake_tx_e2e_ok(&fake, 0));
+        TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_fd_out(fake.tx[0].data, &out));
+        /* the reference estimator on the values as the frame carries them */
+        y[0] = (caekf_scalar_t)in.y1;
+        y[1] = (caekf_scalar_t)in.y4;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)(float)in.u}, y, &rep));
+        (void)caekf_get_state(&ref, x);
+        (void)caekf_get_covariance(&ref, P);
+        (void)caekf_get_cov_norm2(&ref, &pn);
+        for (i = 0; i < 9; i++) { /* the paper's q1..q4, v1..v4, gamma */
+            want.x[i] = (double)x[i];
+        }
+        want.p_norm = (double)pn;
+        want.p_gg = (double)P[2 * ref.model.nq][2 * ref.model.nq];
+        want.step = k;
+        want.info.flags = (uint16_t)(rep.flags & 0x0FFFu);
+        want.info.newton_iters = (uint8_t)rep.newton_iters;
+        want.info.status = CAEKF_OK;
+        memset(d, 0, sizeof d);
+        (void)caekf_proto_encode_fd_out(&want, d);
+        (void)caekf_proto_decode_fd_out(d, &want);
+        TEST_ASSERT_EQUAL_MEMORY(want.x, out.x, sizeof out.x);
+        TEST_ASSERT_TRUE(want.p_norm == out.p_norm && want.p_gg == out.p_gg);
+        TEST_ASSERT_EQUAL_UINT16(k, out.step);
+        TEST_ASSERT_EQUAL_HEX16(want.info.flags, out.info.flags);
+        TEST_ASSERT_EQUAL_UINT8(want.info.newton_iters, out.info.newton_iters);
+    }
+    TEST_ASSERT_EQUAL_UINT32(30u, counter(CAEKF_CNT_STEPS_DONE));
+    /* a classic 8-byte frame with BENCH_FD's ID is a wrong DLC */
+    f.dlc = 8u;
+    fake_push(&fake, &f);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_UINT32(1u, counter(CAEKF_CNT_RX_BAD_DLC));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_init_refuses_a_page_period_shorter_than_the_pages_and_unknown_profiles);
     RUN_TEST(test_two_input_frames_make_a_step_and_each_value_equals_the_estimator);
     RUN_TEST(test_yp_after_y1_repeats_and_a_status_request_restarts_the_pages);
+    RUN_TEST(test_yp_step_modulo_256_is_unwrapped_against_the_open_or_next_step);
+    RUN_TEST(test_fd_profile_one_frame_in_one_frame_out);
     return UNITY_END();
 }

@@ -382,6 +382,44 @@ static void test_init_and_poll_refuse_incomplete_set_ups(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_NULL, caekf_app_poll(NULL));
 }
 
+static void test_id_offset_moves_every_frame_and_the_dbc_ids_become_foreign(void)
+{
+    caekf_app_hal_t hal;
+    caekf_app_config_t cfg;
+    uint32_t id = 0;
+    unsigned i;
+    fake_hal_init(&fake, &hal);
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_config_default(&cfg));
+    TEST_ASSERT_EQUAL_INT(0, cfg.id_offset);
+    cfg.status_period_us = 0;
+    cfg.id_offset = (int16_t)(0x7FF - 0x192 + 1); /* EST_FD (0x192) would leave the 11-bit range */
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_CONFIG, caekf_app_init(&app, &hal, &cfg));
+    cfg.id_offset = -0x0C1; /* CTRL_RESET (0x0C0) would go below 0 */
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_CONFIG, caekf_app_init(&app, &hal, &cfg));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_bus_id(CAEKF_MSG_EST_FD, cfg.id_offset, &id));
+    cfg.id_offset = 0x7FF - 0x192; /* the last valid offset: EST_FD at 0x7FF */
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_init(&app, &hal, &cfg));
+    cfg.id_offset = 0x500;
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_init(&app, &hal, &cfg));
+    fake.id_offset = 0x500;
+    fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
+    bench_step(&fake, 1, 0.25, 1e-7, 0.0);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_STEPS_DONE));
+    TEST_ASSERT_EQUAL_UINT(12, fake.tx_count);
+    for (i = 0; i < 12u; i++) {
+        TEST_ASSERT_TRUE(fake.tx[i].id >= 0x5C0u && fake.tx[i].id <= 0x691u);
+        TEST_ASSERT_TRUE(fake_tx_e2e_ok(&fake, i)); /* data IDs unchanged: the bench checks them as before */
+    }
+    TEST_ASSERT_EQUAL_HEX32(0x18Bu + 0x500u, fake.tx[11].id); /* EST_STEP, last */
+    /* a bench still on the DBC's IDs is a foreign node now */
+    fake.id_offset = 0;
+    bench_step(&fake, 2, 0.25, 1e-7, 0.0);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_UINT32(3, counter(CAEKF_CNT_RX_UNKNOWN_ID));
+    TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_STEPS_DONE));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -401,5 +439,6 @@ int main(void)
     RUN_TEST(test_poll_takes_a_bounded_number_of_frames);
     RUN_TEST(test_out_of_range_estimate_is_saturated_and_flagged);
     RUN_TEST(test_init_and_poll_refuse_incomplete_set_ups);
+    RUN_TEST(test_id_offset_moves_every_frame_and_the_dbc_ids_become_foreign);
     return UNITY_END();
 }

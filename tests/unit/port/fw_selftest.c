@@ -22,7 +22,7 @@
 #ifndef CAEKF_SELFTEST_MCU
 #define CAEKF_SELFTEST_MCU "cortex-m"
 #endif
-#define SELFTEST_STEPS 8u
+#define SELFTEST_STEPS 8u /* per profile: diagnostics, then production */
 #define SEMIHOST_SYS_TIME 0x11 /* host wall clock, whole seconds (SYS_CLOCK would be QEMU's CPU time) */
 #define SEMIHOST_WAIT_LIMIT 20000000u
 
@@ -78,19 +78,16 @@ static int check_clock(void)
     return 0;
 }
 
-int main(void)
+/* The self-test sequence with the firmware and the bench in one profile (SELFTEST_STEPS steps each). */
+static int run_profile(caekf_profile_t profile, const char *name)
 {
     int fails = 0;
     uint32_t t0, t1;
-
-    caekf_console_puts("fw selftest: " CAEKF_SELFTEST_MCU ", bxCAN simulated in RAM\n");
-    if (caekf_us_clock_init(&clk, (caekf_systick_regs_t *)CAEKF_SYSTICK_BASE, CAEKF_SELFTEST_CORE_HZ, 1) != 0) {
-        caekf_console_puts("  FAIL clock init\n");
-        return 1;
-    }
-    fails += check_clock();
-
+    caekf_console_puts(" profile ");
+    caekf_console_puts(name);
+    caekf_console_putc('\n');
     caekf_mcu_selftest_prepare(&t);
+    t.profile = (uint8_t)profile;
     t0 = caekf_us_clock_now(&clk);
     if (caekf_mcu_selftest_run(&t, caekf_us_clock_now_cb, &clk, SELFTEST_STEPS) != 0) {
         caekf_console_puts("  FAIL ");
@@ -111,6 +108,22 @@ int main(void)
     put_counter("driver tx_busy", t.fw.can.cnt.tx_busy);
     put_counter("hal tx queue high water", t.fw.hal.cnt.txq_high_water);
     put_counter("run time (us)", t1 - t0);
+    return fails;
+}
+
+int main(void)
+{
+    int fails = 0;
+
+    caekf_console_puts("fw selftest: " CAEKF_SELFTEST_MCU ", bxCAN simulated in RAM\n");
+    if (caekf_us_clock_init(&clk, (caekf_systick_regs_t *)CAEKF_SYSTICK_BASE, CAEKF_SELFTEST_CORE_HZ, 1) != 0) {
+        caekf_console_puts("  FAIL clock init\n");
+        return 1;
+    }
+    fails += check_clock();
+
+    fails += run_profile(CAEKF_PROFILE_DIAGNOSTICS, "diagnostics");
+    fails += run_profile(CAEKF_PROFILE_PRODUCTION, "production");
     caekf_console_puts(fails == 0 ? "fw selftest: ok\n" : "fw selftest: FAILED\n");
     return fails;
 }

@@ -56,6 +56,7 @@ void caekf_mcu_selftest_prepare(caekf_mcu_selftest_t *t)
     t->frames_out = 0u;
     t->steps_ok = 0u;
     t->est_step_status_sum = 0u;
+    t->profile = (uint8_t)CAEKF_PROFILE_DIAGNOSTICS;
 }
 
 /* One main-loop pass of the firmware, with the hardware reacting before and after. */
@@ -98,7 +99,7 @@ static int bench_send(caekf_mcu_selftest_t *t, caekf_msg_t msg, const uint8_t da
     caekf_can_frame_t f;
     caekf_bxcan_frame_t bx;
     unsigned i;
-    memcpy(f.data, data, sizeof f.data);
+    memcpy(f.data, data, CAEKF_CAN_DLC);
     CHECK(t, caekf_proto_seal(msg, t->bench_counter[msg], &f) == CAEKF_PROTO_OK, "bench: seal", msg);
     t->bench_counter[msg] = (uint8_t)((t->bench_counter[msg] + 1u) & CAEKF_E2E_COUNTER_MASK);
     for (i = 0u; i < PUMP_LIMIT && t->fake.fifo_count >= CAEKF_BXCAN_RX_FIFO_DEPTH; i++) {
@@ -310,6 +311,59 @@ static int run_step(caekf_mcu_selftest_t *t, uint16_t step)
     return 0;
 }
 
+/* Production profile: BENCH_U and BENCH_YP in; EST_PROD out first, then (default page period 20) page
+ * (step - 1) % 20 of EST_PAGE while that is < 11. */
+static int run_step_prod(caekf_mcu_selftest_t *t, uint16_t step)
+{
+    uint8_t d[CAEKF_CAN_DLC];
+    const caekf_bxcan_frame_t *out = t->taken;
+    const unsigned page = (unsigned)(step - 1u) % 20u;
+    const unsigned want = (page < CAEKF_PAGE_COUNT) ? 2u : 1u;
+    const caekf_msg_info_t *prod, *pg;
+    caekf_msg_yp_t yp;
+    caekf_msg_prod_t pm;
+    caekf_msg_page_t pp;
+    unsigned i, n, k = 0u;
+    yp.step = (uint8_t)(step & 0xFFu);
+    yp.y1 = 1.0e-6 * (double)step;
+    yp.y4 = -0.5e-6 * (double)step;
+    CHECK(t, caekf_proto_encode_value(CAEKF_MSG_BENCH_U, step, 5.0 * (double)(step % 7u), d) >= 0,
+          "bench: encode BENCH_U", step);
+    if (bench_send(t, CAEKF_MSG_BENCH_U, d)) {
+        return 1;
+    }
+    CHECK(t, caekf_proto_encode_yp(&yp, d) == CAEKF_PROTO_OK, "bench: encode BENCH_YP", step);
+    if (bench_send(t, CAEKF_MSG_BENCH_YP, d)) {
+        return 1;
+    }
+    CHECK(t, settle(t), "step: firmware did not go idle", step);
+    if (take_tx(t, &n)) {
+        return 1;
+    }
+    (void)caekf_proto_msg_info(CAEKF_MSG_EST_PROD, &prod);
+    (void)caekf_proto_msg_info(CAEKF_MSG_EST_PAGE, &pg);
+    for (i = 0u; i < n; i++) {
+        if (out[i].id == 0x0C9u) {
+            continue; /* EST_HEALTH */
+        }
+        CHECK(t, k < want, "step: more estimate frames than a production step has", out[i].id);
+        if (k == 0u) {
+            CHECK(t, out[i].id == prod->can_id, "step: EST_PROD must come first", out[i].id);
+            CHECK(t, caekf_proto_decode_prod(out[i].data, &pm) == CAEKF_PROTO_OK && pm.step == (uint8_t)step &&
+                         isfinite(pm.gamma) && pm.gamma > 0.0,
+                  "step: EST_PROD not this step's finite positive stiffness", step);
+        } else {
+            CHECK(t, out[i].id == pg->can_id, "step: the frame after EST_PROD is not EST_PAGE", out[i].id);
+            CHECK(t, caekf_proto_decode_page(out[i].data, &pp) == CAEKF_PROTO_OK && pp.step == step && pp.page == page,
+                  "step: EST_PAGE of another step or page", pp.page);
+        }
+        k++;
+    }
+    CHECK(t, k == want, "step: production estimate frames missing", k);
+    t->steps_ok++;
+    return 0;
+}
+
 static int check_overrun(caekf_mcu_selftest_t *t)
 {
     uint8_t d[CAEKF_CAN_DLC];
@@ -325,7 +379,7 @@ static int check_overrun(caekf_mcu_selftest_t *t)
         req.token = (uint8_t)(0x10u + i);
         memset(d, 0, sizeof d);
         CHECK(t, caekf_proto_encode_status_req(&req, d) == CAEKF_PROTO_OK, "bench: encode CTRL_STATUS_REQ", i);
-        memcpy(f.data, d, sizeof f.data);
+        memcpy(f.data, d, CAEKF_CAN_DLC);
         CHECK(t, caekf_proto_seal(CAEKF_MSG_CTRL_STATUS_REQ, t->bench_counter[CAEKF_MSG_CTRL_STATUS_REQ], &f) ==
                      CAEKF_PROTO_OK,
               "bench: seal", i);
@@ -369,6 +423,7 @@ int caekf_mcu_selftest_run(caekf_mcu_selftest_t *t, caekf_mcu_now_fn_t now, void
     cfg.filter_regs = &t->fake.regs;
     cfg.now = now;
     cfg.now_ctx = now_ctx;
+    cfg.app.profile = t->profile;
     cfg.can.wait_limit = 1000u;
     cfg.can.wait_hook = caekf_bxcan_fake_hook; /* the fake controller acknowledges while we wait */
     cfg.can.wait_ctx = &t->fake;
@@ -379,7 +434,7 @@ int caekf_mcu_selftest_run(caekf_mcu_selftest_t *t, caekf_mcu_now_fn_t now, void
         return 1;
     }
     for (k = 1u; k <= steps; k++) {
-        if (run_step(t, (uint16_t)k)) {
+        if (t->profile == (uint8_t)CAEKF_PROFILE_PRODUCTION ? run_step_prod(t, (uint16_t)k) : run_step(t, (uint16_t)k)) {
             return 1;
         }
     }

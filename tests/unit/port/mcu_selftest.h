@@ -12,7 +12,9 @@
  *   3. configuration over CAN: the paper's settings and the switched-highq-constrained preset's as
  *      CTRL_PARAM frames (the generated fixture), CTRL_RESET, EST_ACK accepted;
  *   4. `steps` bench steps: BENCH_U/Y1/Y4 in, then the 12 estimate frames of that STEP out, in
- *      order, EST_STEP last, every frame's E2E CRC and alive counter valid, step status >= 0;
+ *      order, EST_STEP last, every frame's E2E CRC and alive counter valid, step status >= 0; in the
+ *      PRODUCTION profile (t->profile) BENCH_U/YP in, EST_PROD out and one EST_PAGE at the first 11
+ *      steps of every 20;
  *   5. an RX overrun (4 frames into the 3-deep FIFO without polling) is counted by the driver.
  */
 #ifndef CAEKF_MCU_SELFTEST_H
@@ -37,6 +39,7 @@ typedef struct {
     long failure_value;                     /* a number that goes with it */
     uint32_t frames_in, frames_out, steps_ok;
     uint32_t est_step_status_sum;           /* sum of the STEP_STATUS fields seen (0 when all OK) */
+    uint8_t profile;                        /* caekf_profile_t of the firmware and the bench (prepare: DIAGNOSTICS) */
 } caekf_mcu_selftest_t;
 
 /* Resets the fake controller (acknowledges on) and the bench state. Change t->fake's knobs after

@@ -72,25 +72,30 @@ static void accept_all(void)
 static void test_rx_ids_are_the_protocol_inputs(void)
 {
     uint16_t ids[CAEKF_MSG_COUNT];
-    const uint16_t expect[7] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u};
+    const uint16_t expect[8] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u, 0x104u};
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(ids, (unsigned)CAEKF_MSG_COUNT));
-    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 7);
+    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0, ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 8);
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(7u, caekf_mcu_hal_rx_ids(ids, 2u)); /* count, but only 2 written */
+    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0, ids, 2u)); /* count, but only 2 written */
     TEST_ASSERT_EQUAL_HEX16(0x0C1u, ids[1]);
     TEST_ASSERT_EQUAL_HEX16(0u, ids[2]);
+    /* the runtime ID base moves them all; an offset leaving 0..0x7FF gives none */
+    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0x500, ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_HEX16(0x5C0u, ids[0]);
+    TEST_ASSERT_EQUAL_HEX16(0x603u, ids[6]);
+    TEST_ASSERT_EQUAL_UINT(0u, caekf_mcu_hal_rx_ids(0x700, ids, (unsigned)CAEKF_MSG_COUNT));
 }
 
 static void test_program_filters_uses_two_list_banks(void)
 {
     unsigned banks = 0;
-    TEST_ASSERT_EQUAL_INT(CAEKF_BXCAN_OK, caekf_mcu_hal_program_filters(&fake.regs, 4u, &banks));
+    TEST_ASSERT_EQUAL_INT(CAEKF_BXCAN_OK, caekf_mcu_hal_program_filters(&fake.regs, 4u, 0, &banks));
     TEST_ASSERT_EQUAL_UINT(2u, banks);
     TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FA1R);
     TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FM1R);
     TEST_ASSERT_EQUAL_HEX32(0x18201800u, fake.regs.filter[4].FR1);
-    TEST_ASSERT_EQUAL_HEX32(0x20602060u, fake.regs.filter[5].FR2); /* 0x103, repeated as the filler */
+    TEST_ASSERT_EQUAL_HEX32(0x20802060u, fake.regs.filter[5].FR2); /* 0x103, 0x104 (BENCH_FD) */
 }
 
 static void test_receive_maps_frames(void)
@@ -303,6 +308,20 @@ static void test_selftest_passes(void)
     TEST_ASSERT_TRUE(st.fw.hal.cnt.txq_high_water >= 9u);        /* the queue was needed */
 }
 
+static void test_selftest_passes_in_the_production_profile(void)
+{
+    caekf_mcu_selftest_prepare(&st);
+    st.profile = (uint8_t)CAEKF_PROFILE_PRODUCTION;
+    fake_now = 0u;
+    if (caekf_mcu_selftest_run(&st, now_cb, NULL, 25u) != 0) {
+        TEST_FAIL_MESSAGE(st.failure);
+    }
+    TEST_ASSERT_EQUAL_UINT32(25u, st.steps_ok);
+    /* 2 frames in per step; EST_ACK, 25 EST_PROD, pages 0..10 at steps 1..11 and 0..4 at steps 21..25, the two
+     * status answers */
+    TEST_ASSERT_EQUAL_UINT32(1u + 25u + 11u + 5u + 2u * (1u + CAEKF_HEALTH_PAGES), st.frames_out);
+}
+
 static void test_selftest_reports_init_timeout(void)
 {
     caekf_mcu_selftest_prepare(&st);
@@ -335,6 +354,7 @@ int main(void)
     RUN_TEST(test_us_clock_arithmetic);
     RUN_TEST(test_us_clock_programs_systick);
     RUN_TEST(test_selftest_passes);
+    RUN_TEST(test_selftest_passes_in_the_production_profile);
     RUN_TEST(test_selftest_reports_init_timeout);
     RUN_TEST(test_selftest_reports_start_timeout);
     return UNITY_END();

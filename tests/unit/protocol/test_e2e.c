@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "caekf/caekf_crc8.h"
+#include "caekf/caekf_crc16.h"
 #include "caekf/caekf_e2e.h"
 #include "unity.h"
 
@@ -124,6 +125,41 @@ static void test_null_pointers_are_refused(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_rx_init(NULL));
 }
 
+/* CAN FD frames: CRC-16/CCITT-FALSE in bytes 0..1 over the data ID and bytes 2..len-1, counter in bits
+ * 16..19; the same counter rules as the classic frames. */
+static void test_fd_crc16_check_value_and_seal_check(void)
+{
+    static const uint8_t check[9] = {'1', '2', '3', '4', '5', '6', '7', '8', '9'};
+    uint8_t p[64];
+    caekf_e2e_rx_t frx;
+    unsigned i, bit;
+    uint8_t lost = 9;
+    TEST_ASSERT_EQUAL_HEX16(0x29B1u, caekf_crc16_update(CAEKF_CRC16_INIT, check, sizeof check));
+    for (i = 0; i < sizeof p; i++) {
+        p[i] = (uint8_t)(i * 37u + 5u);
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect_fd(0xCA92u, 3u, p, 64u));
+    TEST_ASSERT_EQUAL_HEX8(3u, p[2] & 0x0Fu);
+    TEST_ASSERT_EQUAL_HEX8((uint8_t)((2u * 37u + 5u) & 0xF0u), p[2] & 0xF0u); /* upper nibble kept */
+    (void)caekf_e2e_rx_init(&frx);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DLC, caekf_e2e_check_fd(&frx, 0xCA92u, 1u, p, 8u, 64u, &lost));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_CRC, caekf_e2e_check_fd(&frx, 0xCA04u, 1u, p, 64u, 64u, &lost));
+    for (bit = 0; bit < 64u * 8u; bit += 13u) { /* a flipped bit anywhere, CRC bytes included */
+        p[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+        TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_CRC, caekf_e2e_check_fd(&frx, 0xCA92u, 1u, p, 64u, 64u, &lost));
+        p[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_check_fd(&frx, 0xCA92u, 1u, p, 64u, 64u, &lost));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DUPLICATE, caekf_e2e_check_fd(&frx, 0xCA92u, 1u, p, 64u, 64u, &lost));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect_fd(0xCA92u, 5u, p, 64u));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_JUMP, caekf_e2e_check_fd(&frx, 0xCA92u, 1u, p, 64u, 64u, &lost));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect_fd(0xCA92u, 6u, p, 64u));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_check_fd(&frx, 0xCA92u, 1u, p, 64u, 64u, &lost));
+    TEST_ASSERT_EQUAL_UINT8(0u, lost);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_DLC, caekf_e2e_protect_fd(0xCA92u, 0u, p, 65u));
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_protect_fd(0xCA92u, 0u, NULL, 64u));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -137,5 +173,6 @@ int main(void)
     RUN_TEST(test_wrong_dlc_is_rejected_before_anything_else);
     RUN_TEST(test_any_bit_flip_or_wrong_data_id_is_a_crc_error);
     RUN_TEST(test_null_pointers_are_refused);
+    RUN_TEST(test_fd_crc16_check_value_and_seal_check);
     return UNITY_END();
 }

@@ -67,6 +67,8 @@ typedef struct {
     uint16_t page_period_steps;  /* PRODUCTION: EST_PAGE pages 0..10 go out at the first 11 steps of every
                                     period of this many steps; 0 = only after a CTRL_STATUS_REQ, else
                                     >= CAEKF_PAGE_COUNT (default 20) */
+    int16_t id_offset;           /* runtime CAN ID base: every message travels at its DBC ID + this
+                                    (caekf_proto_id_offset_check: all IDs within 0..0x7FF; default 0) */
 } caekf_app_config_t;
 
 /* Settings the bench configures: the estimator's, by parameter id (CTRL_PARAM). Named presets are the

@@ -71,7 +71,7 @@ static int hal_receive(void *ctx, caekf_can_frame_t *out)
     }
     out->id = fr.ide ? (fr.id | CAEKF_CAN_ID_EXT_FLAG) : fr.id;
     out->dlc = (uint8_t)(fr.dlc > CAEKF_CAN_DLC ? CAEKF_CAN_DLC : fr.dlc);
-    memcpy(out->data, fr.data, sizeof out->data);
+    memcpy(out->data, fr.data, sizeof fr.data);
     return 1;
 }
 
@@ -132,16 +132,18 @@ caekf_bxcan_status_t caekf_mcu_hal_service(caekf_mcu_hal_t *h)
     return caekf_bxcan_service(h->can);
 }
 
-unsigned caekf_mcu_hal_rx_ids(uint16_t *ids, unsigned max)
+unsigned caekf_mcu_hal_rx_ids(int32_t id_offset, uint16_t *ids, unsigned max)
 {
     unsigned m, n = 0u;
     for (m = 0u; m < (unsigned)CAEKF_MSG_COUNT; m++) {
         const caekf_msg_info_t *info;
-        if (caekf_proto_msg_info((caekf_msg_t)m, &info) != CAEKF_PROTO_OK || info->dir != CAEKF_DIR_TO_ESTIMATOR) {
+        uint32_t id = 0u;
+        if (caekf_proto_msg_info((caekf_msg_t)m, &info) != CAEKF_PROTO_OK || info->dir != CAEKF_DIR_TO_ESTIMATOR ||
+            caekf_proto_bus_id((caekf_msg_t)m, id_offset, &id) != CAEKF_PROTO_OK) {
             continue;
         }
         if (ids != NULL && n < max) {
-            ids[n] = info->can_id;
+            ids[n] = (uint16_t)id;
         }
         n++;
     }
@@ -149,10 +151,10 @@ unsigned caekf_mcu_hal_rx_ids(uint16_t *ids, unsigned max)
 }
 
 caekf_bxcan_status_t caekf_mcu_hal_program_filters(caekf_bxcan_regs_t *filter_regs, unsigned first_bank,
-                                                   unsigned *banks_used)
+                                                   int32_t id_offset, unsigned *banks_used)
 {
     uint16_t ids[CAEKF_MSG_COUNT];
-    unsigned n = caekf_mcu_hal_rx_ids(ids, (unsigned)CAEKF_MSG_COUNT);
+    unsigned n = caekf_mcu_hal_rx_ids(id_offset, ids, (unsigned)CAEKF_MSG_COUNT);
     return caekf_bxcan_filter_list16(filter_regs, first_bank, ids, n, 0u, banks_used);
 }
 
@@ -186,7 +188,7 @@ caekf_mcu_status_t caekf_mcu_fw_init(caekf_mcu_fw_t *fw, const caekf_mcu_fw_conf
         return CAEKF_MCU_ERR_CAN;
     }
     fw->can_status = caekf_mcu_hal_program_filters(cfg->filter_regs != NULL ? cfg->filter_regs : cfg->regs,
-                                                   cfg->first_filter_bank, &fw->filter_banks);
+                                                   cfg->first_filter_bank, cfg->app.id_offset, &fw->filter_banks);
     if (fw->can_status != CAEKF_BXCAN_OK) {
         return CAEKF_MCU_ERR_FILTER;
     }

@@ -61,12 +61,13 @@ void caekf_mcu_hal_bind(caekf_mcu_hal_t *h, caekf_app_hal_t *hal);
  * driver's status (OK, ERR_BUS_OFF, ...). Call once per main-loop pass, before and after the poll. */
 caekf_bxcan_status_t caekf_mcu_hal_service(caekf_mcu_hal_t *h);
 
-/* The CAN IDs the estimator receives, in table order: writes min(n, max) IDs, returns n. */
-unsigned caekf_mcu_hal_rx_ids(uint16_t *ids, unsigned max);
+/* The CAN IDs the estimator receives at the runtime ID base id_offset (caekf_app_config_t.id_offset), in
+ * table order: writes min(n, max) IDs, returns n (0 for an invalid offset). */
+unsigned caekf_mcu_hal_rx_ids(int32_t id_offset, uint16_t *ids, unsigned max);
 /* Programs those IDs as 16-bit identifier lists for FIFO 0 from `first_bank` of the master
  * instance `filter_regs`. */
 caekf_bxcan_status_t caekf_mcu_hal_program_filters(caekf_bxcan_regs_t *filter_regs, unsigned first_bank,
-                                                   unsigned *banks_used);
+                                                   int32_t id_offset, unsigned *banks_used);
 
 /* ---- the firmware: driver + filters + HAL + app ---- */
 typedef enum {

@@ -5,6 +5,10 @@
  * Deviations from profile 1, on purpose: the counter uses all 16 values (no invalid 15), and both
  * data ID bytes always enter the CRC (profile 1's DataIDMode "both").
  *
+ * CAN FD frames (longer payloads, the CAN FD profile) in the style of AUTOSAR profile 5:
+ *   bytes 0..1  CRC-16/CCITT-FALSE (little-endian) over [data_id low, data_id high, payload bytes 2..len-1]
+ *   bits 16..19 the same 4-bit alive counter
+ *
  * The receiver keeps one caekf_e2e_rx_t per message. The first frame after init (or after
  * caekf_e2e_rx_init, e.g. when the sender went silent) is accepted with any counter.
  */
@@ -23,7 +27,7 @@ extern "C" {
 typedef enum {
     CAEKF_E2E_OK = 0,
     CAEKF_E2E_ERR_NULL = -1,
-    CAEKF_E2E_ERR_DLC = -2,       /* DLC is not 8 */
+    CAEKF_E2E_ERR_DLC = -2,       /* DLC is not the message's length (8 for classic frames) */
     CAEKF_E2E_ERR_CRC = -3,       /* CRC mismatch: payload or data ID corrupted */
     CAEKF_E2E_ERR_DUPLICATE = -4, /* same counter as the last accepted frame */
     CAEKF_E2E_ERR_JUMP = -5       /* counter advanced by more than max_delta: receiver re-synced to it */
@@ -49,6 +53,14 @@ caekf_e2e_status_t caekf_e2e_protect(uint16_t data_id, uint8_t counter, uint8_t 
  * the state unchanged; a jump re-syncs to the new counter so the next consecutive frame passes. */
 caekf_e2e_status_t caekf_e2e_check(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta,
                                    const uint8_t *payload, uint8_t dlc, uint8_t *lost);
+
+/* CAN FD frames of `len` bytes (3..64): CRC-16 of a payload (bytes 0..1 ignored). */
+caekf_e2e_status_t caekf_e2e_crc16(uint16_t data_id, const uint8_t *payload, uint8_t len, uint16_t *crc_out);
+/* Writes `counter` (low 4 bits) into bits 16..19, keeping bits 20..23, then the CRC-16 into bytes 0..1. */
+caekf_e2e_status_t caekf_e2e_protect_fd(uint16_t data_id, uint8_t counter, uint8_t *payload, uint8_t len);
+/* As caekf_e2e_check, for a message of `len` bytes: a frame of another length is CAEKF_E2E_ERR_DLC. */
+caekf_e2e_status_t caekf_e2e_check_fd(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta,
+                                      const uint8_t *payload, uint8_t dlc, uint8_t len, uint8_t *lost);
 
 #ifdef __cplusplus
 }

@@ -17,13 +17,16 @@
 extern "C" {
 #endif
 
-#define CAEKF_CAN_DLC 8u
+#define CAEKF_CAN_DLC 8u          /* bytes of a classic frame: every message but the CAN FD profile's */
+#define CAEKF_CAN_FD_MAX_LEN 64u  /* bytes of the longest CAN FD frame */
+#define CAEKF_FD_IN_LEN 20u       /* BENCH_FD */
+#define CAEKF_FD_OUT_LEN 64u      /* EST_FD */
 #define CAEKF_CAN_ID_EXT_FLAG 0x80000000u /* set by a HAL for 29-bit IDs: never a caekf message */
 
 typedef struct {
     uint32_t id;   /* 11-bit standard ID, or 29-bit ID | CAEKF_CAN_ID_EXT_FLAG */
-    uint8_t dlc;
-    uint8_t data[CAEKF_CAN_DLC];
+    uint8_t dlc;   /* data length in bytes: 0..8 classic, up to 64 for a CAN FD frame */
+    uint8_t data[CAEKF_CAN_FD_MAX_LEN];
 } caekf_can_frame_t;
 
 typedef enum {
@@ -60,6 +63,8 @@ typedef enum {
     CAEKF_MSG_BENCH_YP,   /* production profile: y1 and y4 in one frame */
     CAEKF_MSG_EST_PROD,   /* production profile: the one estimate frame per step */
     CAEKF_MSG_EST_PAGE,   /* production profile: multiplexed pages of the full estimate */
+    CAEKF_MSG_BENCH_FD,   /* CAN FD profile: u, y1, y4 in one 20-byte frame */
+    CAEKF_MSG_EST_FD,     /* CAN FD profile: the whole estimate in one 64-byte frame */
     CAEKF_MSG_COUNT
 } caekf_msg_t;
 
@@ -73,9 +78,11 @@ typedef enum {
     CAEKF_LAYOUT_INT36,   /* STEP (16 bits at bit 12) + scaled signed 36-bit value at bit 28 */
     CAEKF_LAYOUT_FLOAT32, /* STEP (16 bits at bit 12) + IEEE float32 at bit 32 */
     CAEKF_LAYOUT_STEP,    /* STEP + FLAGS + NEWTON_ITERS + STEP_STATUS */
-    CAEKF_LAYOUT_YP,      /* STEP + Y1 + Y4 (18-bit scaled) */
+    CAEKF_LAYOUT_YP,      /* STEP mod 2^8 + Y1 + Y4 (22-bit scaled) */
     CAEKF_LAYOUT_PROD,    /* STEP low byte + FLAGS (12 bits) + GAMMA float32 */
-    CAEKF_LAYOUT_PAGE     /* PAGE (multiplexer) + STEP + one page of the estimate */
+    CAEKF_LAYOUT_PAGE,    /* PAGE (multiplexer) + STEP + one page of the estimate */
+    CAEKF_LAYOUT_FD_IN,   /* CAN FD, 20 bytes: STEP + U float32 + Y1, Y4 (36-bit scaled) */
+    CAEKF_LAYOUT_FD_OUT   /* CAN FD, 64 bytes: STEP + every estimate value + FLAGS, NEWTON_ITERS, STEP_STATUS */
 } caekf_layout_t;
 
 /* Protocol profiles: which frames carry a step. The app sends the estimate frames of its profile;
@@ -83,6 +90,7 @@ typedef enum {
 typedef enum {
     CAEKF_PROFILE_DIAGNOSTICS = 0, /* BENCH_U/Y1/Y4 in, 12 EST_* out per step (vcan, the HIL reference) */
     CAEKF_PROFILE_PRODUCTION = 1,  /* BENCH_U + BENCH_YP in, EST_PROD out per step, EST_PAGE pages */
+    CAEKF_PROFILE_FD = 2,          /* CAN FD: BENCH_FD in, EST_FD out per step (E2E with CRC-16) */
     CAEKF_PROFILE_COUNT
 } caekf_profile_t;
 
@@ -94,6 +102,7 @@ typedef struct {
     uint16_t data_id;   /* E2E data ID (DBC attribute E2E_DataID) */
     uint8_t layout;     /* caekf_layout_t */
     uint8_t dir;        /* caekf_dir_t */
+    uint8_t len;        /* payload bytes: CAEKF_CAN_DLC, or a CAN FD frame's length (E2E with CRC-16) */
     double lsb;         /* value LSB of CAEKF_LAYOUT_INT36 messages, else 0 */
 } caekf_msg_info_t;
 
@@ -101,7 +110,19 @@ caekf_proto_status_t caekf_proto_msg_info(caekf_msg_t msg, const caekf_msg_info_
 /* CAEKF_PROTO_ERR_MSG for IDs that are not in the protocol (extended IDs included). */
 caekf_proto_status_t caekf_proto_msg_from_id(uint32_t can_id, caekf_msg_t *msg);
 
-/* Sets ID and DLC, writes the alive counter and the CRC. */
+/* Runtime ID base, for a bus that already uses the DBC's IDs: every message travels at its DBC ID +
+ * id_offset. The block moves as a whole (relative order, hence arbitration priority, kept); the E2E
+ * data IDs stay the DBC's. An offset is valid when every ID stays within 0..CAEKF_CAN_SFF_MAX
+ * (CAEKF_PROTO_ERR_RANGE otherwise; caekf_proto_bus_id refuses invalid offsets the same way). */
+#define CAEKF_CAN_SFF_MAX 0x7FFu
+caekf_proto_status_t caekf_proto_id_offset_check(int32_t id_offset);
+/* The bus ID of msg at id_offset. */
+caekf_proto_status_t caekf_proto_bus_id(caekf_msg_t msg, int32_t id_offset, uint32_t *can_id);
+/* The message travelling at bus ID can_id with id_offset (CAEKF_PROTO_ERR_MSG: not ours). Per frame, so
+ * the offset is not re-checked: check it once (caekf_app_init does). */
+caekf_proto_status_t caekf_proto_msg_from_bus_id(uint32_t can_id, int32_t id_offset, caekf_msg_t *msg);
+
+/* Sets ID and DLC (the message's length), writes the alive counter and the CRC (CRC-16 for CAN FD frames). */
 caekf_proto_status_t caekf_proto_seal(caekf_msg_t msg, uint8_t counter, caekf_can_frame_t *frame);
 
 /* Step value frames (INT36 and FLOAT32 layouts: BENCH_U/Y1/Y4, EST_GAMMA/Q/V/P_NORM/P_GG).
@@ -165,13 +186,14 @@ caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint
 caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m);
 
 /* Production profile frames. */
-#define CAEKF_YP_LSB 2e-8              /* m per LSB of BENCH_YP.Y1/Y4 (18-bit signed) */
+#define CAEKF_YP_LSB 1e-9              /* m per LSB of BENCH_YP.Y1/Y4 (22-bit signed) */
+#define CAEKF_YP_BITS 22u              /* width of BENCH_YP.Y1/Y4 */
 #define CAEKF_PROD_FLAGS_MASK 0x0FFFu  /* EST_PROD.FLAGS: the estimator's flag bits 0..11 */
 #define CAEKF_PAGE_COUNT 11u           /* EST_PAGE pages 0..10 */
 #define CAEKF_PAGE_STEP_INFO 10u       /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */
 
 typedef struct {
-    uint16_t step;
+    uint8_t step;         /* STEP modulo 2^8 (the app unwraps it against BENCH_U's 16-bit STEP) */
     double y1, y4;        /* m */
 } caekf_msg_yp_t;
 
@@ -198,6 +220,28 @@ caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t 
 caekf_proto_status_t caekf_proto_decode_prod(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_prod_t *m);
 caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t data[CAEKF_CAN_DLC]);
 caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_page_t *m);
+
+/* CAN FD profile frames (20 and 64 bytes). */
+typedef struct {
+    uint16_t step;
+    double u;             /* N, float32 on the wire */
+    double y1, y4;        /* m, LSB 1e-12 m */
+} caekf_msg_fd_in_t;
+
+typedef struct {
+    uint16_t step;
+    double x[9];          /* q1..q4 (LSB 1e-12 m), v1..v4 (LSB 1e-10 m/s), gamma (float32) */
+    double p_norm, p_gg;  /* float32 */
+    caekf_msg_step_t info; /* FLAGS, NEWTON_ITERS, STEP_STATUS (info.step is ignored: `step` is sent) */
+} caekf_msg_fd_out_t;
+
+/* BENCH_FD: encode clips positions to their range (SATURATED), NaN y becomes 0, saturated; decode refuses a
+ * non-finite U (CAEKF_PROTO_ERR_VALUE). EST_FD: positions and velocities clipped as in the diagnostics
+ * frames, float values as EST_PROD's. Payload bytes 0..2 (CRC-16, counter) are left for the E2E seal. */
+caekf_proto_status_t caekf_proto_encode_fd_in(const caekf_msg_fd_in_t *m, uint8_t data[CAEKF_CAN_FD_MAX_LEN]);
+caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_in_t *m);
+caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint8_t data[CAEKF_CAN_FD_MAX_LEN]);
+caekf_proto_status_t caekf_proto_decode_fd_out(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_out_t *m);
 
 /* mantissa * 10^exp10 as a double. Exact (correctly rounded, the same double a decimal parser gives)
  * because |mantissa| < 2^53 and 10^|exp10| <= 10^22 are exact and one IEEE division or

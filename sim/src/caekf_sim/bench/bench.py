@@ -32,7 +32,7 @@ import numpy as np
 from .. import schema
 from . import e2e
 from .codec import RECORD, RECORD_SIZE, Codec, records_array
-from .profiles import DIAGNOSTICS, Profile, get_profile
+from .profiles import Profile, get_profile
 from .transport import Transport, make_transport, open_bus
 
 STEP_MOD = 1 << 16
@@ -560,11 +560,12 @@ class Bench:
         import socket as _socket
 
         sock.setsockopt(_socket.SOL_CAN_RAW, _socket.CAN_RAW_FILTER, b"")  # the recorder sees the bus
+        last_in = self.codec.messages[self.profile.input_messages[-1]]
         try:
-            paced = run_paced(self.transport, blobs, wire, dt, self.channel,
-                              self.codec.messages[self.profile.input_messages[-1]].frame_id,
+            paced = run_paced(self.transport, blobs, wire, dt, self.channel, last_in.frame_id,
                               self.codec.messages[self.profile.closing].frame_id,
-                              grace=grace, out_step_bits=self.profile.closing_step_bits)
+                              grace=grace, out_step_bits=self.profile.closing_step_bits,
+                              in_step_bits=last_in.signals["STEP"].length)
         finally:
             self.transport.set_filter(self.codec.from_estimator_ids)
         est = np.isin(paced.frames["id"], self.codec.from_estimator_ids)
@@ -609,7 +610,7 @@ class Bench:
             if not sel.any():
                 continue
             d = data[sel]
-            good = e2e.e2e_crc_np(info.data_id, d) == d[:, 0]
+            good = e2e.e2e_crc_np(np.asarray(info.data_id), d) == d[:, 0]
             out.bad_crc += int(np.sum(~good))
             d = d[good]
             if not len(d):

@@ -123,8 +123,8 @@ def dbc_profile_load(db, names: Sequence[str], rate_hz: float, bitrate: float = 
 
 
 def step_messages(db) -> List[str]:
-    """The messages that carry a STEP signal: the frames of one step (the diagnostics profile)."""
-    return [m.name for m in db.messages if any(s.name == "STEP" for s in m.signals)]
+    """The classic messages that carry a STEP signal (every profile's step frames but the CAN FD ones)."""
+    return [m.name for m in db.messages if any(s.name == "STEP" for s in m.signals) and not m.is_fd]
 
 
 @dataclass
@@ -154,6 +154,26 @@ def log_load(t: np.ndarray, ids: np.ndarray, dlc: np.ndarray, data: np.ndarray, 
     if seconds is None:
         seconds = float(t.max() - t.min()) + float(worst[-1]) / bitrate
     return LogLoad(len(t), seconds, int(exact.sum()), int(worst.sum()), bitrate)
+
+
+def fd_log_seconds(lengths, nominal: float, data: float) -> float:
+    """Worst-case seconds on the bus of recorded CAN FD frames of these lengths (bit-rate switch)."""
+    return float(sum(fd_time_worst(int(n), nominal, data) for n in lengths))
+
+
+def read_candump_fd(path: PathLike):
+    """(t [s], ids, lengths) of the CAN FD frames (ID##<flags><data>) of a candump -L log."""
+    ts, ids, lens = [], [], []
+    with open(path, encoding="ascii", errors="replace") as f:
+        for line in f:
+            parts = line.split()
+            if len(parts) < 3 or "##" not in parts[2]:
+                continue
+            fid, _, rest = parts[2].partition("##")
+            ts.append(float(parts[0].strip("()")))
+            ids.append(int(fid, 16))
+            lens.append(len(rest[1:]) // 2)  # after the flags nibble
+    return np.array(ts), np.array(ids, dtype=np.int64), np.array(lens, dtype=np.int64)
 
 
 def read_candump(path: PathLike):

@@ -192,7 +192,9 @@ def replay_log(bench, path: PathLike, timeout: float = 2.0, progress: Optional[b
     expected_all: Counter = Counter()
     received_all: Counter = Counter()
     bar = _progress_bar(len(groups), "replay", progress)
-    seg_name, seg_rx, seg_steps = "none", [], []
+    seg_name = "none"
+    seg_rx: List[bytes] = []
+    seg_steps: List[int] = []
     t0 = time.perf_counter()
     for gi, g in enumerate(groups):
         for off in range(0, len(g.tx), RECORD_SIZE):

@@ -16,7 +16,7 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 
@@ -27,6 +27,7 @@ PathLike = Union[str, Path]
 
 RECORD = struct.Struct("<IB3x8s")  # struct can_frame (classic CAN)
 RECORD_SIZE = RECORD.size  # 16
+CAN_SFF_MAX = 0x7FF  # largest 11-bit ID
 E2E_SIGNALS = ("E2E_CRC", "E2E_COUNTER")
 
 # The paper's four experiments: presets of the settings schema, sent as ordinary CTRL_PARAMs.
@@ -47,8 +48,10 @@ INPUT_MESSAGES = ("BENCH_U", "BENCH_Y1", "BENCH_Y4")
 
 
 def default_dbc_path() -> Path:
-    """firmware/protocol/caekf.dbc of the source tree this package lives in."""
-    return Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
+    """firmware/protocol/caekf.dbc of the source tree this package lives in, else the copy a wheel installs
+    (caekf_sim/data/caekf.dbc, sim/CMakeLists.txt)."""
+    src = Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
+    return src if src.is_file() else Path(__file__).resolve().parents[1] / "data" / "caekf.dbc"
 
 
 @dataclass(frozen=True)
@@ -83,31 +86,46 @@ class MessageInfo:
     data_id: int
     to_estimator: bool
     signals: Dict[str, SignalLayout]
+    length: int = 8  # payload bytes: 8, or a CAN FD frame's length (E2E with CRC-16, e2e.seal_fd)
+    is_fd: bool = False
 
 
 class Codec:
-    """cantools' database of caekf.dbc plus the numpy packers built from it."""
+    """cantools' database of caekf.dbc plus the numpy packers built from it.
 
-    def __init__(self, dbc_path: Optional[PathLike] = None) -> None:
+    id_offset is the runtime CAN ID base (caekf-host --id-offset): every message travels at its DBC ID +
+    id_offset (`MessageInfo.frame_id` is that bus ID); E2E data IDs stay the DBC's."""
+
+    def __init__(self, dbc_path: Optional[PathLike] = None, id_offset: int = 0) -> None:
         import cantools  # a [dev] dependency of caekf-sim
 
         self.path = Path(dbc_path) if dbc_path else default_dbc_path()
-        self.db = cantools.database.load_file(str(self.path))
+        db = cantools.database.load_file(str(self.path))
+        if not isinstance(db, cantools.database.can.Database):
+            raise ValueError(f"{self.path}: not a CAN database (DBC)")
+        self.db: cantools.database.can.Database = db
+        ids = [m.frame_id for m in self.db.messages]
+        if ids and not (0 <= min(ids) + id_offset and max(ids) + id_offset <= CAN_SFF_MAX):
+            raise ValueError(f"CAN ID offset {id_offset:#x} moves the IDs 0x{min(ids):03X}..0x{max(ids):03X} out of "
+                             f"0..0x{CAN_SFF_MAX:03X} (valid: {-min(ids):#x}..{CAN_SFF_MAX - max(ids):#x})")
+        self.id_offset = int(id_offset)
         self.messages: Dict[str, MessageInfo] = {}
         self.by_id: Dict[int, MessageInfo] = {}
         for m in self.db.messages:
-            if m.length != 8 or m.is_extended_frame:
-                raise ValueError(f"{m.name}: the bench expects classic 8-byte frames with 11-bit IDs")
+            if m.is_extended_frame or not (m.length == 8 or (m.is_fd and 8 < m.length <= 64)):
+                raise ValueError(f"{m.name}: the bench expects 11-bit IDs and classic 8-byte or CAN FD frames")
             sigs = {}
             for s in m.signals:
                 if s.byte_order != "little_endian":
                     raise ValueError(f"{m.name}.{s.name}: only little-endian signals are supported")
                 sigs[s.name] = SignalLayout(s.name, s.start, s.length, s.is_signed, s.is_float,
                                             float(s.scale), float(s.offset), s.minimum, s.maximum)
-            info = MessageInfo(m.name, m.frame_id, int(m.dbc.attributes["E2E_DataID"].value),
-                               m.senders == ["BENCH"], sigs)
+            if m.dbc is None:
+                raise ValueError(f"{m.name}: no DBC attributes (E2E_DataID)")
+            info = MessageInfo(m.name, m.frame_id + self.id_offset, int(m.dbc.attributes["E2E_DataID"].value),
+                               m.senders == ["BENCH"], sigs, m.length, bool(m.is_fd))
             self.messages[m.name] = info
-            self.by_id[m.frame_id] = info
+            self.by_id[info.frame_id] = info
         self.to_estimator_ids = sorted(i.frame_id for i in self.messages.values() if i.to_estimator)
         self.from_estimator_ids = sorted(i.frame_id for i in self.messages.values() if not i.to_estimator)
         self.param_ids = self._choices("CTRL_PARAM", "PARAM_ID")
@@ -120,19 +138,25 @@ class Codec:
 
     def _choices(self, message: str, signal: str) -> Dict[str, int]:
         sig = self.db.get_message_by_name(message).get_signal_by_name(signal)
-        return {str(name): int(value) for value, name in sig.choices.items()}
+        return {str(name): int(value) for value, name in (sig.choices or {}).items()}
 
     # --- one frame, through cantools ---------------------------------------------------------
 
     def encode(self, name: str, values: Mapping[str, float], counter: int) -> bytes:
-        """cantools encode with E2E_CRC = 0 and the counter, then the CRC inserted."""
+        """cantools encode with E2E_CRC = 0 and the counter, then the CRC inserted. STEP is taken
+        modulo its signal's width (16 bits, 8 in BENCH_YP and EST_PROD), as `pack` does."""
         info = self.messages[name]
+        if "STEP" in values and "STEP" in info.signals:
+            values = {**values, "STEP": int(values["STEP"]) & info.signals["STEP"].mask}
         body = self.db.encode_message(name, {"E2E_CRC": 0, "E2E_COUNTER": counter & 15, **values},
                                       strict=True)
-        return e2e.seal(info.data_id, counter, body)
+        return (e2e.seal_fd if info.is_fd else e2e.seal)(info.data_id, counter, body)
 
     def decode(self, frame_id: int, data: bytes) -> Dict[str, float]:
-        return dict(self.db.decode_message(frame_id, bytes(data), decode_choices=False))
+        """Decode a frame seen on the bus (frame_id: the bus ID, DBC ID + id_offset)."""
+        decoded = self.db.decode_message(frame_id - self.id_offset, bytes(data), decode_choices=False)
+        assert isinstance(decoded, dict)  # a plain message, not a container frame
+        return cast(Dict[str, float], dict(decoded))  # numbers only: decode_choices=False
 
     def record(self, name_or_id: Union[str, int], data: bytes, dlc: Optional[int] = None) -> bytes:
         """A 16-byte struct can_frame; dlc other than len(data) makes a deliberately wrong frame."""
@@ -148,6 +172,8 @@ class Codec:
         `counters` (scalar or (n,)). Missing signals are 0."""
         info = self.messages[name]
         n = len(next(iter(columns.values())))
+        if info.is_fd:
+            return self._pack_fd(info, columns, n, counters)
         word = np.zeros(n, dtype=np.uint64)
         for sname, values in columns.items():
             sig = info.signals[sname]
@@ -155,6 +181,18 @@ class Codec:
             word |= (raw & np.uint64(sig.mask)) << np.uint64(sig.start)
         payloads = word.astype("<u8").view(np.uint8).reshape(n, 8)
         return e2e.seal_np(info.data_id, counters, payloads)
+
+    def _pack_fd(self, info: MessageInfo, columns: Mapping[str, np.ndarray], n: int, counters) -> np.ndarray:
+        """pack() of a CAN FD message (any length): each signal shifted into the bytes it spans (<= 56 bits
+        wide, so at most 8 bytes); sealed with CRC-16."""
+        payloads = np.zeros((n, info.length), dtype=np.uint8)
+        for sname, values in columns.items():
+            sig = info.signals[sname]
+            v = (self.raw_values(sig, values) & np.uint64(sig.mask)) << np.uint64(sig.start % 8)
+            first = sig.start // 8
+            for k in range((sig.start % 8 + sig.length + 7) // 8):
+                payloads[:, first + k] |= ((v >> np.uint64(8 * k)) & np.uint64(0xFF)).astype(np.uint8)
+        return e2e.seal_fd_np(info.data_id, counters, payloads)
 
     @staticmethod
     def raw_values(sig: SignalLayout, values) -> np.ndarray:
@@ -177,12 +215,20 @@ class Codec:
                scaled: bool = True) -> Dict[str, np.ndarray]:
         """Decode columns of payloads (n, 8) like cantools' decode_message (raw * scale + offset)."""
         info = self.messages[name]
-        p = np.ascontiguousarray(np.asarray(payloads, dtype=np.uint8).reshape(-1, 8))
-        word = p.view("<u8").reshape(-1)
+        p = np.ascontiguousarray(np.asarray(payloads, dtype=np.uint8).reshape(-1, info.length))
+        if not info.is_fd:
+            word = p.view("<u8").reshape(-1)
         out = {}
         for sname in signals or info.signals:
             sig = info.signals[sname]
-            raw = (word >> np.uint64(sig.start)) & np.uint64(sig.mask)
+            if info.is_fd:  # the <= 8 bytes the signal spans, as one little-endian word
+                first = sig.start // 8
+                raw = np.zeros(len(p), dtype=np.uint64)
+                for k in range((sig.start % 8 + sig.length + 7) // 8):
+                    raw |= p[:, first + k].astype(np.uint64) << np.uint64(8 * k)
+                raw = (raw >> np.uint64(sig.start % 8)) & np.uint64(sig.mask)
+            else:
+                raw = (word >> np.uint64(sig.start)) & np.uint64(sig.mask)
             if sig.is_float:
                 out[sname] = raw.astype("<u4").view("<f4").astype(float)
                 continue
@@ -198,7 +244,6 @@ class Codec:
     def quantize(self, name: str, signal: str, values) -> np.ndarray:
         """What the receiver decodes after this value went over the bus (e.g. y rounded to the
         1e-12 m LSB, u rounded to float32)."""
-        sig = self.messages[name].signals[signal]
         p = self.pack(name, {signal: np.atleast_1d(np.asarray(values, dtype=float))})
         return self.unpack(name, p, [signal])[signal]
 

@@ -10,7 +10,7 @@ Also the CTRL_PARAM value encoding: value = mantissa * 10**exp10 in its shortest
 from __future__ import annotations
 
 from decimal import Decimal
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -52,7 +52,7 @@ def seal(data_id: int, counter: int, payload: bytes) -> bytes:
     """Write the alive counter (bits 8..11) and then the CRC (byte 0) into an 8-byte payload."""
     b = bytearray(payload)
     b[1] = (b[1] & 0xF0) | (counter & COUNTER_MASK)
-    b[0] = e2e_crc(data_id, b)
+    b[0] = e2e_crc(data_id, bytes(b))
     return bytes(b)
 
 
@@ -62,6 +62,77 @@ def counter_of(payload: bytes) -> int:
 
 def crc_ok(data_id: int, payload: bytes) -> bool:
     return len(payload) == 8 and payload[0] == e2e_crc(data_id, payload)
+
+
+# --- CAN FD frames: CRC-16/CCITT-FALSE in bytes 0..1, counter in bits 16..19 (profile-5 style) ----
+
+CRC16_POLY = 0x1021
+CRC16_INIT = 0xFFFF
+
+
+def _table16() -> np.ndarray:
+    out = []
+    for byte in range(256):
+        crc = byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ CRC16_POLY) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+        out.append(crc)
+    return np.array(out, dtype=np.int64)
+
+
+_CRC16_TABLE_NP = _table16()
+_CRC16_TABLE = tuple(int(x) for x in _CRC16_TABLE_NP)
+
+
+def crc16_ccitt_false(data: bytes, crc: int = CRC16_INIT) -> int:
+    """CRC-16/CCITT-FALSE of `data` (check value of b"123456789" is 0x29B1)."""
+    t = _CRC16_TABLE
+    for b in data:
+        crc = ((crc << 8) & 0xFFFF) ^ t[(crc >> 8) ^ b]
+    return crc
+
+
+def e2e_crc16_np(data_id: int, payloads: np.ndarray) -> np.ndarray:
+    """CRC-16 of many CAN FD payloads (n, length) uint8 of one message -> (n,) int64, vectorised."""
+    p = np.asarray(payloads, dtype=np.uint8)
+    crc = np.full(len(p), crc16_ccitt_false(bytes((data_id & 0xFF, data_id >> 8))), dtype=np.int64)
+    t = _CRC16_TABLE_NP
+    for j in range(2, p.shape[1]):
+        crc = ((crc << 8) & 0xFFFF) ^ t[(crc >> 8) ^ p[:, j]]
+    return crc
+
+
+def seal_fd_np(data_id: int, counters, payloads: np.ndarray) -> np.ndarray:
+    """Vectorised seal_fd(): a sealed copy of payloads (n, length)."""
+    p = np.array(payloads, dtype=np.uint8, copy=True)
+    c = np.broadcast_to(np.asarray(counters, dtype=np.int64) & COUNTER_MASK, (len(p),))
+    p[:, 2] = (p[:, 2] & 0xF0) | c.astype(np.uint8)
+    crc = e2e_crc16_np(data_id, p)
+    p[:, 0] = (crc & 0xFF).astype(np.uint8)
+    p[:, 1] = (crc >> 8).astype(np.uint8)
+    return p
+
+
+def e2e_crc16(data_id: int, payload: bytes) -> int:
+    """The CRC-16 of a CAN FD payload (bytes 0..1 themselves are not covered)."""
+    return crc16_ccitt_false(bytes(payload[2:]), crc16_ccitt_false(bytes((data_id & 0xFF, data_id >> 8))))
+
+
+def seal_fd(data_id: int, counter: int, payload: bytes) -> bytes:
+    """Write the alive counter (bits 16..19) and then the CRC-16 (bytes 0..1, little-endian)."""
+    b = bytearray(payload)
+    b[2] = (b[2] & 0xF0) | (counter & COUNTER_MASK)
+    crc = e2e_crc16(data_id, bytes(b))
+    b[0], b[1] = crc & 0xFF, crc >> 8
+    return bytes(b)
+
+
+def crc16_ok(data_id: int, payload: bytes) -> bool:
+    return len(payload) >= 3 and int.from_bytes(payload[:2], "little") == e2e_crc16(data_id, payload)
+
+
+def counter_of_fd(payload: bytes) -> int:
+    return payload[2] & COUNTER_MASK
 
 
 # --- vectorised ------------------------------------------------------------------------------
@@ -96,7 +167,7 @@ class E2EReceiver:
     def __init__(self, data_id: int, max_delta: int = 1) -> None:
         self.data_id = data_id
         self.max_delta = max_delta
-        self.last = None  # type: ignore[assignment]
+        self.last: Optional[int] = None
         self.lost = 0
 
     def check(self, payload: bytes) -> str:
@@ -137,9 +208,11 @@ def to_mantissa_exp10(value: float, max_digits: int = 11) -> Tuple[int, int]:
         return 0, 0
     d = d.normalize()
     sign, digits, exp = d.as_tuple()
+    assert isinstance(exp, int)  # a finite value (repr of a float that is not nan/inf)
     if len(digits) > max_digits:
         d = d.quantize(Decimal(1).scaleb(exp + len(digits) - max_digits)).normalize()
         sign, digits, exp = d.as_tuple()
+        assert isinstance(exp, int)
     mant = int("".join(map(str, digits)))
     return (-mant if sign else mant), int(exp)
 

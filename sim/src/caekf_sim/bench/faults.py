@@ -7,7 +7,7 @@ what each one must do to the estimator (caekf_app, EST_HEALTH counters) is said 
 from __future__ import annotations
 
 import math
-from typing import Dict, List, Sequence
+from typing import Dict, List, Sequence, Tuple
 
 from .bench import Bench, StepInputs
 
@@ -27,6 +27,15 @@ def unchecked_frame(bench: Bench, name: str, values, advance: bool = True) -> by
     if advance:
         bench.tx_counter[name] = (c + 1) & 15
     return bench.codec.record(name, e2e.seal(info.data_id, c, body))
+
+
+def position_frames(bench: Bench) -> Tuple[str, str]:
+    """The profile's position frames in the roles of BENCH_Y1 (wrong DLC, duplicate) and BENCH_Y4 (counter
+    jump): BENCH_YP for both in production."""
+    names = bench.profile.input_messages
+    if "BENCH_YP" in names:
+        return "BENCH_YP", "BENCH_YP"
+    return "BENCH_Y1", "BENCH_Y4"
 
 
 def _y_values(name: str, step: int, inputs: StepInputs, row: int) -> Dict[str, float]:
@@ -88,7 +97,8 @@ def nonfinite_u(bench: Bench, inputs: StepInputs, row: int, i: int) -> bytes:
 
 def out_of_range_param(bench: Bench, i: int) -> bytes:
     """A configuration with a value outside its parameter's range, committed by CTRL_RESET(N_PARAMS=1):
-    even i: PARAM_ID beyond the table (len(param_ids)..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer parameter).
+    even i: PARAM_ID beyond the table (len(param_ids)..255, RX_BAD_VALUE +1); odd i: newton_max_iter = 2.5 (an integer
+    parameter).
     Refused with EST_ACK REFUSED_PARAM: CFG_REFUSED +1, the running estimator untouched."""
     n_ids = len(bench.codec.param_ids)
     if i % 2 == 0:

@@ -9,6 +9,7 @@ estimator's profile is a runtime choice (`caekf-host --profile`), the bench's to
 - production: BENCH_U, BENCH_YP in; EST_PROD out every step (gamma, the estimator's flags, STEP mod
   2^8); the rest of the estimate as EST_PAGE pages 0..10, one page per step at the first 11 steps of
   every page period (default 20 steps), for a real 1 Mbit/s classic bus.
+- fd: BENCH_FD in, EST_FD out (CAN FD, 20 and 64 bytes, CRC-16 E2E), every value every step.
 """
 from __future__ import annotations
 
@@ -98,7 +99,20 @@ def production(page_period: int = DEFAULT_PAGE_PERIOD, rate_hz: float = 1000.0) 
 
 
 PRODUCTION = production()
-PROFILES: Dict[str, Profile] = {p.name: p for p in (DIAGNOSTICS, PRODUCTION)}
+
+# CAN FD (1 Mbit/s arbitration, 5 Mbit/s data): BENCH_FD in, EST_FD out, every value every step at the
+# diagnostics profile's resolution (the bench side is caekf_sim.bench.fd)
+FD = Profile(
+    name="fd",
+    inputs=(("BENCH_FD", (("U", "u"), ("Y1", "y1"), ("Y4", "y4"))),),
+    closing="EST_FD",
+    closing_step_bits=16,
+    results={col: Signal("EST_FD", src.signal) for col, src in _DIAG_RESULTS.items()},
+    per_step={"BENCH_FD": 1.0, "EST_FD": 1.0, "EST_HEALTH": HEALTH_PAGES_PER_SECOND / 1000.0},
+)
+DATA_BITRATE = 5e6  # CAN FD data phase of the fd profile's bus load
+
+PROFILES: Dict[str, Profile] = {p.name: p for p in (DIAGNOSTICS, PRODUCTION, FD)}
 
 
 def get_profile(name: str) -> Profile:

@@ -32,8 +32,8 @@ import numpy as np
 
 from .busload import frame_bits_worst
 from .codec import RECORD_SIZE, records_array
-from .transport import (MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVBUFFORCE, SO_RCVTIMEO,  # declared once
-                        _IOVec, _MMsgHdr)
+from .transport import (MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVTIMEO, _IOVec, _MMsgHdr,  # declared once
+                        set_rcvbuf)
 
 CLOCK_REALTIME = 0
 TIMER_ABSTIME = 1
@@ -53,6 +53,7 @@ def _libc():
                                      ctypes.POINTER(_Timespec)]
     libc.clock_nanosleep.restype = ctypes.c_int
     libc.recvmmsg.restype = ctypes.c_int
+    libc.sendmmsg.restype = ctypes.c_int
     return libc
 
 
@@ -61,12 +62,7 @@ class BusRecorder:
 
     def __init__(self, channel: str, batch: int = 512, rcvbuf: int = 32 << 20) -> None:
         self.sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
-            try:
-                self.sock.setsockopt(socket.SOL_SOCKET, opt, rcvbuf)
-                break
-            except OSError:
-                continue
+        set_rcvbuf(self.sock, rcvbuf)
         self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         self.sock.bind((channel,))
         self.fd = self.sock.fileno()
@@ -83,7 +79,9 @@ class BusRecorder:
             self.hdr[i].msg_hdr.msg_iov = ctypes.pointer(self.iov[i])
             self.hdr[i].msg_hdr.msg_iovlen = 1
             self.hdr[i].msg_hdr.msg_control = cbase + i * CTRL_SIZE
-        self._ctrl_np = np.frombuffer(self.ctrl, dtype=np.int64).reshape(batch, CTRL_SIZE // 8)
+        # a ctypes array is a buffer, which numpy's stubs do not list among frombuffer's arguments
+        self._ctrl_np = np.frombuffer(self.ctrl, dtype=np.int64).reshape(  # type: ignore[call-overload]
+            batch, CTRL_SIZE // 8)
         self.records: List[bytes] = []
         self.stamps: List[np.ndarray] = []
         self._timeout: Optional[float] = None
@@ -162,7 +160,8 @@ class PacedRun:
 
 
 def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel: str, in_id: int, out_id: int,
-              grace: float = 0.5, start_delay: float = 0.05, out_step_bits: int = 16) -> PacedRun:
+              grace: float = 0.5, start_delay: float = 0.05, out_step_bits: int = 16,
+              in_step_bits: int = 16) -> PacedRun:
     """Send blobs[k] at T0 + k*dt (absolute, CLOCK_REALTIME); record the bus; match by STEP."""
     libc = _libc()
     rec = BusRecorder(channel)
@@ -188,7 +187,7 @@ def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel
         rec.close()
     t_ns, frames = rec.frames()
     deadlines = t0 + dt_ns * np.arange(n, dtype=np.int64)
-    t_in = _first_by_step(t_ns, frames, in_id, wire)
+    t_in = _first_by_step(t_ns, frames, in_id, wire, in_step_bits)
     t_out = _first_by_step(t_ns, frames, out_id, wire, out_step_bits)
     return PacedRun(n, dt, deadlines, t_in, t_out, t_ns, frames)
 
@@ -201,7 +200,7 @@ def _realtime_ns() -> int:
 
 def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int], step_bits: int = 16) -> np.ndarray:
     """Per row: the timestamp of the first frame `fid` whose STEP (bits 12.., step_bits wide: 16, or 8 for
-    the production profile's EST_PROD, unwrapped in bus order) is that row's."""
+    the production profile's BENCH_YP and EST_PROD, unwrapped in bus order) is that row's."""
     n = len(wire)
     out = np.full(n, -1, dtype=np.int64)
     if n == 0 or len(frames) == 0:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -33,7 +33,8 @@ def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")
     it = c["newton_iters"][m]
     x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
     return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
-                          flags=c["flags"][m].astype(np.int64), newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
+                          flags=c["flags"][m].astype(np.int64),
+                          newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
                           wall_time=wall_time)
 
 
@@ -227,7 +228,7 @@ def bridged_rows(inputs: StepInputs, estimated: Sequence[int],
         src.append(np.minimum(rows[g] + 1 + np.arange(k), n_in - 1))
         pred.append(np.ones(k, dtype=bool))
         urow.append(np.full(k, rows[g]))
-        prev = g + 1
+        prev = int(g) + 1
     src.append(rows[prev:])
     pred.append(np.zeros(len(rows) - prev, dtype=bool))
     urow.append(rows[prev:])
@@ -327,31 +328,21 @@ class Agreement:
                 f"{self.newton_mismatch}")
 
 
-def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile: Optional[Profile] = None) -> Agreement:
-    """Each CAN value must be the replay's value as the signal encodes it: within half an LSB for
-    the scaled integers (after clipping to the signal range: the estimator saturates and flags),
-    within half a float32 ULP for the float signals; NaN only where the replay has NaN; flags
-    (core bits) and Newton iterations equal. A profile that carries a value only at some steps
-    (production: EST_PAGE) is compared at those steps (dec.carried)."""
+def value_ratios(dec: Decoded, ref_cols: Dict[str, np.ndarray], codec: Codec,
+                 profile: Optional[Profile] = None) -> Dict[str, np.ndarray]:
+    """Per column of ref_cols and per row: |CAN - ref| in units of the signal's resolution (half an LSB for
+    the scaled integers, after clipping the reference to the signal range: the estimator saturates and
+    flags; half a float32 ULP for the float signals); 0 where both are NaN or the same infinity, inf for a
+    NaN on one side only, NaN on rows that did not carry the column (incomplete, or EST_PAGE not sent)."""
     profile = profile or DIAGNOSTICS
-    n = len(ref.t)
-    cols = dec.columns
-    rows = min(n, len(dec.complete))
-    ref_cols = {"q1": ref.x[:, 0], "q2": ref.x[:, 1], "q3": ref.x[:, 2], "q4": ref.x[:, 3], "v1": ref.x[:, 4],
-                "v2": ref.x[:, 5], "v3": ref.x[:, 6], "v4": ref.x[:, 7], "gamma": ref.x[:, 8],
-                "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    rows = min(len(dec.complete), min(len(v) for v in ref_cols.values()))
     have = dec.complete[:rows]
-    worst, mism = {}, {}
-    def rows_of(col: str) -> np.ndarray:
-        c = dec.carried.get(col)
-        return have if c is None else have & np.asarray(c[:rows], dtype=bool)
-
-    carried_rows = {}
+    out = {}
     for col, want in ref_cols.items():
         src = profile.results[col]
         lay = codec.messages[src.message].signals[src.signal]
         w = np.asarray(want[:rows], dtype=float)
-        got = cols[col][:rows]
+        got = dec.columns[col][:rows]
         if not lay.is_float:
             lo = -(2 ** (lay.length - 1)) * lay.scale
             hi = (2 ** (lay.length - 1) - 1) * lay.scale
@@ -364,11 +355,37 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec, profile
         same_inf = np.isinf(w) & (w == got)
         with np.errstate(invalid="ignore"):
             ratio = np.where(both_nan | same_inf, 0.0, np.abs(got - w) / tol)
-        sel = rows_of(col)
+        ratio = np.where(np.isnan(ratio), np.inf, ratio)
+        c = dec.carried.get(col)
+        sel = have if c is None else have & np.asarray(c[:rows], dtype=bool)
+        out[col] = np.where(sel, ratio, np.nan)
+    return out
+
+
+def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
+                        profile: Optional[Profile] = None) -> Agreement:
+    """Each CAN value must be the replay's value as the signal encodes it (`value_ratios` <= 1); NaN only
+    where the replay has NaN; flags (core bits) and Newton iterations equal. A profile that carries a value
+    only at some steps (production: EST_PAGE) is compared at those steps (dec.carried)."""
+    profile = profile or DIAGNOSTICS
+    n = len(ref.t)
+    cols = dec.columns
+    rows = min(n, len(dec.complete))
+    ref_cols = {"q1": ref.x[:, 0], "q2": ref.x[:, 1], "q3": ref.x[:, 2], "q4": ref.x[:, 3], "v1": ref.x[:, 4],
+                "v2": ref.x[:, 5], "v3": ref.x[:, 6], "v4": ref.x[:, 7], "gamma": ref.x[:, 8],
+                "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    have = dec.complete[:rows]
+    worst, mism, carried_rows = {}, {}, {}
+    for col, r in value_ratios(dec, ref_cols, codec, profile).items():
+        sel = ~np.isnan(r)
         carried_rows[col] = int(sel.sum())
-        ratio = np.where(np.isnan(ratio), np.inf, ratio)[sel]
-        worst[col] = float(ratio.max()) if ratio.size else 0.0
-        mism[col] = int(np.sum(ratio > 1.0))
+        worst[col] = float(r[sel].max()) if sel.any() else 0.0
+        mism[col] = int(np.sum(r[sel] > 1.0))
+
+    def rows_of(col: str) -> np.ndarray:
+        c = dec.carried.get(col)
+        return have if c is None else have & np.asarray(c[:rows], dtype=bool)
+
     fsel, isel = rows_of("flags"), rows_of("newton_iters")
     fl_can = cols["flags"][:rows][fsel].astype(np.int64) & CORE_FLAG_MASK
     fl_ref = ref.flags[:rows][fsel] & CORE_FLAG_MASK
@@ -392,7 +409,7 @@ def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
     import json
 
     arrays: Dict[str, np.ndarray] = {}
-    meta = {"header": header, "runs": []}
+    meta: Dict[str, Any] = {"header": header, "runs": []}
     if runs:
         inp = runs[0].inputs
         arrays.update(t=inp.t, u_seen=inp.u_seen, y_seen=inp.y_seen, wire_steps=inp.wire_steps)
@@ -408,12 +425,12 @@ def save_runs(runs: Sequence[HilRun], path: PathLike, header: str = "") -> Path:
             arrays[f"{i}.col.{col}"] = v
         arrays[f"{i}.complete"] = dec.complete
         arrays[f"{i}.step_status"] = dec.step_status
-        if rec.t_sent is not None:
+        if rec.t_sent is not None and rec.t_rx is not None:  # realtime runs record both
             arrays[f"{i}.t_sent"] = rec.t_sent
             arrays[f"{i}.t_rx"] = rec.t_rx
     arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
-    np.savez(path, **arrays)
+    np.savez(path, **arrays)  # type: ignore[arg-type]  # numpy's stub types **kwds like its allow_pickle flag
     return path
 
 
@@ -457,7 +474,7 @@ def compare_runs_with_replay(runs: Sequence[HilRun], replay_bin: PathLike, scena
             ref = run_c_replay(replay_bin, scenario, inp, r.experiment, out / f"replay-{r.experiment}.csv")
         else:
             # steps lost on the bus: replay the steps the estimator ran, gaps bridged as the app does
-            res, src, pred = replay_estimated(replay_bin, scenario, r.experiment, r.inputs, est + start,
+            res, src, pred = replay_estimated(replay_bin, scenario, r.experiment, r.inputs, list(est + start),
                                               out / f"replay-{r.experiment}.csv")
             ref = aligned_result(res, src, pred, r.inputs.t[start:stop], start)
             bridged = (f" ({stop - start - len(est)} steps never estimated (lost on the bus, not counted as missing "

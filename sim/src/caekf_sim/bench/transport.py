@@ -22,7 +22,7 @@ import select
 import socket
 import struct
 import time
-from typing import Iterable, List
+from typing import Iterable, List, Optional
 
 from .codec import RECORD, RECORD_SIZE
 
@@ -37,6 +37,16 @@ def open_bus(interface: str = "socketcan", channel: str = "vcan0", **kwargs):
     import can
 
     return can.Bus(interface=interface, channel=channel, **kwargs)
+
+
+def set_rcvbuf(sock: socket.socket, size: int) -> None:
+    """A deep receive queue (SO_RCVBUFFORCE works as root, else SO_RCVBUF, capped by the kernel)."""
+    for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, opt, size)
+            return
+        except OSError:
+            continue
 
 
 def interface_exists(channel: str) -> bool:
@@ -60,17 +70,19 @@ class _MMsgHdr(ctypes.Structure):
 
 
 class _MMsgBatch:
-    """A fixed array of mmsghdr, each pointing at one 16-byte slot of one buffer."""
+    """A fixed array of mmsghdr, each pointing at one slot of `size` bytes (a struct can_frame, or a
+    struct canfd_frame for the CAN FD profile) of one buffer."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, size: int = RECORD_SIZE) -> None:
         self.n = n
-        self.buf = ctypes.create_string_buffer(n * RECORD_SIZE)
+        self.size = size
+        self.buf = ctypes.create_string_buffer(n * size)
         self.iov = (_IOVec * n)()
         self.hdr = (_MMsgHdr * n)()
         base = ctypes.addressof(self.buf)
         for i in range(n):
-            self.iov[i].iov_base = base + i * RECORD_SIZE
-            self.iov[i].iov_len = RECORD_SIZE
+            self.iov[i].iov_base = base + i * size
+            self.iov[i].iov_len = size
             self.hdr[i].msg_hdr.msg_iov = ctypes.pointer(self.iov[i])
             self.hdr[i].msg_hdr.msg_iovlen = 1
 
@@ -122,14 +134,9 @@ class SocketcanTransport(Transport):
         self.sock: socket.socket = bus.socket
         self.fd = self.sock.fileno()
         self.set_filter(rx_ids)
-        for opt in (SO_RCVBUFFORCE, socket.SO_RCVBUF):  # FORCE works as root (the VM), else capped
-            try:
-                self.sock.setsockopt(socket.SOL_SOCKET, opt, rcvbuf)
-                break
-            except OSError:
-                continue
+        set_rcvbuf(self.sock, rcvbuf)
         self.sock.setblocking(True)
-        self._timeout = None  # current SO_RCVTIMEO
+        self._timeout: Optional[float] = None  # current SO_RCVTIMEO
         self.libc = _libc() if use_mmsg else None
         if self.libc is not None:
             self.name = "socketcan (CAN_RAW, sendmmsg/recvmmsg)"
@@ -198,6 +205,7 @@ class SocketcanTransport(Transport):
 
     def _recvmmsg(self, flags: int) -> bytes:
         """One recvmmsg() batch as concatenated records; b"" when nothing came (timeout, EINTR)."""
+        assert self.libc is not None  # only with use_mmsg
         n = self.libc.recvmmsg(self.fd, self.rx.hdr, self.rx.n, flags, None)
         if n < 0:
             e = ctypes.get_errno()

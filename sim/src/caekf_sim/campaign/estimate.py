@@ -67,9 +67,9 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
         from ..experiments import experiment_config
         from ..estimator import run_estimator
 
-        res = run_estimator(sc, experiment_config(experiment), t, u, y, keep_P=False)
-        return Estimate(gamma=res.gamma.copy(), p_gg=res.p_gg.copy(), nis=np.full(len(t), np.nan),
-                        flags=res.flags.astype(np.int64))
+        ref = run_estimator(sc, experiment_config(experiment), t, u, y, keep_P=False)
+        return Estimate(gamma=ref.gamma.copy(), p_gg=ref.p_gg.copy(), nis=np.full(len(t), np.nan),
+                        flags=ref.flags.astype(np.int64))
     if backend != "replay":
         raise ValueError(f"unknown estimator backend {backend!r}; choose from {BACKENDS}")
     import pyarrow.csv as pcsv

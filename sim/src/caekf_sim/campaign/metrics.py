@@ -1,7 +1,7 @@
 """Per-run metrics of one estimator run against the truth (gamma only)."""
 from __future__ import annotations
 
-from typing import Dict
+from typing import Any, Dict
 
 import numpy as np
 
@@ -12,7 +12,7 @@ WITHIN_CONVERGED = 0.05  # time to converge: |error| within 5 % from then on
 DIVERGED = 0.5  # |final error| above 50 %, or gamma <= 0, or NaN
 
 
-def run_metrics(t: np.ndarray, gamma_true: float, delta: np.ndarray, est: Estimate) -> Dict[str, float]:
+def run_metrics(t: np.ndarray, gamma_true: float, delta: np.ndarray, est: Estimate) -> Dict[str, Any]:
     """Final and last-contact-exit gamma error, time to converge within 5 %, divergence, NEES of
     gamma against P_gamma,gamma, NIS statistics and the flags seen. NaN where undefined."""
     g = est.gamma

@@ -7,7 +7,7 @@ from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
-from .spec import Family, Split
+from .spec import Family
 
 SUMMARY_COLUMNS = ("experiment", "group", "n", "within_1pct", "within_5pct", "diverged", "consistent_3sigma",
                    "median_abs_err")
@@ -68,7 +68,7 @@ def write_plots(rows: Sequence[Dict[str, Any]], family: Family, experiments: Seq
     fig, ax = plt.subplots(figsize=(7, 4))
     bins = np.logspace(np.log10(floor), 1, 36)
     for e, rs in by_exp.items():
-        ax.hist(abs_err(rs), bins=bins, histtype="step", lw=1.5, label=e)
+        ax.hist(abs_err(rs), bins=list(bins), histtype="step", lw=1.5, label=e)
     for x, lab in ((0.01, "1 %"), (0.05, "5 %"), (0.5, "diverged")):
         ax.axvline(x, color="k", ls=":", lw=0.8)
         ax.text(x, ax.get_ylim()[1] * 0.95, lab, rotation=90, va="top", ha="right", fontsize=8)
@@ -90,8 +90,8 @@ def write_plots(rows: Sequence[Dict[str, Any]], family: Family, experiments: Seq
         fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol, 2.6 * nrow), squeeze=False)
         for ax, name in zip(axes.flat, names):
             for e, rs in by_exp.items():
-                x = np.array([r.get(name, np.nan) for r in rs], float)
-                ax.scatter(x, abs_err(rs), s=6, alpha=0.6, label=e)
+                xs = np.array([r.get(name, np.nan) for r in rs], float)
+                ax.scatter(xs, abs_err(rs), s=6, alpha=0.6, label=e)
             ax.set_yscale("log")
             if name in ("gamma", "gamma0"):
                 ax.set_xscale("log")

@@ -14,9 +14,9 @@ import dataclasses
 import math
 import operator
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -56,10 +56,10 @@ class Split:
                 out[np.isclose(x, v, rtol=1e-12, atol=0.0)] = i
             return out
         e = np.asarray(self.edges, dtype=float)
-        i = np.searchsorted(e, x, side="right") - 1
-        i[x == e[-1]] = len(e) - 2  # the last edge closes the last bin
-        i[(x < e[0]) | (x > e[-1])] = -1
-        return i
+        idx = np.searchsorted(e, x, side="right") - 1
+        idx[x == e[-1]] = len(e) - 2  # the last edge closes the last bin
+        idx[(x < e[0]) | (x > e[-1])] = -1
+        return idx
 
 
 @dataclass(frozen=True)
@@ -146,7 +146,8 @@ def draw(rng: np.random.Generator, name: str, d: Mapping[str, Any]) -> float:
 # ---------------------------------------------------------------- loading
 
 def scenario_from_values(base: Scenario, values: Mapping[str, float]) -> Scenario:
-    """base with the drawn values of its keys (aliases such as k12 included); other names are ignored."""
+    """base with the drawn values of its keys (aliases such as k12 included; other names are ignored), checked
+    against the schema's ranges (ScenarioError)."""
     changes: Dict[str, Any] = {}
     for k, v in values.items():
         key = canonical(k)
@@ -160,11 +161,19 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
     """Family of a spec file; runs, seed and t_end override the spec's."""
     path = Path(path)
     with open(path, "rb") as f:
-        spec = tomllib.load(f)
-    fam = spec.get("family", {})
+        try:
+            spec = tomllib.load(f)
+        except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise ValueError(f"{path}: not a TOML family spec: {exc}") from None
     unknown = sorted(set(spec) - {"family", "draw", "set", "split"})
     if unknown:
         raise ValueError(f"{path}: unknown tables {unknown} (family, draw, set, split)")
+    if "family" not in spec:
+        raise ValueError(f"{path}: no [family] table (docs/family.md)")
+    fam = spec["family"]
+    unknown = sorted(set(fam) - {"name", "runs", "seed", "base"})
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)} in [family] (name, runs, seed, base)")
     base_path = fam.get("base")
     if base_path is None:
         from ..scenario import default_scenario_path
@@ -190,7 +199,11 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
         for name, expr in sets.items():
             v = evaluate(str(expr), known)
             values[name] = known[name] = v
-        out.append(Run(run=i, scenario=scenario_from_values(base, values), values=values, source=str(path)))
+        try:
+            sc = scenario_from_values(base, values)
+        except ValueError as exc:
+            raise ValueError(f"{path}: run {i}: {str(exc).replace('replace(): ', '')}") from None
+        out.append(Run(run=i, scenario=sc, values=values, source=str(path)))
     splits = tuple(
         Split(name=s["name"], edges=tuple(float(e) for e in s["edges"]) if "edges" in s else None,
               values=tuple(float(v) for v in s["values"]) if "values" in s else None)

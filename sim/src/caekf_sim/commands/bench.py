@@ -23,6 +23,7 @@ from typing import Dict, List
 
 import numpy as np
 
+
 from .. import schema
 from . import add_scenario_arg, scenario_from_args
 
@@ -42,6 +43,25 @@ def _bus_args(p: argparse.ArgumentParser) -> None:
                    help="use python-can Messages even on SocketCAN (no CAN_RAW/mmsg fast path)")
     p.add_argument("--profile", choices=["diagnostics", "production"], default="diagnostics",
                    help="protocol profile, as the estimator's (caekf-host --profile; default diagnostics)")
+    p.add_argument("--id-offset", type=_id_offset, default=0, metavar="N",
+                   help="runtime CAN ID base: every message at its DBC ID + N (decimal or 0x hex, may be "
+                        "negative), as the estimator's (caekf-host --id-offset; default 0)")
+
+
+def _id_offset(text: str) -> int:
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r} (decimal or 0x hex)") from None
+
+
+def _codec(args):
+    from ..bench.codec import Codec
+
+    try:
+        return Codec(id_offset=getattr(args, "id_offset", 0))
+    except ValueError as e:
+        raise SystemExit(f"caekf-sim hil: --id-offset: {e}") from None
 
 
 def _progress_args(p: argparse.ArgumentParser) -> None:
@@ -109,7 +129,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dbc", type=Path, default=None, help="DBC (default firmware/protocol/caekf.dbc)")
     p.add_argument("--rate", type=float, default=1000.0, help="steps per second (default 1000)")
     p.add_argument("--bitrate", type=float, default=1e6, help="(nominal) bit rate (default 1e6)")
-    p.add_argument("--profile", action="append", choices=["diagnostics", "production"], default=None,
+    p.add_argument("--data-bitrate", type=float, default=5e6,
+                   help="CAN FD data-phase bit rate of the fd profile's frames (default 5e6)")
+    p.add_argument("--profile", action="append", choices=["diagnostics", "production", "fd"], default=None,
                    help="profile(s) to compute (repeatable; default all)")
     p.add_argument("--page-period", type=int, default=20,
                    help="production: the EST_PAGE period in steps, as caekf-host --page-period (default 20)")
@@ -152,7 +174,7 @@ def _open_bench(args, record_log: bool = False):
                          "SocketCAN: run through tools/with-vcan.sh (it boots user-mode Linux with vcan0), or pass "
                          "--iface/--interface for real hardware.")
     return Bench.open(args.interface, args.iface, fast=not args.slow_path, record_log=record_log,
-                      profile=getattr(args, "profile", "diagnostics"))
+                      profile=getattr(args, "profile", "diagnostics"), codec=_codec(args))
 
 
 def cmd_hil_echo_probe(args: argparse.Namespace) -> int:
@@ -189,7 +211,8 @@ def _realtime_report(runs, args, dt: float) -> str:
         blocks.append(format_paced(f"realtime {r.experiment}, {r.record.n} steps at {1 / dt:g} Hz",
                                    paced_stats(p, args.bitrate), dt, args.bitrate))
         if args.log is not None:
-            path = args.log if len(runs) == 1 else args.log.with_name(f"{args.log.stem}-{r.experiment}{args.log.suffix}")
+            path = args.log if len(runs) == 1 else \
+                args.log.with_name(f"{args.log.stem}-{r.experiment}{args.log.suffix}")
             n = write_candump(path, args.iface, p.frames_t_ns, p.frames)
             blocks.append(f"hil: wrote {n} frames to {path} (candump -L, kernel timestamps)")
     return "\n".join(blocks)
@@ -325,7 +348,7 @@ def cmd_gen_c(args: argparse.Namespace) -> int:
 def cmd_busload(args: argparse.Namespace) -> int:
     import cantools
 
-    from ..bench.busload import dbc_profile_load, log_load, read_candump
+    from ..bench.busload import dbc_profile_load, fd_log_seconds, log_load, read_candump, read_candump_fd
     from ..bench.codec import default_dbc_path
     from ..bench.profiles import PROFILES, production
 
@@ -340,26 +363,32 @@ def cmd_busload(args: argparse.Namespace) -> int:
         if prof not in PROFILES:
             raise SystemExit(f"caekf-sim busload: --log {item}: unknown profile {prof!r}")
         logs.setdefault(prof, []).append(Path(path))
-    print(f"bus load at {args.rate:g} steps/s, {args.bitrate / 1e6:g} Mbit/s, 11-bit IDs, worst-case bit stuffing")
+    print(f"bus load at {args.rate:g} steps/s, {args.bitrate / 1e6:g} Mbit/s, 11-bit IDs, worst-case bit stuffing "
+          f"(CAN FD frames: {args.data_bitrate / 1e6:g} Mbit/s data phase, bit-rate switch)")
     print(f"{'profile':<12}  {'source':<40}  {'frames/step':>11}  {'us/step':>8}  {'load':>7}")
     for name in names:
         prof = production(args.page_period, args.rate) if name == "production" else PROFILES[name]
         msgs = list(prof.per_step)
-        pl = dbc_profile_load(db, msgs, args.rate, args.bitrate, profile=name, per_step=prof.per_step)
+        pl = dbc_profile_load(db, msgs, args.rate, args.bitrate, args.data_bitrate, name, prof.per_step)
         print(f"{name:<12}  {'computed from ' + dbc.name:<40}  {pl.frames_per_step:>11.2f}  "
               f"{1e6 * pl.seconds_per_step:>8.1f}  {100 * pl.load:>6.1f}%")
         for path in logs.get(name, []):
             if not path.is_file():
                 raise SystemExit(f"caekf-sim busload: {path}: no such log")
             t, ids, dlc, data = read_candump(path)
-            ll = log_load(t, ids, dlc, data, args.bitrate)
-            steps = max(1.0, ll.seconds * args.rate)
-            print(f"{name:<12}  {'measured, ' + path.name + ' (worst)':<40}  {ll.frames / steps:>11.2f}  "
-                  f"{1e6 * ll.bits_worst / args.bitrate / steps:>8.1f}  {100 * ll.load_worst:>6.1f}%")
-            print(f"{name:<12}  {'measured, ' + path.name + ' (exact)':<40}  {ll.frames / steps:>11.2f}  "
-                  f"{1e6 * ll.bits_exact / args.bitrate / steps:>8.1f}  {100 * ll.load_exact:>6.1f}%")
-            print(f"{'':<12}  (log: {ll.frames} frames over {ll.seconds:.3f} s; exact = the stuff bits of the "
-                  "recorded contents)")
+            t_fd, _, len_fd = read_candump_fd(path)
+            t_all = np.concatenate([t, t_fd])
+            seconds = float(t_all.max() - t_all.min()) + 135e-6 if len(t_all) else 0.0
+            ll = log_load(t, ids, dlc, data, args.bitrate, seconds)
+            fd_s = fd_log_seconds(len_fd, args.bitrate, args.data_bitrate)  # CAN FD frames: worst case
+            steps = max(1.0, seconds * args.rate)
+            frames = ll.frames + len(len_fd)
+            for kind, bits in (("worst", ll.bits_worst), ("exact", ll.bits_exact)):
+                s = bits / args.bitrate + fd_s
+                print(f"{name:<12}  {'measured, ' + path.name + f' ({kind})':<40}  {frames / steps:>11.2f}  "
+                      f"{1e6 * s / steps:>8.1f}  {100 * s / seconds if seconds else float('nan'):>6.1f}%")
+            print(f"{'':<12}  (log: {frames} frames ({len(len_fd)} CAN FD) over {seconds:.3f} s; exact = the "
+                  "stuff bits of the recorded classic contents, CAN FD frames at their worst case)")
     return 0
 
 

@@ -14,14 +14,14 @@ from __future__ import annotations
 import argparse
 import re
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any, Dict, List
 
-import numpy as np
 
+from ..cli import UsageError
+from ..outputs import check_output_file, write_text_atomic
 from . import add_scenario_arg, scenario_from_args
 
 REPO = Path(__file__).resolve().parents[4]
@@ -98,13 +98,8 @@ def _best(fn, repeats: int) -> float:
 
 
 def cmd_bench_binding(args: argparse.Namespace) -> int:
-    try:
-        return _bench_binding(args)
-    except (ValueError, OSError, subprocess.CalledProcessError) as exc:
-        if getattr(args, "debug", False):
-            raise
-        print(f"caekf-sim bench-binding: {exc}", file=sys.stderr)
-        return 2
+    """Errors go to caekf-sim's one-line handler (the exit-code table; --debug shows the traceback)."""
+    return _bench_binding(args)
 
 
 def _bench_binding(args: argparse.Namespace) -> int:
@@ -130,7 +125,8 @@ def _bench_binding(args: argparse.Namespace) -> int:
             s = caekf_sim.settings_for(sc, e, precision)
             caekf_sim.run(s, u[:100], y[:100])  # modules loaded before the clock starts
             dt = _best(lambda: caekf_sim.run(s, u, y), args.repeats)
-            rows.append(_row("caekf_sim.run", precision, e, n, dt, f"x, P diag, flags, nis, iters; best of {args.repeats}"))
+            rows.append(_row("caekf_sim.run", precision, e, n, dt,
+                             f"x, P diag, flags, nis, iters; best of {args.repeats}"))
     m = min(args.step_calls, n)
     for precision in ("double", "float"):
         est = caekf_sim.Estimator(sc, precision=precision)
@@ -195,7 +191,8 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
                    help="noise settings to tune, comma-separated (default: all four)")
     p.add_argument("--experiment", default="switched",
                    help="experiment whose settings the runs use (default switched)")
-    p.add_argument("--precision", choices=["double", "float"], default="double")
+    p.add_argument("--precision", choices=["double", "float"], default="double",
+                   help="scalar type of the C estimator tuned (default double)")
     p.add_argument("--gamma-true", type=float, default=None,
                    help="true gamma for the reported error (default: the scenario's gamma)")
     p.add_argument("--burn-in", type=float, default=0.5, help="seconds of each run left out of the NIS (default 0.5)")
@@ -206,13 +203,18 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
 
 
 def _records(paths, dt: float):
-    from ..tune import read_candump_records, read_record_csv
+    """Records of CSVs (checked like caekf-replay checks them: caekf_sim.measurements) and *.log candump logs."""
+    from ..measurements import check_input_file, read_measurements_csv
+    from ..tune import Record, read_candump_records
 
     out = []
     for path in paths:
-        if not Path(path).is_file():
-            raise FileNotFoundError(f"no such file: {path}")
-        out += read_candump_records(path, dt) if str(path).endswith(".log") else [read_record_csv(path)]
+        check_input_file(path)
+        if str(path).endswith(".log"):
+            out += read_candump_records(path, dt)
+        else:
+            m = read_measurements_csv(path, dt)
+            out.append(Record(m.name, m.t, m.u, m.y))
     return out
 
 
@@ -220,26 +222,22 @@ def cmd_tune(args: argparse.Namespace) -> int:
     from ..settings_adapter import scenario_toml
     from ..tune import read_candump_records, report_text, tune
 
-    try:
-        sc = scenario_from_args(args)
-        params = [p.strip() for p in args.params.split(",") if p.strip()]
-        records = _records(args.runs, sc.dt)
-        for log in args.candump:
-            if not log.is_file():
-                raise FileNotFoundError(f"no such file: {log}")
-            records += read_candump_records(log, sc.dt)
-        if not records:
-            raise ValueError("nothing to tune on: give --runs CSV... and/or --candump LOG...")
-        holdout = _records(args.holdout, sc.dt)
-        t0 = time.perf_counter()
-        res = tune(sc, records, params, holdout, args.experiment, args.precision, args.gamma_true, args.burn_in,
-                   args.max_evals)
-    except (ValueError, OSError, KeyError) as exc:
-        if args.debug:
-            raise
-        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-        print(f"caekf-sim tune: {msg}", file=sys.stderr)
-        return 2
+    # Errors go to caekf-sim's one-line handler: bad input 3, I/O 4 (--debug shows the traceback).
+    sc = scenario_from_args(args)
+    params = [p.strip() for p in args.params.split(",") if p.strip()]
+    records = _records(args.runs, sc.dt)
+    for log in args.candump:
+        if not log.is_file():
+            raise FileNotFoundError(f"no such file: {log}")
+        records += read_candump_records(log, sc.dt)
+    if not records:
+        raise UsageError("nothing to tune on: give --runs CSV... and/or --candump LOG...")
+    holdout = _records(args.holdout, sc.dt)
+    if args.out is not None:
+        check_output_file(args.out)
+    t0 = time.perf_counter()
+    res = tune(sc, records, params, holdout, args.experiment, args.precision, args.gamma_true, args.burn_in,
+               args.max_evals)
     print(f"tuned {', '.join(params)} on {len(records)} run(s), {sum(len(r) for r in records)} samples, "
           f"{args.experiment} {args.precision}, in {time.perf_counter() - t0:.1f} s"
           + (f"; {len(holdout)} held-out run(s)" if holdout else ""))
@@ -249,7 +247,6 @@ def cmd_tune(args: argparse.Namespace) -> int:
         src = args.scenario or _default()
         header = (f"Tuned by caekf-sim tune from {Path(src).name} on {', '.join(r.name for r in records)}\n"
                   f"(maximum likelihood of the innovations, {args.experiment}, {args.precision}).\n\n" + text)
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(scenario_toml(res.scenario, header), encoding="utf-8")
+        write_text_atomic(args.out, scenario_toml(res.scenario, header))
         print(f"wrote {args.out}")
     return 0

@@ -27,16 +27,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "or the numpy reference")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--scheduler", default=None, help="run on a Dask distributed cluster, e.g. tcp://HOST:8786")
-    p.add_argument("--no-plots", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-plots", action="store_true", help="no figures (tables only)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("family", help="write the scenario files and parameter table of a family spec")
-    p.add_argument("spec", type=Path)
+    p.add_argument("spec", type=Path, help="family spec (TOML, docs/family.md)")
     p.add_argument("--out", type=Path, required=True, help="folder for run-NNNN.toml files")
-    p.add_argument("--runs", type=int, default=None)
-    p.add_argument("--seed", type=int, default=None)
-    p.add_argument("--t-end", type=float, default=None)
+    p.add_argument("--runs", type=int, default=None, help="override the spec's number of runs")
+    p.add_argument("--seed", type=int, default=None, help="override the spec's seed")
+    p.add_argument("--t-end", type=float, default=None, help="override t_end [s] of every run")
     p.set_defaults(func=cmd_family)
 
 

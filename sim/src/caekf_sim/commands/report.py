@@ -6,16 +6,29 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cli import UsageError
+from ..measurements import MeasurementError, read_measurements_csv
+from ..outputs import check_output_dir, check_output_file
+from ..plots import PLOT_FORMATS
+from ..results import read_result_csv
 from ..truth import read_truth_csv, simulate
 from . import add_scenario_arg, scenario_from_args
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("plot", help="Figs 3-6 as PNG from an experiments directory")
+    p = sub.add_parser("plot", help="figures of any runs (estimate CSVs), or Figs 3-6 of an experiments folder")
     add_scenario_arg(p)
-    p.add_argument("--results-dir", type=Path, required=True)
-    p.add_argument("--truth", type=Path, required=True)
-    p.add_argument("--outdir", type=Path, required=True)
+    p.add_argument("runs", type=Path, nargs="*", metavar="RESULT_CSV",
+                   help="estimate CSVs (caekf-sim estimate, caekf-replay) drawn in one figure, written to --out")
+    p.add_argument("--label", action="append", default=None,
+                   help="legend label of each RESULT_CSV, in order (default: the file names)")
+    p.add_argument("--out", type=Path, default=None, help="figure of the runs: FILE.png, FILE.svg or FILE.pdf")
+    p.add_argument("--results-dir", type=Path, default=None,
+                   help="an experiments folder (canonical.csv, switched.csv, ...): Figs 3-6 into --outdir")
+    p.add_argument("--outdir", type=Path, default=None, help="folder for Figs 3-6")
+    p.add_argument("--format", choices=PLOT_FORMATS, default="png", help="format of Figs 3-6 (default png)")
+    p.add_argument("--truth", type=Path, default=None,
+                   help="truth CSV (caekf-truth, caekf-sim truth): contact bands, position errors (optional)")
     p.set_defaults(func=cmd_plot)
 
     p = sub.add_parser("observability", help="PBH test (eq. 20), contact active and inactive")
@@ -28,20 +41,51 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_filterpy)
 
     p = sub.add_parser("truth-diff", help="max |difference| between two truth CSVs (e.g. C vs numpy)")
-    p.add_argument("a", type=Path)
-    p.add_argument("b", type=Path)
+    p.add_argument("a", type=Path, help="truth CSV")
+    p.add_argument("b", type=Path, help="the other truth CSV")
     p.add_argument("--tol", type=float, default=2e-10, help="max allowed |dq| [m] (default: twice the truths' bound)")
     p.set_defaults(func=cmd_truth_diff)
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from ..plots import make_all_from_files
+    from ..plots import EXPERIMENT_FILES, load_results, make_all, plot_runs
 
-    sc = scenario_from_args(args)
-    paths = make_all_from_files(args.results_dir, args.truth, sc.gamma, sc.gamma_min, args.outdir)
-    for p in paths:
+    if bool(args.runs) == (args.results_dir is not None):
+        raise UsageError("give RESULT_CSV files (with --out) or --results-dir (with --outdir), not both")
+    if args.runs and (args.out is None or args.outdir is not None):
+        raise UsageError("RESULT_CSV files make one figure: give --out FILE.png|svg|pdf (not --outdir)")
+    if args.results_dir is not None and (args.outdir is None or args.out is not None):
+        raise UsageError("--results-dir makes Figs 3-6: give --outdir (not --out)")
+    if args.label is not None and len(args.label) != len(args.runs):
+        raise UsageError(f"{len(args.label)} --label for {len(args.runs)} RESULT_CSV files")
+    sc = scenario_from_args(args, truth_optional=True)
+    if args.out is not None:
+        check_output_file(args.out)
+        if args.out.suffix.lstrip(".").lower() not in PLOT_FORMATS:
+            raise UsageError(f"--out {args.out}: the figure format comes from the suffix: "
+                             + ", ".join("." + f for f in PLOT_FORMATS))
+    else:
+        check_output_dir(args.outdir)
+    truth = None
+    if args.truth is not None:
+        truth = read_measurements_csv(args.truth, sc.dt).truth
+        if truth is None:
+            raise MeasurementError(f"{args.truth}: not a truth CSV (no q1..q4, v1..v4, delta columns)")
+    if args.runs:
+        labels = args.label or [p.stem for p in args.runs]
+        runs = {lab: read_result_csv(p) for lab, p in zip(labels, args.runs)}
+        print(f"wrote {plot_runs(runs, truth, sc.gamma, args.out)}")
+        return 0
+    d: Path = args.results_dir
+    if not d.is_dir():
+        raise (NotADirectoryError if d.exists() else FileNotFoundError)(
+            f"{d}: {'not a directory' if d.exists() else 'no such directory'} (--results-dir)")
+    results = load_results(d)
+    if not results:
+        raise MeasurementError(f"{d}: no experiment results ({', '.join(EXPERIMENT_FILES)})")
+    for p in make_all(results, truth, sc.gamma, sc.gamma_min, args.outdir, fmt=args.format):
         print(f"wrote {p}")
-    return 0 if paths else 1
+    return 0
 
 
 def cmd_observability(args: argparse.Namespace) -> int:

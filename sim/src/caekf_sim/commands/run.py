@@ -2,23 +2,30 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 import numpy as np
 from pathlib import Path
+from typing import Any, Dict
 
-from ..experiments import EXPERIMENTS, format_table, run_experiment, summarize
+from ..cli import UsageError
+from ..estimator import EstimateResult
+from ..experiments import EXPERIMENTS, experiment_config, format_table, run_experiment, summarize
 from ..mechanism import Mechanism, read_input_csv
 from ..results import write_result_csv
-from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, read_truth_csv, simulate,
+from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, simulate,
                      write_truth_csv)
-from . import add_scenario_arg, scenario_from_args
+from ..measurements import MeasurementError, Measurements, read_measurements
+from ..outputs import atomic_output, check_output_dir, check_output_file, write_text_atomic
+from ..plots import PLOT_FORMATS
+from . import add_progress_arg, add_scenario_arg, scenario_from_args, want_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("truth", help="simulate the truth model and write its CSV")
     add_scenario_arg(p, t_end=True)
-    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--out", type=Path, required=True, help="truth CSV to write")
     p.add_argument("--method", choices=TRUTH_METHODS, default=CONTINUOUS,
                    help="continuous model with located contact events (default) or backward Euler")
     p.add_argument("--inputs", type=Path, default=None, metavar="CSV",
@@ -26,33 +33,47 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "held) instead of the scenario's sines")
     p.set_defaults(func=cmd_truth)
 
-    p = sub.add_parser("estimate", help="run one experiment's estimator over a measurements CSV")
+    p = sub.add_parser("estimate", help="run the estimator over measurements: a t,u,y1,y4 CSV or a candump log")
     add_scenario_arg(p)
-    p.add_argument("--measurements", type=Path, required=True, help="truth CSV (t,u,y1,y4,...)")
-    p.add_argument("--experiment", choices=sorted(EXPERIMENTS), default="switched")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--measurements", type=Path, metavar="CSV",
+                     help="t,u,y1,y4 CSV at the scenario's dt (more columns allowed, e.g. a truth CSV; empty y1 "
+                          "and y4: a lost sample)")
+    src.add_argument("--candump", type=Path, metavar="LOG", help="candump -L log of the bus (decoded with the DBC)")
+    p.add_argument("--run", type=int, default=None, metavar="N",
+                   help="run N (1..) of a log holding several (one per configuration)")
+    p.add_argument("--experiment", choices=sorted(EXPERIMENTS), default="switched",
+                   help="preset of the estimator (default switched)")
+    p.add_argument("--engine", choices=["c", "numpy"], default="c",
+                   help="the shipped C estimator through the binding (default) or the numpy reference")
+    p.add_argument("--precision", choices=["double", "float"], default="double", help="C engine's scalar")
     p.add_argument("--variant", choices=["consistent", "paper"], default=None,
                    help="switch-off variant (default: consistent)")
     p.add_argument("--joseph", action="store_true", help="Joseph-form covariance updates")
-    p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--progress", action="store_true")
+    p.add_argument("--out", type=Path, required=True, help="estimate CSV (caekf-replay's columns)")
+    add_progress_arg(p)
     p.set_defaults(func=cmd_estimate)
 
     p = sub.add_parser("experiments", help="truth + the four experiments + summary table")
     add_scenario_arg(p, t_end=True)
-    p.add_argument("--outdir", type=Path, required=True)
+    p.add_argument("--outdir", type=Path, required=True,
+                   help="folder for truth.csv, one CSV per experiment and summary.txt (made if needed)")
     p.add_argument("--plots", action="store_true", help="also write the figures into OUTDIR")
-    p.add_argument("--progress", action="store_true")
+    p.add_argument("--format", choices=PLOT_FORMATS, default="png", help="figure format (default png)")
+    add_progress_arg(p)
     p.set_defaults(func=cmd_experiments)
 
 
 def cmd_truth(args: argparse.Namespace) -> int:
     sc = scenario_from_args(args)
+    check_output_file(args.out)
     mech = Mechanism.from_scenario(sc)
     inputs = read_input_csv(args.inputs, mech.n_inputs) if args.inputs is not None else None
     t0 = time.perf_counter()
     truth, stats = simulate(sc, return_stats=True, method=args.method, inputs=inputs, mech=mech)
     wall = time.perf_counter() - t0
-    write_truth_csv(truth, args.out)
+    with atomic_output(args.out) as tmp:
+        write_truth_csv(truth, tmp)
     print(f"wrote {args.out}: {len(truth)} samples in {wall:.1f} s")
     for c in range(truth.deltas.shape[1]):
         eps = contact_episodes(truth.t, truth.deltas[:, c], merge_gap=0.1)
@@ -69,36 +90,95 @@ def cmd_truth(args: argparse.Namespace) -> int:
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    sc = scenario_from_args(args)
-    truth = read_truth_csv(args.measurements)
-    overrides = {"joseph": args.joseph} if args.joseph else {}
+    sc = scenario_from_args(args, truth_optional=True)
+    check_output_file(args.out)
+    if args.run is not None and args.candump is None:
+        raise UsageError("--run selects a run of a --candump log")
+    meas = read_measurements(args.candump or args.measurements, sc.dt, candump=args.candump is not None,
+                             run=args.run)
+    overrides: Dict[str, Any] = {}
     if args.variant:
-        overrides["switch_variant"] = args.variant
-    res = run_experiment(sc, truth, args.experiment, keep_P=False, progress=args.progress,
-                         **overrides)
-    write_result_csv(res, args.out)
+        overrides["switch_variant" if args.engine == "numpy" else "switchoff"] = args.variant
+    if args.joseph:
+        overrides.update({"joseph": True} if args.engine == "numpy" else {"cov_update": "joseph"})
+    progress = want_progress(args)
+    if args.engine == "numpy":
+        res = _estimate_numpy(sc, meas, args.experiment, overrides, progress)
+    else:
+        res = estimate_c(sc, meas, args.experiment, args.precision, overrides, progress)
+    with atomic_output(args.out) as tmp:
+        write_result_csv(res, tmp)
+    print(f"wrote {args.out}: {len(res.t)} samples of {meas.name} ({args.engine} estimator"
+          f"{', ' + args.precision if args.engine == 'c' else ''})")
     print(format_table([summarize(args.experiment, res, sc.gamma)]))
     return 0
 
 
+def estimate_c(sc: Any, meas: Measurements, experiment: str, precision: str = "double",
+               overrides: Any = None, progress: bool = False, chunk: int = 5000) -> EstimateResult:
+    """The shipped C estimator (caekf_sim.run's loop, chunk by chunk for the progress bar) over a run:
+    the columns of caekf-replay's output (p_norm, the gamma variance, flags, Newton iterations)."""
+    from ..binding import Estimator
+
+    est = Estimator(sc, precision, experiment, **(overrides or {}))
+    n = len(meas.t)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n, unit="step", mininterval=0.5, desc=meas.name)
+    t0 = time.perf_counter()
+    parts = []
+    for a in range(0, n, chunk):
+        b = min(n, a + chunk)
+        parts.append(est.run(meas.u[a:b], meas.y[a:b], t=meas.t[a:b], p_norm=True))
+        if bar is not None:
+            bar.update(b - a)
+    if bar is not None:
+        bar.close()
+    wall = time.perf_counter() - t0
+    pd = np.concatenate([r.P_diag for r in parts])
+    return EstimateResult(
+        t=np.concatenate([r.t for r in parts]), x=np.concatenate([r.x for r in parts]),
+        p_norm=np.concatenate([r.p_norm for r in parts]), p_gg=pd[:, 8],
+        flags=np.concatenate([r.flags for r in parts]).astype(np.int64),
+        newton_iters=np.concatenate([r.newton_iters for r in parts]).astype(np.int64), wall_time=wall)
+
+
+def _estimate_numpy(sc: Any, meas: Measurements, experiment: str, overrides: Dict[str, Any],
+                    progress: bool) -> EstimateResult:
+    from ..estimator import run_estimator
+
+    if np.isnan(meas.y).any():
+        raise MeasurementError(f"{meas.name}: lost samples (empty y1, y4): the numpy engine needs every "
+                               "measurement (use --engine c)")
+    return run_estimator(sc, experiment_config(experiment, **overrides), meas.t, meas.u, meas.y, keep_P=False,
+                         progress=progress)
+
+
 def cmd_experiments(args: argparse.Namespace) -> int:
     sc = scenario_from_args(args)
-    out: Path = args.outdir
-    out.mkdir(parents=True, exist_ok=True)
+    out: Path = check_output_dir(args.outdir)
+    progress = want_progress(args)
     truth = simulate(sc)
-    write_truth_csv(truth, out / "truth.csv")
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_output(out / "truth.csv") as tmp:
+        write_truth_csv(truth, tmp)
     results, rows = {}, []
     for name in EXPERIMENTS:
-        res = run_experiment(sc, truth, name, keep_P=False, progress=args.progress)
-        write_result_csv(res, out / f"{name}.csv")
+        if progress:
+            print(f"experiment {name}", file=sys.stderr)
+        res = run_experiment(sc, truth, name, keep_P=False, progress=progress)
+        with atomic_output(out / f"{name}.csv") as tmp:
+            write_result_csv(res, tmp)
         results[name] = res
         rows.append(summarize(name, res, sc.gamma))
     table = format_table(rows)
-    (out / "summary.txt").write_text(table + "\n", encoding="utf-8")
+    write_text_atomic(out / "summary.txt", table + "\n")
     print(table)
     if args.plots:
         from ..plots import make_all
 
-        for path in make_all(results, truth, sc.gamma, sc.gamma_min, out):
+        for path in make_all(results, truth, sc.gamma, sc.gamma_min, out, fmt=args.format):
             print(f"wrote {path}")
     return 0

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 from typing import Dict, List, Optional
@@ -42,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                            "tight-tolerance reference (scipy, restarted at contact events)")
     p.add_argument("--spec", type=Path, default=None, help="also check a sample of this family spec")
     p.add_argument("--runs", type=int, default=10, help="family runs to check (default 10)")
-    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--seed", type=int, default=None, help="override the family spec's seed")
     p.add_argument("--t-end", type=float, default=None, help="override t_end [s]")
     p.add_argument("--integrator", choices=("DOP853", "Radau"), default="DOP853", help="reference method")
     p.add_argument("--no-paper", action="store_true", help="skip the paper's scenario")

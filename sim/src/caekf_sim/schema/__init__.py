@@ -12,8 +12,8 @@ from .codegen import Preset, Schema, SchemaError, Setting, load
 
 SCHEMA: Schema = load()
 
-__all__ = ["ALIASES", "SCHEMA", "canonical", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset", "preset_names",
-           "setting_of", "wire_values"]
+__all__ = ["ALIASES", "SCHEMA", "canonical", "Preset", "Schema", "SchemaError", "Setting", "param_ids", "preset",
+           "preset_names", "setting_of", "wire_values"]
 
 _SETTING_OF_KEY: Dict[str, Setting] = {k: s for k, s, _ in SCHEMA.keys()}
 ALIASES: Dict[str, str] = dict(SCHEMA.aliases())

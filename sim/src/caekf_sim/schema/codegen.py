@@ -235,8 +235,8 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
             raise SchemaError(f"{name}: truth settings have no id, all others need one")
         settings.append(s)
     names = [s.name for s in settings]
-    keys = [k for s in settings for k in s.keys] + [a for s in settings for a, _ in s.aliases]
-    for what, items in (("name", names), ("key", keys)):
+    all_keys = [k for s in settings for k in s.keys] + [a for s in settings for a, _ in s.aliases]
+    for what, items in (("name", names), ("key", all_keys)):
         dup = sorted({x for x in items if items.count(x) > 1})
         if dup:
             raise SchemaError(f"duplicate {what}s: {dup}")

@@ -1,0 +1,175 @@
+"""Measurements in: a `t,u,y1,y4` CSV or a candump log of the bus, checked like caekf-replay checks them.
+
+A measurement CSV has a header whose columns include t, u, y1 and y4 (any others, e.g. a truth CSV's
+q1..q4, v1..v4, delta, are read too) and numeric rows with the header's column count. Empty y1 and y4 in
+a row mean a lost measurement (NaN: the estimator bridges it with caekf_predict); one of them empty is an
+error. t must increase strictly, by the scenario's dt within DT_TOL, and there are at most MAX_ROWS rows:
+the rules of host/common/csv.h, whose constants a test compares with these. Every refusal is one line,
+"FILE:LINE: rule" (MeasurementError, a ValueError: exit 3); a missing or unreadable file is an OSError
+with the same kind of message (exit 4).
+
+A candump -L log of the bus is decoded through the DBC (caekf_sim.tune.read_candump_records, cantools):
+one run per configuration the bench sent.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Dict, List, Optional, Union
+
+import numpy as np
+
+from .truth import TRUTH_COLUMNS, Truth
+
+PathLike = Union[str, Path]
+
+MAX_ROWS = 2_000_000  # CAEKF_CSV_MAX_ROWS (host/common/csv.h)
+DT_TOL = 0.01  # CAEKF_CSV_DT_TOL: |t[k] - t[k-1] - dt| <= 1 % of dt
+REQUIRED = ("t", "u", "y1", "y4")
+
+
+class MeasurementError(ValueError):
+    """A measurement file that cannot be used; one line naming the file, the line and the rule."""
+
+
+@dataclass
+class Measurements:
+    """One recorded run: t [s], u [N], y = [q1, q4] [m] per sample (NaN rows: lost measurements), and the
+    truth when the file has its columns (a caekf-truth / caekf-sim truth CSV)."""
+
+    name: str
+    t: np.ndarray
+    u: np.ndarray
+    y: np.ndarray  # (n, 2)
+    truth: Optional[Truth] = None
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+def check_input_file(path: PathLike) -> Path:
+    """The path of an existing regular file, or an OSError naming it (exit 4)."""
+    p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a directory, expected a file")
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: cannot open: No such file or directory")
+    return p
+
+
+def read_measurements_csv(path: PathLike, dt: float) -> Measurements:
+    """Read and check a measurement CSV (module docstring); dt <= 0 checks only that t increases."""
+    p = check_input_file(path)
+    cols: Dict[str, List[float]] = {}
+    try:
+        f = open(p, encoding="utf-8", newline="")
+    except OSError as exc:
+        raise OSError(f"{p}: cannot open: {exc.strerror}") from None
+    with f:
+        try:
+            header_line = f.readline()
+        except UnicodeDecodeError:
+            raise MeasurementError(f"{p}:1: not a text CSV (bytes that are not UTF-8)") from None
+        if not header_line:
+            raise MeasurementError(f"{p}:1: empty input")
+        header = [c.strip() for c in header_line.rstrip("\r\n").split(",")]
+        if "\0" in header_line or any(not c for c in header):
+            raise MeasurementError(f"{p}:1: bad header: expected the columns t,u,y1,y4 (and optionally more)")
+        missing = [c for c in REQUIRED if c not in header]
+        if missing:
+            raise MeasurementError(f"{p}:1: bad header: no column(s) {', '.join(missing)} "
+                                   f"(a measurement CSV has t,u,y1,y4)")
+        if len(set(header)) != len(header):
+            raise MeasurementError(f"{p}:1: bad header: a column name appears twice")
+        for c in header:
+            cols[c] = []
+        i_t, i_y1, i_y4 = header.index("t"), header.index("y1"), header.index("y4")
+        ncol = len(header)
+        prev_t = math.nan
+        lineno = 1
+        try:
+            for raw in f:
+                lineno += 1
+                line = raw.rstrip("\r\n")
+                if not line.strip():
+                    continue
+                if len(cols["t"]) >= MAX_ROWS:
+                    raise MeasurementError(f"{p}:{lineno}: more than {MAX_ROWS} data rows: the size limit is "
+                                           f"{MAX_ROWS} rows")
+                fields = line.split(",")
+                if len(fields) != ncol:
+                    raise MeasurementError(f"{p}:{lineno}: wrong column count: {len(fields)}, the header has {ncol}")
+                lost = not fields[i_y1].strip() and not fields[i_y4].strip()
+                row = []
+                for i, text in enumerate(fields):
+                    text = text.strip()
+                    if lost and i in (i_y1, i_y4):
+                        row.append(math.nan)
+                        continue
+                    if not text and i in (i_y1, i_y4):
+                        raise MeasurementError(f"{p}:{lineno}: y1 and y4 must both be present or both be empty")
+                    try:
+                        v = float(text)
+                    except ValueError:
+                        raise MeasurementError(f"{p}:{lineno}: column {i + 1}: {text!r} is not a number") from None
+                    if not math.isfinite(v):
+                        raise MeasurementError(f"{p}:{lineno}: column {i + 1}: non-finite value {text!r}")
+                    row.append(v)
+                t = row[i_t]
+                if not math.isnan(prev_t):
+                    if t <= prev_t:
+                        raise MeasurementError(f"{p}:{lineno}: t = {t:.9g} does not increase (previous row: "
+                                               f"{prev_t:.9g}): t must strictly increase")
+                    step = t - prev_t
+                    if dt > 0 and abs(step - dt) > DT_TOL * dt:
+                        raise MeasurementError(
+                            f"{p}:{lineno}: t steps by {step:.9g} from the previous row, the scenario's dt is "
+                            f"{dt:.9g} (tolerance {100 * DT_TOL:g} %)")
+                prev_t = t
+                for c, v in zip(header, row):
+                    cols[c].append(v)
+        except UnicodeDecodeError:
+            raise MeasurementError(f"{p}:{lineno + 1}: not a text CSV (bytes that are not UTF-8)") from None
+    if not cols["t"]:
+        raise MeasurementError(f"{p}:1: no data rows after the header")
+    arr = {c: np.asarray(v, dtype=float) for c, v in cols.items()}
+    truth = None
+    if all(c in arr for c in TRUTH_COLUMNS):
+        truth = Truth(t=arr["t"], u=arr["u"], y=np.column_stack([arr["y1"], arr["y4"]]),
+                      q=np.column_stack([arr[f"q{i}"] for i in range(1, 5)]),
+                      v=np.column_stack([arr[f"v{i}"] for i in range(1, 5)]), delta=arr["delta"])
+    return Measurements(p.name, arr["t"], arr["u"], np.column_stack([arr["y1"], arr["y4"]]), truth)
+
+
+def read_candump(path: PathLike, dt: float, run: Optional[int] = None) -> Measurements:
+    """One run of a candump -L log of the bus (decoded with the DBC): the only one, or number `run` (1..)."""
+    from .tune import read_candump_records
+
+    p = check_input_file(path)
+    try:
+        import can  # noqa: F401  (python-can reads the log, cantools the DBC: the [hil] extra)
+        import cantools  # noqa: F401
+    except ImportError as exc:
+        raise ImportError(f"reading a candump log needs python-can and cantools ({exc}): "
+                           "pip install 'caekf-sim[hil]'") from None
+    try:
+        records = read_candump_records(p, dt)
+    except UnicodeDecodeError:
+        raise MeasurementError(f"{p}: not a candump -L log (bytes that are not text)") from None
+    except (ValueError, IndexError) as exc:
+        raise MeasurementError(f"{p}: not a candump -L log of the bench: {exc}") from None
+    if run is None:
+        if len(records) > 1:
+            raise MeasurementError(f"{p}: {len(records)} runs in the log (one per configuration): choose one "
+                                   f"with --run 1..{len(records)}")
+        run = 1
+    if not 1 <= run <= len(records):
+        raise MeasurementError(f"{p}: no run {run}: the log has {len(records)} (--run 1..{len(records)})")
+    r = records[run - 1]
+    return Measurements(r.name, r.t, r.u, r.y)
+
+
+def read_measurements(path: PathLike, dt: float, candump: bool = False, run: Optional[int] = None) -> Measurements:
+    return read_candump(path, dt, run) if candump else read_measurements_csv(path, dt)
+
