@@ -1,7 +1,8 @@
 # The settings schema and its generator (sim/src/caekf_sim/schema): every settings table, the scenario
 # reader's keys, the presets and the test fixtures are generated from the one description at build time.
 #
-#   caekf_codegen(<target> c-core    <outdir>)              core tables: caekf/caekf_settings_schema.h, ...
+#   caekf_codegen(<target> c-core    <outdir> [<mechanism>]) core tables: caekf/caekf_settings_schema.h, ...,
+#                                                            and the capacity (sized for <mechanism> if given)
 #   caekf_codegen(<target> c-host    <outdir>)              scenario reader table and presets
 #   caekf_codegen(<target> c-fixture <outdir> <scenario>)   a scenario's values for tests
 #
@@ -24,7 +25,11 @@ function(caekf_codegen target kind outdir)
     set(args "")
     if(kind STREQUAL "c-core")
         set(outputs "${outdir}/caekf/caekf_settings_schema.h" "${outdir}/caekf_settings_table.c"
-                    "${outdir}/caekf_settings_names.c")
+                    "${outdir}/caekf_settings_names.c" "${outdir}/caekf/caekf_capacity.h")
+        if(ARGC GREATER 3 AND NOT "${ARGV3}" STREQUAL "")
+            set(args "${ARGV3}")
+            list(APPEND deps "${ARGV3}")
+        endif()
     elseif(kind STREQUAL "c-host")
         set(outputs "${outdir}/caekf_scenario_schema.h" "${outdir}/caekf_scenario_schema.c")
     elseif(kind STREQUAL "c-fixture")

@@ -16,8 +16,9 @@ static void usage(FILE *f)
 {
     fputs("usage: caekf-reference SCENARIO TRUTH_CSV OUT_HEADER\n"
           "       caekf-reference --help | --version\n"
-          "Runs every preset in double over TRUTH_CSV (t,u,y1,y4...; t strictly increasing by the\n"
-          "scenario's dt within 1 %) and writes a C header with each final gamma. OUT_HEADER appears\n"
+          "Runs every preset in double over TRUTH_CSV (the mechanism's columns as caekf-truth writes them,\n"
+          "t,u,y1,y4... for the paper; t strictly increasing by the scenario's dt within 1 %) and writes a\n"
+          "C header with each final gamma (of contact 1). OUT_HEADER appears\n"
           "(renamed from a temporary file beside it) only when the run succeeded.\n" CAEKF_EXIT_TABLE,
           f);
 }
@@ -25,6 +26,7 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     caekf_meas_t *rows = NULL;
+    caekf_csv_columns_t cols;
     caekf_scenario_t sc;
     caekf_settings_t s[CAEKF_PRESET_COUNT];
     double g[CAEKF_PRESET_COUNT];
@@ -58,7 +60,7 @@ int main(int argc, char **argv)
             return CAEKF_EXIT_INPUT;
         }
     }
-    if ((n = caekf_csv_read(argv[2], sc.dt, 0, 0, &rows, err, sizeof err)) < 0) {
+    if ((n = caekf_csv_read_for(argv[2], &sc, sc.dt, 0, 0, &cols, &rows, err, sizeof err)) < 0) {
         fprintf(stderr, "caekf-reference: %s\n", err);
         return (int)-n;
     }
@@ -71,10 +73,9 @@ int main(int argc, char **argv)
             return CAEKF_EXIT_NUMERIC;
         }
         for (k = 0; k < n; ++k) {
-            double y[2];
-            y[0] = rows[k].y1;
-            y[1] = rows[k].y4;
-            (void)caekf_step(&est, rows[k].u, y, NULL);
+            caekf_scalar_t u[CAEKF_MAX_INPUTS + 1], y[CAEKF_MAX_SENSORS];
+            caekf_meas_scalars(&rows[k], &cols, u, y);
+            (void)caekf_step(&est, u, y, NULL);
         }
         (void)caekf_get_gamma(&est, &g[e]);
         if (!isfinite(g[e])) {

@@ -1,4 +1,5 @@
-/* caekf-replay: runs the estimator (a scenario, optionally a preset) over a recorded t,u,y1,y4 CSV. */
+/* caekf-replay: runs the estimator (a scenario, optionally a preset) over a recorded measurement CSV (the
+ * mechanism's columns, caekf_csv_columns: t,u,y1,y4 for the paper). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,8 +16,30 @@ typedef struct {
     long iters_sum;
     int iters_max;
     uint32_t flags_seen;
-    double gamma_last;
+    double gamma_last[CAEKF_MAX_CONTACTS];
 } summary_t;
+
+/* The output header: t, q1.., v1.., gamma (contact 1), gamma2.., p_norm, p_gg, p_gg2.., flags,
+ * newton_iters, nis. */
+static void write_header(FILE *f, int nq, int nc)
+{
+    char name[CAEKF_CSV_NAME_LEN];
+    int i;
+    fputs("t", f);
+    for (i = 0; i < 2 * nq; ++i) {
+        fprintf(f, ",%c%d", i < nq ? 'q' : 'v', i % nq + 1);
+    }
+    for (i = 0; i < nc; ++i) {
+        caekf_csv_series_name(name, "gamma", i, nc, 1);
+        fprintf(f, ",%s", name);
+    }
+    fputs(",p_norm", f);
+    for (i = 0; i < nc; ++i) {
+        caekf_csv_series_name(name, "p_gg", i, nc, 1);
+        fprintf(f, ",%s", name);
+    }
+    fputs(",flags,newton_iters,nis\n", f);
+}
 
 static void usage(FILE *f)
 {
@@ -26,15 +49,19 @@ static void usage(FILE *f)
           "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
           "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
           "         [--gate NIS] [--missing-y-predict] [--no-t-check] [--summary]\n"
-          "Reads a CSV whose header starts t,u,y1,y4 (extra columns ignored; stdin by default; t strictly\n"
-          "increasing by the scenario's dt within 1 %; at most 2,000,000 rows) and writes\n"
-          "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis (stdout by default).\n"
+          "Reads a CSV whose header starts with the mechanism's measurement columns: t, the inputs (u, or\n"
+          "u1..u<inputs>), one column per sensor (y<body> position, yv<body> velocity, in sensor order);\n"
+          "the paper's t,u,y1,y4 (extra columns ignored; stdin by default; t strictly increasing by the\n"
+          "scenario's dt within 1 %; at most 2,000,000 rows). Writes t,q1..q<bodies>,v1..v<bodies>, gamma\n"
+          "(contact 1) and gamma2.. (further contacts), p_norm, p_gg (contact 1) and p_gg2.., flags,\n"
+          "newton_iters, nis (stdout by default; the paper:\n"
+          "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis).\n"
           "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
           "preset named by --experiment, then the explicit flags. Presets:\n"
           "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
           "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
           "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
-          "refusing the input. --missing-y-predict: a row whose y1 and y4 are both empty is a step without\n"
+          "refusing the input. --missing-y-predict: a row whose sensor fields are all empty is a step without\n"
           "measurement (caekf_predict, the firmware's bridge over lost steps). --no-t-check: t must increase\n"
           "but its steps are not checked against dt (rows deliberately not evenly spaced). --summary prints one line of\n"
           "statistics to stderr. The whole input is checked before anything is written; the output file\n"
@@ -48,6 +75,16 @@ static void usage(FILE *f)
         fprintf(f, "  %4u  %s\n", 1u << b, caekf_flag_name(b));
     }
     fputs(CAEKF_EXIT_TABLE, f);
+}
+
+/* Final error of contact c's gamma against the scenario's true contact{c}_gamma [%]. */
+static double gamma_error(const caekf_scenario_t *sc, const double *gamma_last, int c)
+{
+    char key[32];
+    double truth = 0;
+    snprintf(key, sizeof key, "contact%d_gamma", c + 1);
+    (void)caekf_scenario_value(sc, key, &truth);
+    return 100.0 * (gamma_last[c] / truth - 1.0);
 }
 
 static void print_flags(FILE *f, uint32_t flags)
@@ -75,6 +112,7 @@ int main(int argc, char **argv)
     caekf_settings_t s;
     caekf_t est;
     caekf_meas_t *rows = NULL;
+    caekf_csv_columns_t cols;
     summary_t sum;
     caekf_output_t o;
     FILE *fout;
@@ -82,7 +120,7 @@ int main(int argc, char **argv)
     const caekf_preset_t *preset = NULL;
     caekf_setting_error_t bad;
     long n, k;
-    int i, rc;
+    int i, rc, ig, nc, finite = 1;
 
     for (i = 1; i < argc; ++i) {
         const char *a = argv[i];
@@ -169,7 +207,8 @@ int main(int argc, char **argv)
         return CAEKF_EXIT_INPUT;
     }
     /* The whole input is read and checked before any output exists. */
-    if ((n = caekf_csv_read(in, t_check ? sc.dt : 0.0, allow_nonfinite, allow_missing, &rows, err, sizeof err)) < 0) {
+    if ((n = caekf_csv_read_for(in, &sc, t_check ? sc.dt : 0.0, allow_nonfinite, allow_missing, &cols, &rows, err,
+                                sizeof err)) < 0) {
         fprintf(stderr, "caekf-replay: %s\n", err);
         return (int)-n;
     }
@@ -186,36 +225,42 @@ int main(int argc, char **argv)
     fout = o.f;
     memset(&sum, 0, sizeof sum);
     sum.gamma_min_seen = INFINITY;
-    fputs("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis\n", fout);
+    ig = 2 * est.model.nq;
+    nc = est.model.nc;
+    write_header(fout, est.model.nq, nc);
     for (k = 0; k < n; ++k) {
         const caekf_meas_t *m = &rows[k];
-        caekf_scalar_t y[CAEKF_NY], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;
+        caekf_scalar_t u[CAEKF_MAX_INPUTS + 1], y[CAEKF_MAX_SENSORS], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;
         caekf_report_t rep;
-        y[0] = (caekf_scalar_t)m->y1;
-        y[1] = (caekf_scalar_t)m->y4;
-        if ((m->has_y ? caekf_step(&est, (caekf_scalar_t)m->u, y, &rep)
-                      : caekf_predict(&est, (caekf_scalar_t)m->u, &rep)) != CAEKF_OK) {
+        caekf_meas_scalars(m, &cols, u, y);
+        if ((m->has_y ? caekf_step(&est, u, y, &rep) : caekf_predict(&est, u, &rep)) != CAEKF_OK) {
             sum.rejected++;
         }
         (void)caekf_get_state(&est, x);
         (void)caekf_get_covariance(&est, P);
         (void)caekf_get_cov_norm2(&est, &pn);
         fprintf(fout, "%.17g", m->t);
-        for (i = 0; i < CAEKF_N; ++i) {
+        for (i = 0; i < est.model.n; ++i) {
             fprintf(fout, ",%.17g", (double)x[i]);
         }
-        fprintf(fout, ",%.17g,%.17g,%lu,%d,%.9g\n", (double)pn, (double)P[CAEKF_IG][CAEKF_IG],
-                (unsigned long)rep.flags, rep.newton_iters, (double)rep.nis);
+        fprintf(fout, ",%.17g", (double)pn);
+        for (i = 0; i < nc; ++i) {
+            fprintf(fout, ",%.17g", (double)P[ig + i][ig + i]);
+        }
+        fprintf(fout, ",%lu,%d,%.9g\n", (unsigned long)rep.flags, rep.newton_iters, (double)rep.nis);
         sum.rows++;
         sum.iters_sum += rep.newton_iters;
         if (rep.newton_iters > sum.iters_max) sum.iters_max = rep.newton_iters;
         sum.flags_seen |= rep.flags;
-        if ((double)x[CAEKF_IG] < sum.gamma_min_seen) sum.gamma_min_seen = (double)x[CAEKF_IG];
+        if (nc > 0 && (double)x[ig] < sum.gamma_min_seen) sum.gamma_min_seen = (double)x[ig];
         if ((double)pn > sum.p_norm_max) sum.p_norm_max = (double)pn;
-        sum.gamma_last = (double)x[CAEKF_IG];
+        for (i = 0; i < nc; ++i) {
+            sum.gamma_last[i] = (double)x[ig + i];
+            finite &= isfinite(sum.gamma_last[i]) != 0;
+        }
     }
     free(rows);
-    if (!isfinite(sum.gamma_last)) {
+    if (!finite) {
         caekf_output_abort(&o);
         fprintf(stderr, "caekf-replay: %s: the estimate of gamma is not finite after %ld steps\n",
                 strcmp(in, "-") == 0 ? "<stdin>" : in, n);
@@ -227,11 +272,19 @@ int main(int argc, char **argv)
     }
     if (want_summary) {
         /* One row: experiment scalar rows rejected final_err_% min_gamma max_pnorm iters_mean iters_max flags */
-        fprintf(stderr, "%-28s %-6s %7ld %5ld %+10.4f %12.4e %12.4e %6.3f %4d ",
-                experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
-                sum.rows, sum.rejected, 100.0 * (sum.gamma_last / sc.contact1_gamma - 1.0), sum.gamma_min_seen, sum.p_norm_max,
-                sum.rows ? (double)sum.iters_sum / (double)sum.rows : 0.0, sum.iters_max);
+        fprintf(stderr, "%-28s %-6s %7ld %5ld ", experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
+                sum.rows, sum.rejected);
+        if (nc > 0) {
+            fprintf(stderr, "%+10.4f %12.4e ", gamma_error(&sc, sum.gamma_last, 0), sum.gamma_min_seen);
+        } else { /* no contact, no gamma */
+            fprintf(stderr, "%10s %12s ", "-", "-");
+        }
+        fprintf(stderr, "%12.4e %6.3f %4d ", sum.p_norm_max, sum.rows ? (double)sum.iters_sum / (double)sum.rows : 0.0,
+                sum.iters_max);
         print_flags(stderr, sum.flags_seen);
+        for (i = 1; i < nc; ++i) { /* further contacts: their final gamma error, after the flags */
+            fprintf(stderr, " gamma%d %+.4f", i + 1, gamma_error(&sc, sum.gamma_last, i));
+        }
         fputc('\n', stderr);
     }
     return CAEKF_EXIT_OK;

@@ -7,49 +7,49 @@
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 
-#define NQ CAEKF_NQ
-#define N CAEKF_N
-#define IG CAEKF_IG
 #define INIT_MAGIC 0xCAEF0001u
 
-CAEKF_STATIC_ASSERT(IG == N - 1, gamma_is_last);
-CAEKF_STATIC_ASSERT(NQ == 4, scale_fv_is_written_for_4_q_columns);
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
+CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
 /* F in scaled coordinates, S^-1 F S: column j of the v-rows times s_j / s_v, which is exactly 1 for
- * the v-columns (so those are left alone) and one ratio for all q-columns. */
-static void scale_fv(caekf_scalar_t fv[NQ][N], const caekf_scalar_t s[N])
+ * the v-columns (so those are left alone), one ratio for all q-columns and one per gamma. */
+static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *s, int nq, int n)
 {
-    const caekf_scalar_t rq = s[0] / s[NQ], rg = s[IG] / s[NQ];
-    int i;
-    for (i = 0; i < NQ; ++i) {
+    const caekf_scalar_t rq = s[0] / s[nq];
+    int i, j;
+    for (i = 0; i < nq; ++i) {
         caekf_scalar_t *f = fv[i];
-        f[0] *= rq;
-        f[1] *= rq;
-        f[2] *= rq;
-        f[3] *= rq;
-        f[IG] *= rg;
+        for (j = 0; j < nq; ++j) {
+            f[j] *= rq;
+        }
+        for (j = 2 * nq; j < n; ++j) {
+            f[j] *= s[j] / s[nq];
+        }
     }
 }
 
 /* The contact-free F is a constant: scaled once and kept in fv until a contact step overwrites it. */
 static void load_fv0(caekf_t *est)
 {
+    const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
     int i, j;
-    for (i = 0; i < NQ; ++i) {
-        for (j = 0; j < N; ++j) {
+    for (i = 0; i < nq; ++i) {
+        for (j = 0; j < n; ++j) {
             est->fv[i][j] = est->model.fv0[i][j];
         }
     }
-    scale_fv(est->fv, est->scale);
+    scale_fv(est->fv, est->scale, nq, n);
+    caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     est->fv_const = 1;
 }
 
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
 {
-    int i, j;
+    const caekf_model_params_t *mp = &s->model;
+    int i, j, nq, nc, n;
     if (est == 0 || s == 0) {
         return CAEKF_ERR_NULL;
     }
@@ -58,29 +58,56 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         return CAEKF_ERR_SETTINGS;
     }
     est->cfg = *s;
-    (void)caekf_model_init(&est->model, &s->model);
-    for (i = 0; i < NQ; ++i) {
-        est->scale[i] = s->sigma_q0;
-        est->scale[NQ + i] = s->sigma_v0;
-        est->z[i] = s->q0[i] / s->sigma_q0;
-        est->z[NQ + i] = s->v0[i] / s->sigma_v0;
-        /* Ratios before squaring: float would underflow on (1e-9)^2 / (1e-6)^2 done the other way. */
-        est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
-        est->q_diag[NQ + i] = sq(s->sigma_qx_v / s->sigma_v0);
-    }
-    est->scale[IG] = s->sigma_gamma0[0];
-    est->z[IG] = s->gamma0[0] / s->sigma_gamma0[0];
-    est->q_diag[IG] = s->q_gamma_scale * sq(s->sigma_q_gamma[0] / s->sigma_gamma0[0]);
-    est->r_scaled = sq(s->sigma_r / s->sigma_q0);
-    est->gamma_min_scaled = s->gamma_min[0] / s->sigma_gamma0[0];
-    for (i = 0; i < N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
-        for (j = 0; j < N; ++j) {
-            est->P[i][j] = (i == j) ? 1 : 0;
-            est->P_work[i][j] = 0;
-            est->scratch[i][j] = 0;
-        }
+    (void)caekf_model_init(&est->model, mp);
+    nq = est->model.nq;
+    nc = est->model.nc;
+    n = est->model.n;
+    for (i = 0; i < CAEKF_N; ++i) {
+        est->scale[i] = 1;
+        est->z[i] = 0;
+        est->q_diag[i] = 0;
         est->x_prev[i] = 0;
         est->x_pred[i] = 0;
+    }
+    for (i = 0; i < nq; ++i) {
+        est->scale[i] = s->sigma_q0;
+        est->scale[nq + i] = s->sigma_v0;
+        est->z[i] = s->q0[i] / s->sigma_q0;
+        est->z[nq + i] = s->v0[i] / s->sigma_v0;
+        /* Ratios before squaring: float would underflow on (1e-9)^2 / (1e-6)^2 done the other way. */
+        est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
+        est->q_diag[nq + i] = sq(s->sigma_qx_v / s->sigma_v0);
+    }
+    for (i = 0; i < nc; ++i) {
+        est->scale[2 * nq + i] = s->sigma_gamma0[i];
+        est->z[2 * nq + i] = s->gamma0[i] / s->sigma_gamma0[i];
+        est->q_diag[2 * nq + i] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
+        est->gamma_min_scaled[i] = s->gamma_min[i] / s->sigma_gamma0[i];
+    }
+    est->dims.nq = nq;
+    est->dims.n = n;
+    est->dims.ny = mp->sensors;
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
+        est->dims.h[i] = 0;
+        est->dims.r[i] = 1;
+    }
+    for (i = 0; i < mp->sensors; ++i) {
+        const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
+        est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
+        est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
+    }
+    for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
+        est->dims.policy[i] = CAEKF_GAMMA_LIVE;
+    }
+    for (i = 0; i < CAEKF_N * CAEKF_N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
+        est->P[i] = 0;
+        est->P_work[i] = 0;
+        est->scratch.m[i] = 0;
+    }
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            est->P[i * n + j] = (i == j) ? 1 : 0;
+        }
     }
     load_fv0(est);
     est->step_count = 0;
@@ -99,21 +126,32 @@ static caekf_gamma_policy_t gamma_policy(const caekf_settings_t *cfg, int contac
     return cfg->switchoff == CAEKF_SWITCHOFF_PAPER ? CAEKF_GAMMA_FROZEN_PAPER : CAEKF_GAMMA_FROZEN_SCHMIDT;
 }
 
+/* Every value finite: v * 0 is 0 for finite v, NaN otherwise. */
+static int all_finite(const caekf_scalar_t *v, int n)
+{
+    caekf_scalar_t nf = 0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        nf += v[i] * 0;
+    }
+    return nf == 0;
+}
+
 /* One step: prediction, then (with y) the correction and the constraint. y == NULL: no measurement
  * (caekf_predict), which caekf_step (measured == 1) refuses as a caller error. */
-static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t *y, int measured,
+static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured,
                               caekf_report_t *report)
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
-    caekf_scalar_t y_s[CAEKF_NY];
-    caekf_contact_t contact;
-    caekf_gamma_policy_t policy;
+    caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
+    caekf_filter_dims_t *const dims = &est->dims;
     caekf_status_t st = CAEKF_OK;
+    caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
     int iters = 0;
-    int i, finite;
+    int i, nq, nc, n, ny, nu, any_contact = 0;
     const caekf_scalar_t *s;
-    caekf_scalar_t s_q, s_v, nf, nis = 0;
+    caekf_scalar_t s_q, s_v, nis = 0;
 
     if (report != 0) {
         report->flags = 0;
@@ -127,7 +165,15 @@ static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar
     if (!is_init(est)) {
         return CAEKF_ERR_NOT_INIT;
     }
-    if (!CAEKF_ISFINITE(u) || (y != 0 && (!CAEKF_ISFINITE(y[0]) || !CAEKF_ISFINITE(y[1])))) {
+    nq = CAEKF_DIM_NQ(&est->model);
+    nc = CAEKF_DIM_NC(&est->model);
+    n = CAEKF_DIM_N(&est->model);
+    nu = CAEKF_DIM_NU(&est->model);
+    ny = est->cfg.model.sensors;
+    if (nu > 0 && u == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!all_finite(u, nu) || (y != 0 && !all_finite(y, ny))) {
         if (report != 0) {
             report->flags = CAEKF_FLAG_INPUT_REJECTED;
         }
@@ -135,76 +181,80 @@ static caekf_status_t advance(caekf_t *est, caekf_scalar_t u, const caekf_scalar
     }
     s = est->scale;
     s_q = s[0];
-    s_v = s[NQ];
+    s_v = s[nq];
     xprev = est->x_prev;
     z = est->x_pred;
 
     /* Prediction (Table 1): Newton solve of eq. (19), then F by eq. (10) at x_k-. */
-    for (i = 0; i < N; ++i) {
+    for (i = 0; i < n; ++i) {
         xprev[i] = est->z[i] * s[i];
     }
     if (caekf_model_newton(&est->model, xprev, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred,
                            &iters) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
     }
-    caekf_model_contact(&est->model, est->x_pred, est->x_pred[IG], &contact);
-    if (contact.delta > 0) { /* eq. (21) */
+    for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
+        caekf_contact_t c;
+        caekf_model_contact(&est->model, i, est->x_pred, est->x_pred[2 * nq + i], &c);
+        deepest = i == 0 ? c.delta : caekf_max(deepest, c.delta);
+        any_contact |= c.delta > 0;
+        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, c.delta > 0);
+        if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
+            flags |= CAEKF_FLAG_GAMMA_FROZEN;
+        }
+    }
+    if (any_contact) {
         flags |= CAEKF_FLAG_CONTACT_ACTIVE;
-    }
-    policy = gamma_policy(&est->cfg, contact.delta > 0);
-    if (policy != CAEKF_GAMMA_LIVE) {
-        flags |= CAEKF_FLAG_GAMMA_FROZEN;
-    }
-    if (contact.delta > 0) {
         est->fv_const = 0;
         if (caekf_model_transition_v(&est->model, est->x_pred, est->fv) != 0) {
             flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
             st = CAEKF_ERR_SINGULAR;
             goto done;
         }
-        scale_fv(est->fv, s);
+        scale_fv(est->fv, s, nq, n);
+        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     } else if (!est->fv_const) {
         load_fv0(est);
     }
-    for (i = 0; i < IG; ++i) {
+    for (i = 0; i < 2 * nq; ++i) {
         z[i] = est->x_pred[i] / s[i];
     }
-    z[IG] = est->z[IG]; /* exact: the random walk carries gamma over bit for bit */
+    for (i = 2 * nq; i < n; ++i) {
+        z[i] = est->z[i]; /* exact: the random walk carries gamma over bit for bit */
+    }
     /* From here on P_work holds the upper triangle only; the commit mirrors it. */
-    caekf_predict_covariance(est->P, est->P_work, est->fv, est->model.p.dt * s_v / s_q, est->q_diag, policy,
-                             contact.delta > 0);
+    caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.p.dt * s_v / s_q,
+                             est->q_diag, dims);
 
     if (y != 0) {
         /* Correction, eqs. (13)-(15) / (25)-(27). */
-        y_s[0] = y[0] / s_q;
-        y_s[1] = y[1] / s_q;
-        (void)caekf_correct_upper(z, est->P_work, y_s, est->r_scaled, est->cfg.cov_update == CAEKF_COV_JOSEPH,
-                                  policy, est->cfg.gamma_gate_nis, &nis, &flags);
-        /* Inequality constraint, eqs. (28)-(30). */
-        if (est->cfg.constraint_enabled) {
-            caekf_constrain_upper(z, est->P_work, est->gamma_min_scaled, s[IG], est->cfg.gamma_min[0], &flags);
+        for (i = 0; i < ny; ++i) {
+            y_s[i] = y[i] / s[dims->h[i]];
+        }
+        (void)caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
+                                  est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct);
+        /* Inequality constraints, eqs. (28)-(30), one gamma after the other. */
+        for (i = 0; est->cfg.constraint_enabled && i < nc; ++i) {
+            caekf_constrain_upper(z, est->P_work, n, 2 * nq + i, est->gamma_min_scaled[i], s[2 * nq + i],
+                                  est->cfg.gamma_min[i], &flags);
         }
     } else {
         flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
     }
-    finite = caekf_covariance_health(est->P_work, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
-                                     est->cfg.cov_repair_enabled, est->scratch, &flags);
-    nf = 0; /* v * 0 is 0 for finite v, NaN otherwise */
-    for (i = 0; i < N; ++i) {
-        nf += z[i] * 0;
-    }
-    if (!finite || !(nf == 0)) {
+    if (!caekf_covariance_health(est->P_work, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
+                                 est->cfg.cov_repair_enabled, est->scratch.m, &flags) ||
+        !all_finite(z, n)) {
         flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
-    for (i = 0; i < N; ++i) { /* commit, filling the lower triangle */
-        const caekf_scalar_t *w = &est->P_work[i][i];
-        caekf_scalar_t *row = &est->P[i][i], *col = row, *const end = est->P[i] + N;
+    for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */
+        const caekf_scalar_t *w = &est->P_work[i * n + i];
+        caekf_scalar_t *row = &est->P[i * n + i], *col = row, *const end = est->P + i * n + n;
         est->z[i] = z[i];
         *row = *w;
         while (++row != end) {
-            col += N;
+            col += n;
             *row = *++w;
             *col = *w;
         }
@@ -215,20 +265,34 @@ done:
     if (report != 0) {
         report->flags = flags;
         report->newton_iters = iters;
-        report->delta = contact.delta;
+        report->delta = deepest;
         report->nis = nis;
     }
     return st;
 }
 
-caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY], caekf_report_t *report)
+caekf_status_t caekf_step(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, caekf_report_t *report)
 {
     return advance(est, u, y, 1, report);
 }
 
-caekf_status_t caekf_predict(caekf_t *est, caekf_scalar_t u, caekf_report_t *report)
+caekf_status_t caekf_predict(caekf_t *est, const caekf_scalar_t *u, caekf_report_t *report)
 {
     return advance(est, u, 0, 0, report);
+}
+
+caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs)
+{
+    if (est == 0 || n == 0 || sensors == 0 || inputs == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    *n = est->model.n;
+    *sensors = est->cfg.model.sensors;
+    *inputs = est->cfg.model.inputs;
+    return CAEKF_OK;
 }
 
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
@@ -240,22 +304,39 @@ caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
     if (!is_init(est)) {
         return CAEKF_ERR_NOT_INIT;
     }
-    for (i = 0; i < N; ++i) {
-        x[i] = est->z[i] * est->scale[i];
+    for (i = 0; i < CAEKF_N; ++i) {
+        x[i] = i < est->model.n ? est->z[i] * est->scale[i] : 0;
     }
     return CAEKF_OK;
 }
 
 caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
 {
+    int g;
     if (est == 0 || gamma == 0) {
         return CAEKF_ERR_NULL;
     }
     if (!is_init(est)) {
         return CAEKF_ERR_NOT_INIT;
     }
-    *gamma = est->z[IG] * est->scale[IG];
+    if (est->model.nc < 1) {
+        return CAEKF_ERR_SETTINGS;
+    }
+    g = 2 * est->model.nq;
+    *gamma = est->z[g] * est->scale[g];
     return CAEKF_OK;
+}
+
+/* P in physical units into out (leading dimension ld). */
+static void physical_covariance(const caekf_t *est, caekf_scalar_t *out, int ld)
+{
+    const int n = est->model.n;
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            out[i * ld + j] = est->P[i * n + j] * est->scale[i] * est->scale[j];
+        }
+    }
 }
 
 caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N])
@@ -267,27 +348,27 @@ caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N
     if (!is_init(est)) {
         return CAEKF_ERR_NOT_INIT;
     }
-    for (i = 0; i < N; ++i) {
-        for (j = 0; j < N; ++j) {
-            P[i][j] = est->P[i][j] * est->scale[i] * est->scale[j];
+    for (i = 0; i < CAEKF_N; ++i) {
+        for (j = 0; j < CAEKF_N; ++j) {
+            P[i][j] = 0;
         }
     }
+    physical_covariance(est, &P[0][0], CAEKF_N);
     return CAEKF_OK;
 }
 
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2)
 {
-    caekf_status_t st;
     if (est == 0 || norm2 == 0) {
         return CAEKF_ERR_NULL;
     }
-    /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
-    st = caekf_get_covariance(est, est->P_work);
-    if (st != CAEKF_OK) {
-        return st;
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
     }
-    return caekf_sym_norm2(&est->P_work[0][0], N, &est->scratch[0][0], norm2) == CAEKF_LA_OK ? CAEKF_OK
-                                                                                       : CAEKF_ERR_NUMERIC;
+    /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
+    physical_covariance(est, est->P_work, est->model.n);
+    return caekf_sym_norm2(est->P_work, est->model.n, est->scratch.m, norm2) == CAEKF_LA_OK ? CAEKF_OK
+                                                                                        : CAEKF_ERR_NUMERIC;
 }
 
 const char *caekf_status_str(caekf_status_t st)

@@ -5,270 +5,415 @@
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 
-#define NQ CAEKF_NQ
-#define N CAEKF_N
-#define IG CAEKF_IG
+#define AT(P, n, i, j) ((P)[(i) * (n) + (j)])
 
-CAEKF_STATIC_ASSERT(CAEKF_NY == 2, two_position_sensors);
-CAEKF_STATIC_ASSERT(CAEKF_IY1 < NQ && CAEKF_IY4 < NQ, sensors_measure_positions);
-CAEKF_STATIC_ASSERT(CAEKF_IY1 == 0, q1_row_is_all_upper_triangle);
+/* The filter's sizes: constants in a build sized for one mechanism (the branches for other sizes and
+ * the loop bounds then fold away), the instance's otherwise. */
+#if CAEKF_SIZED
+#define DIM_NQ(d) ((void)(d), CAEKF_SIZED_BODIES)
+#define DIM_N(d) ((void)(d), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#define DIM_NY(d) ((void)(d), CAEKF_SIZED_SENSORS)
+#else
+#define DIM_NQ(d) ((d)->nq)
+#define DIM_N(d) ((d)->n)
+#define DIM_NY(d) ((d)->ny)
+#endif
+/* P_ij of a matrix kept as its upper triangle. */
+#define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
 /* Off-diagonal covariances below CAEKF_TINY are flushed to 0 as they are written: decaying
  * cross-covariances otherwise become subnormal, which costs 5x in float on x86 and means nothing
  * next to the O(1) scaled variances. */
-static caekf_scalar_t flush(caekf_scalar_t v) { return CAEKF_FABS(v) < CAEKF_TINY ? 0 : v; }
+CAEKF_HOT_INLINE caekf_scalar_t flush(caekf_scalar_t v) { return CAEKF_FABS(v) < CAEKF_TINY ? 0 : v; }
 
-/* The step works on the upper triangle only; the lower one is filled where a full matrix is needed. */
-void caekf_mirror_upper(caekf_mat_t P)
+void caekf_mirror_upper(caekf_scalar_t *P, int n)
 {
     int i, j;
-    for (i = 1; i < N; ++i) {
+    for (i = 1; i < n; ++i) {
         for (j = 0; j < i; ++j) {
-            P[i][j] = P[j][i];
+            AT(P, n, i, j) = AT(P, n, j, i);
         }
     }
 }
 
-/* The products of eq. (12) below are dot products of 9-vectors, summed for k ascending from s = 0:
- * exactly the order of the plain loops they replace, so every result is bit for bit the same. One
- * operand is held in registers across the other's rows. Without contact F is block diagonal over
- * bodies (1,2) and (3,4) (K, C, M are) and its gamma column is 0: those entries are exact zeros and
- * are skipped, as adding their zero products changes no sum. */
-CAEKF_STATIC_ASSERT(N == 9 && NQ == 4, eq12_kernels_are_written_for_9_states_of_2_blocks);
-
-/* Row i of F P and of its q-part: y[j] = (Fv P)_ij = f . P_j (P symmetric), tq[j] = P_ij + c y[j];
- * t = tq, y = t + NQ * N (rows i and NQ + i of the same matrix). b < 0: dense f, else f's block. */
-static void predict_fp_row(const caekf_scalar_t *f, const caekf_scalar_t *pj, const caekf_scalar_t *pi,
-                           caekf_scalar_t *t, caekf_scalar_t c, int b)
+void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat)
 {
-    const caekf_scalar_t *const end = t + N;
-    if (b < 0) {
-        const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3], f4 = f[4], f5 = f[5], f6 = f[6],
-                             f7 = f[7], f8 = f[8];
-        for (; t != end; ++t, ++pi, pj += N) {
-            caekf_scalar_t s = 0;
-            s += f0 * pj[0];
-            s += f1 * pj[1];
-            s += f2 * pj[2];
-            s += f3 * pj[3];
-            s += f4 * pj[4];
-            s += f5 * pj[5];
-            s += f6 * pj[6];
-            s += f7 * pj[7];
-            s += f8 * pj[8];
-            t[NQ * N] = s;
-            *t = *pi + c * s;
+    int i, j;
+    for (i = 0; i < nq; ++i) {
+        unsigned char k = 0;
+        for (j = 0; j < n; ++j) {
+            if (fv[i][j] != 0) { /* a NaN is kept: it must reach P and be caught */
+                pat->nz[i][k] = (unsigned char)j;
+                fv[i][k++] = fv[i][j]; /* k <= j: in place */
+            }
         }
-    } else {
-        const caekf_scalar_t f0 = f[b], f1 = f[b + 1], f4 = f[b + NQ], f5 = f[b + NQ + 1];
-        for (pj += b; t != end; ++t, ++pi, pj += N) {
-            caekf_scalar_t s = 0;
-            s += f0 * pj[0];
-            s += f1 * pj[1];
-            s += f4 * pj[NQ];
-            s += f5 * pj[NQ + 1];
-            t[NQ * N] = s;
-            *t = *pi + c * s;
-        }
+        pat->nnz[i] = k;
     }
 }
 
-/* w[jj] = t . Fv_jj for jj = j0..NQ-1, t held in registers (t may be overwritten afterwards). */
-static void predict_w(const caekf_scalar_t *t, caekf_scalar_t fv[NQ][N], int j0, caekf_scalar_t w[NQ], int contact)
+/* The products of eq. (12) are dot products with a row of Fv over its nonzeros, summed with the column
+ * index ascending from s = 0: exactly the order of the plain dense loops, so every result is bit for
+ * bit the same whatever the mechanism's sparsity (without contact, K, C and M couple only linked
+ * bodies and the gamma columns are 0). */
+/* sum_k a[k] b[k], k ascending from 0 (the plain loop's order), four terms per turn. */
+CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_t *b, int n)
 {
-    const caekf_scalar_t t0 = t[0], t1 = t[1], t2 = t[2], t3 = t[3], t4 = t[4], t5 = t[5], t6 = t[6], t7 = t[7],
-                         t8 = t[8];
-    const caekf_scalar_t *f = fv[j0];
-    int jj;
-    if (contact) {
-        for (jj = j0; jj < NQ; ++jj, f += N) {
-            caekf_scalar_t s = 0;
-            s += t0 * f[0];
-            s += t1 * f[1];
-            s += t2 * f[2];
-            s += t3 * f[3];
-            s += t4 * f[4];
-            s += t5 * f[5];
-            s += t6 * f[6];
-            s += t7 * f[7];
-            s += t8 * f[8];
-            w[jj] = s;
-        }
-        return;
+    caekf_scalar_t s = 0;
+    int k;
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 32 /* a sized build knows n: written out even at -Os */
+#endif
+    for (k = 0; k < n; ++k) {
+        s += a[k] * b[k];
     }
-    for (jj = j0; jj < 2; ++jj, f += N) {
-        caekf_scalar_t s = 0;
-        s += t0 * f[0];
-        s += t1 * f[1];
-        s += t4 * f[4];
-        s += t5 * f[5];
-        w[jj] = s;
-    }
-    for (jj = j0 > 2 ? j0 : 2, f = fv[jj]; jj < NQ; ++jj, f += N) {
-        caekf_scalar_t s = 0;
-        s += t2 * f[2];
-        s += t3 * f[3];
-        s += t6 * f[6];
-        s += t7 * f[7];
-        w[jj] = s;
-    }
+    return s;
 }
 
-void caekf_predict_covariance(caekf_mat_t P, caekf_mat_t T, caekf_scalar_t fv[NQ][N], caekf_scalar_t c,
-                              const caekf_scalar_t q_diag[N], caekf_gamma_policy_t policy, int contact)
+void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
+                              const caekf_fv_pattern_t *pat, caekf_scalar_t c, const caekf_scalar_t *q_diag,
+                              const caekf_filter_dims_t *d)
 {
-    caekf_scalar_t w[NQ];
-    int i;
-    for (i = 0; i < NQ; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
-        predict_fp_row(fv[i], P[0], P[i], T[i], c, contact ? -1 : (i & 2));
+    const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
+    const unsigned char *cnt = pat->nnz;
+    caekf_scalar_t w[CAEKF_NQ];
+    int i, j, k;
+    for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
+        const unsigned char *idx = pat->nz[i];
+        const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
+        caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
+        if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
+            const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
+            const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+            for (j = 0; j < n; ++j, pj += n) {
+                caekf_scalar_t s = 0;
+                s += f0 * pj[i0];
+                s += f1 * pj[i1];
+                s += f2 * pj[i2];
+                s += f3 * pj[i3];
+                tv[j] = s;
+                tq[j] = pi[j] + c * s;
+            }
+            continue;
+        }
+        if (cnt[i] == n) { /* a dense row (in contact): no indices */
+            for (j = 0; j < n; ++j, pj += n) {
+                const caekf_scalar_t s = dot(f, pj, n);
+                tv[j] = s;
+                tq[j] = pi[j] + c * s;
+            }
+            continue;
+        }
+        for (j = 0; j < n; ++j, pj += n) {
+            caekf_scalar_t s = 0;
+            for (k = 0; k < cnt[i]; ++k) {
+                s += f[k] * pj[idx[k]];
+            }
+            tv[j] = s;
+            tq[j] = pi[j] + c * s;
+        }
     }
     /* Upper triangle of T F^T + Q row by row, in place: row i only reads row i of T. w = T_i Fv^T
-     * gives the v-columns; a q-row's q-columns are T_q + c w; the gamma column is T's. Off-diagonal
+     * gives the v-columns; a q-row's q-columns are T_q + c w; the gamma columns are T's. Off-diagonal
      * entries are flushed as they are final. */
-    for (i = 0; i < IG; ++i) {
-        caekf_scalar_t *t = T[i];
-        caekf_scalar_t d, *tj;
-        const caekf_scalar_t *wj;
-        predict_w(t, fv, i < NQ ? 0 : i - NQ, w, contact);
-        if (i < NQ) {
-            d = t[i] + c * w[i];
-            for (tj = t + i + 1, wj = w + i + 1; tj != t + NQ; ++tj, ++wj) {
-                *tj = flush(*tj + c * *wj);
+    for (i = 0; i < nx; ++i) {
+        caekf_scalar_t *t = T + i * n;
+        caekf_scalar_t dd;
+        const int j0 = i < nq ? 0 : i - nq;
+        for (j = j0; j < nq; ++j) {
+            const unsigned char *idx = pat->nz[j];
+            const caekf_scalar_t *f = fv[j];
+            caekf_scalar_t s = 0;
+            if (cnt[j] == 4) {
+                s += t[idx[0]] * f[0];
+                s += t[idx[1]] * f[1];
+                s += t[idx[2]] * f[2];
+                s += t[idx[3]] * f[3];
+            } else if (cnt[j] == n) {
+                s = dot(t, f, n);
+            } else {
+                for (k = 0; k < cnt[j]; ++k) {
+                    s += t[idx[k]] * f[k];
+                }
             }
-            tj = t + NQ;
+            w[j] = s;
+        }
+        if (i < nq) {
+            dd = t[i] + c * w[i];
+            for (j = i + 1; j < nq; ++j) {
+                t[j] = flush(t[j] + c * w[j]);
+            }
+            j = nq;
         } else {
-            d = w[i - NQ];
-            tj = t + i + 1;
+            dd = w[i - nq];
+            j = i + 1;
         }
-        t[i] = d + q_diag[i];
-        for (wj = w + (tj - t - NQ); tj != t + IG; ++tj, ++wj) {
-            *tj = flush(*wj);
+        t[i] = dd + q_diag[i];
+        for (; j < nx; ++j) {
+            t[j] = flush(w[j - nq]);
         }
-        t[IG] = flush(t[IG]);
+        for (j = nx; j < n; ++j) {
+            t[j] = flush(t[j]);
+        }
     }
-    T[IG][IG] = P[IG][IG];
-    if (policy == CAEKF_GAMMA_LIVE) {
-        T[IG][IG] += q_diag[IG]; /* eq. (21): Q_gamma only while gamma is observable */
-    } else if (policy == CAEKF_GAMMA_FROZEN_PAPER) {
-        for (i = 0; i < N; ++i) { /* eqs. (23)-(24): only P_xx propagates */
-            T[i][IG] = P[i][IG];
+    /* The gamma rows of F are identity rows: the gamma block is P's, plus Q_gamma while live (eq. 21). */
+    for (i = nx; i < n; ++i) {
+        const caekf_gamma_policy_t policy = (caekf_gamma_policy_t)d->policy[i - nx];
+        for (j = i; j < n; ++j) {
+            AT(T, n, i, j) = AT(P, n, i, j);
+        }
+        if (policy == CAEKF_GAMMA_LIVE) {
+            AT(T, n, i, i) += q_diag[i];
+        } else if (policy == CAEKF_GAMMA_FROZEN_PAPER) {
+            for (j = 0; j <= i; ++j) { /* eqs. (23)-(24): only P_xx propagates */
+                AT(T, n, j, i) = AT(P, n, j, i);
+            }
         }
     }
 }
 
-int caekf_correct_upper(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t y_s[CAEKF_NY], caekf_scalar_t r,
-                        int joseph, caekf_gamma_policy_t policy, caekf_scalar_t gate, caekf_scalar_t *nis,
-                        uint32_t *flags)
+/* S^-1 of the innovation covariance S = H P H^T + R (ny x ny, from P's upper triangle). Two sensors: the
+ * closed form; otherwise an LU. Returns 0, or -1 when S is not positive definite. */
+static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t *d,
+                              caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
 {
-    caekf_scalar_t Si[3];
-    caekf_scalar_t G[N][CAEKF_NY];
-    caekf_scalar_t hp1[N], hp4[N]; /* H P = rows q1, q4 of P (= its columns), from the upper triangle */
-    caekf_scalar_t e0, e1;
-    /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma column is left as it is. */
-    const int jend = policy == CAEKF_GAMMA_FROZEN_PAPER ? IG : N;
-    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j;
-    /* Eq. (13): S = H P- H^T + R is the (q1, q4) block of P plus R. */
-    if (caekf_sym2_inverse(P[CAEKF_IY1][CAEKF_IY1] + r, P[CAEKF_IY1][CAEKF_IY4], P[CAEKF_IY4][CAEKF_IY4] + r,
-                           CAEKF_EPS * 16, Si) != CAEKF_LA_OK) {
-        *flags |= CAEKF_FLAG_SINGULAR_INNOVATION;
+    const int n = DIM_N(d), ny = DIM_NY(d);
+    caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
+    caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
+    int piv[CAEKF_MAX_SENSORS];
+    int k, l;
+    if (ny == 2) {
+        caekf_scalar_t inv[3];
+        if (caekf_sym2_inverse(UP(P, n, d->h[0], d->h[0]) + d->r[0], UP(P, n, d->h[0], d->h[1]),
+                               UP(P, n, d->h[1], d->h[1]) + d->r[1], CAEKF_EPS * 16, inv) != CAEKF_LA_OK) {
+            return -1;
+        }
+        Si[0][0] = inv[0];
+        Si[0][1] = Si[1][0] = inv[1];
+        Si[1][1] = inv[2];
+        return 0;
+    }
+    for (k = 0; k < ny; ++k) {
+        for (l = 0; l < ny; ++l) {
+            S[k * ny + l] = UP(P, n, d->h[k], d->h[l]) + (k == l ? d->r[k] : 0);
+            I[k * ny + l] = k == l ? 1 : 0;
+        }
+        if (!(S[k * ny + k] > 0)) {
+            return -1;
+        }
+    }
+    if (caekf_lu_factor(S, ny, piv, CAEKF_EPS * 16) != CAEKF_LA_OK) {
         return -1;
     }
-    e0 = y_s[0] - z[CAEKF_IY1]; /* eq. (14) */
-    e1 = y_s[1] - z[CAEKF_IY4];
-    /* Normalised innovation squared e^T S^-1 e: chi-square with 2 degrees of freedom while the filter
-     * is consistent. Far above that, the linearisation behind the gamma gain no longer holds (e.g. the
-     * first measurement after a gap in contact): gamma is held this step as a consider state. */
-    *nis = e0 * (Si[0] * e0 + 2 * Si[1] * e1) + Si[2] * e1 * e1;
-    if (policy == CAEKF_GAMMA_LIVE && gate > 0 && *nis > gate) {
-        policy = CAEKF_GAMMA_FROZEN_SCHMIDT;
-        *flags |= CAEKF_FLAG_GAMMA_GATED;
-    }
-    for (i = 0; i < N; ++i) {
-        hp1[i] = P[CAEKF_IY1][i];
-        hp4[i] = i < CAEKF_IY4 ? P[i][CAEKF_IY4] : P[CAEKF_IY4][i];
-        G[i][0] = hp1[i] * Si[0] + hp4[i] * Si[1];
-        G[i][1] = hp1[i] * Si[1] + hp4[i] * Si[2];
-    }
-    if (policy != CAEKF_GAMMA_LIVE) {
-        G[IG][0] = 0; /* eq. (26) with gamma frozen: a Schmidt ("consider") gain */
-        G[IG][1] = 0;
-    }
-    for (i = 0; i < N; ++i) {
-        z[i] += G[i][0] * e0 + G[i][1] * e1;
-    }
-    if (!joseph) {
-        /* Eq. (15) on the upper triangle: P+ = P - G (H P). With the gamma gain zeroed, row gamma of
-         * this product would stay stale; the upper triangle alone gives the Schmidt result
-         * P_xg <- (I - G_x H_x) P_xg, P_gg unchanged. */
-        for (i = 0; i < jend; ++i) {
-            const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
-            const caekf_scalar_t *h1 = hp1 + i, *h4 = hp4 + i;
-            caekf_scalar_t *p = P[i] + i, *const pend = P[i] + jend;
-            *p -= g0 * *h1 + g1 * *h4;
-            while (++p != pend) {
-                ++h1;
-                ++h4;
-                *p = flush(*p - (g0 * *h1 + g1 * *h4));
-            }
-        }
-    } else {
-        /* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,q1 q4} G^T + r G G^T.
-         * Row i of A P at q1 and q4 comes from the copies of H P (P is symmetric). */
-        for (i = 0; i < jend; ++i) {
-            const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
-            const caekf_scalar_t a1 = hp1[i] - (g0 * hp1[CAEKF_IY1] + g1 * hp4[CAEKF_IY1]);
-            const caekf_scalar_t a4 = hp4[i] - (g0 * hp1[CAEKF_IY4] + g1 * hp4[CAEKF_IY4]);
-            caekf_scalar_t *p = P[i];
-            for (j = i; j < jend; ++j) {
-                caekf_scalar_t v = p[j] - (g0 * hp1[j] + g1 * hp4[j]) - a1 * G[j][0] - a4 * G[j][1] +
-                                   r * (g0 * G[j][0] + g1 * G[j][1]);
-                p[j] = j > i ? flush(v) : v;
-            }
+    (void)caekf_lu_solve(S, ny, piv, I, ny, ny);
+    for (k = 0; k < ny; ++k) {
+        for (l = 0; l < ny; ++l) {
+            Si[k][l] = I[k * ny + l];
         }
     }
     return 0;
 }
 
-void caekf_constrain_upper(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
-                           caekf_scalar_t gamma_min_phys, uint32_t *flags)
+int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
+                        const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
+                        caekf_correct_work_t *work)
 {
-    caekf_scalar_t s = P[IG][IG];
-    caekf_scalar_t dz = zmin - z[IG];
-    caekf_scalar_t col[IG]; /* P's gamma column, contiguous */
+    const int n = DIM_N(d), ny = DIM_NY(d), nx = 2 * DIM_NQ(d);
+    caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
+    caekf_scalar_t(*const G)[CAEKF_MAX_SENSORS] = work->gain;
+    caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */
+    caekf_scalar_t e[CAEKF_MAX_SENSORS], rr[CAEKF_MAX_SENSORS];
+    unsigned char live[CAEKF_N], skip[CAEKF_N];
+    int any_live = 0, any_skip = 0;
+    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
+    int i, j, k, l;
+    if (innovation_inverse(P, d, Si) != 0) {
+        *flags |= CAEKF_FLAG_SINGULAR_INNOVATION;
+        return -1;
+    }
+    for (k = 0; k < ny; ++k) {
+        e[k] = y_s[k] - z[d->h[k]]; /* eq. (14) */
+    }
+    /* Normalised innovation squared e^T S^-1 e: chi-square with ny degrees of freedom while the filter
+     * is consistent. Far above that, the linearisation behind the gamma gain no longer holds (e.g. the
+     * first measurement after a gap in contact): the gammas are held this step as consider states. */
+    if (ny == 2) {
+        *nis = e[0] * (Si[0][0] * e[0] + 2 * Si[0][1] * e[1]) + Si[1][1] * e[1] * e[1];
+    } else {
+        *nis = 0;
+        for (k = 0; k < ny; ++k) {
+            caekf_scalar_t s = 0;
+            for (l = 0; l < ny; ++l) {
+                s += Si[k][l] * e[l];
+            }
+            *nis += e[k] * s;
+        }
+    }
+    for (i = 0; i < n; ++i) {
+        const int g = i - nx;
+        live[i] = (unsigned char)(g < 0 || d->policy[g] == CAEKF_GAMMA_LIVE);
+        /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma's row and column are left. */
+        skip[i] = (unsigned char)(g >= 0 && d->policy[g] == CAEKF_GAMMA_FROZEN_PAPER);
+        any_live |= g >= 0 && live[i];
+        any_skip |= skip[i];
+    }
+    if (any_live && gate > 0 && *nis > gate) {
+        for (i = nx; i < n; ++i) {
+            live[i] = 0;
+        }
+        *flags |= CAEKF_FLAG_GAMMA_GATED;
+    }
+    if (ny == 2) { /* two sensors, written out: the same operations as the loops below */
+        const int h0 = d->h[0], h1 = d->h[1];
+        const caekf_scalar_t s00 = Si[0][0], s01 = Si[0][1], s11 = Si[1][1], e0 = e[0], e1 = e[1];
+        for (i = 0; i < n; ++i) {
+            const caekf_scalar_t a = UP(P, n, h0, i), b = UP(P, n, h1, i);
+            hp[0][i] = a;
+            hp[1][i] = b;
+            /* eq. (26) with a gamma frozen: a Schmidt ("consider") gain of 0 on it */
+            G[i][0] = live[i] ? a * s00 + b * s01 : 0;
+            G[i][1] = live[i] ? a * s01 + b * s11 : 0;
+            z[i] += G[i][0] * e0 + G[i][1] * e1;
+        }
+    } else {
+        for (i = 0; i < n; ++i) {
+            for (k = 0; k < ny; ++k) {
+                hp[k][i] = UP(P, n, d->h[k], i);
+            }
+        }
+        for (i = 0; i < n; ++i) {
+            caekf_scalar_t dz = 0;
+            for (k = 0; k < ny; ++k) {
+                caekf_scalar_t s = 0;
+                for (l = 0; l < ny; ++l) {
+                    s += hp[l][i] * Si[l][k];
+                }
+                G[i][k] = live[i] ? s : 0;
+            }
+            for (k = 0; k < ny; ++k) {
+                dz += G[i][k] * e[k];
+            }
+            z[i] += dz;
+        }
+    }
+    if (!joseph) {
+        /* Eq. (15) on the upper triangle: P+ = P - G (H P). With a gamma's gain zeroed, its row of this
+         * product would stay stale; the upper triangle alone gives the Schmidt result
+         * P_xg <- (I - G_x H_x) P_xg, P_gg unchanged. */
+        for (i = 0; i < n; ++i) {
+            caekf_scalar_t *p = &AT(P, n, i, 0);
+            if (skip[i]) {
+                continue;
+            }
+            if (ny == 2) { /* two sensors: the gains held in registers */
+                const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
+                const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
+                p[i] -= g0 * h0[i] + g1 * h1[i];
+                for (j = i + 1; j < n; ++j) {
+                    if (!any_skip || !skip[j]) {
+                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                    }
+                }
+                continue;
+            }
+            for (j = i; j < n; ++j) {
+                caekf_scalar_t s = 0;
+                if (skip[j]) {
+                    continue;
+                }
+                for (k = 0; k < ny; ++k) {
+                    s += G[i][k] * hp[k][j];
+                }
+                p[j] = j == i ? p[j] - s : flush(p[j] - s);
+            }
+        }
+        return 0;
+    }
+    /* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,sensed} G^T + G R G^T. Row i
+     * of A P at the sensed states comes from the copies of H P (P is symmetric). R enters as r_0 times
+     * the ratios r_k / r_0 (exactly 1 when the sensors share R). */
+    for (k = 0; k < ny; ++k) {
+        rr[k] = d->r[k] / d->r[0];
+    }
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t a[CAEKF_MAX_SENSORS], gr[CAEKF_MAX_SENSORS];
+        if (skip[i]) {
+            continue;
+        }
+        for (k = 0; k < ny; ++k) {
+            caekf_scalar_t s = 0;
+            for (l = 0; l < ny; ++l) {
+                s += G[i][l] * hp[l][d->h[k]];
+            }
+            a[k] = hp[k][i] - s;
+            gr[k] = G[i][k] * rr[k];
+        }
+        for (j = i; j < n; ++j) {
+            caekf_scalar_t s = 0, rg = 0, v;
+            if (skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[i][k] * hp[k][j];
+                rg += gr[k] * G[j][k];
+            }
+            v = AT(P, n, i, j) - s;
+            for (k = 0; k < ny; ++k) {
+                v -= a[k] * G[j][k];
+            }
+            v += d->r[0] * rg;
+            AT(P, n, i, j) = j > i ? flush(v) : v;
+        }
+    }
+    return 0;
+}
+
+void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zmin,
+                           caekf_scalar_t s_gamma, caekf_scalar_t gamma_min_phys, uint32_t *flags)
+{
+    const caekf_scalar_t s = AT(P, n, g, g);
+    const caekf_scalar_t dz = zmin - z[g];
+    caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
     int usable = s > CAEKF_EPS * CAEKF_EPS;
-    int i, k;
-    if (!(z[IG] < zmin)) {
+    int i, j, k;
+    if (!(z[g] < zmin)) {
         return;
     }
     *flags |= CAEKF_FLAG_CONSTRAINT_APPLIED;
-    for (i = 0; i < IG; ++i) { /* a valid covariance has P_ig^2 <= P_ii P_gg */
-        col[i] = P[i][IG];
-        usable = usable && col[i] * col[i] <= P[i][i] * s * (1 + CAEKF_EPS * 64) + CAEKF_EPS * CAEKF_EPS;
+    for (i = 0; i < n; ++i) { /* a valid covariance has P_ig^2 <= P_ii P_gg */
+        col[i] = UP(P, n, i, g);
+        if (i != g) {
+            usable = usable && col[i] * col[i] <= AT(P, n, i, i) * s * (1 + CAEKF_EPS * 64) + CAEKF_EPS * CAEKF_EPS;
+        }
     }
     if (usable) {
         /* Scalar perfect measurement (R = 0): gain k = P e_g / P_gg, P+ = P - P e_g e_g^T P / P_gg.
          * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. */
-        for (i = 0; i < IG; ++i) {
+        for (i = 0; i < n; ++i) {
             const caekf_scalar_t a = col[i];
-            const caekf_scalar_t *cj = col + i;
-            caekf_scalar_t *p = P[i] + i, *const pend = P[i] + IG;
-            z[i] += a / s * dz;
-            *p -= a * a / s;
-            while (++p != pend) {
-                ++cj;
-                *p = flush(*p - a * *cj / s);
+            if (i == g) {
+                continue;
             }
-            *pend = 0;
+            z[i] += a / s * dz;
+            AT(P, n, i, i) -= a * a / s;
+            for (j = i + 1; j < n; ++j) {
+                if (j != g) {
+                    AT(P, n, i, j) = flush(AT(P, n, i, j) - a * col[j] / s);
+                }
+            }
+            if (i < g) {
+                AT(P, n, i, g) = 0;
+            } else {
+                AT(P, n, g, i) = 0;
+            }
         }
-        P[IG][IG] = 0;
+        AT(P, n, g, g) = 0;
     } else {
         *flags |= CAEKF_FLAG_CONSTRAINT_CLAMPED | CAEKF_FLAG_SINGULAR_INNOVATION;
     }
-    z[IG] = zmin;
+    z[g] = zmin;
     /* Rounding of zmin * s_gamma must not land below gamma_min: step up by ulps (bounded). */
-    for (k = 0; k < 4 && z[IG] * s_gamma < gamma_min_phys; ++k) {
-        z[IG] += CAEKF_FABS(z[IG]) * CAEKF_EPS + (caekf_scalar_t)1e-30;
+    for (k = 0; k < 4 && z[g] * s_gamma < gamma_min_phys; ++k) {
+        z[g] += CAEKF_FABS(z[g]) * CAEKF_EPS + (caekf_scalar_t)1e-30;
     }
 }
 
@@ -276,12 +421,12 @@ void caekf_constrain_upper(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zm
  * P goes bad (|corr| > 1, as eqs. 23-27 produce). Cheap enough for every step. On the way it sums
  * v * 0 over the upper triangle into *nf: 0 when every entry is finite, NaN otherwise (one
  * multiply-add per entry instead of a classification); *nf is only complete when the screen passes. */
-static int screen_fails(caekf_mat_t P, caekf_scalar_t *nf)
+static int screen_fails(const caekf_scalar_t *P, int n, caekf_scalar_t *nf)
 {
     caekf_scalar_t acc = 0;
     int i;
-    for (i = 0; i < N; ++i) {
-        const caekf_scalar_t *pij = &P[i][i], *const pend = P[i] + N;
+    for (i = 0; i < n; ++i) {
+        const caekf_scalar_t *pij = P + i * n + i, *const pend = P + i * n + n;
         const caekf_scalar_t *pjj = pij;
         const caekf_scalar_t pii = *pij;
         acc += pii * 0;
@@ -290,7 +435,7 @@ static int screen_fails(caekf_mat_t P, caekf_scalar_t *nf)
         }
         while (++pij != pend) {
             const caekf_scalar_t v = *pij;
-            pjj += N + 1;
+            pjj += n + 1;
             acc += v * 0;
             if (v * v > pii * *pjj * (1 + CAEKF_EPS * 64)) {
                 return 1;
@@ -301,26 +446,27 @@ static int screen_fails(caekf_mat_t P, caekf_scalar_t *nf)
     return 0;
 }
 
-int caekf_covariance_health(caekf_mat_t P, int full_check, int repair, caekf_mat_t scratch, uint32_t *flags)
+int caekf_covariance_health(caekf_scalar_t *P, int n, int full_check, int repair, caekf_scalar_t *scratch,
+                            uint32_t *flags)
 {
     caekf_scalar_t nf = 0;
     int i, j;
-    if (!screen_fails(P, &nf)) {
-        /* Tolerance on the correlation form: rounding grows with the ~N-term sums of each update. */
-        if (!full_check || caekf_psd_check(&P[0][0], N, CAEKF_EPS * 1024, &scratch[0][0]) == CAEKF_LA_OK) {
+    if (!screen_fails(P, n, &nf)) {
+        /* Tolerance on the correlation form: rounding grows with the ~n-term sums of each update. */
+        if (!full_check || caekf_psd_check(P, n, CAEKF_EPS * 1024, scratch) == CAEKF_LA_OK) {
             return nf == 0;
         }
     }
     *flags |= CAEKF_FLAG_COV_INDEFINITE;
     if (repair) {
-        caekf_mirror_upper(P);
-        (void)caekf_psd_repair(&P[0][0], N, &scratch[0][0]);
+        caekf_mirror_upper(P, n);
+        (void)caekf_psd_repair(P, n, scratch);
         *flags |= CAEKF_FLAG_COV_REPAIRED;
     }
     nf = 0;
-    for (i = 0; i < N; ++i) {
-        for (j = i; j < N; ++j) {
-            nf += P[i][j] * 0;
+    for (i = 0; i < n; ++i) {
+        for (j = i; j < n; ++j) {
+            nf += AT(P, n, i, j) * 0;
         }
     }
     return nf == 0;

@@ -21,6 +21,11 @@ caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_sca
     return lu_factor_from(a, n, piv, rel_tol * amax, 0);
 }
 
+caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol)
+{
+    return size_ok(n) ? lu_factor_from(a, n, piv, tol, 0) : CAEKF_LA_BAD_SIZE;
+}
+
 /* Partial-pivoting LU from elimination step k0 on (steps before it done, without row exchanges). */
 static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0)
 {
@@ -128,7 +133,7 @@ caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[
 /* The 4x4 solve the model runs on every step: the same operations in the same order as
  * caekf_lu_solve (bit for bit the same results), with the size fixed so that the factors stay in
  * registers across the columns. */
-void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs)
+void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs, int ldb)
 {
     int perm[4] = {0, 1, 2, 3};
     int i, c;
@@ -142,10 +147,10 @@ void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t 
         perm[i] = perm[piv[i]];
         perm[piv[i]] = t;
     }
-    r0 = b + perm[0] * nrhs;
-    r1 = b + perm[1] * nrhs;
-    r2 = b + perm[2] * nrhs;
-    r3 = b + perm[3] * nrhs;
+    r0 = b + perm[0] * ldb;
+    r1 = b + perm[1] * ldb;
+    r2 = b + perm[2] * ldb;
+    r3 = b + perm[3] * ldb;
     for (c = 0; c < nrhs; ++c) { /* each column: all four read before any is written */
         caekf_scalar_t x0 = r0[c], x1 = r1[c], x2 = r2[c], x3 = r3[c];
         x1 -= l10 * x0; /* forward: L has a unit diagonal */
@@ -165,9 +170,9 @@ void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t 
         x0 -= u03 * x3;
         x0 *= d0;
         b[c] = x0;
-        b[nrhs + c] = x1;
-        b[2 * nrhs + c] = x2;
-        b[3 * nrhs + c] = x3;
+        b[ldb + c] = x1;
+        b[2 * ldb + c] = x2;
+        b[3 * ldb + c] = x3;
     }
 }
 

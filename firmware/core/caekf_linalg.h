@@ -26,12 +26,16 @@ caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_sca
 caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
                                  int nrhs, int ldb);
 
+/* caekf_lu_factor with the refusal threshold given (tol = rel_tol * max|a_ij|, from a caller who knows the
+ * largest entry already): bit for bit the same. */
+caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol);
+
 /* caekf_lu_factor for n = 4 with the refusal threshold given (tol = rel_tol * max|a_ij|, from a
  * caller who knows the largest entry already): bit for bit the same, faster. */
 caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scalar_t tol);
 
-/* caekf_lu_solve for n = 4 (lu row-major 4 x 4) and ldb = nrhs, bit for bit the same, faster. */
-void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs);
+/* caekf_lu_solve for n = 4 (lu row-major 4 x 4), bit for bit the same, faster. */
+void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs, int ldb);
 
 /* Inverse of a symmetric 2x2 [a b; b c]. Refused (SINGULAR) when the determinant is <= rel_tol * a c
  * or a, c <= 0: an innovation covariance must be positive definite. */

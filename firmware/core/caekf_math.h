@@ -10,12 +10,21 @@
 #define CAEKF_SQRT(x) sqrtf(x)
 #define CAEKF_FABS(x) fabsf(x)
 #define CAEKF_HYPOT(x, y) hypotf((x), (y))
+#define CAEKF_POW(x, y) powf((x), (y))
 #define CAEKF_C(x) ((caekf_scalar_t)(x##f))
 #else
 #define CAEKF_SQRT(x) sqrt(x)
 #define CAEKF_FABS(x) fabs(x)
 #define CAEKF_HYPOT(x, y) hypot((x), (y))
+#define CAEKF_POW(x, y) pow((x), (y))
 #define CAEKF_C(x) ((caekf_scalar_t)(x))
+#endif
+
+/* A small helper on the step's hot path: inlined even at -Os (a call costs more than its body). */
+#if defined(__GNUC__)
+#define CAEKF_HOT_INLINE static inline __attribute__((always_inline))
+#else
+#define CAEKF_HOT_INLINE static inline
 #endif
 
 /* isfinite() is type-generic in C99. */

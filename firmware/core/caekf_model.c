@@ -1,90 +1,54 @@
-/* The contact model: eq. (16) contact law, eq. (19) residual and Jacobians, Newton, eq. (10) F. */
+/* The contact model of any lumped mechanism on a line: the contact law (eq. 16 with exponent n and
+ * Hunt-Crossley damping), eq. (19)'s residual and Newton solve, eq. (10)'s F. */
 #include "caekf_model_internal.h"
 
 #include "caekf/caekf.h"
-
-#include <stddef.h>
-
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 
-/* Bodies 2 and 3 (0-based 1 and 2) are the contact pair. */
-#define B2 1
-#define B3 2
-
-CAEKF_STATIC_ASSERT(CAEKF_NQ == 4, model_has_four_bodies);
-CAEKF_STATIC_ASSERT(CAEKF_N == 2 * CAEKF_NQ + 1, augmented_state_is_q_v_gamma);
-
-/* The paper's chain, the one mechanism this core computes: links (a, b) in this order, the contact
- * (2, 3) with the Hertz law, the input on body 1, position sensors on bodies 1 and 4. */
-static const signed char chain_links[4][2] = {{1, 0}, {1, 2}, {3, 4}, {4, 0}};
-static const signed char chain_sensors[2] = {1, 4};
-CAEKF_STATIC_ASSERT(CAEKF_MAX_SPRINGS == 4 && CAEKF_MAX_SENSORS == 2 && CAEKF_MAX_INPUTS == 1 &&
-                        CAEKF_MAX_CONTACTS == 1,
-                    core_is_sized_for_the_chain);
-
-int caekf_model_unsupported(const caekf_model_params_t *p)
-{
-    int i;
-    if (p->bodies != CAEKF_NQ) {
-        return (int)CAEKF_PARAM_BODIES;
-    }
-    if (p->springs != 4) {
-        return (int)CAEKF_PARAM_SPRINGS;
-    }
-    for (i = 0; i < 4; ++i) {
-        if (p->spring_a[i] != chain_links[i][0]) {
-            return (int)CAEKF_PARAM_SPRING_A + i;
-        }
-        if (p->spring_b[i] != chain_links[i][1]) {
-            return (int)CAEKF_PARAM_SPRING_B + i;
-        }
-    }
-    if (p->inputs != 1 || p->input_body[0] != 1) {
-        return p->inputs != 1 ? (int)CAEKF_PARAM_INPUTS : (int)CAEKF_PARAM_INPUT_BODY;
-    }
-    if (p->sensors != 2) {
-        return (int)CAEKF_PARAM_SENSORS;
-    }
-    for (i = 0; i < 2; ++i) {
-        if (p->sensor_body[i] != chain_sensors[i]) {
-            return (int)CAEKF_PARAM_SENSOR_BODY + i;
-        }
-        if (p->sensor_kind[i] != CAEKF_SENSOR_POSITION) {
-            return (int)CAEKF_PARAM_SENSOR_KIND + i;
-        }
-    }
-    if (p->contacts != 1) {
-        return (int)CAEKF_PARAM_CONTACTS;
-    }
-    if (p->contact_a[0] != B2 + 1 || p->contact_b[0] != B3 + 1) {
-        return p->contact_a[0] != B2 + 1 ? (int)CAEKF_PARAM_CONTACT_A : (int)CAEKF_PARAM_CONTACT_B;
-    }
-    if (p->contact_n[0] != CAEKF_C(1.5)) {
-        return (int)CAEKF_PARAM_CONTACT_N;
-    }
-    if (p->contact_lambda[0] != 0) {
-        return (int)CAEKF_PARAM_CONTACT_LAMBDA;
-    }
-    return -1;
-}
-
-/* The model's own defence: finite values, masses and dt > 0, links and gap >= 0, a supported mechanism. */
+/* The model's own defence: the checks caekf_settings_validate also makes, so that an invalid mechanism
+ * can never be derived (settings validation says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p)
 {
     int i;
-    if (caekf_model_unsupported(p) >= 0 || !CAEKF_ISFINITE(p->dt) || !(p->dt > 0) ||
-        !CAEKF_ISFINITE(p->contact_gap[0]) || !(p->contact_gap[0] >= 0)) {
+    if (!(p->bodies >= 1 && p->bodies <= CAEKF_MAX_BODIES) || !(p->springs >= 0 && p->springs <= CAEKF_MAX_SPRINGS) ||
+        !(p->inputs >= 0 && p->inputs <= CAEKF_MAX_INPUTS) || !(p->sensors >= 1 && p->sensors <= CAEKF_MAX_SENSORS) ||
+        !(p->contacts >= 0 && p->contacts <= CAEKF_MAX_CONTACTS) || !CAEKF_ISFINITE(p->dt) || !(p->dt > 0)) {
         return 1;
     }
-    for (i = 0; i < CAEKF_NQ; ++i) {
+#if CAEKF_SIZED
+    if (p->bodies != CAEKF_SIZED_BODIES || p->contacts != CAEKF_SIZED_CONTACTS || p->inputs != CAEKF_SIZED_INPUTS) {
+        return 1;
+    }
+#endif
+    for (i = 0; i < p->bodies; ++i) {
         if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
             return 1;
         }
     }
-    for (i = 0; i < 4; ++i) {
+    for (i = 0; i < p->springs; ++i) {
         if (!CAEKF_ISFINITE(p->spring_k[i]) || !(p->spring_k[i] >= 0) || !CAEKF_ISFINITE(p->spring_c[i]) ||
-            !(p->spring_c[i] >= 0)) {
+            !(p->spring_c[i] >= 0) || p->spring_a[i] < 0 || p->spring_a[i] > p->bodies || p->spring_b[i] < 0 ||
+            p->spring_b[i] > p->bodies || p->spring_a[i] == p->spring_b[i]) {
+            return 1;
+        }
+    }
+    for (i = 0; i < p->inputs; ++i) {
+        if (p->input_body[i] < 1 || p->input_body[i] > p->bodies) {
+            return 1;
+        }
+    }
+    for (i = 0; i < p->sensors; ++i) {
+        if (p->sensor_body[i] < 1 || p->sensor_body[i] > p->bodies ||
+            (p->sensor_kind[i] != CAEKF_SENSOR_POSITION && p->sensor_kind[i] != CAEKF_SENSOR_VELOCITY)) {
+            return 1;
+        }
+    }
+    for (i = 0; i < p->contacts; ++i) {
+        if (p->contact_a[i] < 0 || p->contact_a[i] > p->bodies || p->contact_b[i] < 0 ||
+            p->contact_b[i] > p->bodies || p->contact_a[i] == p->contact_b[i] ||
+            !CAEKF_ISFINITE(p->contact_gap[i]) || !(p->contact_gap[i] >= 0) || !CAEKF_ISFINITE(p->contact_n[i]) ||
+            !(p->contact_n[i] >= 1) || !CAEKF_ISFINITE(p->contact_lambda[i]) || !(p->contact_lambda[i] >= 0)) {
             return 1;
         }
     }
@@ -98,186 +62,283 @@ int caekf_model_params_check(const caekf_model_params_t *p)
 #define NOINLINE
 #endif
 
-static void zero(caekf_scalar_t *a, int n)
+/* delta^n and n delta^(n-1) for delta > 0: the Hertz (1.5) and linear (1) laws exactly, others by pow. */
+CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar_t *dn, caekf_scalar_t *dn1)
 {
-    int i;
-    for (i = 0; i < n; ++i) {
-        a[i] = 0;
-    }
-}
-
-static void copy(caekf_scalar_t *dst, const caekf_scalar_t *src, int n)
-{
-    int i;
-    for (i = 0; i < n; ++i) {
-        dst[i] = src[i];
-    }
-}
-
-/* Chain topology: ground -a- 1 -b- 2 | 3 -c- 4 -d- ground. */
-NOINLINE static void chain_matrix(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], caekf_scalar_t a, caekf_scalar_t b,
-                                  caekf_scalar_t c, caekf_scalar_t d)
-{
-    zero(&out[0][0], CAEKF_NQ * CAEKF_NQ);
-    out[0][0] = a + b;
-    out[0][1] = -b;
-    out[1][0] = -b;
-    out[1][1] = b;
-    out[2][2] = c;
-    out[2][3] = -c;
-    out[3][2] = -c;
-    out[3][3] = c + d;
-}
-
-/* Eq. (16)-(17): f_c = gamma delta^1.5 while delta > 0. */
-void caekf_model_contact(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], caekf_scalar_t gamma,
-                         caekf_contact_t *c)
-{
-    caekf_scalar_t d = q[B2] - q[B3] - m->p.contact_gap[0];
-    c->delta = d;
-    if (d > 0) {
-        caekf_scalar_t sd = CAEKF_SQRT(d);
-        c->dfc_dgamma = d * sd;
-        c->fc = gamma * c->dfc_dgamma;
-        c->dfc_ddelta = CAEKF_C(1.5) * gamma * sd;
+    if (n == CAEKF_C(1.5)) {
+        const caekf_scalar_t sd = CAEKF_SQRT(d);
+        *dn = d * sd;
+        *dn1 = sd; /* times n by the caller, in the order eq. (17) is written: 1.5 gamma sqrt(delta) */
+    } else if (n == 1) {
+        *dn = d;
+        *dn1 = 1;
     } else {
-        c->fc = 0;
-        c->dfc_ddelta = 0;
-        c->dfc_dgamma = 0;
+        *dn = CAEKF_POW(d, n);
+        *dn1 = CAEKF_POW(d, n - 1);
     }
 }
 
-/* Momentum rows of eq. (19) for (q_k, v_k); optionally the magnitude of each row's terms, which is
- * what the residual's rounding error scales with. The contact force enters as +f_c on body 2 and
- * -f_c on body 3 (the residual carries -B_c f_c with B_c = [0, -1, +1, 0]). */
-static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], const caekf_scalar_t v[CAEKF_NQ],
-                              const caekf_scalar_t vprev[CAEKF_NQ], caekf_scalar_t u, caekf_scalar_t fc,
-                              caekf_scalar_t r[CAEKF_NQ], caekf_scalar_t mag[CAEKF_NQ])
+/* Eqs. (16)-(17) generalised: f = gamma delta^n (1 + lambda d delta/dt) while delta > 0, never pulling
+ * (a Hunt-Crossley factor below 0 gives f = 0 and no derivatives). */
+void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_scalar_t gamma,
+                         caekf_contact_t *out)
 {
-    int i;
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        /* K and C couple bodies (1,2) and (3,4) only (chain_matrix): the other terms are exact
-         * zeros, which change neither sum. */
-        const int b = i & 2;
-        const caekf_scalar_t *k = &m->K[i][b], *c = &m->C[i][b], *qb = q + b, *vb = v + b;
+    const int i = m->contact_i[c], j = m->contact_j[c], nq = CAEKF_DIM_NQ(m);
+    const caekf_scalar_t d = (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0) - m->p.contact_gap[c];
+    const caekf_scalar_t lambda = m->p.contact_lambda[c];
+    out->delta = d;
+    out->fc = 0;
+    out->dfc_ddelta = 0;
+    out->dfc_drate = 0;
+    out->dfc_dgamma = 0;
+    if (d > 0) {
+        caekf_scalar_t dn, dn1;
+        power_law(d, m->p.contact_n[c], &dn, &dn1);
+        if (lambda == 0) { /* elastic: exactly eq. (17) */
+            out->dfc_dgamma = dn;
+            out->fc = gamma * dn;
+            out->dfc_ddelta = m->p.contact_n[c] * gamma * dn1;
+        } else {
+            const caekf_scalar_t rate = (i >= 0 ? x[nq + i] : 0) - (j >= 0 ? x[nq + j] : 0);
+            const caekf_scalar_t h = 1 + lambda * rate;
+            if (h > 0) {
+                out->dfc_dgamma = dn * h;
+                out->fc = gamma * out->dfc_dgamma;
+                out->dfc_ddelta = m->p.contact_n[c] * gamma * dn1 * h;
+                out->dfc_drate = gamma * dn * lambda;
+            }
+        }
+    }
+}
+
+/* Adds s * (e_i - e_j)(e_i - e_j)^T to the nq x nq matrix a (leading dimension ld); ground ends (-1)
+ * drop out. Entry order: (i,i), (i,j), (j,i), (j,j). */
+static void add_contact_block(caekf_scalar_t *a, int ld, int i, int j, caekf_scalar_t s)
+{
+    if (i >= 0) {
+        a[i * ld + i] += s;
+        if (j >= 0) {
+            a[i * ld + j] -= s;
+        }
+    }
+    if (j >= 0) {
+        if (i >= 0) {
+            a[j * ld + i] -= s;
+        }
+        a[j * ld + j] += s;
+    }
+}
+
+/* Momentum rows of eq. (19) for (q_k, v_k) with the contacts' forces f; optionally the magnitude of each
+ * row's terms, which is what the residual's rounding error scales with. Input i is a force on its body;
+ * contact c enters the residual as +f_c on body a and -f_c on body b. */
+static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, const caekf_scalar_t *vprev,
+                              const caekf_scalar_t *u, const caekf_contact_t *ct, caekf_scalar_t *r,
+                              caekf_scalar_t *mag)
+{
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), nu = CAEKF_DIM_NU(m);
+    const caekf_scalar_t *q = x, *v = x + nq;
+    int i, k;
+    for (i = 0; i < nq; ++i) {
         const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        const caekf_scalar_t kq0 = k[0] * qb[0], cv0 = c[0] * vb[0];
-        const caekf_scalar_t kq1 = k[1] * qb[1], cv1 = c[1] * vb[1];
-        r[i] = inertia + (kq0 + cv0) + (kq1 + cv1);
+        const caekf_scalar_t *Ki = m->K[i], *Ci = m->C[i];
+        const unsigned char *nz = m->nz[i];
+        caekf_scalar_t s = inertia;
+        if (m->nnz[i] == 2) { /* a body with one neighbour (a chain's end or pair): written out */
+            const int j0 = nz[0], j1 = nz[1];
+            const caekf_scalar_t kq0 = Ki[j0] * q[j0], cv0 = Ci[j0] * v[j0];
+            const caekf_scalar_t kq1 = Ki[j1] * q[j1], cv1 = Ci[j1] * v[j1];
+            r[i] = s + (kq0 + cv0) + (kq1 + cv1);
+            if (mag != 0) {
+                mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) +
+                         (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+            }
+            continue;
+        }
+        for (k = 0; k < m->nnz[i]; ++k) { /* K and C's nonzeros of row i, ascending */
+            const int j = nz[k];
+            s += Ki[j] * q[j] + Ci[j] * v[j];
+        }
+        r[i] = s;
         if (mag != 0) {
-            mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) + (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+            caekf_scalar_t a = CAEKF_FABS(inertia);
+            for (k = 0; k < m->nnz[i]; ++k) {
+                const int j = nz[k];
+                a += CAEKF_FABS(Ki[j] * q[j]) + CAEKF_FABS(Ci[j] * v[j]);
+            }
+            mag[i] = a;
         }
     }
-    r[0] -= u;
-    r[B2] += fc;
-    r[B3] -= fc;
-    if (mag != 0) {
-        mag[0] += CAEKF_FABS(u);
-        mag[B2] += CAEKF_FABS(fc);
-        mag[B3] += CAEKF_FABS(fc);
+    for (k = 0; k < nu; ++k) {
+        const int b = m->p.input_body[k] - 1;
+        r[b] -= u[k];
+        if (mag != 0) {
+            mag[b] += CAEKF_FABS(u[k]);
+        }
+    }
+    for (k = 0; k < nc; ++k) {
+        const int i_ = m->contact_i[k], j_ = m->contact_j[k];
+        if (i_ >= 0) {
+            r[i_] += ct[k].fc;
+        }
+        if (j_ >= 0) {
+            r[j_] -= ct[k].fc;
+        }
+        if (mag != 0) {
+            if (i_ >= 0) {
+                mag[i_] += CAEKF_FABS(ct[k].fc);
+            }
+            if (j_ >= 0) {
+                mag[j_] += CAEKF_FABS(ct[k].fc);
+            }
+        }
     }
 }
 
-void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                          const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u, caekf_scalar_t g[CAEKF_N])
+void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
+                          const caekf_scalar_t *u, caekf_scalar_t *g)
 {
-    caekf_contact_t c;
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
     int i;
-    caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        g[i] = (xk[i] - xprev[i]) / m->p.dt - xk[CAEKF_NQ + i];
+    for (i = 0; i < nc; ++i) {
+        caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);
     }
-    momentum_residual(m, xk, xk + CAEKF_NQ, xprev + CAEKF_NQ, u, c.fc, g + CAEKF_NQ, 0);
-    g[CAEKF_IG] = xk[CAEKF_IG] - xprev[CAEKF_IG];
+    for (i = 0; i < nq; ++i) {
+        g[i] = (xk[i] - xprev[i]) / m->p.dt - xk[nq + i];
+    }
+    momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
+    for (i = 0; i < nc; ++i) {
+        g[2 * nq + i] = xk[2 * nq + i] - xprev[2 * nq + i];
+    }
 }
 
-void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
+void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, caekf_scalar_t Jk[CAEKF_N][CAEKF_N],
+                           caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
 {
-    caekf_contact_t c;
-    int i, j;
-    caekf_scalar_t inv_dt = 1 / m->p.dt;
-    caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
-    zero(&Jk[0][0], CAEKF_N * CAEKF_N);
-    zero(&Jprev[0][0], CAEKF_N * CAEKF_N);
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        Jk[i][i] = inv_dt;
-        Jk[i][CAEKF_NQ + i] = -1;
-        Jprev[i][i] = -inv_dt;
-        Jprev[CAEKF_NQ + i][CAEKF_NQ + i] = -m->m_dt[i];
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            Jk[CAEKF_NQ + i][j] = m->K[i][j];
-            Jk[CAEKF_NQ + i][CAEKF_NQ + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
+    const caekf_scalar_t inv_dt = 1 / m->p.dt;
+    int i, j, c;
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            Jk[i][j] = 0;
+            Jprev[i][j] = 0;
         }
     }
-    /* Contact tangent: d(+-f_c)/dq through delta = q2 - q3 - gap, and d/dgamma. */
-    Jk[CAEKF_NQ + B2][B2] += c.dfc_ddelta;
-    Jk[CAEKF_NQ + B2][B3] -= c.dfc_ddelta;
-    Jk[CAEKF_NQ + B3][B2] -= c.dfc_ddelta;
-    Jk[CAEKF_NQ + B3][B3] += c.dfc_ddelta;
-    Jk[CAEKF_NQ + B2][CAEKF_IG] = c.dfc_dgamma;
-    Jk[CAEKF_NQ + B3][CAEKF_IG] = -c.dfc_dgamma;
-    Jk[CAEKF_IG][CAEKF_IG] = 1;
-    Jprev[CAEKF_IG][CAEKF_IG] = -1;
+    for (i = 0; i < nq; ++i) {
+        Jk[i][i] = inv_dt;
+        Jk[i][nq + i] = -1;
+        Jprev[i][i] = -inv_dt;
+        Jprev[nq + i][nq + i] = -m->m_dt[i];
+        for (j = 0; j < nq; ++j) {
+            Jk[nq + i][j] = m->K[i][j];
+            Jk[nq + i][nq + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
+        }
+    }
+    for (c = 0; c < nc; ++c) { /* contact tangents: through delta, its rate and gamma_c */
+        caekf_contact_t ct;
+        const int a = m->contact_i[c], b = m->contact_j[c], g = 2 * nq + c;
+        caekf_model_contact(m, c, xk, xk[g], &ct);
+        add_contact_block(&Jk[nq][0], CAEKF_N, a, b, ct.dfc_ddelta);
+        add_contact_block(&Jk[nq][nq], CAEKF_N, a, b, ct.dfc_drate);
+        if (a >= 0) {
+            Jk[nq + a][g] = ct.dfc_dgamma;
+        }
+        if (b >= 0) {
+            Jk[nq + b][g] = -ct.dfc_dgamma;
+        }
+        Jk[g][g] = 1;
+        Jprev[g][g] = -1;
+    }
 }
 
 #define LU_REL_TOL (CAEKF_EPS * 16)
 
-/* A = M/dt + C + dt (K + K_c): the Jacobian of the momentum rows with respect to v_k once
- * q_k = q_{k-1} + dt v_k is substituted; K_c = f_c'(delta) n n^T with n = [0, 1, -1, 0]. Returns the
- * LU refusal threshold LU_REL_TOL * max|A_ij|: only the contact block differs from A0, and a maximum
- * does not depend on the order it is taken in (a NaN in the block makes the LU refuse either way). */
-static caekf_scalar_t newton_matrix(const caekf_model_t *m, caekf_scalar_t dfc_ddelta,
-                                    caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ])
+/* A = M/dt + C + dt K + sum_c (dt f_c'(delta) + f_c'(rate)) b_c b_c^T: the Jacobian of the momentum
+ * rows with respect to v_k once q_k = q_{k-1} + dt v_k is substituted. Returns the LU refusal
+ * threshold LU_REL_TOL * max|A_ij| (a maximum does not depend on the order it is taken in; a NaN
+ * makes the LU refuse either way). */
+static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_t *ct, caekf_scalar_t *A)
 {
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
+    caekf_scalar_t amax = 0;
     int i;
-    caekf_scalar_t kc = m->p.dt * dfc_ddelta;
-    caekf_scalar_t amax = m->A0_absmax_out;
-    copy(&A[0][0], &m->A0[0][0], CAEKF_NQ * CAEKF_NQ);
-    for (i = 0; i < 4; ++i) { /* the 2x2 contact block, row by row: + on its diagonal, - off it */
-        caekf_scalar_t *a = &A[B2 + i / 2][B2 + i % 2];
-        if (i / 2 == i % 2) {
-            *a += kc;
-        } else {
-            *a -= kc;
+    for (i = 0; i < nq * nq; ++i) {
+        A[i] = m->A0[i];
+    }
+    for (i = 0; i < nc; ++i) {
+        if (ct[i].delta > 0) {
+            add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->p.dt * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
-        amax = caekf_max(amax, CAEKF_FABS(*a));
+    }
+    for (i = 0; i < nq * nq; ++i) {
+        amax = caekf_max(amax, CAEKF_FABS(A[i]));
     }
     return LU_REL_TOL * amax;
 }
 
-int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u,
+/* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
+static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
+{
+    return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK ? 0
+                                                                                                             : -1;
+}
+
+static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
+{
+    if (CAEKF_DIM_IS4(nq)) {
+        caekf_lu4_solve(lu, piv, b, nrhs, ldb);
+    } else {
+        (void)caekf_lu_solve(lu, nq, piv, b, nrhs, ldb);
+    }
+}
+
+/* Whether any contact is closed (delta > 0): the Newton matrix and F then differ from the constants. */
+static int any_contact(const caekf_contact_t *ct, int nc)
+{
+    int i, any = 0;
+    for (i = 0; i < nc; ++i) {
+        any |= ct[i].delta > 0;
+    }
+    return any;
+}
+
+int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u,
                        int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters)
 {
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
-    const caekf_scalar_t *vp = xprev + CAEKF_NQ;
-    caekf_scalar_t gamma = xprev[CAEKF_IG];
+    const caekf_scalar_t *vp = xprev + nq;
     caekf_scalar_t *q = xk;
-    caekf_scalar_t *v = xk + CAEKF_NQ;
-    caekf_scalar_t dt = m->p.dt;
+    caekf_scalar_t *v = xk + nq;
+    const caekf_scalar_t dt = m->p.dt;
     int it, i;
     int result = 1;
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
-    for (i = 0; i < CAEKF_NQ; ++i) { /* initial guess v_k = v_{k-1} */
+    for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
         q[i] = qp[i] + dt * v[i];
     }
-    xk[CAEKF_IG] = gamma; /* random walk: gamma_k = gamma_{k-1} */
+    for (i = 0; i < nc; ++i) { /* random walk: gamma_k = gamma_{k-1} */
+        xk[2 * nq + i] = xprev[2 * nq + i];
+    }
     for (it = 0; it <= max_iter; ++it) {
-        caekf_contact_t c;
+        caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
         caekf_scalar_t r[CAEKF_NQ], mag[CAEKF_NQ];
-        caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ];
+        caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         int piv[CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t rmax = 0, magmax = 0;
-        caekf_model_contact(m, q, gamma, &c);
+        for (i = 0; i < nc; ++i) {
+            caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);
+        }
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
-        momentum_residual(m, q, v, vp, u, c.fc, r, it > 0 ? mag : 0);
+        momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
         if (it > 0) {
-            for (i = 0; i < CAEKF_NQ; ++i) {
+            for (i = 0; i < nq; ++i) {
                 rmax = caekf_max(rmax, CAEKF_FABS(r[i]));
                 magmax = caekf_max(magmax, mag[i]);
             }
@@ -292,16 +353,16 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         if (it == max_iter) {
             break; /* bound reached: x_k keeps the last iterate */
         }
-        if (c.delta > 0) { /* contact: the tangent changes A; else the constant LU */
-            if (caekf_lu4_factor_tol(&A[0][0], piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
+        if (any_contact(ct, nc)) { /* contact: the tangents change A; else the constant LU */
+            if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
                 result = 2;
                 break;
             }
-            caekf_lu4_solve(&A[0][0], piv, r, 1);
+            solve(A, nq, piv, r, 1, 1);
         } else {
-            caekf_lu4_solve(&m->A0_lu[0][0], m->A0_piv, r, 1);
+            solve(m->A0_lu, nq, m->A0_piv, r, 1, 1);
         }
-        for (i = 0; i < CAEKF_NQ; ++i) {
+        for (i = 0; i < nq; ++i) {
             v[i] -= r[i];
             q[i] = qp[i] + dt * v[i];
         }
@@ -311,91 +372,131 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
 }
 
 /* Right-hand sides of the linearised eq. (19): A dv_k = -K_t dq_{k-1} + M/dt dv_{k-1}
- * - n delta^1.5 dgamma_{k-1}, one column per component of x_{k-1}. */
-static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *c, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+ * - sum_c b_c f_c'(gamma) dgamma_c, one column per component of x_{k-1}. */
+static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
-    const caekf_scalar_t d = c->dfc_ddelta, g = c->dfc_dgamma;
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
-    zero(&fv[0][0], CAEKF_NQ * CAEKF_N);
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            fv[i][j] = -m->K[i][j];
+    for (i = 0; i < nq; ++i) {
+        for (j = 0; j < n; ++j) {
+            fv[i][j] = j < nq ? -m->K[i][j] : 0;
         }
-        fv[i][CAEKF_NQ + i] = m->m_dt[i];
+        fv[i][nq + i] = m->m_dt[i];
     }
-    fv[B2][B2] -= d;
-    fv[B2][B3] += d;
-    fv[B3][B2] += d;
-    fv[B3][B3] -= d;
-    fv[B2][CAEKF_IG] = -g;
-    fv[B3][CAEKF_IG] = g;
+    for (i = 0; i < nc; ++i) {
+        const int a = m->contact_i[i], b = m->contact_j[i];
+        if (!(ct[i].delta > 0)) {
+            continue;
+        }
+        add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct[i].dfc_ddelta);
+        if (a >= 0) {
+            fv[a][2 * nq + i] = -ct[i].dfc_dgamma;
+        }
+        if (b >= 0) {
+            fv[b][2 * nq + i] = ct[i].dfc_dgamma;
+        }
+    }
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
-    caekf_contact_t c;
-    caekf_scalar_t A[CAEKF_NQ][CAEKF_NQ];
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
-    caekf_model_contact(m, xk, xk[CAEKF_IG], &c);
-    if (!(c.delta > 0)) { /* linear step: the constant F */
-        copy(&fv[0][0], &m->fv0[0][0], CAEKF_NQ * CAEKF_N);
+    int i, j;
+    for (i = 0; i < nc; ++i) {
+        caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);
+    }
+    if (!any_contact(ct, nc)) { /* linear step: the constant F */
+        for (i = 0; i < nq; ++i) {
+            for (j = 0; j < n; ++j) {
+                fv[i][j] = m->fv0[i][j];
+            }
+        }
         return 0;
     }
-    if (caekf_lu4_factor_tol(&A[0][0], piv, newton_matrix(m, c.dfc_ddelta, A)) != CAEKF_LA_OK) {
+    if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
-    transition_rhs(m, &c, fv); /* solved in place */
-    caekf_lu4_solve(&A[0][0], piv, &fv[0][0], CAEKF_N);
+    transition_rhs(m, ct, fv); /* solved in place */
+    solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
     return 0;
+}
+
+/* Adds value to the link matrix entries of link (a, b) (body numbers, 0 = ground). */
+NOINLINE static void add_link(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], int a, int b, caekf_scalar_t value)
+{
+    add_contact_block(&out[0][0], CAEKF_NQ, a - 1, b - 1, value);
 }
 
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 {
-    const caekf_contact_t none = {0, 0, 0, 0};
-    int i, j;
+    const caekf_contact_t none[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
+    int i, j, nq;
     if (caekf_model_params_check(p) != 0) {
         return -1;
     }
     m->p = *p;
-    chain_matrix(m->K, p->spring_k[0], p->spring_k[1], p->spring_k[2], p->spring_k[3]);
-    chain_matrix(m->C, p->spring_c[0], p->spring_c[1], p->spring_c[2], p->spring_c[3]);
-    m->A0_absmax_out = 0;
+    m->nq = nq = p->bodies;
+    m->nc = p->contacts;
+    m->n = 2 * p->bodies + p->contacts;
     for (i = 0; i < CAEKF_NQ; ++i) {
-        m->m_dt[i] = p->m[i] / p->dt;
         for (j = 0; j < CAEKF_NQ; ++j) {
-            caekf_scalar_t a = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
-            m->A0[i][j] = a;
-            m->A0_lu[i][j] = a;
-            if ((i - B2) * (i - B3) > 0 || (j - B2) * (j - B3) > 0) { /* outside the contact block */
-                m->A0_absmax_out = caekf_max(m->A0_absmax_out, CAEKF_FABS(a));
+            m->K[i][j] = 0;
+            m->C[i][j] = 0;
+        }
+    }
+    /* Links in order, each adding its 2x2 pattern: a link to ground adds to one diagonal entry. */
+    for (i = 0; i < p->springs; ++i) {
+        add_link(m->K, p->spring_a[i], p->spring_b[i], p->spring_k[i]);
+        add_link(m->C, p->spring_a[i], p->spring_b[i], p->spring_c[i]);
+    }
+    for (i = 0; i < p->contacts; ++i) {
+        m->contact_i[i] = p->contact_a[i] - 1;
+        m->contact_j[i] = p->contact_b[i] - 1;
+    }
+    for (i = 0; i < nq; ++i) {
+        m->m_dt[i] = p->m[i] / p->dt;
+        m->nnz[i] = 0;
+        for (j = 0; j < nq; ++j) {
+            const caekf_scalar_t a = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+            m->A0[i * nq + j] = a;
+            m->A0_lu[i * nq + j] = a;
+            if (m->K[i][j] != 0 || m->C[i][j] != 0) {
+                m->nz[i][m->nnz[i]++] = (unsigned char)j;
             }
         }
     }
     /* A0 = M/dt + C + dt K is positive definite for valid parameters; the check is belt and braces. */
-    if (caekf_lu_factor(&m->A0_lu[0][0], CAEKF_NQ, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
+    if (caekf_lu_factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
     }
-    transition_rhs(m, &none, m->fv0);
-    caekf_lu4_solve(&m->A0_lu[0][0], m->A0_piv, &m->fv0[0][0], CAEKF_N);
+    transition_rhs(m, none, m->fv0);
+    solve(m->A0_lu, nq, m->A0_piv, &m->fv0[0][0], m->n, CAEKF_N);
     return 0;
 }
 
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                            caekf_scalar_t F[CAEKF_N][CAEKF_N])
 {
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m);
     int i, j;
-    /* The v-rows land in F's rows 4..7 directly. */
-    if (caekf_model_transition_v(m, xk, (caekf_scalar_t(*)[CAEKF_N]) & F[CAEKF_NQ][0]) != 0) {
+    /* The v-rows land in F's rows nq .. 2 nq - 1 directly. */
+    if (caekf_model_transition_v(m, xk, (caekf_scalar_t(*)[CAEKF_N]) & F[nq][0]) != 0) {
         return -1;
     }
-    /* dq_k = dq_{k-1} + dt dv_k; dgamma_k = dgamma_{k-1} (eq. 23's last row). */
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        for (j = 0; j < CAEKF_N; ++j) {
-            F[i][j] = m->p.dt * F[CAEKF_NQ + i][j] + (i == j ? 1 : 0);
+    /* dq_k = dq_{k-1} + dt dv_k; dgamma_k = dgamma_{k-1} (eq. 23's last rows). */
+    for (i = 0; i < nq; ++i) {
+        for (j = 0; j < n; ++j) {
+            F[i][j] = m->p.dt * F[nq + i][j] + (i == j ? 1 : 0);
         }
     }
-    zero(F[CAEKF_IG], CAEKF_N);
-    F[CAEKF_IG][CAEKF_IG] = 1;
+    for (i = 2 * nq; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            F[i][j] = i == j ? 1 : 0;
+        }
+    }
     return 0;
 }

@@ -7,31 +7,50 @@
 
 #include "caekf/caekf_model.h"
 
-/* The first parameter id of a mechanism this core does not compute, or -1 (it computes the paper's chain). */
-int caekf_model_unsupported(const caekf_model_params_t *p);
+/* Run-time sizes of a model. A build sized for one mechanism (CAEKF_SIZED, generated from its scenario)
+ * has them as constants, so the compiler sees fixed loop bounds. */
+#if CAEKF_SIZED
+#define CAEKF_DIM_NQ(m) ((void)(m), CAEKF_SIZED_BODIES)
+#define CAEKF_DIM_NC(m) ((void)(m), CAEKF_SIZED_CONTACTS)
+#define CAEKF_DIM_NU(m) ((void)(m), CAEKF_SIZED_INPUTS)
+#define CAEKF_DIM_N(m) ((void)(m), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#else
+#define CAEKF_DIM_NQ(m) ((m)->nq)
+#define CAEKF_DIM_NC(m) ((m)->nc)
+#define CAEKF_DIM_NU(m) ((m)->p.inputs)
+#define CAEKF_DIM_N(m) ((m)->n)
+#endif
+
+/* nq == 4, decided at compile time in a sized build (only one LU kernel is then linked). */
+#if CAEKF_SIZED
+#define CAEKF_DIM_IS4(nq) ((void)(nq), CAEKF_SIZED_BODIES == 4)
+#else
+#define CAEKF_DIM_IS4(nq) ((nq) == 4)
+#endif
 
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 
 /* Eq. (19) residual g_d(x_k, x_{k-1}, u_k) of the augmented state x = [q; v; gamma]:
- *   rows 0..3: (q_k - q_{k-1})/dt - v_k
- *   rows 4..7: M (v_k - v_{k-1})/dt + C v_k + K q_k - B_u u_k - B_c f_c(q_k, gamma_k)
- *   row 8:     gamma_k - gamma_{k-1} */
-void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                          const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u, caekf_scalar_t g[CAEKF_N]);
+ *   rows 0..nq-1:     (q_k - q_{k-1})/dt - v_k
+ *   rows nq..2nq-1:   M (v_k - v_{k-1})/dt + C v_k + K q_k - B_u u_k + sum_c b_c f_c(x_k, gamma_c)
+ *   rows 2nq..n-1:    gamma_k - gamma_{k-1} */
+void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
+                          const caekf_scalar_t *u, caekf_scalar_t *g);
 
-/* Analytic Jacobians of eq. (19): dg/dx_k at x_k (gamma included) and dg/dx_{k-1} (constant). */
-void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N]);
+/* Analytic Jacobians of eq. (19): dg/dx_k at x_k (gammas included) and dg/dx_{k-1} (constant); n x n in
+ * arrays of the capacity. */
+void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, caekf_scalar_t Jk[CAEKF_N][CAEKF_N],
+                           caekf_scalar_t Jprev[CAEKF_N][CAEKF_N]);
 
-/* Eq. (10) F = -(dg/dx_k)^-1 dg/dx_{k-1}, computed from the structure of eq. (19): one 4x4 LU of
- * A = M/dt + C + dt K_t (K_t including the contact tangent) instead of a 9x9 inverse. The last row is
- * [0 ... 0 1] by construction. Returns 0, or -1 if A is singular. */
+/* Eq. (10) F = -(dg/dx_k)^-1 dg/dx_{k-1}, computed from the structure of eq. (19): one nq x nq LU of
+ * A = M/dt + C + dt K_t (+ the contacts' damping tangents) instead of an n x n inverse. The gamma rows
+ * are identity rows by construction. Returns 0, or -1 if A is singular. */
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                            caekf_scalar_t F[CAEKF_N][CAEKF_N]);
 
-/* The v-rows of F only (4 x 9), which is all the filter needs: F's q-rows are I + dt * (v-rows) and its
- * gamma row is e_gamma. Returns 0, or -1 if A is singular. */
+/* The v-rows of F only (nq x n), which is all the filter needs: F's q-rows are I + dt * (v-rows) and its
+ * gamma rows are identity rows. Returns 0, or -1 if A is singular. */
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 

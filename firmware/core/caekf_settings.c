@@ -258,6 +258,29 @@ static int first_bad_body(const caekf_model_params_t *m)
     return -1;
 }
 
+/* A build sized for one mechanism (CAEKF_SIZED) runs exactly its counts: the first count that differs. */
+static int first_unsized(const caekf_model_params_t *m)
+{
+#if CAEKF_SIZED
+    if (m->bodies != CAEKF_SIZED_BODIES) {
+        return (int)CAEKF_PARAM_BODIES;
+    }
+    if (m->springs != CAEKF_SIZED_SPRINGS) {
+        return (int)CAEKF_PARAM_SPRINGS;
+    }
+    if (m->inputs != CAEKF_SIZED_INPUTS) {
+        return (int)CAEKF_PARAM_INPUTS;
+    }
+    if (m->sensors != CAEKF_SIZED_SENSORS) {
+        return (int)CAEKF_PARAM_SENSORS;
+    }
+    return m->contacts != CAEKF_SIZED_CONTACTS ? (int)CAEKF_PARAM_CONTACTS : -1;
+#else
+    (void)m;
+    return -1;
+#endif
+}
+
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
 {
     unsigned k, i;
@@ -288,10 +311,10 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     }
     for (i = 0; i < (unsigned)s->model.sensors; ++i) {
         if (s->model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY && !(s->sigma_rv > 0)) {
-            return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, CAEKF_PARAM_SIGMA_RV);
+            return refuse(err, CAEKF_SETTING_NEEDED, CAEKF_PARAM_SIGMA_RV);
         }
     }
-    bad = caekf_model_unsupported(&s->model);
+    bad = first_unsized(&s->model);
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);
     }

@@ -45,11 +45,14 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
     case CAEKF_SETTING_NOT_INTEGER:
         why = "must be an integer";
         break;
+    case CAEKF_SETTING_NEEDED:
+        why = "must be > 0: the mechanism uses it (a velocity sensor)";
+        break;
     case CAEKF_SETTING_BAD_BODY:
         why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
         break;
     case CAEKF_SETTING_UNSUPPORTED:
-        why = "this build's estimator core computes the paper's chain only (docs/mechanism.md)";
+        why = "this build is sized for another mechanism (CAEKF_SIZED: the counts must equal its capacity)";
         break;
     default:
         why = caekf_setting_rule_text(err->setting);

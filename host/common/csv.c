@@ -33,20 +33,97 @@ static int fail(caekf_csv_t *r, const char *what)
     return -1;
 }
 
-int caekf_csv_open(caekf_csv_t *r, FILE *f, const char *name, int allow_nonfinite)
+int caekf_csv_columns(const caekf_model_params_t *p, caekf_csv_columns_t *c)
 {
-    static const char *const want[4] = {"t", "u", "y1", "y4"};
-    char buf[MAX_LINE];
+    int i, k = 0;
+    if (p->inputs < 0 || p->inputs > CAEKF_MAX_INPUTS || p->sensors < 0 || p->sensors > CAEKF_MAX_SENSORS) {
+        return -1;
+    }
+    memset(c, 0, sizeof *c);
+    c->inputs = p->inputs;
+    c->sensors = p->sensors;
+    snprintf(c->name[k++], CAEKF_CSV_NAME_LEN, "t");
+    for (i = 0; i < p->inputs; ++i) {
+        caekf_csv_series_name(c->name[k++], "u", i, p->inputs, 0);
+    }
+    for (i = 0; i < p->sensors; ++i) {
+        snprintf(c->name[k++], CAEKF_CSV_NAME_LEN, "%s%d", p->sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? "yv" : "y",
+                 p->sensor_body[i] % 1000);
+    }
+    c->count = k;
+    return 0;
+}
+
+int caekf_csv_scenario_columns(const caekf_scenario_t *sc, caekf_csv_columns_t *c)
+{
+    caekf_model_params_t p;
+    caekf_scenario_model(sc, sc->dt, &p);
+    return caekf_csv_columns(&p, c);
+}
+
+void caekf_meas_scalars(const caekf_meas_t *m, const caekf_csv_columns_t *c, caekf_scalar_t *u, caekf_scalar_t *y)
+{
+    int i;
+    for (i = 0; i < c->inputs; ++i) {
+        u[i] = (caekf_scalar_t)m->u[i];
+    }
+    for (i = 0; i < c->sensors; ++i) {
+        y[i] = (caekf_scalar_t)m->y[i];
+    }
+}
+
+void caekf_csv_series_name(char out[CAEKF_CSV_NAME_LEN], const char *base, int index, int count, int first_plain)
+{
+    if (count == 1 || (first_plain && index == 0)) {
+        snprintf(out, CAEKF_CSV_NAME_LEN, "%.6s", base);
+    } else {
+        snprintf(out, CAEKF_CSV_NAME_LEN, "%.6s%d", base, (index + 1) % 1000);
+    }
+}
+
+int caekf_csv_write_names(FILE *f, const caekf_csv_columns_t *c)
+{
+    int i;
+    for (i = 0; i < c->count; ++i) {
+        if (fprintf(f, i ? ",%s" : "%s", c->name[i]) < 0) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* "t,u,y1,y4" into buf. */
+static void join_names(const caekf_csv_columns_t *c, char *buf, size_t len)
+{
+    size_t used = 0;
+    int i;
+    buf[0] = '\0';
+    for (i = 0; i < c->count && used < len; ++i) {
+        int n = snprintf(buf + used, len - used, i ? ",%s" : "%s", c->name[i]);
+        if (n < 0) {
+            break;
+        }
+        used += (size_t)n;
+    }
+}
+
+int caekf_csv_open(caekf_csv_t *r, FILE *f, const char *name, int allow_nonfinite, const caekf_csv_columns_t *want)
+{
+    char buf[MAX_LINE], names[CAEKF_CSV_MAX_COLUMNS * CAEKF_CSV_NAME_LEN + 1];
     char *tok, *save = NULL;
     int col = 0, rc;
     memset(r, 0, sizeof *r);
     r->f = f;
     r->name = name;
     r->allow_nonfinite = allow_nonfinite;
+    r->want = *want;
+    join_names(want, names, sizeof names);
     rc = read_line(r, buf);
     if (rc == -1) {
+        char msg[200];
         r->line = 1;
-        return fail(r, "empty input: expected a header 't,u,y1,y4'");
+        snprintf(msg, sizeof msg, "empty input: expected a header '%s'", names);
+        return fail(r, msg);
     }
     if (rc == -2) {
         return fail(r, "header line too long");
@@ -55,25 +132,50 @@ int caekf_csv_open(caekf_csv_t *r, FILE *f, const char *name, int allow_nonfinit
         while (*tok == ' ') {
             ++tok;
         }
-        if (col < 4 && strcmp(tok, want[col]) != 0) {
+        if (col < want->count && strcmp(tok, want->name[col]) != 0) {
             char msg[128];
-            snprintf(msg, sizeof msg, "bad header: column %d is '%.40s', expected '%s'", col + 1, tok, want[col]);
+            snprintf(msg, sizeof msg, "bad header: column %d is '%.40s', expected '%s'", col + 1, tok,
+                     want->name[col]);
             return fail(r, msg);
         }
         col++;
     }
-    if (col < 4) {
-        return fail(r, "bad header: expected at least the columns t,u,y1,y4");
+    if (col < want->count) {
+        char msg[200];
+        snprintf(msg, sizeof msg, "bad header: expected at least the columns %s", names);
+        return fail(r, msg);
     }
     r->columns = col;
     return 0;
 }
 
+/* "y1 and y4 must both ...", "y1, yv2 and y3 must all ..." */
+static int fail_partial(caekf_csv_t *r)
+{
+    char msg[200];
+    size_t used = 0;
+    int i, ns = r->want.sensors, first = 1 + r->want.inputs;
+    for (i = 0; i < ns && used < sizeof msg; ++i) {
+        const char *sep = i == 0 ? "" : i == ns - 1 ? " and " : ", ";
+        int n = snprintf(msg + used, sizeof msg - used, "%s%s", sep, r->want.name[first + i]);
+        if (n < 0) {
+            break;
+        }
+        used += (size_t)n;
+    }
+    if (used < sizeof msg) {
+        snprintf(msg + used, sizeof msg - used, ns == 2 ? " must both be present or both be empty"
+                                                       : " must all be present or all be empty");
+    }
+    return fail(r, msg);
+}
+
 int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
 {
     char buf[MAX_LINE];
-    double v[4];
-    int col = 0, missing = 0;
+    double v[CAEKF_CSV_MAX_COLUMNS];
+    const int nw = r->want.count, y0 = 1 + r->want.inputs;
+    int col = 0, missing = 0, i;
     char *p;
     do {
         int rc = read_line(r, buf);
@@ -91,10 +193,10 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
         if (comma != NULL) {
             *comma = '\0';
         }
-        if (col >= 2 && col < 4 && r->allow_missing_y && *p == '\0') {
+        if (col >= y0 && col < nw && r->allow_missing_y && *p == '\0') {
             v[col] = 0; /* no measurement in this row */
             missing++;
-        } else if (col < 4) {
+        } else if (col < nw) {
             errno = 0;
             v[col] = strtod(p, &end);
             while (*end == ' ') {
@@ -125,8 +227,8 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
     if (!isfinite(v[0])) {
         return fail(r, "column 1: t must be finite");
     }
-    if (missing == 1) {
-        return fail(r, "y1 and y4 must both be present or both be empty");
+    if (missing > 0 && missing < r->want.sensors) {
+        return fail_partial(r);
     }
     if (r->have_prev) { /* t strictly increases; with dt > 0 it steps by dt */
         double d = v[0] - r->prev_t;
@@ -146,14 +248,17 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
     r->have_prev = 1;
     m->has_y = missing == 0;
     m->t = v[0];
-    m->u = v[1];
-    m->y1 = v[2];
-    m->y4 = v[3];
+    for (i = 0; i < r->want.inputs; ++i) {
+        m->u[i] = v[1 + i];
+    }
+    for (i = 0; i < r->want.sensors; ++i) {
+        m->y[i] = v[y0 + i];
+    }
     return 1;
 }
 
-long caekf_csv_read(const char *path, double dt, int allow_nonfinite, int allow_missing_y, caekf_meas_t **rows,
-                    char *err, unsigned err_len)
+long caekf_csv_read(const char *path, const caekf_csv_columns_t *want, double dt, int allow_nonfinite,
+                    int allow_missing_y, caekf_meas_t **rows, char *err, unsigned err_len)
 {
     caekf_csv_t csv;
     caekf_meas_t m;
@@ -171,7 +276,7 @@ long caekf_csv_read(const char *path, double dt, int allow_nonfinite, int allow_
         snprintf(err, err_len, "%s: cannot open: %s", path, strerror(errno));
         return -CAEKF_EXIT_IO;
     }
-    rc = caekf_csv_open(&csv, f, name, allow_nonfinite);
+    rc = caekf_csv_open(&csv, f, name, allow_nonfinite, want);
     if (rc == 0) {
         csv.allow_missing_y = allow_missing_y;
         csv.dt = dt;
@@ -214,4 +319,16 @@ long caekf_csv_read(const char *path, double dt, int allow_nonfinite, int allow_
     }
     *rows = buf;
     return n;
+}
+
+long caekf_csv_read_for(const char *path, const caekf_scenario_t *sc, double dt, int allow_nonfinite,
+                        int allow_missing_y, caekf_csv_columns_t *want, caekf_meas_t **rows, char *err,
+                        unsigned err_len)
+{
+    *rows = NULL;
+    if (caekf_csv_scenario_columns(sc, want) != 0) {
+        snprintf(err, err_len, "%s: more inputs or sensors than this build holds", path);
+        return -CAEKF_EXIT_INPUT;
+    }
+    return caekf_csv_read(path, want, dt, allow_nonfinite, allow_missing_y, rows, err, err_len);
 }

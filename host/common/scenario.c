@@ -211,6 +211,19 @@ void caekf_scenario_model(const caekf_scenario_t *sc, double dt, caekf_model_par
     p->dt = (caekf_scalar_t)dt;
 }
 
+int caekf_scenario_value(const caekf_scenario_t *sc, const char *key, double *v)
+{
+    unsigned i;
+    for (i = 0; i < NROWS; ++i) {
+        if (strcmp(key, caekf_scenario_keys[i].key) == 0) {
+            *v = *(const double *)(const void *)((const char *)sc +
+                                                 caekf_scenario_keys[caekf_scenario_keys[i].canonical].offset);
+            return 0;
+        }
+    }
+    return -1;
+}
+
 double caekf_scenario_input(const caekf_scenario_t *sc, double t)
 {
     return sc->input1_amp * sin(2.0 * CAEKF_PI * sc->input1_freq * t + sc->input1_phase);

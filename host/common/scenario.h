@@ -22,7 +22,11 @@ int caekf_scenario_settings(const caekf_scenario_t *sc, const caekf_preset_t *pr
 /* The model of the scenario's plant with step dt (the truth integrates with dt / truth_substeps). */
 void caekf_scenario_model(const caekf_scenario_t *sc, double dt, caekf_model_params_t *p);
 
-/* Input force u(t) = u_amp sin(2 pi u_freq t + u_phase). */
+/* The value of a key (canonical name or alias) as loaded, e.g. "contact2_gamma". Returns 0, or -1 for a
+ * key the schema does not have. */
+int caekf_scenario_value(const caekf_scenario_t *sc, const char *key, double *v);
+
+/* Input 1's force u(t) = u_amp sin(2 pi u_freq t + u_phase) (the truth handles every input itself). */
 double caekf_scenario_input(const caekf_scenario_t *sc, double t);
 
 /* Number of estimator steps, round(t_end / dt). */

@@ -1,14 +1,16 @@
-/* The truth: the continuous model of the 4-body chain (the same equations as eq. 19's backward Euler,
- * before discretisation) with the scenario's true gamma, sampled every dt. Always double, whatever the
- * estimator's scalar type.
+/* The truth: the continuous model of the scenario's mechanism (the same equations as eq. 19's backward
+ * Euler, before discretisation: M v' = B u(t) - C v - K q - sum_c b_c f_c, K and C from the links as
+ * caekf_model_init builds them) with the scenario's true gammas, sampled every dt. Always double,
+ * whatever the estimator's scalar type. Inputs: the scenario's sines u_i(t) = amp_i sin(2 pi freq_i t +
+ * phase_i), or a time series (caekf_input_series_t) linearly interpolated, end values held.
  *
  * Default method (CAEKF_TRUTH_DOP853): the explicit Dormand-Prince 8(5,3) pair with adaptive steps
  * (error per step <= 1 in the norm of rtol, atol), every step clipped to the sample grid, and contact
  * events located: the force gamma * delta^1.5 is only C^1 at delta = 0, so each step that may cross
- * delta = 0 (a sign change at its ends, or an interior extremum of the cubic Hermite interpolant of
+ * delta = 0 of any contact (a sign change at its ends, or an interior extremum of the cubic Hermite interpolant of
  * delta beyond 0) is shortened to the crossing, found by the Illinois method on delta(one step of size
- * s), and the integration restarts there with the contact mode switched (open: force 0; closed:
- * gamma * max(delta, 0)^1.5). No Newton solve anywhere, so nothing can fail to converge; a step size
+ * s), and the integration restarts there with that contact's mode switched (open: force 0; closed:
+ * the law while delta > 0). One event function per contact; the earliest crossing in a step is located. No Newton solve anywhere, so nothing can fail to converge; a step size
  * below 1e-14 s or more than 10^8 steps is reported as a failure.
  *
  * Legacy method (CAEKF_TRUTH_BACKWARD_EULER): backward Euler of eq. (19) at dt / truth_substeps,
@@ -20,17 +22,39 @@
 
 typedef enum { CAEKF_TRUTH_DOP853 = 0, CAEKF_TRUTH_BACKWARD_EULER = 1 } caekf_truth_method_t;
 
+/* Input samples: u[j * inputs + i] is input i at t[j]; t strictly increasing, rows >= 2. */
+typedef struct {
+    long rows;
+    int inputs;
+    double *t, *u; /* malloc'ed (caekf_input_series_free) */
+} caekf_input_series_t;
+
+/* Reads a CSV with a header naming t and the inputs: u (or u1) for one input, u1..u<inputs> otherwise,
+ * in any column order, extra columns ignored; every field a finite number, t strictly increasing, at
+ * least 2 rows (sim/src/caekf_sim/mechanism.py read_input_csv). Returns 0, or CAEKF_EXIT_INPUT (3) /
+ * CAEKF_EXIT_IO (4) with a one-line message "FILE:LINE: rule" in err. */
+int caekf_input_series_read(const char *path, int inputs, caekf_input_series_t *s, char *err, unsigned err_len);
+
+/* The inputs at time t (np.interp: linear, end values held outside [t_0, t_last]). */
+void caekf_input_series_at(const caekf_input_series_t *s, double t, double *u);
+
+void caekf_input_series_free(caekf_input_series_t *s);
+
 typedef struct {
     caekf_truth_method_t method;
+    const caekf_input_series_t *series; /* NULL: the scenario's sines; else its inputs must match */
     double rtol;      /* DOP853: relative tolerance per step (default 1e-13) */
     double atol_q;    /* absolute tolerance on positions [m] (default 1e-15) */
     double atol_v;    /* absolute tolerance on velocities [m/s] (default 1e-13) */
 } caekf_truth_options_t;
 
 typedef struct {
-    double t, u, y1, y4;
-    double q[4], v[4];
-    double delta;
+    double t;
+    int inputs, sensors, bodies, contacts;  /* the sizes in use */
+    double u[CAEKF_MAX_INPUTS];             /* the inputs at t */
+    double y[CAEKF_MAX_SENSORS];            /* sensor readings (q or v of the sensor's body) plus noise */
+    double q[CAEKF_MAX_BODIES], v[CAEKF_MAX_BODIES];
+    double delta[CAEKF_MAX_CONTACTS];       /* penetration of each contact */
     int newton_iters;  /* backward Euler: sum over the substeps of this sample */
     int newton_failed; /* backward Euler: substeps whose Newton did not converge */
     int steps;         /* DOP853: accepted steps in this sample interval (event restarts included) */
@@ -44,9 +68,10 @@ void caekf_truth_options_default(caekf_truth_options_t *opt);
 
 /* Calls emit(sample, ctx) for k = 1 .. steps (t_k = k dt), starting at rest (q = v = 0) at t = 0.
  * Returns 0; 1 when the integrator failed (DOP853; the failing sample is emitted with failed = 1 and
- * the run stops); -1 when emit or the model setup fails. Measurement noise: Gaussian, std noise_std,
- * from a splitmix64 generator seeded with `seed` and the Box-Muller transform (see truth.c), so other
- * implementations can reproduce it; the same for both methods. opt may be NULL (defaults). */
+ * the run stops); -1 when emit or the model setup fails. Measurement noise: Gaussian, std noise_std on
+ * position sensors and noise_std_v on velocity sensors, from a splitmix64 generator seeded with `seed`
+ * and the Box-Muller transform (see truth.c), so other implementations can reproduce it: one draw per
+ * sensor with a nonzero std, in sensor order, each sample; the same for both methods. opt may be NULL (defaults). */
 int caekf_truth_run(const caekf_scenario_t *sc, const caekf_truth_options_t *opt,
                     int (*emit)(const caekf_truth_sample_t *, void *), void *ctx);
 

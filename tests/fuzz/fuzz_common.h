@@ -162,14 +162,14 @@ static inline const caekf_t *fz_snapshot(unsigned p, unsigned k)
             const long until = (long)(at[j] / CAEKF_PAPER_DT + 0.5);
             for (; step < until; ++step) {
                 const double t = (double)(step + 1) * CAEKF_PAPER_DT;
-                caekf_scalar_t x[CAEKF_N], y[CAEKF_NY];
+                caekf_scalar_t x[CAEKF_N], y[CAEKF_MAX_SENSORS];
                 caekf_report_t rep;
                 const caekf_scalar_t u = (caekf_scalar_t)(CAEKF_PAPER_U_AMP *
                     sin(2.0 * 3.14159265358979323846 * CAEKF_PAPER_U_FREQ * t + CAEKF_PAPER_U_PHASE));
                 (void)caekf_get_state(&e, x);
-                y[0] = x[0] + (caekf_scalar_t)CAEKF_PAPER_DT * x[CAEKF_NQ];
-                y[1] = x[3] + (caekf_scalar_t)CAEKF_PAPER_DT * x[CAEKF_NQ + 3];
-                (void)caekf_step(&e, u, y, &rep);
+                y[0] = x[0] + (caekf_scalar_t)CAEKF_PAPER_DT * x[e.model.nq];
+                y[1] = x[3] + (caekf_scalar_t)CAEKF_PAPER_DT * x[e.model.nq + 3];
+                (void)caekf_step(&e, &u, y, &rep);
             }
             snaps[i][j] = e;
         }

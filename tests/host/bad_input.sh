@@ -2,16 +2,32 @@
 # Runs the bad-input table (bad_input_cases.txt) against the C host tools. For every case: the exit
 # code; exactly one line on stderr naming the problem (or, for exit 0, nothing on stderr and stdout's
 # first line matching); and no file left behind: out/ stays empty and in/ holds only the inputs.
-# usage: bad_input.sh CASES REPLAY BENCH REFERENCE SCENARIO TRUTH
+# usage: bad_input.sh CASES REPLAY BENCH REFERENCE SCENARIO TRUTH [GENERAL_SCENARIO]
+# GENERAL_SCENARIO: a mechanism other than the paper's (cases whose scenario edit starts with "gen").
 set -u
 cases=$1 replay=$2 bench=$3 reference=$4 scenario=$5 truth=${6:-}
+general=${7:-$(dirname "$0")/data/chain3_ground.toml}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fails=0 passes=0
 
 good_csv() { awk 'BEGIN { print "t,u,y1,y4"; for (k = 1; k <= 20; k++) printf "%.17g,0.1,1e-6,0\n", k * 0.001 }'; }
+# The general scenario's measurement columns (caekf-truth's header up to the sensors), 20 rows at its dt.
+gen_csv() {
+    local cols dt
+    cols=$("$truth" --scenario "$general" --out - --quiet 2>/dev/null | head -1 | cut -d, -f1-4)
+    dt=$(sed -nE 's/^dt[[:space:]]*=[[:space:]]*([^ #]+).*/\1/p' "$general")
+    awk -v cols="$cols" -v dt="$dt" 'BEGIN { print cols; for (k = 1; k <= 20; k++) printf "%.17g,0.1,1e-6,0\n", k * dt }'
+}
 
 write_scenario() { # edit, dest
+    case $1 in
+        *\;*) local saved=$scenario
+              write_scenario "${1%%;*}" "$2"; cp "$2" "$2.base"; scenario=$2.base
+              write_scenario "${1#*;}" "$2"; rm -f "$2.base"; scenario=$saved; return ;;
+        gen) cp "$general" "$2"; return ;;
+        gen:*) local saved=$scenario; scenario=$general; write_scenario "${1#gen:}" "$2"; scenario=$saved; return ;;
+    esac
     case $1 in
         -) cp "$scenario" "$2" ;;
         EMPTY) : > "$2" ;;
@@ -28,6 +44,7 @@ write_scenario() { # edit, dest
 write_csv() { # spec, dest
     case $1 in
         -) good_csv > "$2" ;;
+        gen) gen_csv > "$2" ;;
         good+printf:*) { good_csv; printf '%b' "${1#good+printf:}"; } > "$2" ;;
         printf:*) printf '%b' "${1#printf:}" > "$2" ;;
         sh:*) bash -c "${1#sh:}" > "$2" ;;

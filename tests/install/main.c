@@ -19,7 +19,7 @@ int main(void)
 {
     caekf_settings_t s;
     caekf_t est;
-    caekf_scalar_t y[CAEKF_NY] = {0, 0}, gamma = 0;
+    caekf_scalar_t y[CAEKF_MAX_SENSORS] = {0, 0}, gamma = 0;
     unsigned i;
     int k;
     (void)caekf_settings_default(&s);
@@ -34,7 +34,7 @@ int main(void)
         return 1;
     }
     for (k = 0; k < 100; ++k) {
-        if (caekf_step(&est, (caekf_scalar_t)0.1, y, NULL) != CAEKF_OK) {
+        if (caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)0.1}, y, NULL) != CAEKF_OK) {
             fprintf(stderr, "example: step %d refused\n", k);
             return 1;
         }

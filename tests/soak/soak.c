@@ -272,14 +272,14 @@ int main(int argc, char **argv)
     t_lap = t0;
     for (k = 0; k < steps; ++k) {
         const sample_t *x = &truth[k % n_truth];
-        caekf_scalar_t y[CAEKF_NY];
+        caekf_scalar_t y[CAEKF_MAX_SENSORS];
         caekf_report_t rep;
         caekf_status_t st;
         double a, b;
         y[0] = (caekf_scalar_t)x->y1;
         y[1] = (caekf_scalar_t)x->y4;
         a = now_s();
-        st = caekf_step(&est, (caekf_scalar_t)x->u, y, &rep);
+        st = caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)x->u}, y, &rep);
         b = now_s();
         t_step += b - a;
         check_step(&est, &lap, &rep, st, gamma_min);

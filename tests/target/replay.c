@@ -92,7 +92,7 @@ static void take_snapshot(snapshot_t *s, uint32_t k, const caekf_report_t *rep)
     for (i = 0; i < CAEKF_N; ++i) {
         s->x[i] = (double)x[i];
     }
-    s->p_gg = (double)P[CAEKF_IG][CAEKF_IG];
+    s->p_gg = (double)P[2 * est.model.nq][2 * est.model.nq];
 }
 
 int main(void)
@@ -139,12 +139,12 @@ int main(void)
     top = caekf_stack_paint();
     for (k = 0u; k < steps; ++k) {
         const caekf_scalar_t *in = &caekf_replay_inputs[3u * k];
-        caekf_scalar_t y[CAEKF_NY];
+        caekf_scalar_t y[CAEKF_MAX_SENSORS];
         uint32_t cls;
         y[0] = in[1];
         y[1] = in[2];
         caekf_mark_begin();
-        st = caekf_step(&est, in[0], y, &rep);
+        st = caekf_step(&est, (const caekf_scalar_t[]){in[0]}, y, &rep);
         caekf_mark_end();
         cls = (rep.flags & 0x1FFu) | ((uint32_t)(rep.newton_iters > 31 ? 31 : rep.newton_iters) << 9);
         if (st != CAEKF_OK) {

@@ -8,8 +8,8 @@
 #include "test_support.h"
 #include "unity.h"
 
-#define N CAEKF_N
-#define IG CAEKF_IG
+#define N PAPER_N
+#define IG PAPER_IG
 
 #if CAEKF_USE_FLOAT
 #define EQ_RTOL 2e-3
@@ -21,22 +21,26 @@ void setUp(void) {}
 void tearDown(void) {}
 
 /* The filter's upper-triangle steps on full symmetric matrices. */
-static int correct_full(caekf_scalar_t z[N], caekf_mat_t P, const caekf_scalar_t y[CAEKF_NY], caekf_scalar_t r,
+static int correct_full(caekf_scalar_t z[N], paper_mat_t P, const caekf_scalar_t y[2], caekf_scalar_t r,
                         int joseph, uint32_t *flags)
 {
     caekf_scalar_t nis;
-    int st = caekf_correct_upper(z, P, y, r, joseph, CAEKF_GAMMA_LIVE, 0, &nis, flags);
+    caekf_filter_dims_t d;
+    static caekf_correct_work_t work;
+    int st;
+    paper_filter_dims(&d, r, CAEKF_GAMMA_LIVE);
+    st = caekf_correct_upper(z, &P[0][0], y, joseph, &d, 0, &nis, flags, &work);
     if (st == 0) {
-        caekf_mirror_upper(P);
+        caekf_mirror_upper(&P[0][0], N);
     }
     return st;
 }
 
-static void constrain_full(caekf_scalar_t z[N], caekf_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
+static void constrain_full(caekf_scalar_t z[N], paper_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
                            caekf_scalar_t gamma_min_phys, uint32_t *flags)
 {
-    caekf_constrain_upper(z, P, zmin, s_gamma, gamma_min_phys, flags);
-    caekf_mirror_upper(P);
+    caekf_constrain_upper(z, &P[0][0], N, IG, zmin, s_gamma, gamma_min_phys, flags);
+    caekf_mirror_upper(&P[0][0], N);
 }
 
 typedef struct {
@@ -47,7 +51,7 @@ typedef struct {
 static void cwatch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *t, void *ctx)
 {
     cwatch_t *w = ctx;
-    caekf_scalar_t x[N];
+    caekf_scalar_t x[CAEKF_N];
     int i;
     (void)t;
     (void)st;
@@ -59,7 +63,7 @@ static void cwatch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t
         int j;
         w->nonfinite += !isfinite((double)est->z[i]);
         for (j = 0; j < N; ++j) {
-            w->nonfinite += !isfinite((double)est->P[i][j]);
+            w->nonfinite += !isfinite((double)EST_P(est, i, j));
         }
     }
     w->applied += (rep->flags & CAEKF_FLAG_CONSTRAINT_APPLIED) != 0;
@@ -102,7 +106,7 @@ static void test_sequential_perfect_measurement_equals_batch_eq29(void)
 {
     caekf_scalar_t P[N][N], z[N], y[2];
     double Pd[N][N], zd[N], S[3][3], Si[3][3], G[N][3], e[3];
-    const int rows[3] = {CAEKF_IY1, CAEKF_IY4, IG};
+    const int rows[3] = {PAPER_IY1, PAPER_IY4, IG};
     const double r = 0.01, zmin = 2.0;
     uint32_t flags = 0;
     int i, j, k;
@@ -124,8 +128,8 @@ static void test_sequential_perfect_measurement_equals_batch_eq29(void)
     for (i = 0; i < 3; ++i)
         for (j = 0; j < 3; ++j) S[i][j] = Pd[rows[i]][rows[j]] + ((i == j && i < 2) ? r : 0);
     inv3(S, Si);
-    e[0] = (double)y[0] - zd[CAEKF_IY1];
-    e[1] = (double)y[1] - zd[CAEKF_IY4];
+    e[0] = (double)y[0] - zd[PAPER_IY1];
+    e[1] = (double)y[1] - zd[PAPER_IY4];
     e[2] = zmin - zd[IG];
     for (i = 0; i < N; ++i)
         for (j = 0; j < 3; ++j) {
@@ -187,7 +191,7 @@ static void test_singular_innovation_is_refused_with_a_flag(void)
     for (i = 0; i < N; ++i)
         for (j = 0; j < N; ++j) P[i][j] = (i == j) ? 1 : 0;
     /* q1 and q4 perfectly correlated with a negligible R: S is singular to working precision. */
-    P[CAEKF_IY1][CAEKF_IY4] = P[CAEKF_IY4][CAEKF_IY1] = 1;
+    P[PAPER_IY1][PAPER_IY4] = P[PAPER_IY4][PAPER_IY1] = 1;
     for (i = 0; i < N; ++i) z[i] = 0;
     memcpy(Pb, P, sizeof P);
     memcpy(zb, z, sizeof z);

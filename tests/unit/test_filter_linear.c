@@ -150,7 +150,7 @@ static void compare_with_linear_kf(int mode)
         /* Measurements from the contact truth are fine: any data exercises the filter. */
         y[0] = (caekf_scalar_t)r.y1;
         y[1] = (caekf_scalar_t)r.y4;
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (caekf_scalar_t)r.u, y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
         TEST_ASSERT_FALSE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
         kf_step(&kf, r.u, r.y1, r.y4);
         (void)caekf_get_state(&est, x);

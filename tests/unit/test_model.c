@@ -8,7 +8,7 @@
 #include "test_support.h"
 #include "unity.h"
 
-#define N CAEKF_N
+#define N PAPER_N /* the paper's mechanism: loops; arrays have the build's capacity */
 
 #if CAEKF_USE_FLOAT
 #define JAC_RTOL 3e-2
@@ -31,7 +31,7 @@ void setUp(void)
 void tearDown(void) {}
 
 /* A state with penetration `delta` (<= 0: no contact) and some motion. */
-static void make_state(caekf_scalar_t x[N], double delta)
+static void make_state(caekf_scalar_t x[CAEKF_N], double delta)
 {
     double q3 = 1.5e-5;
     x[0] = (caekf_scalar_t)1.2e-3;
@@ -47,14 +47,14 @@ static void make_state(caekf_scalar_t x[N], double delta)
 
 static void check_jacobians_at(double delta)
 {
-    caekf_scalar_t xk[N], xp[N], Jk[N][N], Jp[N][N];
+    caekf_scalar_t xk[CAEKF_N], xp[CAEKF_N], Jk[CAEKF_N][CAEKF_N], Jp[CAEKF_N][CAEKF_N];
     int i, j;
     make_state(xk, delta);
     make_state(xp, delta * 0.9);
     xp[4] = (caekf_scalar_t)2.5e-3;
     caekf_model_jacobians(&model, xk, Jk, Jp);
     for (j = 0; j < N; ++j) {
-        caekf_scalar_t a[N], b[N], ga[N], gb[N];
+        caekf_scalar_t a[CAEKF_N], b[CAEKF_N], ga[CAEKF_N], gb[CAEKF_N];
         double h;
         /* d/dx_k */
         memcpy(a, xk, sizeof a);
@@ -62,8 +62,8 @@ static void check_jacobians_at(double delta)
         a[j] += (caekf_scalar_t)fd_step[j];
         b[j] -= (caekf_scalar_t)fd_step[j];
         h = (double)a[j] - (double)b[j]; /* the step actually taken after rounding */
-        caekf_model_residual(&model, a, xp, (caekf_scalar_t)0.3, ga);
-        caekf_model_residual(&model, b, xp, (caekf_scalar_t)0.3, gb);
+        caekf_model_residual(&model, a, xp, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, ga);
+        caekf_model_residual(&model, b, xp, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, gb);
         for (i = 0; i < N; ++i) {
             double fd = ((double)ga[i] - (double)gb[i]) / h;
             double rowmax = 0;
@@ -79,8 +79,8 @@ static void check_jacobians_at(double delta)
         a[j] += (caekf_scalar_t)fd_step[j];
         b[j] -= (caekf_scalar_t)fd_step[j];
         h = (double)a[j] - (double)b[j];
-        caekf_model_residual(&model, xk, a, (caekf_scalar_t)0.3, ga);
-        caekf_model_residual(&model, xk, b, (caekf_scalar_t)0.3, gb);
+        caekf_model_residual(&model, xk, a, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, ga);
+        caekf_model_residual(&model, xk, b, (const caekf_scalar_t[]){(caekf_scalar_t)0.3}, gb);
         for (i = 0; i < N; ++i) {
             double fd = ((double)ga[i] - (double)gb[i]) / h;
             TEST_ASSERT_DOUBLE_WITHIN(JAC_RTOL * (fabs((double)Jp[i][j]) + 1e-3), (double)Jp[i][j], fd);
@@ -91,9 +91,9 @@ static void check_jacobians_at(double delta)
 static void test_jacobians_match_finite_differences_in_contact(void)
 {
     caekf_contact_t c;
-    caekf_scalar_t x[N];
+    caekf_scalar_t x[CAEKF_N];
     make_state(x, 2e-6);
-    caekf_model_contact(&model, x, x[8], &c);
+    caekf_model_contact(&model, 0, x, x[8], &c);
     TEST_ASSERT_TRUE(c.delta > 0 && c.fc > 0 && c.dfc_ddelta > 0);
     check_jacobians_at(2e-6);
 }
@@ -101,9 +101,9 @@ static void test_jacobians_match_finite_differences_in_contact(void)
 static void test_jacobians_match_finite_differences_out_of_contact(void)
 {
     caekf_contact_t c;
-    caekf_scalar_t x[N];
+    caekf_scalar_t x[CAEKF_N];
     make_state(x, -5e-6);
-    caekf_model_contact(&model, x, x[8], &c);
+    caekf_model_contact(&model, 0, x, x[8], &c);
     TEST_ASSERT_TRUE(c.delta < 0);
     TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)c.fc);
     check_jacobians_at(-5e-6);
@@ -147,7 +147,7 @@ static void invert(double a[N][N], double inv[N][N])
 
 static void check_transition_at(double delta)
 {
-    caekf_scalar_t xk[N], Jk[N][N], Jp[N][N], F[N][N];
+    caekf_scalar_t xk[CAEKF_N], Jk[CAEKF_N][CAEKF_N], Jp[CAEKF_N][CAEKF_N], F[CAEKF_N][CAEKF_N];
     double A[N][N], Ai[N][N];
     int i, j, k;
     make_state(xk, delta);
@@ -195,7 +195,7 @@ static void test_structured_transition_equals_eq10(void)
 static void test_newton_converges_over_the_reference_scenario(void)
 {
     truth_rec_t r;
-    caekf_scalar_t xp[N], xk[N];
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N];
     long n = 0, contact = 0, iters = 0;
     int max_it = 0, rc, i;
     TEST_ASSERT_EQUAL_INT(0, truth_open());
@@ -203,7 +203,7 @@ static void test_newton_converges_over_the_reference_scenario(void)
     xp[8] = (caekf_scalar_t)paper_gamma_true();
     while ((rc = truth_next(&r)) == 1) {
         int it = -1;
-        int st = caekf_model_newton(&model, xp, (caekf_scalar_t)r.u, CAEKF_NEWTON_MAX_ITER,
+        int st = caekf_model_newton(&model, xp, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, CAEKF_NEWTON_MAX_ITER,
                                     (caekf_scalar_t)(CAEKF_EPS * 256), xk, &it);
         TEST_ASSERT_EQUAL_INT_MESSAGE(0, st, "Newton did not converge on the reference scenario");
         TEST_ASSERT_TRUE(it >= 1 && it <= CAEKF_NEWTON_MAX_ITER);
@@ -228,11 +228,11 @@ static void test_newton_converges_over_the_reference_scenario(void)
 
 static void test_forced_newton_failure_is_reported(void)
 {
-    caekf_scalar_t xp[N], xk[N];
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N];
     int it = 0;
     make_state(xp, 2e-6);
     /* One iteration cannot meet an absurd tolerance in contact: status 1, the iterate is kept. */
-    TEST_ASSERT_EQUAL_INT(1, caekf_model_newton(&model, xp, 0, 1, (caekf_scalar_t)1e-30, xk, &it));
+    TEST_ASSERT_EQUAL_INT(1, caekf_model_newton(&model, xp, (const caekf_scalar_t[]){0}, 1, (caekf_scalar_t)1e-30, xk, &it));
     TEST_ASSERT_EQUAL_INT(1, it);
     TEST_ASSERT_TRUE(isfinite((double)xk[1]));
     /* Through the estimator: the step completes and raises NEWTON_NOT_CONVERGED. */
@@ -245,7 +245,7 @@ static void test_forced_newton_failure_is_reported(void)
         s.newton_max_iter = 1;
         s.newton_rtol = (caekf_scalar_t)1e-30;
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (caekf_scalar_t)0.5, y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)0.5}, y, &rep));
         TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NEWTON_NOT_CONVERGED);
         TEST_ASSERT_EQUAL_INT(1, rep.newton_iters);
     }

@@ -27,11 +27,11 @@ static double max_abs_corr(const caekf_t *est)
 {
     double m = 0;
     int i, j;
-    for (i = 0; i < CAEKF_N; ++i) {
-        for (j = i + 1; j < CAEKF_N; ++j) {
-            double d = (double)est->P[i][i] * (double)est->P[j][j];
+    for (i = 0; i < est->model.n; ++i) {
+        for (j = i + 1; j < est->model.n; ++j) {
+            double d = (double)EST_P(est, i, i) * (double)EST_P(est, j, j);
             if (d > 0) {
-                m = fmax(m, fabs((double)est->P[i][j]) / sqrt(d));
+                m = fmax(m, fabs((double)EST_P(est, i, j)) / sqrt(d));
             }
         }
     }
@@ -47,16 +47,16 @@ static void watch_step(const caekf_t *est, const caekf_report_t *rep, caekf_stat
     w->flags_seen |= rep->flags;
     if (rep->flags & CAEKF_FLAG_GAMMA_FROZEN) {
         w->frozen_steps++;
-        if (memcmp(&w->gamma_prev, &est->z[CAEKF_IG], sizeof w->gamma_prev) != 0 ||
-            memcmp(&w->pgg_prev, &est->P[CAEKF_IG][CAEKF_IG], sizeof w->pgg_prev) != 0) {
+        if (memcmp(&w->gamma_prev, &est->z[PAPER_IG], sizeof w->gamma_prev) != 0 ||
+            memcmp(&w->pgg_prev, &EST_P(est, PAPER_IG, PAPER_IG), sizeof w->pgg_prev) != 0) {
             w->mismatches++;
         }
     }
     if (rep->flags & CAEKF_FLAG_CONTACT_ACTIVE) {
         w->contact_steps++;
     }
-    w->gamma_prev = est->z[CAEKF_IG];
-    w->pgg_prev = est->P[CAEKF_IG][CAEKF_IG];
+    w->gamma_prev = est->z[PAPER_IG];
+    w->pgg_prev = EST_P(est, PAPER_IG, PAPER_IG);
     w->max_corr = fmax(w->max_corr, max_abs_corr(est));
 }
 
@@ -70,8 +70,8 @@ static watch_t run(caekf_switchoff_t variant, int repair)
     s.switchoff = variant;
     s.cov_repair_enabled = repair;
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
-    w.gamma_prev = est.z[CAEKF_IG];
-    w.pgg_prev = est.P[CAEKF_IG][CAEKF_IG];
+    w.gamma_prev = est.z[PAPER_IG];
+    w.pgg_prev = EST_P(&est, PAPER_IG, PAPER_IG);
     TEST_ASSERT_EQUAL_INT32(paper_steps(), run_paper(&est, &s, watch_step, &w));
     return w;
 }

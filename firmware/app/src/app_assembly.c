@@ -46,7 +46,7 @@ void caekf_app_assembly_timeout(caekf_app_t *app, uint32_t now_us)
 
 static void run_step(caekf_app_t *app)
 {
-    caekf_scalar_t y[CAEKF_NY];
+    caekf_scalar_t y[2], u;     /* the frames carry one input and two sensors (the paper's chain) */
     caekf_report_t report;
     caekf_status_t st;
     uint16_t app_flags = 0;
@@ -59,13 +59,15 @@ static void run_step(caekf_app_t *app)
         uint16_t k;
         app_flags |= (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
         caekf_app_count(app, CAEKF_CNT_STEPS_SKIPPED, missing);
+        u = (caekf_scalar_t)app->last_u;
         for (k = 0; k < missing && k < (uint16_t)CAEKF_APP_MAX_GAP_PREDICT; ++k) {
-            (void)caekf_predict(&app->est, (caekf_scalar_t)app->last_u, NULL);
+            (void)caekf_predict(&app->est, &u, NULL);
         }
     }
     y[0] = (caekf_scalar_t)app->slot.y1;
     y[1] = (caekf_scalar_t)app->slot.y4;
-    st = caekf_step(&app->est, (caekf_scalar_t)app->slot.u, y, &report);
+    u = (caekf_scalar_t)app->slot.u;
+    st = caekf_step(&app->est, &u, y, &report);
     caekf_app_count(app, CAEKF_CNT_STEPS_DONE, 1u);
     if (st != CAEKF_OK) {
         caekf_app_count(app, CAEKF_CNT_STEPS_FAILED, 1u);

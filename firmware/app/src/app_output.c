@@ -18,6 +18,35 @@ static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double 
     caekf_app_send(app, msg, &f);
 }
 
+/* The frames carry bodies 1..4 (the paper's chain); a larger mechanism's other bodies are not sent. */
+#define WIRE_BODIES 4u
+
+/* State index of wire value k: q1..q4 (k < 4), v1..v4, gamma (k = 8), for a mechanism of nq bodies;
+ * -1 when it has no such state. */
+static int wire_state(const caekf_app_t *app, unsigned k)
+{
+    const unsigned nq = (unsigned)app->est.model.nq;
+    if (k < WIRE_BODIES) {
+        return k < nq ? (int)k : -1;
+    }
+    if (k < 2u * WIRE_BODIES) {
+        return k - WIRE_BODIES < nq ? (int)(nq + k - WIRE_BODIES) : -1;
+    }
+    return app->est.model.nc > 0 ? (int)(2u * nq) : -1;
+}
+
+static double wire_value(const caekf_app_t *app, const caekf_scalar_t *x, unsigned k)
+{
+    const int i = wire_state(app, k);
+    return i >= 0 ? (double)x[i] : (double)NAN;
+}
+
+static double wire_p_gg(const caekf_app_t *app)
+{
+    const int g = wire_state(app, 2u * WIRE_BODIES);
+    return g >= 0 ? (double)app->cov_scratch[g][g] : (double)NAN;
+}
+
 static uint8_t clamp_iters(int it)
 {
     return (uint8_t)((it < 0) ? 0 : (it > 255) ? 255 : it);
@@ -36,7 +65,7 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
     (void)caekf_get_state(&app->est, x);
     pm.step = (uint8_t)(step & 0xFFu);
     pm.flags = (uint16_t)(report->flags & CAEKF_PROD_FLAGS_MASK);
-    pm.gamma = (double)x[CAEKF_IG];
+    pm.gamma = wire_value(app, x, 2u * WIRE_BODIES);
     if (caekf_proto_encode_prod(&pm, f.data) == CAEKF_PROTO_SATURATED) {
         caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
         app_flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
@@ -54,8 +83,8 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
     pg.page = (uint8_t)page;
     pg.step = step;
     pg.value = 0.0;
-    if (page < 2u * CAEKF_NQ) {
-        pg.value = (double)x[page];
+    if (page < 2u * WIRE_BODIES) {
+        pg.value = wire_value(app, x, page);
     } else if (page == 8u) {
         pg.value = (double)NAN; /* sent when the norm cannot be computed */
         if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
@@ -63,7 +92,7 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
         }
     } else if (page == 9u) {
         (void)caekf_get_covariance(&app->est, app->cov_scratch);
-        pg.value = (double)app->cov_scratch[CAEKF_IG][CAEKF_IG];
+        pg.value = wire_p_gg(app);
     } else {
         if (caekf_get_cov_norm2(&app->est, &p_norm) != CAEKF_OK) {
             app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
@@ -102,10 +131,10 @@ static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, cons
     caekf_can_frame_t f;
     unsigned i;
     m.p_norm = full_estimate(app, x, &app_flags);
-    for (i = 0; i < CAEKF_N; i++) {
-        m.x[i] = (double)x[i];
+    for (i = 0; i <= 2u * WIRE_BODIES; i++) { /* q1..q4, v1..v4, gamma */
+        m.x[i] = wire_value(app, x, i);
     }
-    m.p_gg = (double)app->cov_scratch[CAEKF_IG][CAEKF_IG];
+    m.p_gg = wire_p_gg(app);
     m.step = step;
     m.info.step = step;
     m.info.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
@@ -122,9 +151,9 @@ static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, cons
 void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
                              uint16_t app_flags)
 {
-    static const caekf_msg_t q_msgs[CAEKF_NQ] = {CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3,
+    static const caekf_msg_t q_msgs[WIRE_BODIES] = {CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3,
                                                  CAEKF_MSG_EST_Q4};
-    static const caekf_msg_t v_msgs[CAEKF_NQ] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3,
+    static const caekf_msg_t v_msgs[WIRE_BODIES] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3,
                                                  CAEKF_MSG_EST_V4};
     caekf_scalar_t x[CAEKF_N];
     double p_norm_out;
@@ -141,15 +170,15 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
         return;
     }
     p_norm_out = full_estimate(app, x, &app_flags);
-    send_value(app, CAEKF_MSG_EST_GAMMA, step, (double)x[CAEKF_IG], &app_flags);
-    for (i = 0; i < CAEKF_NQ; i++) {
-        send_value(app, q_msgs[i], step, (double)x[i], &app_flags);
+    send_value(app, CAEKF_MSG_EST_GAMMA, step, wire_value(app, x, 2u * WIRE_BODIES), &app_flags);
+    for (i = 0; i < WIRE_BODIES; i++) {
+        send_value(app, q_msgs[i], step, wire_value(app, x, i), &app_flags);
     }
-    for (i = 0; i < CAEKF_NQ; i++) {
-        send_value(app, v_msgs[i], step, (double)x[CAEKF_NQ + i], &app_flags);
+    for (i = 0; i < WIRE_BODIES; i++) {
+        send_value(app, v_msgs[i], step, wire_value(app, x, WIRE_BODIES + i), &app_flags);
     }
     send_value(app, CAEKF_MSG_EST_P_NORM, step, p_norm_out, &app_flags);
-    send_value(app, CAEKF_MSG_EST_P_GG, step, (double)app->cov_scratch[CAEKF_IG][CAEKF_IG], &app_flags);
+    send_value(app, CAEKF_MSG_EST_P_GG, step, wire_p_gg(app), &app_flags);
 
     sm.step = step;
     sm.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);

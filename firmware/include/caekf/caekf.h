@@ -104,31 +104,37 @@ typedef struct {
 typedef struct {
     uint32_t flags;       /* CAEKF_FLAG_* */
     int newton_iters;     /* Newton iterations of the prediction */
-    caekf_scalar_t delta; /* predicted penetration delta(x_k-) [m] */
+    caekf_scalar_t delta; /* deepest predicted penetration over the contacts, max_c delta_c(x_k-) [m] */
     caekf_scalar_t nis;   /* normalised innovation squared of the correction (0 without one) */
 } caekf_report_t;
 
 /* The estimator instance (CMSIS-DSP style: caller-owned, no hidden state). Treat as opaque and read it
  * through the accessors below. Internally the state is scaled, z = S^-1 x with
- * S = diag(sigma_q0, sigma_v0, sigma_gamma0), and P is kept in the same scaled coordinates (P0 = I),
- * which keeps float32 well conditioned. P_work and scratch are the step's work buffers: they live here
- * rather than on the stack so the step fits a small MCU stack, and so that a failed step can be
- * dropped without touching P. */
+ * S = diag(sigma_q0 .., sigma_v0 .., sigma_gamma0 of each contact), and P is kept in the same scaled
+ * coordinates (P0 = I), which keeps float32 well conditioned. Matrices are n x n with leading dimension
+ * n (n = 2 bodies + contacts) in buffers of the build's capacity. P_work and scratch are the step's
+ * work buffers: they live here rather than on the stack so the step fits a small MCU stack, and so that
+ * a failed step can be dropped without touching P. */
 typedef struct {
     caekf_settings_t cfg;
     caekf_model_t model;                    /* derived model matrices */
     caekf_scalar_t scale[CAEKF_N];          /* S */
     caekf_scalar_t z[CAEKF_N];              /* scaled state */
-    caekf_scalar_t P[CAEKF_N][CAEKF_N];     /* scaled covariance */
-    caekf_scalar_t P_work[CAEKF_N][CAEKF_N];
-    caekf_scalar_t scratch[CAEKF_N][CAEKF_N];
+    caekf_scalar_t P[CAEKF_N * CAEKF_N];    /* scaled covariance */
+    caekf_scalar_t P_work[CAEKF_N * CAEKF_N];
+    /* scratch: the PSD check's and the P norm's n x n workspace, earlier in a step the correction's */
+    union {
+        caekf_scalar_t m[CAEKF_N * CAEKF_N];
+        caekf_correct_work_t correct;
+    } scratch;
     caekf_scalar_t x_prev[CAEKF_N];         /* step work: x_{k-1}, then x_k- and the scaled z */
     caekf_scalar_t x_pred[CAEKF_N];
     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of the scaled F */
+    caekf_fv_pattern_t fv_pattern;          /* fv's rows, compacted to their nonzeros: their columns */
     uint32_t fv_const;                      /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
-    caekf_scalar_t r_scaled;                /* scaled R diagonal */
-    caekf_scalar_t gamma_min_scaled;
+    caekf_filter_dims_t dims;               /* sizes, sensed states, scaled R; the gamma policies */
+    caekf_scalar_t gamma_min_scaled[CAEKF_MAX_CONTACTS + 1];
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;
@@ -145,7 +151,8 @@ typedef enum {
     CAEKF_SETTING_NOT_INTEGER = 6,      /* caekf_settings_set: an int, enum or bool setting got a fraction */
     CAEKF_SETTING_BAD_BODY = 7,         /* names a body beyond `bodies` (or the ground where a body is needed,
                                          * or both ends the same) */
-    CAEKF_SETTING_UNSUPPORTED = 8       /* a mechanism this build's estimator core does not compute */
+    CAEKF_SETTING_UNSUPPORTED = 8,      /* a count other than a sized build's (CAEKF_SIZED) */
+    CAEKF_SETTING_NEEDED = 9            /* 0 (its default), but the mechanism uses it: must be > 0 */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
@@ -214,25 +221,30 @@ const char *caekf_param_key(unsigned param_id);
 /* Validates and initialises. On refusal `est` is left unchanged. */
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s);
 
-/* One estimator step with input u_k [N] and measurement y_k = [q1, q4] [m].
+/* One estimator step with the inputs u_k (one force per input of the mechanism [N]; may be NULL when it
+ * has none) and the measurements y_k (one per sensor [m or m/s]).
  * Non-finite u or y: CAEKF_ERR_INPUT, flags INPUT_REJECTED, state bit-for-bit untouched.
  * A non-finite intermediate result rolls the step back (CAEKF_ERR_NUMERIC). `report` may be NULL. */
-caekf_status_t caekf_step(caekf_t *est, caekf_scalar_t u, const caekf_scalar_t y[CAEKF_NY],
-                          caekf_report_t *report);
+caekf_status_t caekf_step(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, caekf_report_t *report);
 
 /* Time update only, for a step whose measurement is missing (e.g. frames lost on the bus): the model
- * still advances one dt with input u (the caller may hold the last known u), P grows by Q, gamma is
- * unchanged. Keeping the estimator on the clock this way avoids blaming a time shift on gamma.
+ * still advances one dt with the inputs u (the caller may hold the last known u), P grows by Q, the
+ * gammas are unchanged. Keeping the estimator on the clock this way avoids blaming a time shift on gamma.
  * Non-finite u is rejected with the state untouched. Flags include CAEKF_FLAG_NO_MEASUREMENT. */
-caekf_status_t caekf_predict(caekf_t *est, caekf_scalar_t u, caekf_report_t *report);
+caekf_status_t caekf_predict(caekf_t *est, const caekf_scalar_t *u, caekf_report_t *report);
 
-/* Accessors in physical units. */
+/* Sizes of the mechanism the estimator runs: states n = 2 bodies + contacts, sensors, inputs. */
+caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs);
+
+/* Accessors in physical units. The state is x = [q_1..q_bodies, v_1..v_bodies, gamma_1..gamma_contacts];
+ * entries beyond n are 0. */
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N]);
+/* gamma of contact 1 (CAEKF_ERR_SETTINGS for a mechanism without contacts). */
 caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma);
-/* P in physical units (P_phys = S P S). */
+/* P in physical units (P_phys = S P S), n x n in the top left corner, 0 elsewhere. */
 caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N]);
 /* 2-norm of P in physical units (largest eigenvalue, by bounded Jacobi sweeps). Uses the instance's
- * scratch buffer, hence the non-const instance; the estimate is not changed. */
+ * scratch buffers, hence the non-const instance; the estimate is not changed. */
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2);
 
 const char *caekf_status_str(caekf_status_t st);

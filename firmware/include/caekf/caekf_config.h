@@ -8,13 +8,11 @@
  *                            covariance repair; default 12, 9x9 converges in about 6).
  *   CAEKF_MAX_BODIES, CAEKF_MAX_SPRINGS, CAEKF_MAX_INPUTS, CAEKF_MAX_SENSORS, CAEKF_MAX_CONTACTS
  *                            the mechanism capacity of the build: storage for that many bodies, links,
- *                            input forces, sensors and contacts (default: the paper's mechanism). The
- *                            settings say how many are in use; they must fit. At most the wire's
- *                            capacities (CAEKF_WIRE_MAX_*, generated from the settings schema).
+ *                            input forces, sensors and contacts. Generated (caekf/caekf_capacity.h):
+ *                            the schema's capacity, or with CAEKF_SIZED = 1 exactly one scenario's
+ *                            mechanism (CMake: -DCAEKF_MECHANISM=path/to/scenario.toml), whose counts
+ *                            CAEKF_SIZED_* the settings must then equal.
  *
- * This estimator core runs the paper's chain (4 bodies, 4 links, 1 input, 2 position sensors, 1 contact)
- * and refuses other mechanisms (CAEKF_SETTING_OVER_CAPACITY / UNSUPPORTED); the settings already
- * describe any mechanism (docs/mechanism.md).
  */
 #ifndef CAEKF_CONFIG_H
 #define CAEKF_CONFIG_H
@@ -45,29 +43,14 @@ typedef double caekf_scalar_t;
 #define CAEKF_SCALAR_NAME "double"
 #endif
 
-/* Mechanism capacity. */
-#ifndef CAEKF_MAX_BODIES
-#define CAEKF_MAX_BODIES 4
-#endif
-#ifndef CAEKF_MAX_SPRINGS
-#define CAEKF_MAX_SPRINGS 4
-#endif
-#ifndef CAEKF_MAX_INPUTS
-#define CAEKF_MAX_INPUTS 1
-#endif
-#ifndef CAEKF_MAX_SENSORS
-#define CAEKF_MAX_SENSORS 2
-#endif
-#ifndef CAEKF_MAX_CONTACTS
-#define CAEKF_MAX_CONTACTS 1
-#endif
+/* Mechanism capacity: generated from the settings schema, or sized for one scenario (CMake option
+ * CAEKF_MECHANISM). */
+#include "caekf/caekf_capacity.h"
 
 /* Model dimensions. */
-#define CAEKF_NQ CAEKF_MAX_BODIES         /* bodies (positions) */
-#define CAEKF_NX (2 * CAEKF_NQ)           /* mechanical state [q; v] */
-#define CAEKF_N (CAEKF_NX + CAEKF_MAX_CONTACTS) /* augmented state [q; v; gamma] */
-#define CAEKF_NY CAEKF_MAX_SENSORS        /* measurements y */
-#define CAEKF_IG (CAEKF_N - 1)            /* index of gamma in the augmented state */
+/* Storage of the augmented state x = [q; v; gamma_1..] (a mechanism uses n = 2 bodies + contacts). */
+#define CAEKF_NQ CAEKF_MAX_BODIES
+#define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_MAX_CONTACTS)
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]

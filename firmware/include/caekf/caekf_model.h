@@ -5,13 +5,11 @@
  * (body 0), input forces, sensors and contacts. A contact between bodies a and b has penetration
  * delta = q_a - q_b - gap; its force f = gamma delta^n (1 + lambda d delta/dt) for delta > 0 acts -f on
  * a and +f on b.
- *
- * This core computes the paper's chain: ground -1- 1 -2- 2 | 3 -3- 4 -4- ground, contact (2, 3),
- * n = 1.5, lambda = 0, input on body 1, position sensors on bodies 1 and 4. caekf_model_supported says
- * whether the settings describe it.
  */
 #ifndef CAEKF_MODEL_H
 #define CAEKF_MODEL_H
+
+#include <stdint.h>
 
 #include "caekf/caekf_config.h"
 
@@ -44,42 +42,73 @@ typedef struct {
     caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS]; /* Hunt-Crossley damping [s/m] */
 } caekf_model_params_t;
 
-/* Matrices derived once from the parameters. */
+/* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc states
+ * (x = [q; v; gamma_1..gamma_nc]); arrays are sized for the build's capacity. */
 typedef struct {
     caekf_model_params_t p;
+    int nq, nc, n;
+    int contact_i[CAEKF_MAX_CONTACTS], contact_j[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t m_dt[CAEKF_NQ];                  /* M / dt (diagonal) */
-    caekf_scalar_t A0[CAEKF_NQ][CAEKF_NQ];          /* M/dt + C + dt K: Newton matrix without contact */
-    /* Without contact the step is linear: A0's LU and the v-rows of F are constants, computed once by
-     * the same code the contact path runs, so using them changes no bit of the result. */
-    caekf_scalar_t A0_lu[CAEKF_NQ][CAEKF_NQ];
+    /* Row i of K and C is nonzero in columns nz[i][0 .. nnz[i]-1] (ascending): the residual skips the
+     * structural zeros, which change no sum. */
+    unsigned char nz[CAEKF_NQ][CAEKF_NQ];
+    unsigned char nnz[CAEKF_NQ];
+    /* A0 = M/dt + C + dt K, the Newton matrix without contact, packed nq x nq. Without contact the step
+     * is linear: A0's LU and the v-rows of F are constants, computed once by the same code the contact
+     * path runs, so using them changes no bit of the result. */
+    caekf_scalar_t A0[CAEKF_NQ * CAEKF_NQ];
+    caekf_scalar_t A0_lu[CAEKF_NQ * CAEKF_NQ];
     int A0_piv[CAEKF_NQ];
-    caekf_scalar_t A0_absmax_out; /* max |A0_ij| outside the contact block (bodies 2, 3) */
     caekf_scalar_t fv0[CAEKF_NQ][CAEKF_N];
 } caekf_model_t;
 
-/* Contact law at positions q: penetration and the force with its derivatives. */
+/* The nonzero columns of each v-row of F (nz[i][0 .. nnz[i]-1], ascending): the covariance products
+ * skip the exact zeros, which change no sum. */
 typedef struct {
-    caekf_scalar_t delta;      /* q2 - q3 - gap */
-    caekf_scalar_t fc;         /* gamma * delta^1.5, 0 if delta <= 0 */
-    caekf_scalar_t dfc_ddelta; /* 1.5 gamma delta^0.5 */
-    caekf_scalar_t dfc_dgamma; /* delta^1.5 */
-} caekf_contact_t;
+    unsigned char nz[CAEKF_NQ][CAEKF_N];
+    unsigned char nnz[CAEKF_NQ];
+} caekf_fv_pattern_t;
 
+/* The filter's sizes and structure (set at init; the policies every step). */
+typedef struct {
+    int nq, n;                    /* bodies; states */
+    int ny;                       /* sensors */
+    int h[CAEKF_MAX_SENSORS];     /* state index each sensor measures */
+    caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
+    uint8_t policy[CAEKF_MAX_CONTACTS + 1]; /* how gamma c (state 2 nq + c) is handled this step */
+} caekf_filter_dims_t;
+
+/* Work buffers of the correction: the gain and H P (in the instance, off the stack). */
+typedef struct {
+    caekf_scalar_t gain[CAEKF_N][CAEKF_MAX_SENSORS];
+    caekf_scalar_t hp[CAEKF_MAX_SENSORS][CAEKF_N];
+} caekf_correct_work_t;
+
+/* One contact's law at a state: penetration and the force with its derivatives. */
+typedef struct {
+    caekf_scalar_t delta;      /* q_a - q_b - gap */
+    caekf_scalar_t fc;         /* gamma delta^n (1 + lambda d delta/dt), 0 if delta <= 0 (and >= 0) */
+    caekf_scalar_t dfc_ddelta; /* with respect to delta */
+    caekf_scalar_t dfc_drate;  /* with respect to d delta/dt (Hunt-Crossley) */
+    caekf_scalar_t dfc_dgamma;
+} caekf_contact_t;
 
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
 
-void caekf_model_contact(const caekf_model_t *m, const caekf_scalar_t q[CAEKF_NQ], caekf_scalar_t gamma,
-                         caekf_contact_t *c);
+/* Contact c's law at positions q, velocities v (x = [q; v]) and stiffness gamma. */
+void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_scalar_t gamma,
+                         caekf_contact_t *out);
 
-/* Newton-Raphson solve of eq. (19) for x_k given x_{k-1} and u_k (gamma_k = gamma_{k-1}).
- * Unknown v_k (q_k = q_{k-1} + dt v_k), initial guess v_{k-1}. Converged when the largest momentum-row
- * residual is <= rtol times the largest row's sum of term magnitudes (a norm-wise backward error). At most max_iter
- * iterations (clamped to CAEKF_NEWTON_MAX_ITER). Returns 0 when converged, 1 when the bound was hit,
- * 2 on a singular Jacobian (x_k holds the last iterate in both cases). *iters = linear solves done. */
-int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t u,
+/* Newton-Raphson solve of eq. (19) for x_k given x_{k-1} and the inputs u_k (one per input; the gammas
+ * carry over). Unknown v_k (q_k = q_{k-1} + dt v_k), initial guess v_{k-1}. Converged when the largest
+ * momentum-row residual is <= rtol times the largest row's sum of term magnitudes (a norm-wise backward
+ * error). At most max_iter iterations (clamped to CAEKF_NEWTON_MAX_ITER). Returns 0 when converged, 1
+ * when the bound was hit, 2 on a singular Jacobian (x_k holds the last iterate in both cases).
+ * *iters = linear solves done. */
+int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u,
                        int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters);
 
 #ifdef __cplusplus

@@ -190,12 +190,22 @@ static PyObject *make_report(caekf_status_t st, const caekf_report_t *rep)
 
 /* ---- Estimator ------------------------------------------------------------------------------------- */
 
+/* The sizes of the mechanism an instance runs (caekf_get_sizes, after init): n states
+ * x = [q_1..q_nq, v_1..v_nq, gamma_1..gamma_nc], ny sensors, nu inputs. */
 typedef struct {
     PyObject_HEAD
     caekf_t est;
     caekf_settings_t settings;
     int ready;
+    int n, ny, nu, nq, nc;
 } EstObject;
+
+static void est_sizes(EstObject *self)
+{
+    (void)caekf_get_sizes(&self->est, &self->n, &self->ny, &self->nu);
+    self->nc = self->est.cfg.model.contacts;
+    self->nq = (self->n - self->nc) / 2;
+}
 
 static int est_init(EstObject *self, PyObject *args, PyObject *kwds)
 {
@@ -216,6 +226,7 @@ static int est_init(EstObject *self, PyObject *args, PyObject *kwds)
         PyErr_SetString(PyExc_ValueError, "estimator initialisation failed");
         return -1;
     }
+    est_sizes(self);
     self->ready = 1;
     return 0;
 }
@@ -229,95 +240,148 @@ static int check_ready(EstObject *self)
     return 0;
 }
 
-/* y as two numbers: a tuple or list, or any buffer of two doubles (a numpy row). */
-static int parse_y(PyObject *obj, double y[2])
+/* `count` numbers into out: a tuple or list, any 1-D buffer of doubles (a numpy row) or another sequence.
+ * `what` names them in the one-line error: "y needs 2 numbers (one per sensor [m or m/s])". A sequence
+ * of another length is a ValueError, anything else a TypeError. */
+static int parse_values(PyObject *obj, double *out, int count, const char *what, const char *each)
 {
-    if ((PyTuple_CheckExact(obj) || PyList_CheckExact(obj)) && PySequence_Fast_GET_SIZE(obj) == 2) {
-        y[0] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(obj, 0));
-        y[1] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(obj, 1));
-        if ((y[0] == -1.0 || y[1] == -1.0) && PyErr_Occurred()) {
-            PyErr_SetString(PyExc_TypeError, "y must be two numbers [q1, q4] in metres");
-            return -1;
+    Py_ssize_t len = -1;
+    int i;
+    if (PyTuple_CheckExact(obj) || PyList_CheckExact(obj)) {
+        len = PySequence_Fast_GET_SIZE(obj);
+        if (len == count) {
+            for (i = 0; i < count; ++i) {
+                out[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(obj, i));
+                if (out[i] == -1.0 && PyErr_Occurred()) {
+                    break;
+                }
+            }
+            if (i == count) {
+                return 0;
+            }
         }
-        return 0;
-    }
-    if (PyObject_CheckBuffer(obj)) {
+    } else if (PyObject_CheckBuffer(obj)) {
         Py_buffer v;
         if (PyObject_GetBuffer(obj, &v, PyBUF_FORMAT | PyBUF_STRIDES) == 0) {
             const char *f = v.format ? v.format : "B";
             if (*f == '<' || *f == '=' || *f == '@') {
                 ++f;
             }
-            if (v.ndim == 1 && v.shape[0] == 2 && f[0] == 'd' && f[1] == '\0') {
-                y[0] = *(const double *)v.buf;
-                y[1] = *(const double *)(const void *)((const char *)v.buf + v.strides[0]);
-                PyBuffer_Release(&v);
-                return 0;
+            if (v.ndim == 1 && f[0] == 'd' && f[1] == '\0') {
+                len = v.shape[0];
+                if (len == count) {
+                    for (i = 0; i < count; ++i) {
+                        out[i] = *(const double *)(const void *)((const char *)v.buf + i * v.strides[0]);
+                    }
+                    PyBuffer_Release(&v);
+                    return 0;
+                }
             }
             PyBuffer_Release(&v);
-        } else {
-            PyErr_Clear();
         }
+        PyErr_Clear();
     }
-    {
-        PyObject *seq = PySequence_Fast(obj, "");
-        if (seq != NULL && PySequence_Fast_GET_SIZE(seq) == 2) {
-            y[0] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, 0));
-            y[1] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, 1));
+    if (len < 0 || len == count) {
+        PyObject *seq = PySequence_Check(obj) ? PySequence_Fast(obj, "") : NULL;
+        if (seq != NULL) {
+            len = PySequence_Fast_GET_SIZE(seq);
+            for (i = 0; len == count && i < count; ++i) {
+                out[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+                if (out[i] == -1.0 && PyErr_Occurred()) {
+                    len = -1;
+                }
+            }
             Py_DECREF(seq);
-            if (!((y[0] == -1.0 || y[1] == -1.0) && PyErr_Occurred())) {
+            if (len == count) {
                 return 0;
             }
-        } else {
-            Py_XDECREF(seq);
         }
     }
     PyErr_Clear();
-    PyErr_SetString(PyExc_TypeError, "y must be two numbers [q1, q4] in metres");
+    if (len >= 0 && len != count) {
+        PyErr_Format(PyExc_ValueError, "%s needs %d number%s (%s), got %zd", what, count, count == 1 ? "" : "s",
+                     each, len);
+    } else {
+        PyErr_Format(PyExc_TypeError, "%s must be a sequence of %d number%s (%s)", what, count,
+                     count == 1 ? "" : "s", each);
+    }
     return -1;
+}
+
+/* A number rather than a sequence: a float, an int, a numpy scalar or 0-d array, anything else that is
+ * no sequence (PyFloat_AsDouble then decides). */
+static int is_number(PyObject *obj)
+{
+    Py_buffer v;
+    int ndim;
+    if (PyFloat_Check(obj) || PyLong_Check(obj) || !PySequence_Check(obj)) {
+        return 1;
+    }
+    if (!PyObject_CheckBuffer(obj) || PyObject_GetBuffer(obj, &v, PyBUF_FORMAT | PyBUF_STRIDES) != 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    ndim = v.ndim;
+    PyBuffer_Release(&v);
+    return ndim == 0;
+}
+
+/* The inputs u: a number when the mechanism has one input, else a sequence of `inputs` numbers (None or an
+ * empty sequence without inputs). */
+static int parse_u(const EstObject *self, PyObject *obj, caekf_scalar_t *u)
+{
+    double ud[CAEKF_MAX_INPUTS + 1];
+    int i;
+    if (self->nu == 0 && obj == Py_None) {
+        return 0;
+    }
+    if (self->nu == 1 && is_number(obj)) {
+        ud[0] = PyFloat_AsDouble(obj);
+        if (ud[0] == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            PyErr_SetString(PyExc_TypeError, "u must be a number (the input force [N])");
+            return -1;
+        }
+    } else if (parse_values(obj, ud, self->nu, "u", "one force per input [N]") != 0) {
+        return -1;
+    }
+    for (i = 0; i < self->nu; ++i) {
+        u[i] = (caekf_scalar_t)ud[i];
+    }
+    return 0;
 }
 
 static PyObject *est_step(EstObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    double u, yd[2];
-    caekf_scalar_t y[CAEKF_NY];
+    double yd[CAEKF_MAX_SENSORS];
+    caekf_scalar_t u[CAEKF_MAX_INPUTS + 1], y[CAEKF_MAX_SENSORS];
     caekf_report_t rep;
     caekf_status_t st;
+    int i;
     if (nargs != 2) {
-        PyErr_SetString(PyExc_TypeError, "step(u, y) takes the input force u [N] and y = [q1, q4] [m]");
+        PyErr_SetString(PyExc_TypeError, "step(u, y) takes the inputs u [N] and the measurements y [m or m/s]");
         return NULL;
     }
-    if (check_ready(self) != 0) {
+    if (check_ready(self) != 0 || parse_u(self, args[0], u) != 0 ||
+        parse_values(args[1], yd, self->ny, "y", "one per sensor [m or m/s]") != 0) {
         return NULL;
     }
-    u = PyFloat_AsDouble(args[0]);
-    if (u == -1.0 && PyErr_Occurred()) {
-        PyErr_SetString(PyExc_TypeError, "u must be a number (force on body 1, N)");
-        return NULL;
+    for (i = 0; i < self->ny; ++i) {
+        y[i] = (caekf_scalar_t)yd[i];
     }
-    if (parse_y(args[1], yd) != 0) {
-        return NULL;
-    }
-    y[0] = (caekf_scalar_t)yd[0];
-    y[1] = (caekf_scalar_t)yd[1];
-    st = caekf_step(&self->est, (caekf_scalar_t)u, y, &rep);
+    st = caekf_step(&self->est, u, y, &rep);
     return make_report(st, &rep);
 }
 
 static PyObject *est_predict(EstObject *self, PyObject *arg)
 {
-    double u;
+    caekf_scalar_t u[CAEKF_MAX_INPUTS + 1];
     caekf_report_t rep;
     caekf_status_t st;
-    if (check_ready(self) != 0) {
+    if (check_ready(self) != 0 || parse_u(self, arg, u) != 0) {
         return NULL;
     }
-    u = PyFloat_AsDouble(arg);
-    if (u == -1.0 && PyErr_Occurred()) {
-        PyErr_SetString(PyExc_TypeError, "u must be a number (force on body 1, N)");
-        return NULL;
-    }
-    st = caekf_predict(&self->est, (caekf_scalar_t)u, &rep);
+    st = caekf_predict(&self->est, u, &rep);
     return make_report(st, &rep);
 }
 
@@ -326,11 +390,11 @@ static PyObject *est_state_into(EstObject *self, PyObject *arg)
     Py_buffer v;
     caekf_scalar_t x[CAEKF_N];
     int i;
-    if (check_ready(self) != 0 || get_buffer(arg, &v, "out", 'd', sizeof(double), CAEKF_N, 1, 0) != 0) {
+    if (check_ready(self) != 0 || get_buffer(arg, &v, "out", 'd', sizeof(double), self->n, 1, 0) != 0) {
         return NULL;
     }
     (void)caekf_get_state(&self->est, x);
-    for (i = 0; i < CAEKF_N; ++i) {
+    for (i = 0; i < self->n; ++i) {
         ((double *)v.buf)[i] = (double)x[i];
     }
     PyBuffer_Release(&v);
@@ -343,13 +407,13 @@ static PyObject *est_cov_into(EstObject *self, PyObject *arg)
     caekf_scalar_t P[CAEKF_N][CAEKF_N];
     int i, j;
     if (check_ready(self) != 0 ||
-        get_buffer(arg, &v, "out", 'd', sizeof(double), CAEKF_N * CAEKF_N, 1, 0) != 0) {
+        get_buffer(arg, &v, "out", 'd', sizeof(double), (Py_ssize_t)self->n * self->n, 1, 0) != 0) {
         return NULL;
     }
     (void)caekf_get_covariance(&self->est, P);
-    for (i = 0; i < CAEKF_N; ++i) {
-        for (j = 0; j < CAEKF_N; ++j) {
-            ((double *)v.buf)[i * CAEKF_N + j] = (double)P[i][j];
+    for (i = 0; i < self->n; ++i) {
+        for (j = 0; j < self->n; ++j) {
+            ((double *)v.buf)[i * self->n + j] = (double)P[i][j];
         }
     }
     PyBuffer_Release(&v);
@@ -363,7 +427,10 @@ static PyObject *est_gamma(EstObject *self, void *closure)
     if (check_ready(self) != 0) {
         return NULL;
     }
-    (void)caekf_get_gamma(&self->est, &g);
+    if (caekf_get_gamma(&self->est, &g) != CAEKF_OK) {
+        PyErr_SetString(PyExc_ValueError, "this mechanism has no contact, so no gamma");
+        return NULL;
+    }
     return PyFloat_FromDouble((double)g);
 }
 
@@ -382,6 +449,15 @@ static PyObject *est_step_count(EstObject *self, void *closure)
 {
     (void)closure;
     return PyLong_FromUnsignedLong((unsigned long)self->est.step_count);
+}
+
+/* The mechanism's sizes (0 before init). */
+static PyObject *est_size(EstObject *self, void *closure)
+{
+    const char *which = (const char *)closure;
+    int v = which[0] == 'n' ? self->n : which[0] == 's' ? self->ny : which[0] == 'i' ? self->nu
+                                      : which[0] == 'b' ? self->nq : self->nc;
+    return PyLong_FromLong(v);
 }
 
 static PyObject *est_last_flags(EstObject *self, void *closure)
@@ -434,34 +510,84 @@ static PyObject *est_set_raw(EstObject *self, PyObject *arg)
         return NULL;
     }
     memcpy(&self->est, buf, sizeof self->est);
+    est_sizes(self);
     Py_RETURN_NONE;
+}
+
+/* log det S of the correction just made, S = H P- H' + R, from the posterior covariance (physical units).
+ * With R = diag(r_i) and B = H P+ H' (the sensors' block), B = A - A S^-1 A = A S^-1 R for A = H P- H', so
+ * R - B = R S^-1 R and log det S = 2 log det R - log det(R - B). Exact for the standard and Joseph
+ * corrections and the switched filter's consider update (the gain rows of q and v are optimal); not for
+ * steps whose constraint or covariance repair changed P afterwards (flags CONSTRAINT_APPLIED,
+ * COV_REPAIRED) nor steps without a correction: NaN there. */
+static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags)
+{
+    const uint32_t skip = CAEKF_FLAG_NO_MEASUREMENT | CAEKF_FLAG_INPUT_REJECTED | CAEKF_FLAG_NUMERIC_ROLLBACK |
+                          CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED;
+    const caekf_t *e = &self->est;
+    const int n = self->n, ny = self->ny;
+    double a[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS], r[CAEKF_MAX_SENSORS], log_r2 = 0.0, det = 1.0;
+    int i, j, k;
+    if (st != CAEKF_OK || (flags & skip)) {
+        return (double)NAN;
+    }
+    for (i = 0; i < ny; ++i) {
+        const double sd = e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
+                                                                                 : (double)e->cfg.sigma_r;
+        r[i] = sd * sd;
+        log_r2 += 2.0 * log(r[i]);
+        for (j = 0; j < ny; ++j) {
+            const int si = e->dims.h[i], sj = e->dims.h[j];
+            /* caekf_get_covariance's expression, element by element (the same bits) */
+            a[i][j] = (i == j ? r[i] : 0.0) - (double)(e->P[si * n + sj] * e->scale[si] * e->scale[sj]);
+        }
+    }
+    if (ny == 1) {
+        det = a[0][0];
+    } else if (ny == 2) {
+        det = a[0][0] * a[1][1] - a[0][1] * a[0][1];
+    } else {
+        /* Gaussian elimination; R - B is symmetric positive definite when the correction was a plain one,
+         * so a pivot <= 0 means it was not: NaN. */
+        for (k = 0; k < ny && det > 0; ++k) {
+            det *= a[k][k];
+            for (i = k + 1; i < ny && a[k][k] > 0; ++i) {
+                const double f = a[i][k] / a[k][k];
+                for (j = k; j < ny; ++j) {
+                    a[i][j] -= f * a[k][j];
+                }
+            }
+        }
+    }
+    return det > 0 ? log_r2 - log(det) : (double)NAN;
 }
 
 /* _run(u, y, has_y, x, p_diag, flags, newton_iters, nis, delta, status, p_norm, log_det_s)
  *
- * The replay loop of caekf-replay over n steps, from this estimator's current state, without the GIL.
- * u: n doubles [N]; y: 2n doubles (q1, q4 per step) [m]; has_y: n bytes (0: caekf_predict) or None.
- * Outputs (None to skip): x n*9 doubles, p_diag n*9 doubles (diagonal of P in physical units), flags n
- * uint32, newton_iters n int32, nis n doubles, delta n doubles [m], status n int8, p_norm n doubles (2-norm
- * of P, the costly Jacobi sweeps), log_det_s n doubles (log det of the innovation covariance, see below). */
+ * The replay loop of caekf-replay over `steps` rows, from this estimator's current state, without the GIL.
+ * y: steps * sensors doubles (one row per step) [m or m/s], which sets `steps`; u: steps * inputs doubles
+ * [N]; has_y: steps bytes (0: caekf_predict) or None. Outputs (None to skip): x steps * n doubles, p_diag
+ * steps * n doubles (diagonal of P in physical units), flags uint32, newton_iters int32, nis, delta [m]
+ * doubles, status int8, p_norm doubles (2-norm of P, the costly Jacobi sweeps) and log_det_s doubles
+ * (log det of the innovation covariance, log_det_s() above), one per step. */
 static PyObject *est_run(EstObject *self, PyObject *args)
 {
     PyObject *o[12];
     Py_buffer b[12];
-    Py_ssize_t n, k;
+    Py_ssize_t steps, k;
     int i, ok = 1;
     static const char *const names[12] = {"u", "y", "has_y", "x", "p_diag", "flags", "newton_iters", "nis",
                                           "delta", "status", "p_norm", "log_det_s"};
     static const char fmts[12] = {'d', 'd', '?', 'd', 'd', 'I', 'i', 'd', 'd', 'b', 'd', 'd'};
     static const Py_ssize_t sizes[12] = {8, 8, 1, 8, 8, 4, 4, 8, 8, 1, 8, 8};
-    static const int per_step[12] = {1, CAEKF_NY, 1, CAEKF_N, CAEKF_N, 1, 1, 1, 1, 1, 1, 1};
+    int per_step[12] = {0, 0, 1, 0, 0, 1, 1, 1, 1, 1, 1, 1};
     const double *u, *y;
     const unsigned char *has_y;
     double *x, *pdiag, *nis, *delta, *pnorm, *logdet;
     uint32_t *flags;
     int32_t *iters;
     signed char *status;
-    double r;
+    int n, ny, nu;
 
     if (!PyArg_ParseTuple(args, "OOOOOOOOOOOO:_run", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
                           &o[8], &o[9], &o[10], &o[11])) {
@@ -470,19 +596,26 @@ static PyObject *est_run(EstObject *self, PyObject *args)
     if (check_ready(self) != 0) {
         return NULL;
     }
+    n = self->n;
+    ny = self->ny;
+    nu = self->nu;
+    per_step[0] = nu;
+    per_step[1] = ny;
+    per_step[3] = n;
+    per_step[4] = n;
     memset(b, 0, sizeof b);
     {
         Py_buffer probe;
-        if (PyObject_GetBuffer(o[0], &probe, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) != 0) {
+        if (PyObject_GetBuffer(o[1], &probe, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) != 0) {
             PyErr_Clear();
-            PyErr_SetString(PyExc_TypeError, "u must be a C-contiguous float64 array");
+            PyErr_SetString(PyExc_TypeError, "y must be a C-contiguous float64 array");
             return NULL;
         }
-        n = probe.itemsize > 0 ? probe.len / probe.itemsize : 0;
+        steps = probe.itemsize > 0 && ny > 0 ? probe.len / probe.itemsize / ny : 0;
         PyBuffer_Release(&probe);
     }
     for (i = 0; i < 12; ++i) {
-        if (get_buffer(o[i], &b[i], names[i], fmts[i], sizes[i], n * per_step[i], i >= 3, i >= 2) != 0) {
+        if (get_buffer(o[i], &b[i], names[i], fmts[i], sizes[i], steps * per_step[i], i >= 3, i >= 2) != 0) {
             ok = 0;
             break;
         }
@@ -507,53 +640,40 @@ static PyObject *est_run(EstObject *self, PyObject *args)
     status = (signed char *)b[9].buf;
     pnorm = (double *)b[10].buf;
     logdet = (double *)b[11].buf;
-    r = (double)self->settings.sigma_r * (double)self->settings.sigma_r;
 
     Py_BEGIN_ALLOW_THREADS
-    for (k = 0; k < n; ++k) {
+    for (k = 0; k < steps; ++k) {
         caekf_report_t rep;
         caekf_status_t st;
-        caekf_scalar_t xs[CAEKF_N];
+        caekf_scalar_t xs[CAEKF_N], us[CAEKF_MAX_INPUTS + 1];
         int with_y = has_y == NULL || has_y[k] != 0;
+        for (i = 0; i < nu; ++i) {
+            us[i] = (caekf_scalar_t)u[k * nu + i];
+        }
         if (with_y) {
-            caekf_scalar_t ys[CAEKF_NY];
-            ys[0] = (caekf_scalar_t)y[2 * k];
-            ys[1] = (caekf_scalar_t)y[2 * k + 1];
-            st = caekf_step(&self->est, (caekf_scalar_t)u[k], ys, &rep);
+            caekf_scalar_t ys[CAEKF_MAX_SENSORS];
+            for (i = 0; i < ny; ++i) {
+                ys[i] = (caekf_scalar_t)y[k * ny + i];
+            }
+            st = caekf_step(&self->est, us, ys, &rep);
         } else {
-            st = caekf_predict(&self->est, (caekf_scalar_t)u[k], &rep);
+            st = caekf_predict(&self->est, us, &rep);
         }
         if (x != NULL) {
             (void)caekf_get_state(&self->est, xs);
-            for (i = 0; i < CAEKF_N; ++i) {
-                x[k * CAEKF_N + i] = (double)xs[i];
+            for (i = 0; i < n; ++i) {
+                x[k * n + i] = (double)xs[i];
             }
         }
         if (pdiag != NULL) {
             /* The diagonal of caekf_get_covariance, the same expression (so the same bits), without the
-             * 72 off-diagonal products the loop does not keep. */
-            for (i = 0; i < CAEKF_N; ++i) {
-                pdiag[k * CAEKF_N + i] =
-                    (double)(self->est.P[i][i] * self->est.scale[i] * self->est.scale[i]);
+             * off-diagonal products the loop does not keep. */
+            for (i = 0; i < n; ++i) {
+                pdiag[k * n + i] = (double)(self->est.P[i * n + i] * self->est.scale[i] * self->est.scale[i]);
             }
         }
         if (logdet != NULL) {
-            caekf_scalar_t P[CAEKF_N][CAEKF_N];
-            (void)caekf_get_covariance(&self->est, P);
-            {
-                /* The innovation covariance S = H P- H' + R of this step's correction, from the posterior:
-                 * with R = r I and B = H P+ H' (q1, q4 block), B = A - A S^-1 A = A S^-1 R for A = H P- H',
-                 * hence S = r^2 (r I - B)^-1 and log det S = 4 log r - log det(r I - B). Exact for the
-                 * standard and Joseph corrections and the switched filter's consider update (gain rows of
-                 * q are optimal); not for steps whose constraint or covariance repair changed P afterwards
-                 * (flags CONSTRAINT_APPLIED, COV_REPAIRED) nor steps without correction: NaN there. */
-                uint32_t skip = CAEKF_FLAG_NO_MEASUREMENT | CAEKF_FLAG_INPUT_REJECTED | CAEKF_FLAG_NUMERIC_ROLLBACK |
-                                CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED;
-                double a = r - (double)P[0][0], d = r - (double)P[3][3], c = (double)P[0][3];
-                double det = a * d - c * c;
-                logdet[k] = (st != CAEKF_OK || (rep.flags & skip) || !(det > 0)) ? (double)NAN
-                                                                                : 4.0 * log(r) - log(det);
-            }
+            logdet[k] = log_det_s(self, st, rep.flags);
         }
         if (pnorm != NULL) {
             caekf_scalar_t pn = 0;
@@ -578,9 +698,10 @@ static PyObject *est_run(EstObject *self, PyObject *args)
 
 static PyMethodDef est_methods[] = {
     {"step", (PyCFunction)(void (*)(void))est_step, METH_FASTCALL,
-     "step(u, y) -> Report: caekf_step with input force u [N] and y = [q1, q4] [m]."},
+     "step(u, y) -> Report: caekf_step with the inputs u [N] (a number for one input, else one per input) "
+     "and the measurements y (one per sensor) [m or m/s]."},
     {"predict", (PyCFunction)est_predict, METH_O,
-     "predict(u) -> Report: caekf_predict, a time update without measurement (u in N)."},
+     "predict(u) -> Report: caekf_predict, a time update without measurement (u as for step)."},
     {"p_norm", (PyCFunction)est_p_norm, METH_NOARGS, "2-norm of P in physical units (caekf_get_cov_norm2)."},
     {"_state_into", (PyCFunction)est_state_into, METH_O, NULL},
     {"_cov_into", (PyCFunction)est_cov_into, METH_O, NULL},
@@ -592,7 +713,12 @@ static PyMethodDef est_methods[] = {
     {NULL, NULL, 0, NULL}};
 
 static PyGetSetDef est_getset[] = {
-    {"gamma", (getter)est_gamma, NULL, "Contact stiffness estimate gamma [N/m^1.5].", NULL},
+    {"gamma", (getter)est_gamma, NULL, "Stiffness estimate gamma of contact 1 [N/m^n].", NULL},
+    {"n", (getter)est_size, NULL, "States n = 2 bodies + contacts.", (void *)"n"},
+    {"sensors", (getter)est_size, NULL, "Measurements per step (sensors).", (void *)"s"},
+    {"inputs", (getter)est_size, NULL, "Input forces per step.", (void *)"i"},
+    {"bodies", (getter)est_size, NULL, "Bodies (positions q, velocities v).", (void *)"b"},
+    {"contacts", (getter)est_size, NULL, "Contacts (one gamma each).", (void *)"c"},
     {"step_count", (getter)est_step_count, NULL, "Steps and predictions done since init.", NULL},
     {"last_flags", (getter)est_last_flags, NULL, "Flags of the last step (CAEKF_FLAG_* bits).", NULL},
     {NULL, NULL, NULL, NULL, NULL}};
@@ -711,6 +837,68 @@ static PyObject *mod_set_report_type(PyObject *m, PyObject *arg)
 }
 
 
+/* ---- the paper's mechanism ------------------------------------------------------------------------- */
+
+/* 0 when `sc` describes the paper's chain (4 bodies, links 1-ground, 1-2, 3-4, 4-ground, the input on body
+ * 1, position sensors on bodies 1 and 4, one Hertzian contact 2-3 without damping), else 1 with the first
+ * difference in `buf` ("bodies = 3 (the paper's chain has 4)"): what paper-only code (the C truth, the
+ * t,u,y1,y4 record formats) must refuse. */
+static int paper_mismatch(const caekf_scenario_t *sc, char *buf, size_t len)
+{
+    static const int spring_a[4] = {1, 1, 3, 4}, spring_b[4] = {0, 2, 4, 0}, sensor_body[2] = {1, 4};
+    caekf_model_params_t p;
+    int i;
+    caekf_scenario_model(sc, sc->dt, &p);
+    {
+        const char *const name[5] = {"bodies", "springs", "inputs", "sensors", "contacts"};
+        const int count[5] = {p.bodies, p.springs, p.inputs, p.sensors, p.contacts}, want[5] = {4, 4, 1, 2, 1};
+        for (i = 0; i < 5; ++i) {
+            if (count[i] != want[i]) {
+                PyOS_snprintf(buf, len, "%s = %d (the paper's chain has %d)", name[i], count[i], want[i]);
+                return 1;
+            }
+        }
+    }
+    for (i = 0; i < 4; ++i) {
+        if (p.spring_a[i] != spring_a[i] || p.spring_b[i] != spring_b[i]) {
+            PyOS_snprintf(buf, len, "spring%d links bodies %d-%d (the paper's: %d-%d)", i + 1, p.spring_a[i],
+                          p.spring_b[i], spring_a[i], spring_b[i]);
+            return 1;
+        }
+    }
+    for (i = 0; i < 2; ++i) {
+        if (p.sensor_body[i] != sensor_body[i] || p.sensor_kind[i] != CAEKF_SENSOR_POSITION) {
+            PyOS_snprintf(buf, len, "sensor%d is not the paper's position sensor on body %d", i + 1, sensor_body[i]);
+            return 1;
+        }
+    }
+    if (p.input_body[0] != 1) {
+        PyOS_snprintf(buf, len, "input1_body = %d (the paper's input acts on body 1)", p.input_body[0]);
+        return 1;
+    }
+    if (p.contact_a[0] != 2 || p.contact_b[0] != 3 || p.contact_n[0] != (caekf_scalar_t)1.5 ||
+        p.contact_lambda[0] != 0) {
+        PyOS_snprintf(buf, len, "contact1 is not the paper's (bodies 2-3, n = 1.5, lambda = 0)");
+        return 1;
+    }
+    return 0;
+}
+
+/* paper_mismatch(scenario dict) -> None, or the first difference from the paper's mechanism (text). */
+static PyObject *mod_paper_mismatch(PyObject *m, PyObject *dict)
+{
+    caekf_scenario_t sc;
+    char text[160];
+    (void)m;
+    if (scenario_from_dict(dict, &sc, 0) != 0) {
+        return NULL;
+    }
+    if (paper_mismatch(&sc, text, sizeof text) == 0) {
+        Py_RETURN_NONE;
+    }
+    return PyUnicode_FromString(text);
+}
+
 #if !CAEKF_USE_FLOAT
 /* ---- truth (double module only) -------------------------------------------------------------------- */
 
@@ -718,6 +906,7 @@ typedef struct {
     double *t, *u, *y, *q, *v, *delta;
     int32_t *iters, *failed;
     long n, k;
+    int ni, ny, nq, nc; /* row widths: inputs, sensors, bodies, contacts */
 } truth_ctx_t;
 
 static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
@@ -729,14 +918,19 @@ static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
         return -1;
     }
     c->t[k] = s->t;
-    c->u[k] = s->u;
-    c->y[2 * k] = s->y1;
-    c->y[2 * k + 1] = s->y4;
-    for (i = 0; i < 4; ++i) {
-        c->q[4 * k + i] = s->q[i];
-        c->v[4 * k + i] = s->v[i];
+    for (i = 0; i < c->ni; ++i) {
+        c->u[c->ni * k + i] = s->u[i];
     }
-    c->delta[k] = s->delta;
+    for (i = 0; i < c->ny; ++i) {
+        c->y[c->ny * k + i] = s->y[i];
+    }
+    for (i = 0; i < c->nq; ++i) {
+        c->q[c->nq * k + i] = s->q[i];
+        c->v[c->nq * k + i] = s->v[i];
+    }
+    for (i = 0; i < c->nc; ++i) {
+        c->delta[c->nc * k + i] = s->delta[i];
+    }
     c->iters[k] = s->newton_iters;
     c->failed[k] = s->newton_failed;
     c->k = k + 1;
@@ -744,7 +938,8 @@ static int truth_emit(const caekf_truth_sample_t *s, void *vctx)
 }
 
 /* truth(scenario, t, u, y, q, v, delta, newton_iters, newton_failed) -> None: caekf_truth_run into the
- * arrays (n = round(t_end / dt) rows; y n*2, q and v n*4 doubles, the counts int32), without the GIL. */
+ * arrays (n = round(t_end / dt) rows of the mechanism's widths: u n*inputs, y n*sensors, q and v
+ * n*bodies, delta n*contacts doubles, the counts int32), without the GIL. */
 static PyObject *mod_truth(PyObject *m, PyObject *args)
 {
     PyObject *o[9];
@@ -752,7 +947,7 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
     static const char *const names[8] = {"t", "u", "y", "q", "v", "delta", "newton_iters", "newton_failed"};
     static const char fmts[8] = {'d', 'd', 'd', 'd', 'd', 'd', 'i', 'i'};
     static const Py_ssize_t sizes[8] = {8, 8, 8, 8, 8, 8, 4, 4};
-    static const int per[8] = {1, 1, 2, 4, 4, 1, 1, 1};
+    int per[8] = {1, 1, 1, 1, 1, 1, 1, 1};
     caekf_scenario_t sc;
     truth_ctx_t ctx;
     long n;
@@ -764,6 +959,14 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
     if (scenario_from_dict(o[0], &sc, 1) != 0) {
         return NULL;
     }
+    ctx.ni = (int)sc.inputs;
+    ctx.ny = (int)sc.sensors;
+    ctx.nq = (int)sc.bodies;
+    ctx.nc = (int)sc.contacts;
+    per[1] = ctx.ni;
+    per[2] = ctx.ny;
+    per[3] = per[4] = ctx.nq;
+    per[5] = ctx.nc;
     if (!(sc.dt > 0) || !(sc.t_end > 0) || !(sc.truth_substeps >= 1)) {
         PyErr_SetString(PyExc_ValueError, "truth needs dt > 0, t_end > 0, truth_substeps >= 1");
         return NULL;
@@ -801,7 +1004,7 @@ static PyObject *mod_truth(PyObject *m, PyObject *args)
         PyBuffer_Release(&b[i]);
     }
     if (rc != 0 || ctx.k != n) {
-        PyErr_SetString(PyExc_ValueError, "truth refused the scenario's plant (caekf_model_init)");
+        PyErr_SetString(PyExc_ValueError, "truth refused the scenario's plant (settings or integration)");
         return NULL;
     }
     Py_RETURN_NONE;
@@ -818,6 +1021,8 @@ static PyMethodDef mod_methods[] = {
     {"status_str", mod_status_str, METH_O, "caekf_status_str."},
     {"flag_name", mod_flag_name, METH_O, "caekf_flag_name (bit index)."},
     {"_set_report_type", mod_set_report_type, METH_O, NULL},
+    {"paper_mismatch", mod_paper_mismatch, METH_O,
+     "None when the scenario dict describes the paper's mechanism, else its first difference (text)."},
 #if !CAEKF_USE_FLOAT
     {"truth", mod_truth, METH_VARARGS, "caekf_truth_run (host/common/truth.c) into preallocated arrays."},
 #endif
@@ -847,9 +1052,12 @@ PyMODINIT_FUNC CB_CAT(PyInit_, CAEKF_BIND_MODULE)(void)
     }
     PyModule_AddStringConstant(m, "SCALAR", CAEKF_SCALAR_NAME);
     PyModule_AddStringConstant(m, "SOURCE_HASH", CAEKF_BIND_SOURCE_HASH);
-    PyModule_AddIntConstant(m, "N", CAEKF_N);
+    PyModule_AddIntConstant(m, "N", CAEKF_N); /* the state's capacity; a mechanism uses n <= N */
     PyModule_AddIntConstant(m, "PARAM_COUNT", (long)CAEKF_PARAM_COUNT);
-    PyModule_AddIntConstant(m, "NY", CAEKF_NY);
+    PyModule_AddIntConstant(m, "MAX_BODIES", CAEKF_MAX_BODIES);
+    PyModule_AddIntConstant(m, "MAX_INPUTS", CAEKF_MAX_INPUTS);
+    PyModule_AddIntConstant(m, "MAX_SENSORS", CAEKF_MAX_SENSORS);
+    PyModule_AddIntConstant(m, "MAX_CONTACTS", CAEKF_MAX_CONTACTS);
     PyModule_AddIntConstant(m, "FLAG_COUNT", CAEKF_FLAG_COUNT);
     PyModule_AddIntConstant(m, "NEWTON_MAX_ITER", CAEKF_NEWTON_MAX_ITER);
     PyModule_AddObject(m, "EPS", PyFloat_FromDouble((double)CAEKF_EPS));

@@ -6,10 +6,17 @@
     est.gamma, est.x, est.P                                        # SI units
     res = caekf_sim.run(scenario, u, y, experiment="canonical", precision="float")   # whole loop in C
 
+Any mechanism the scenario describes (docs/scenario.md): bodies, links, inputs, sensors and contacts. Its
+sizes come from the estimator (caekf_get_sizes): `n` = 2 bodies + contacts states x = [q_1..q_nq [m],
+v_1..v_nq [m/s], gamma_1..gamma_nc [N/m^n_c]], `sensors` measurements y per step (position [m] or
+velocity [m/s], in the order of the scenario's sensors) and `inputs` forces u per step [N] (a number where
+there is one input). `gamma` is contact 1's stiffness, `gammas` every contact's. On the paper's mechanism:
+u [N] a number, y = [q1, q4] [m], x = [q1..q4, v1..v4, gamma] (n = 9).
+
 The modules caekf_sim._caekf_double and caekf_sim._caekf_float are the same C sources compiled with
-CAEKF_USE_FLOAT=0 and 1 (sim/CMakeLists.txt, built by `pip install ./sim`). Results equal caekf-replay's
-bit for bit on the same inputs (sim/tests/test_binding.py). Units: u [N], y = [q1, q4] [m], x = [q1..q4 [m],
-v1..v4 [m/s], gamma [N/m^1.5]], t [s]; P in the same units squared.
+CAEKF_USE_FLOAT=0 and 1 (sim/CMakeLists.txt, built by `pip install ./sim`) for the host's capacity
+(MAX_BODIES, MAX_SENSORS, MAX_INPUTS, MAX_CONTACTS of the module). Results equal caekf-replay's bit for bit
+on the same inputs (sim/tests/test_binding.py); t [s]; P in the units of x squared.
 
 `run` is a plain module-level function of numpy arrays and picklable settings, so it runs as it is in
 process pools and on Dask workers.
@@ -33,6 +40,8 @@ from .settings_adapter import Settings, check_precision, settings_for
 if TYPE_CHECKING:
     from .truth import Truth
 
+# The paper's mechanism (4 bodies, 1 contact): its state size and the index of its gamma. A general
+# mechanism's are Estimator.n and Estimator.gamma_index (RunResult.n, RunResult.gamma_index).
 N = 9  # augmented state [q1..q4, v1..v4, gamma]
 IG = 8  # index of gamma
 
@@ -52,9 +61,9 @@ class Report(NamedTuple):
     """What one caekf_step / caekf_predict did (caekf_report_t plus the call's status)."""
 
     flags: int  # CAEKF_FLAG_* bits (caekf_sim.flags)
-    nis: float  # normalised innovation squared of the correction (0 without one); chi-square, 2 dof
+    nis: float  # normalised innovation squared of the correction (0 without one); chi-square, `sensors` dof
     newton_iters: int  # Newton iterations of the prediction
-    delta: float  # predicted penetration delta(x_k-) [m]
+    delta: float  # deepest predicted penetration over the contacts, max_c delta_c(x_k-) [m]
     status: int  # caekf_status_t: 0 ok, -4 input rejected, -5 numeric rollback, ...
 
     @property
@@ -109,6 +118,27 @@ def check_build(repo: PathLike) -> None:
                                "(rerun tools/bootstrap.sh or pip install ./sim)")
 
 
+def paper_mismatch(sc: Scenario) -> Optional[str]:
+    """None when scenario `sc` describes the paper's mechanism (4 bodies chained as in docs/scenario.md,
+    the input on body 1, position sensors on bodies 1 and 4, one Hertzian contact 2-3), else its first
+    difference, e.g. "bodies = 3 (the paper's chain has 4)"."""
+    from .settings_adapter import scenario_dict
+
+    return _module("double").paper_mismatch(scenario_dict(sc))
+
+
+def require_paper_mechanism(sc: Scenario, what: str) -> None:
+    """Raise a one-line ValueError when `what` (code that handles the paper's mechanism only) gets another."""
+    diff = paper_mismatch(sc)
+    if diff is not None:
+        raise ValueError(f"{what} handles the paper's mechanism only: {diff}")
+
+
+def _gamma_index(settings: Settings) -> int:
+    """Index of contact 1's gamma in x: 2 bodies."""
+    return 2 * int(settings.bodies)
+
+
 def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: Optional[str],
               overrides: Dict[str, Any]) -> Settings:
     if isinstance(what, Settings):
@@ -133,17 +163,17 @@ def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: Op
 class RunResult:
     """Per-step output of :func:`run`, one row per input sample (numpy arrays, picklable)."""
 
-    t: np.ndarray  # (n,) [s]
-    x: np.ndarray  # (n, 9) posterior [q [m], v [m/s], gamma [N/m^1.5]]
-    P_diag: Optional[np.ndarray]  # (n, 9) diagonal of P (physical units squared)
-    flags: np.ndarray  # (n,) uint32 CAEKF_FLAG_* bits
-    nis: np.ndarray  # (n,) normalised innovation squared (0 on steps without correction)
-    newton_iters: np.ndarray  # (n,) int32
-    delta: np.ndarray  # (n,) predicted penetration [m]
-    status: np.ndarray  # (n,) int8 caekf_status_t of each call
-    has_y: np.ndarray  # (n,) bool: False where caekf_predict bridged a missing measurement
-    p_norm: Optional[np.ndarray]  # (n,) 2-norm of P, when asked for (p_norm=True)
-    log_det_s: Optional[np.ndarray]  # (n,) log det of the innovation covariance [log m^4], when asked for
+    t: np.ndarray  # (steps,) [s]
+    x: np.ndarray  # (steps, n) posterior [q [m], v [m/s], gamma per contact [N/m^n]]
+    P_diag: Optional[np.ndarray]  # (steps, n) diagonal of P (physical units squared)
+    flags: np.ndarray  # (steps,) uint32 CAEKF_FLAG_* bits
+    nis: np.ndarray  # (steps,) normalised innovation squared (0 on steps without correction)
+    newton_iters: np.ndarray  # (steps,) int32
+    delta: np.ndarray  # (steps,) deepest predicted penetration over the contacts [m]
+    status: np.ndarray  # (steps,) int8 caekf_status_t of each call
+    has_y: np.ndarray  # (steps,) bool: False where caekf_predict bridged a missing measurement
+    p_norm: Optional[np.ndarray]  # (steps,) 2-norm of P, when asked for (p_norm=True)
+    log_det_s: Optional[np.ndarray]  # (steps,) log det of the innovation covariance, when asked for
     settings: Settings
 
     @property
@@ -151,14 +181,35 @@ class RunResult:
         return self.settings.precision
 
     @property
+    def n(self) -> int:
+        """States per step: 2 bodies + contacts."""
+        return int(self.x.shape[1])
+
+    @property
+    def gamma_index(self) -> int:
+        """Column of contact 1's gamma in x and P_diag (2 bodies)."""
+        return _gamma_index(self.settings)
+
+    @property
     def gamma(self) -> np.ndarray:
-        """Contact stiffness estimate [N/m^1.5]."""
-        return self.x[:, IG]
+        """Stiffness estimate of contact 1 [N/m^n] (steps,)."""
+        self._need_contact()
+        return self.x[:, self.gamma_index]
+
+    @property
+    def gammas(self) -> np.ndarray:
+        """Stiffness estimates of every contact [N/m^n_c] (steps, contacts)."""
+        return self.x[:, self.gamma_index:]
 
     @property
     def p_gg(self) -> Optional[np.ndarray]:
-        """Variance of gamma [(N/m^1.5)^2]."""
-        return None if self.P_diag is None else self.P_diag[:, IG]
+        """Variance of contact 1's gamma [(N/m^n)^2]."""
+        self._need_contact()
+        return None if self.P_diag is None else self.P_diag[:, self.gamma_index]
+
+    def _need_contact(self) -> None:
+        if self.gamma_index >= self.n:
+            raise ValueError("this mechanism has no contact, so no gamma")
 
     @property
     def flags_seen(self) -> int:
@@ -166,6 +217,11 @@ class RunResult:
 
     def __len__(self) -> int:
         return len(self.t)
+
+
+def _c_size(name: str, doc: str) -> property:
+    """A read-only int property of Estimator: the C object's attribute `name`."""
+    return property(lambda self: int(getattr(self._c, name)), doc=doc)
 
 
 class Estimator:
@@ -182,6 +238,10 @@ class Estimator:
 
     Settings are checked by caekf_settings_validate; a refusal raises SettingsError("settings refused: m[2] = -1: ..."),
     caekf-replay's message. step/predict are the C calls themselves (no Python frame in between).
+
+    The mechanism's sizes: `n` states (x = [q_1..q_nq, v_1..v_nq, gamma_1..gamma_nc]), `sensors`
+    measurements and `inputs` forces per step, `bodies`, `contacts`, `gamma_index` (contact 1's gamma in x)
+    and `gamma_indices` (every contact's).
     """
 
     def __init__(self, scenario_or_settings: ScenarioOrSettings, precision: Optional[str] = None,
@@ -199,35 +259,60 @@ class Estimator:
         self.predict = self._c.predict  # type: ignore[method-assign]
 
     # Documented signatures; __init__ binds the C methods over them.
-    def step(self, u: float, y: Sequence[float]) -> Report:  # pragma: no cover - replaced per instance
-        """caekf_step: input force u [N], measurement y = [q1, q4] [m]. Non-finite input is refused
-        (status -4, flag INPUT_REJECTED, state untouched); never raises for it."""
+    def step(self, u: Union[float, Sequence[float], None], y: Sequence[float]) -> Report:  # pragma: no cover
+        """caekf_step: the input forces u [N] (a number for a mechanism with one input, else a sequence of
+        `inputs` numbers; None without inputs) and the measurements y, one per sensor [m or m/s]. A wrong
+        count is a one-line ValueError, a non-number a TypeError. Non-finite values are refused by the
+        estimator (status -4, flag INPUT_REJECTED, state untouched); never raises for them."""
         return self._c.step(u, y)
 
-    def predict(self, u: float) -> Report:  # pragma: no cover - replaced per instance
-        """caekf_predict: time update without measurement (a lost sample), input force u [N]."""
+    def predict(self, u: Union[float, Sequence[float], None]) -> Report:  # pragma: no cover - replaced per instance
+        """caekf_predict: time update without measurement (a lost sample), the input forces u as for step."""
         return self._c.predict(u)
 
     @property
     def precision(self) -> str:
         return self.settings.precision
 
+    # The mechanism's sizes (int), read from the C object (caekf_get_sizes after init).
+    n = _c_size("n", "States: 2 bodies + contacts.")
+    sensors = _c_size("sensors", "Measurements per step (one per sensor).")
+    inputs = _c_size("inputs", "Input forces per step.")
+    bodies = _c_size("bodies", "Bodies (positions q and velocities v).")
+    contacts = _c_size("contacts", "Contacts (one gamma each).")
+
+    @property
+    def gamma_index(self) -> int:
+        """Index of contact 1's gamma in x (2 bodies)."""
+        return 2 * self._c.bodies
+
+    @property
+    def gamma_indices(self) -> range:
+        """Indices of every contact's gamma in x: 2 bodies .. n-1."""
+        return range(2 * self._c.bodies, self._c.n)
+
     @property
     def x(self) -> np.ndarray:
-        """Augmented state [q1..q4 [m], v1..v4 [m/s], gamma [N/m^1.5]] (caekf_get_state)."""
-        out = np.empty(N)
+        """Augmented state (n,): [q [m], v [m/s], gamma per contact [N/m^n]] (caekf_get_state)."""
+        out = np.empty(self._c.n)
         self._c._state_into(out)
         return out
 
     @property
     def gamma(self) -> float:
-        """Contact stiffness estimate [N/m^1.5] (caekf_get_gamma)."""
+        """Stiffness estimate of contact 1 [N/m^n] (caekf_get_gamma); ValueError without contacts."""
         return self._c.gamma
 
     @property
+    def gammas(self) -> np.ndarray:
+        """Stiffness estimates of every contact [N/m^n_c] (contacts,)."""
+        return self.x[self.gamma_index:]
+
+    @property
     def P(self) -> np.ndarray:
-        """Covariance (9, 9) in physical units (caekf_get_covariance)."""
-        out = np.empty((N, N))
+        """Covariance (n, n) in physical units (caekf_get_covariance)."""
+        n = self._c.n
+        out = np.empty((n, n))
         self._c._cov_into(out)
         return out
 
@@ -248,21 +333,25 @@ class Estimator:
         """Back to the initial estimate (caekf_init with the same settings)."""
         self._c.reset()
 
-    def run(self, u: np.ndarray, y: np.ndarray, *, t: Optional[np.ndarray] = None,
+    def run(self, u: Optional[np.ndarray], y: np.ndarray, *, t: Optional[np.ndarray] = None,
             has_y: Optional[np.ndarray] = None, missing_y: str = "predict", p_diag: bool = True,
             p_norm: bool = False, log_det_s: bool = False) -> RunResult:
         """Continue over n samples in C from the current state; see :func:`run`."""
-        u = np.ascontiguousarray(u, dtype=np.float64).reshape(-1)
+        ny, nu, nx = self._c.sensors, self._c.inputs, self._c.n
         y = np.ascontiguousarray(y, dtype=np.float64)
-        n = len(u)
-        if y.shape != (n, 2):
-            raise ValueError(f"y must have shape ({n}, 2) (q1, q4 per sample of u), got {y.shape}")
+        if y.ndim != 2 or y.shape[1] != ny:
+            raise ValueError(f"y must have shape (steps, {ny}) (one column per sensor), got {y.shape}")
+        n = len(y)
+        u = np.empty((n, 0)) if u is None and nu == 0 else np.ascontiguousarray(u, dtype=np.float64)
+        if u.shape != (n, nu) and not (nu == 1 and u.shape == (n,)):
+            want = f"({n},) or ({n}, 1)" if nu == 1 else f"({n}, {nu})"
+            raise ValueError(f"u must have shape {want} (one column per input, a row per row of y), got {u.shape}")
         if has_y is not None:
             has = np.ascontiguousarray(has_y, dtype=np.bool_).reshape(-1)
             if len(has) != n:
                 raise ValueError(f"has_y must have {n} entries, got {len(has)}")
         elif missing_y == "predict":
-            has = ~(np.isnan(y[:, 0]) & np.isnan(y[:, 1]))
+            has = ~np.isnan(y).all(axis=1)
         elif missing_y == "reject":
             has = np.ones(n, dtype=np.bool_)
         else:
@@ -273,8 +362,8 @@ class Estimator:
             t = np.asarray(t, dtype=np.float64).reshape(-1)
             if len(t) != n:
                 raise ValueError(f"t must have {n} entries, got {len(t)}")
-        x = np.empty((n, N))
-        pd = np.empty((n, N)) if p_diag else None
+        x = np.empty((n, nx))
+        pd = np.empty((n, nx)) if p_diag else None
         flags = np.empty(n, dtype=np.uint32)
         iters = np.empty(n, dtype=np.int32)
         nis = np.empty(n)
@@ -295,21 +384,25 @@ class Estimator:
         self._c._set_raw(state["raw"])
 
     def __repr__(self) -> str:
-        return (f"Estimator({self.precision}, mode={self.settings.mode}, gamma={self.gamma:.6g}, "
+        gammas = ", ".join(f"{g:.6g}" for g in self.gammas)
+        return (f"Estimator({self.precision}, n={self.n}, mode={self.settings.mode}, gamma=[{gammas}], "
                 f"steps={self.step_count})")
 
 
-def run(scenario_or_settings: ScenarioOrSettings, u: np.ndarray, y: np.ndarray, *,
+def run(scenario_or_settings: ScenarioOrSettings, u: Optional[np.ndarray], y: np.ndarray, *,
         t: Optional[np.ndarray] = None, precision: Optional[str] = None, experiment: Optional[str] = None,
         has_y: Optional[np.ndarray] = None, missing_y: str = "predict", p_diag: bool = True,
         p_norm: bool = False, log_det_s: bool = False, **overrides: Any) -> RunResult:
     """Run the C estimator over a whole record, the loop in C (no GIL held), from its initial estimate.
 
-    u: (n,) input force [N]; y: (n, 2) measurements [q1, q4] [m]; t: (n,) sample times [s] (default
-    k dt, k = 1..n). A row whose y1 and y4 are both NaN is a lost measurement bridged by caekf_predict, as
-    `caekf-replay --missing-y-predict` does (missing_y="predict"); missing_y="reject" hands such rows to
-    caekf_step, which refuses them (flag INPUT_REJECTED) like `--allow-nonfinite`. `has_y` (n,) bool sets
-    the rows explicitly. `p_norm` adds the 2-norm of P per step (costly Jacobi sweeps, as caekf-replay's
+    y: (steps, sensors) measurements, one column per sensor of the mechanism [m or m/s] (the paper's:
+    [q1, q4]); u: (steps, inputs) input forces [N], (steps,) for a mechanism with one input, None for one
+    without inputs; t: (steps,)
+    sample times [s] (default k dt, k = 1..steps). A row of y that is all NaN is a lost measurement bridged
+    by caekf_predict, as `caekf-replay --missing-y-predict` does (missing_y="predict"); missing_y="reject"
+    hands such rows to caekf_step, which refuses them (flag INPUT_REJECTED) like `--allow-nonfinite`.
+    `has_y` (steps,) bool sets the rows explicitly. The result's x and P_diag are (steps, n) for the
+    mechanism's n states; `gamma` is contact 1's, `gammas` every contact's. `p_norm` adds the 2-norm of P per step (costly Jacobi sweeps, as caekf-replay's
     p_norm column); `log_det_s` the log-determinant of each correction's innovation covariance (for the
     innovation likelihood; NaN on steps without a plain correction). Settings as for :class:`Estimator`.
 
@@ -340,14 +433,20 @@ def truth(sc: Scenario) -> "Truth":
     """The truth of scenario `sc` from caekf-truth's C generator (host/common/truth.c, double): the same
     samples as `caekf-truth` writes, bit for bit, far faster than caekf_sim.truth.simulate (whose noise
     generator differs: numpy's, not splitmix64). Returns caekf_sim.truth.Truth (t [s], u [N], y [m],
-    q [m], v [m/s], delta [m]); a pure function, picklable for process pools and Dask."""
+    q [m], v [m/s], delta [m]); a pure function, picklable for process pools and Dask. The C truth
+    integrates any mechanism the scenario describes (docs/mechanism.md)."""
     from .settings_adapter import scenario_dict
     from .truth import Truth
 
+    from .mechanism import Mechanism
+
+    mech = Mechanism.from_scenario(sc)
     x = sc.t_end / sc.dt
     n = int(math.floor(x + 0.5)) if x > 0 else 0  # caekf_scenario_steps: lround
-    t, u, delta = np.empty(n), np.empty(n), np.empty(n)
-    y, q, v = np.empty((n, 2)), np.empty((n, 4)), np.empty((n, 4))
+    t = np.empty(n)
+    u, delta = np.empty((n, sc.inputs)), np.empty((n, sc.contacts))
+    y, q, v = np.empty((n, sc.sensors)), np.empty((n, sc.bodies)), np.empty((n, sc.bodies))
     iters, failed = np.empty(n, dtype=np.int32), np.empty(n, dtype=np.int32)
     _module("double").truth(scenario_dict(sc), t, u, y, q, v, delta, iters, failed)
-    return Truth(t=t, u=u, y=y, q=q, v=v, delta=delta)
+    return Truth(t=t, u=u[:, 0] if sc.inputs == 1 else u, y=y, q=q, v=v,
+                 delta=delta[:, 0] if sc.contacts == 1 else delta, y_names=mech.sensor_names())

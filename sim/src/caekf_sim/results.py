@@ -1,7 +1,7 @@
 """Estimate CSV (same columns as the C `caekf-replay` output) and its reader.
 
-A general mechanism (nq bodies, nc contacts) writes q1..q<nq>, v1..v<nq>, then `gamma` for one contact
-or gamma1..gamma<nc>; the paper's columns are RESULT_COLUMNS."""
+A general mechanism (nq bodies, nc contacts) writes q1..q<nq>, v1..v<nq>, then `gamma` (contact 1) and
+gamma2..gamma<nc>, as caekf-replay does; the paper's columns are RESULT_COLUMNS."""
 from __future__ import annotations
 
 import warnings
@@ -21,7 +21,7 @@ PathLike = Union[str, Path]
 
 
 def result_columns(nq: int, nc: int) -> Tuple[str, ...]:
-    gammas = ["gamma"] if nc == 1 else [f"gamma{i}" for i in range(1, nc + 1)]
+    gammas = ["gamma"][:nc] + [f"gamma{i}" for i in range(2, nc + 1)]
     return ("t", *[f"q{i}" for i in range(1, nq + 1)], *[f"v{i}" for i in range(1, nq + 1)], *gammas,
             "p_norm", "p_gg", "flags", "newton_iters")
 
@@ -38,7 +38,7 @@ def write_result_csv(res: EstimateResult, path: PathLike) -> None:
 
 def read_result_csv(path: PathLike) -> EstimateResult:
     """Read an estimate CSV (ours or caekf-replay's); columns matched by header name (any mechanism: q1..,
-    v1.., gamma or gamma1..). A file that is not one is a one-line MeasurementError naming it (a missing
+    v1.., gamma, gamma2..). A file that is not one is a one-line MeasurementError naming it (a missing
     file: OSError)."""
     from .measurements import MeasurementError, check_input_file
 
@@ -47,9 +47,10 @@ def read_result_csv(path: PathLike) -> EstimateResult:
         with open(p, encoding="utf-8") as f:
             header = [c.strip() for c in f.readline().split(",")]
         nq = sum(1 for c in header if c[:1] == "q" and c[1:].isdigit())
-        nc = 1 if "gamma" in header else sum(1 for c in header if c.startswith("gamma") and c[5:].isdigit())
+        nc = ("gamma" in header) + sum(1 for c in header if c.startswith("gamma") and c[5:].isdigit())
         want = result_columns(nq, nc)
-        missing = [c for c in want if c not in header] or (["q1"] if nq == 0 else [])
+        # no body at all: name the paper's columns, what an estimate CSV is most often expected to hold
+        missing = [c for c in (want if nq > 0 else RESULT_COLUMNS) if c not in header]
         if missing:
             raise MeasurementError(f"{p}: not an estimate CSV: missing columns {', '.join(missing)}")
         with warnings.catch_warnings():  # an empty body is reported below, not as numpy's warning

@@ -28,7 +28,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .binding import run
+from .binding import require_paper_mechanism, run
 from .scenario import Scenario
 from .settings_adapter import TUNABLE_NOISE, noise_of, scenario_with_noise, settings_for
 
@@ -214,6 +214,9 @@ def tune(sc: Scenario, records: Sequence[Record], params: Sequence[str] = TUNABL
     """
     from scipy.optimize import minimize
 
+    # the records (t,u,y1,y4 CSVs, the bench's candump) and TUNABLE_NOISE (sigma_r, contact 1's
+    # sigma_q_gamma) are the paper's
+    require_paper_mechanism(sc, "tune")
     bad = sorted(set(params) - set(TUNABLE_NOISE))
     if bad or not params:
         raise ValueError(f"tunable noise settings are {', '.join(TUNABLE_NOISE)}; got {', '.join(params) or 'none'}")

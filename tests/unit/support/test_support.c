@@ -65,7 +65,7 @@ long run_paper(caekf_t *est, const caekf_settings_t *s, step_hook_t each, void *
         caekf_status_t st;
         y[0] = (caekf_scalar_t)r.y1;
         y[1] = (caekf_scalar_t)r.y4;
-        st = caekf_step(est, (caekf_scalar_t)r.u, y, &rep);
+        st = caekf_step(est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep);
         if (each != 0) {
             each(est, &rep, st, &r, ctx);
         }
@@ -75,16 +75,17 @@ long run_paper(caekf_t *est, const caekf_settings_t *s, step_hook_t each, void *
     return rc < 0 ? -1 : n;
 }
 
-void test_spd_matrix(caekf_scalar_t P[CAEKF_N][CAEKF_N])
+void test_spd_matrix(paper_mat_t P)
 {
-    double L[CAEKF_N][CAEKF_N];
+    double L[PAPER_N][PAPER_N];
     int i, j, k;
-    for (i = 0; i < CAEKF_N; ++i)
-        for (j = 0; j < CAEKF_N; ++j) L[i][j] = j <= i ? 0.3 + 0.1 * ((i * 7 + j * 3) % 5) - (i == j ? 0 : 0.2) : 0;
-    for (i = 0; i < CAEKF_N; ++i)
-        for (j = 0; j < CAEKF_N; ++j) {
+    for (i = 0; i < PAPER_N; ++i)
+        for (j = 0; j < PAPER_N; ++j) L[i][j] = j <= i ? 0.3 + 0.1 * ((i * 7 + j * 3) % 5) - (i == j ? 0 : 0.2) : 0;
+    for (i = 0; i < PAPER_N; ++i)
+        for (j = 0; j < PAPER_N; ++j) {
             double s = (i == j) ? 0.05 : 0;
-            for (k = 0; k < CAEKF_N; ++k) s += L[i][k] * L[j][k];
+            for (k = 0; k < PAPER_N; ++k) s += L[i][k] * L[j][k];
             P[i][j] = (caekf_scalar_t)s;
         }
 }
+

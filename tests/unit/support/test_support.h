@@ -36,8 +36,35 @@ int test_file_open(const char *path);
 long test_file_read(void *buf, unsigned long n);
 void test_file_close(void);
 
+/* The paper's mechanism in the estimator's state, whatever the build's capacity: 4 bodies, one contact
+ * (n = 9 states, gamma last), sensors on q1 and q4. */
+#define PAPER_NQ 4
+#define PAPER_N 9
+#define PAPER_IG 8
+#define PAPER_IY1 0
+#define PAPER_IY4 3
+typedef caekf_scalar_t paper_mat_t[PAPER_N][PAPER_N];
+/* Entry (i, j) of an estimator's scaled covariance (n x n, leading dimension n). */
+#define EST_P(est, i, j) ((est)->P[(i) * (est)->model.n + (j)])
+
+#ifdef CAEKF_FILTER_H
+/* Filter dimensions of the paper's mechanism, for the tests of caekf_filter.h's steps (only they
+ * include that internal header). */
+static inline void paper_filter_dims(caekf_filter_dims_t *d, caekf_scalar_t r, caekf_gamma_policy_t policy)
+{
+    d->nq = PAPER_NQ;
+    d->n = PAPER_N;
+    d->ny = 2;
+    d->h[0] = PAPER_IY1;
+    d->h[1] = PAPER_IY4;
+    d->r[0] = r;
+    d->r[1] = r;
+    d->policy[0] = (uint8_t)policy;
+}
+#endif
+
 /* A deterministic SPD matrix L L^T + small diagonal, with every entry correlated (filter-level tests). */
-void test_spd_matrix(caekf_scalar_t P[CAEKF_N][CAEKF_N]);
+void test_spd_matrix(paper_mat_t P);
 
 /* Runs `experiment` over the whole truth, calling `each` after every step (may be NULL). Returns the
  * number of steps, or -1 when the truth cannot be read. */

@@ -26,7 +26,7 @@ DEFAULT = "default"  # no preset: the schema's defaults over the scenario
 
 @dataclass(frozen=True)
 class Estimate:
-    """Per step k = 1..N: gamma [N/m^1.5], its variance P_gamma,gamma, NIS (NaN when none), flags."""
+    """Per step k = 1..N: gamma of contact 1 [N/m^n], its variance P_gamma,gamma, NIS (NaN when none), flags."""
 
     gamma: np.ndarray
     p_gg: np.ndarray
@@ -48,8 +48,14 @@ def _csv_in(t: np.ndarray, u: np.ndarray, y: np.ndarray) -> bytes:
 
 def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.ndarray,
              backend: str = "binding") -> Estimate:
-    """Run one estimator configuration (a preset name, or "default") over measurements y (N, 2)."""
+    """Run one estimator configuration (a preset name, or "default") over measurements y (N, sensors) and
+    inputs u (N,) or (N, inputs). The binding runs any mechanism; the replay (t,u,y1,y4 CSV) and numpy
+    backends the paper's only (another is a one-line ValueError)."""
     preset = None if experiment == DEFAULT else experiment
+    if backend in ("replay", "numpy"):
+        from ..binding import require_paper_mechanism
+
+        require_paper_mechanism(sc, f"the {backend} estimator backend")
     if backend == "binding":
         from ..binding import run
 

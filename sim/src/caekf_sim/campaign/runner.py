@@ -46,7 +46,11 @@ class TruthArrays:
 
 def truth_arrays(sc: Scenario, backend: str = "binding") -> TruthArrays:
     """Measurements and penetration of a scenario: caekf-truth's C generator in process (binding,
-    default), the caekf-truth program ("c", "c-backward-euler") or the numpy truth."""
+    default), the caekf-truth program ("c", "c-backward-euler") or the numpy truth. Every truth backend
+    simulates the paper's mechanism only (so far): another is a one-line ValueError."""
+    from ..binding import require_paper_mechanism
+
+    require_paper_mechanism(sc, f"the {backend} truth")
     if backend == "binding":
         from ..binding import truth as c_truth
 
@@ -123,6 +127,12 @@ def run_family(family: Family, experiments: Sequence[str], truth: str = "binding
                progress: bool = True) -> List[Dict[str, Any]]:
     """Rows of every (run, experiment), sorted. Local process pool by default (workers: all cores);
     scheduler "tcp://HOST:PORT" or a dask.distributed Client runs the same tasks on Dask."""
+    from ..binding import require_paper_mechanism
+
+    for r in family.runs:  # refused before any run starts, rather than in a worker
+        require_paper_mechanism(r.scenario, f"run {r.run} ({r.source}): the {truth} truth")
+        if estimator != "binding":
+            require_paper_mechanism(r.scenario, f"run {r.run} ({r.source}): the {estimator} estimator backend")
     tasks = [Task(r, tuple(experiments), truth, estimator) for r in family.runs]
     bar = _progress(len(tasks), progress)
     rows: List[Dict[str, Any]] = []

@@ -108,6 +108,10 @@ def _bench_binding(args: argparse.Namespace) -> int:
     from ..bench.results import format_table
 
     sc = scenario_from_args(args)
+    # the truth CSV, caekf-bench, the numpy reference and FilterPy run the paper's mechanism only
+    from ..binding import require_paper_mechanism
+
+    require_paper_mechanism(sc, "bench-binding")
     experiments = ["canonical", "switched", "switched-highq", "switched-highq-constrained"] \
         if args.experiments == ["all"] else args.experiments
     rows: List[Dict] = []

@@ -57,6 +57,9 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     try:
         rows = run_family(family, experiments, truth=args.truth, estimator=args.estimator, workers=args.workers,
                           scheduler=args.scheduler, progress=not args.no_progress)
+    except ValueError as exc:  # e.g. a mechanism the truth does not simulate
+        print(f"caekf-sim campaign: {exc}", file=sys.stderr)
+        return 2
     except RuntimeError as exc:
         print(f"caekf-sim campaign: {exc}", file=sys.stderr)
         return 3

@@ -3,7 +3,8 @@
 
 Run by CMake at build time (the outputs live in the build tree and are never edited by hand):
 
-    codegen.py c-core   OUTDIR            caekf/caekf_settings_schema.h, caekf_settings_table.c
+    codegen.py c-core   OUTDIR [MECH]     caekf/caekf_settings_schema.h, caekf_settings_table.c,
+                                          caekf/caekf_capacity.h (sized for MECH, a scenario, if given)
     codegen.py c-host   OUTDIR            caekf_scenario_schema.h, caekf_scenario_schema.c (scenario
                                           reader table, presets)
     codegen.py c-fixture OUTDIR SCENARIO  caekf_fixture_settings.h (a scenario's values as parameter
@@ -270,7 +271,31 @@ def _c_double(v: float) -> str:
     return repr(float(v))
 
 
-def c_core(schema: Schema) -> Dict[str, str]:
+def c_capacity(schema: Schema, mechanism: Optional[Path] = None) -> str:
+    """caekf/caekf_capacity.h: the build's mechanism capacity. Without a mechanism, the wire's (any
+    mechanism up to it, sizes at run time); with one (a scenario file), exactly its counts (CAEKF_SIZED:
+    the sizes are constants, as nanopb sizes its structs from a .proto)."""
+    lines = [f"/* {GENERATED}" + (f", and from {mechanism.name}" if mechanism else "") + ". */",
+             "#ifndef CAEKF_CAPACITY_H", "#define CAEKF_CAPACITY_H", ""]
+    if mechanism is None:
+        counts = dict(schema.capacity)
+        lines.append("#define CAEKF_SIZED 0 /* any mechanism within the capacity, sizes at run time */")
+    else:
+        given = read_scenario_values(schema, mechanism, wire_only=False)
+        counts = {}
+        for cap in CAPACITIES:
+            counter = next(s for s in schema.settings if s.counts == cap)
+            counts[cap] = int(given.get(counter.keys[0], counter.default_value()))
+        lines.append(f"#define CAEKF_SIZED 1 /* exactly the mechanism of {mechanism.name} */")
+        for cap, n in counts.items():
+            lines.append(f"#define CAEKF_SIZED_{_macro(cap)} {n}")
+    for cap, n in counts.items():
+        # C has no zero-length arrays: a capacity of 0 stores one unused element.
+        lines.append(f"#define CAEKF_MAX_{_macro(cap)} {max(n, 1)}")
+    return "\n".join(lines + ["", "#endif", ""])
+
+
+def c_core(schema: Schema, mechanism: Optional[Path] = None) -> Dict[str, str]:
     wire = schema.wire
     h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SETTINGS_SCHEMA_H", "#define CAEKF_SETTINGS_SCHEMA_H", "",
          "/* CTRL_PARAM parameter ids: an array setting takes ids ID .. ID+count-1 (element i at ID+i). */"]
@@ -352,7 +377,7 @@ const char *caekf_param_key(unsigned param_id)
 }
 """]
     return {"caekf/caekf_settings_schema.h": "\n".join(h), "caekf_settings_table.c": "\n".join(c),
-            "caekf_settings_names.c": "\n".join(n)}
+            "caekf_settings_names.c": "\n".join(n), "caekf/caekf_capacity.h": c_capacity(schema, mechanism)}
 
 
 def c_host(schema: Schema) -> Dict[str, str]:
@@ -513,7 +538,7 @@ def main(argv: Sequence[str]) -> int:
     try:
         schema = load()
         if len(argv) >= 2 and argv[0] == "c-core":
-            _write(Path(argv[1]), c_core(schema))
+            _write(Path(argv[1]), c_core(schema, Path(argv[2]) if len(argv) >= 3 and argv[2] else None))
         elif len(argv) >= 2 and argv[0] == "c-host":
             _write(Path(argv[1]), c_host(schema))
         elif len(argv) >= 3 and argv[0] == "c-fixture":
