@@ -48,11 +48,12 @@ static void load_fv0(caekf_t *est)
 
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
 {
-    const caekf_model_params_t *mp = &s->model;
+    const caekf_model_params_t *mp;
     int i, j, nq, nc, n;
     if (est == 0 || s == 0) {
         return CAEKF_ERR_NULL;
     }
+    mp = &s->model;
     /* Validation covers everything caekf_model_init checks, so nothing below can fail half-way. */
     if (caekf_settings_validate(s, 0) != CAEKF_OK) {
         return CAEKF_ERR_SETTINGS;
@@ -144,7 +145,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
-    caekf_filter_dims_t *const dims = &est->dims;
+    caekf_filter_dims_t *dims; /* the instance's, once est is known to be one */
     caekf_status_t st = CAEKF_OK;
     caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
@@ -165,6 +166,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     if (!is_init(est)) {
         return CAEKF_ERR_NOT_INIT;
     }
+    dims = &est->dims;
     nq = CAEKF_DIM_NQ(&est->model);
     nc = CAEKF_DIM_NC(&est->model);
     n = CAEKF_DIM_N(&est->model);

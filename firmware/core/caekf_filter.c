@@ -183,8 +183,8 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
     int k, l;
     if (ny == 2) {
         caekf_scalar_t inv[3];
-        if (caekf_sym2_inverse(UP(P, n, d->h[0], d->h[0]) + d->r[0], UP(P, n, d->h[0], d->h[1]),
-                               UP(P, n, d->h[1], d->h[1]) + d->r[1], CAEKF_EPS * 16, inv) != CAEKF_LA_OK) {
+        if (caekf_sym2_inverse(AT(P, n, d->h[0], d->h[0]) + d->r[0], UP(P, n, d->h[0], d->h[1]),
+                               AT(P, n, d->h[1], d->h[1]) + d->r[1], CAEKF_EPS * 16, inv) != CAEKF_LA_OK) {
             return -1;
         }
         Si[0][0] = inv[0];
@@ -374,6 +374,7 @@ void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, c
     const caekf_scalar_t dz = zmin - z[g];
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
     int usable = s > CAEKF_EPS * CAEKF_EPS;
+    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j, k;
     if (!(z[g] < zmin)) {
         return;

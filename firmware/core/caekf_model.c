@@ -327,6 +327,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     for (it = 0; it <= max_iter; ++it) {
         caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
         caekf_scalar_t r[CAEKF_NQ], mag[CAEKF_NQ];
+        /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         int piv[CAEKF_NQ];
@@ -405,6 +406,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
+    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j;
     for (i = 0; i < nc; ++i) {
         caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);

@@ -133,6 +133,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         case CAEKF_LAYOUT_FLOAT32:
             check_value(msg, p);
             break;
+        case CAEKF_LAYOUT_FD_IN:
+        case CAEKF_LAYOUT_FD_OUT:
+            /* 64-byte CAN FD payloads with a CRC-16: this harness feeds classic 8-byte records (the FD
+             * codec is checked against cantools in test_proto_codec and over vcan in the HIL). */
+            continue;
         default:
             FZ_CHECK(0, "a layout this harness does not know");
         }

@@ -402,9 +402,10 @@ def run(scenario_or_settings: ScenarioOrSettings, u: Optional[np.ndarray], y: np
     by caekf_predict, as `caekf-replay --missing-y-predict` does (missing_y="predict"); missing_y="reject"
     hands such rows to caekf_step, which refuses them (flag INPUT_REJECTED) like `--allow-nonfinite`.
     `has_y` (steps,) bool sets the rows explicitly. The result's x and P_diag are (steps, n) for the
-    mechanism's n states; `gamma` is contact 1's, `gammas` every contact's. `p_norm` adds the 2-norm of P per step (costly Jacobi sweeps, as caekf-replay's
-    p_norm column); `log_det_s` the log-determinant of each correction's innovation covariance (for the
-    innovation likelihood; NaN on steps without a plain correction). Settings as for :class:`Estimator`.
+    mechanism's n states; `gamma` is contact 1's, `gammas` every contact's. `p_norm` adds the 2-norm of
+    P per step (costly Jacobi sweeps, as caekf-replay's p_norm column); `log_det_s` the log-determinant
+    of each correction's innovation covariance (for the innovation likelihood; NaN on steps without a
+    plain correction). Settings as for :class:`Estimator`.
 
     A pure function of its arguments (numpy arrays, Scenario or Settings): picklable, so it runs as it is
     in process pools and on Dask workers.
