@@ -52,6 +52,18 @@ static uint8_t clamp_iters(int it)
     return (uint8_t)((it < 0) ? 0 : (it > 255) ? 255 : it);
 }
 
+/* What a step did, as EST_STEP, production page 10 and EST_FD carry it. */
+static caekf_msg_step_t step_info(uint16_t step, caekf_status_t status, const caekf_report_t *report,
+                                  uint16_t app_flags)
+{
+    caekf_msg_step_t s;
+    s.step = step;
+    s.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
+    s.newton_iters = clamp_iters(report->newton_iters);
+    s.status = (int8_t)status;
+    return s;
+}
+
 static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
                             uint16_t app_flags)
 {
@@ -97,10 +109,7 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
         if (caekf_get_cov_norm2(&app->est, &p_norm) != CAEKF_OK) {
             app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
         }
-        pg.info.step = step;
-        pg.info.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
-        pg.info.newton_iters = clamp_iters(report->newton_iters);
-        pg.info.status = (int8_t)status;
+        pg.info = step_info(step, status, report, app_flags);
     }
     if (caekf_proto_encode_page(&pg, f.data) == CAEKF_PROTO_SATURATED) {
         caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
@@ -136,10 +145,7 @@ static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, cons
     }
     m.p_gg = wire_p_gg(app);
     m.step = step;
-    m.info.step = step;
-    m.info.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
-    m.info.newton_iters = clamp_iters(report->newton_iters);
-    m.info.status = (int8_t)status;
+    m.info = step_info(step, status, report, app_flags);
     if (caekf_proto_encode_fd_out(&m, f.data) == CAEKF_PROTO_SATURATED) {
         caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
         m.info.flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
@@ -180,10 +186,7 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
     send_value(app, CAEKF_MSG_EST_P_NORM, step, p_norm_out, &app_flags);
     send_value(app, CAEKF_MSG_EST_P_GG, step, wire_p_gg(app), &app_flags);
 
-    sm.step = step;
-    sm.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
-    sm.newton_iters = clamp_iters(report->newton_iters);
-    sm.status = (int8_t)status;
+    sm = step_info(step, status, report, app_flags);
     (void)caekf_proto_encode_step(&sm, f.data);
     caekf_app_send(app, CAEKF_MSG_EST_STEP, &f);
 }
