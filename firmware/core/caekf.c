@@ -11,6 +11,7 @@
 
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
+CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= 2 * CAEKF_NQ, scratch_holds_the_newton_work);
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
@@ -70,6 +71,10 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->x_prev[i] = 0;
         est->x_pred[i] = 0;
     }
+    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
+        est->u_prev[i] = 0;
+    }
+    est->u_prev_known = 0;
     for (i = 0; i < nq; ++i) {
         est->scale[i] = s->sigma_q0;
         est->scale[nq + i] = s->sigma_v0;
@@ -138,10 +143,41 @@ static int all_finite(const caekf_scalar_t *v, int n)
     return nf == 0;
 }
 
-/* One step: prediction, then (with y) the correction and the constraint. y == NULL: no measurement
- * (caekf_predict), which caekf_step (measured == 1) refuses as a caller error. */
+/* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step) and
+ * P- = F P F^T + Q into P_work (upper triangle); z = S^-1 x_k-. Returns 0, or -1 on a singular matrix. */
+static int predict_covariance(caekf_t *est, int closed)
+{
+    const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
+    const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
+    caekf_scalar_t *z = est->x_pred;
+    int i;
+    if (closed) {
+        est->fv_const = 0;
+        if (caekf_model_transition_v(&est->model, est->x_pred, est->x_prev, est->fv) != 0) {
+            return -1;
+        }
+        scale_fv(est->fv, s, nq, n);
+        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
+    } else if (!est->fv_const) {
+        load_fv0(est);
+    }
+    for (i = 0; i < 2 * nq; ++i) {
+        z[i] = est->x_pred[i] / s[i];
+    }
+    for (i = 2 * nq; i < n; ++i) {
+        z[i] = est->z[i]; /* exact: the random walk carries gamma over bit for bit */
+    }
+    /* From here on P_work holds the upper triangle only; the commit mirrors it. */
+    caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.hs * s_v / s_q,
+                             (est->model.p.dt - est->model.hs) * s_v / s_q, est->q_diag, &est->dims);
+    return 0;
+}
+
+/* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
+ * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
+ * caller error. */
 static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured,
-                              caekf_report_t *report)
+                              int predict, caekf_report_t *report)
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
@@ -152,7 +188,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     int iters = 0;
     int i, nq, nc, n, ny, nu, any_contact = 0;
     const caekf_scalar_t *s;
-    caekf_scalar_t s_q, s_v, nis = 0;
+    caekf_scalar_t nis = 0;
 
     if (report != 0) {
         report->flags = 0;
@@ -182,17 +218,21 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         return CAEKF_ERR_INPUT; /* nothing in *est has been written */
     }
     s = est->scale;
-    s_q = s[0];
-    s_v = s[nq];
     xprev = est->x_prev;
     z = est->x_pred;
 
-    /* Prediction (Table 1): Newton solve of eq. (19), then F by eq. (10) at x_k-. */
+    /* Prediction (Table 1): Newton solve of the step, then F by eq. (10) at x_k-. The first step after
+     * init holds u over its interval unless caekf_correct gave the input at t0. */
     for (i = 0; i < n; ++i) {
         xprev[i] = est->z[i] * s[i];
     }
-    if (caekf_model_newton(&est->model, xprev, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred,
-                           &iters) != 0) {
+    if (!predict) {
+        for (i = 0; i < n; ++i) {
+            est->x_pred[i] = xprev[i];
+        }
+    } else if (caekf_model_newton(&est->model, xprev, est->u_prev_known ? est->u_prev : u, u,
+                                  est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &iters,
+                                  est->scratch.m) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
     }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
@@ -207,26 +247,20 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     if (any_contact) {
         flags |= CAEKF_FLAG_CONTACT_ACTIVE;
-        est->fv_const = 0;
-        if (caekf_model_transition_v(&est->model, est->x_pred, est->fv) != 0) {
-            flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
-            st = CAEKF_ERR_SINGULAR;
-            goto done;
+    }
+    if (!predict) { /* a correction at the estimate's own time: P- is P */
+        for (i = 0; i < n; ++i) {
+            z[i] = est->z[i];
         }
-        scale_fv(est->fv, s, nq, n);
-        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
-    } else if (!est->fv_const) {
-        load_fv0(est);
+        for (i = 0; i < n * n; ++i) {
+            est->P_work[i] = est->P[i];
+        }
+    } else if (predict_covariance(est, any_contact || (est->model.trap &&
+                                                        caekf_model_any_contact(&est->model, xprev))) != 0) {
+        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+        st = CAEKF_ERR_SINGULAR;
+        goto done;
     }
-    for (i = 0; i < 2 * nq; ++i) {
-        z[i] = est->x_pred[i] / s[i];
-    }
-    for (i = 2 * nq; i < n; ++i) {
-        z[i] = est->z[i]; /* exact: the random walk carries gamma over bit for bit */
-    }
-    /* From here on P_work holds the upper triangle only; the commit mirrors it. */
-    caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.p.dt * s_v / s_q,
-                             est->q_diag, dims);
 
     if (y != 0) {
         /* Correction, eqs. (13)-(15) / (25)-(27). */
@@ -261,6 +295,10 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             *col = *w;
         }
     }
+    for (i = 0; i < nu; ++i) {
+        est->u_prev[i] = u[i];
+    }
+    est->u_prev_known = 1;
     est->step_count++;
     est->last_flags = flags;
 done:
@@ -275,12 +313,17 @@ done:
 
 caekf_status_t caekf_step(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, caekf_report_t *report)
 {
-    return advance(est, u, y, 1, report);
+    return advance(est, u, y, 1, 1, report);
 }
 
 caekf_status_t caekf_predict(caekf_t *est, const caekf_scalar_t *u, caekf_report_t *report)
 {
-    return advance(est, u, 0, 0, report);
+    return advance(est, u, 0, 0, 1, report);
+}
+
+caekf_status_t caekf_correct(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, caekf_report_t *report)
+{
+    return advance(est, u, y, 1, 0, report);
 }
 
 caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs)

@@ -70,8 +70,8 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
 }
 
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
-                              const caekf_fv_pattern_t *pat, caekf_scalar_t c, const caekf_scalar_t *q_diag,
-                              const caekf_filter_dims_t *d)
+                              const caekf_fv_pattern_t *pat, caekf_scalar_t c, caekf_scalar_t c2,
+                              const caekf_scalar_t *q_diag, const caekf_filter_dims_t *d)
 {
     const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
@@ -112,6 +112,15 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             tq[j] = pi[j] + c * s;
         }
     }
+    if (c2 != 0) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
+        for (i = 0; i < nq; ++i) {
+            const caekf_scalar_t *pv = P + (nq + i) * n;
+            caekf_scalar_t *tq = T + i * n;
+            for (j = 0; j < n; ++j) {
+                tq[j] += c2 * pv[j];
+            }
+        }
+    }
     /* Upper triangle of T F^T + Q row by row, in place: row i only reads row i of T. w = T_i Fv^T
      * gives the v-columns; a q-row's q-columns are T_q + c w; the gamma columns are T's. Off-diagonal
      * entries are flushed as they are final. */
@@ -139,8 +148,15 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         }
         if (i < nq) {
             dd = t[i] + c * w[i];
-            for (j = i + 1; j < nq; ++j) {
-                t[j] = flush(t[j] + c * w[j]);
+            if (c2 != 0) { /* T's v-columns are still T's here: they are overwritten below */
+                dd += c2 * t[nq + i];
+                for (j = i + 1; j < nq; ++j) {
+                    t[j] = flush(t[j] + c * w[j] + c2 * t[nq + j]);
+                }
+            } else {
+                for (j = i + 1; j < nq; ++j) {
+                    t[j] = flush(t[j] + c * w[j]);
+                }
             }
             j = nq;
         } else {

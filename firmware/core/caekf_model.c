@@ -1,5 +1,6 @@
 /* The contact model of any lumped mechanism on a line: the contact law (eq. 16 with exponent n and
- * Hunt-Crossley damping), eq. (19)'s residual and Newton solve, eq. (10)'s F. */
+ * Hunt-Crossley damping), the implicit step (eq. 19's backward Euler or the trapezoidal rule) with its
+ * residual and Newton solve, eq. (10)'s F. */
 #include "caekf_model_internal.h"
 
 #include "caekf/caekf.h"
@@ -51,6 +52,10 @@ int caekf_model_params_check(const caekf_model_params_t *p)
             !(p->contact_n[i] >= 1) || !CAEKF_ISFINITE(p->contact_lambda[i]) || !(p->contact_lambda[i] >= 0)) {
             return 1;
         }
+    }
+    if (p->discretisation != CAEKF_DISCRETISATION_BACKWARD_EULER &&
+        p->discretisation != CAEKF_DISCRETISATION_TRAPEZOIDAL) {
+        return 1;
     }
     return 0;
 }
@@ -195,29 +200,89 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     }
 }
 
+/* Every contact's law at x (its own gammas). */
+static void contacts_at(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct)
+{
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
+    int i;
+    for (i = 0; i < nc; ++i) {
+        caekf_model_contact(m, i, x, x[2 * nq + i], &ct[i]);
+    }
+}
+
+/* Whether any contact is closed (delta > 0): the Newton matrix and F then differ from the constants. */
+static int any_contact(const caekf_contact_t *ct, int nc)
+{
+    int i, any = 0;
+    for (i = 0; i < nc; ++i) {
+        any |= ct[i].delta > 0;
+    }
+    return any;
+}
+
+int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x)
+{
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    contacts_at(m, x, ct);
+    return any_contact(ct, CAEKF_DIM_NC(m));
+}
+
+/* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
+ * the residual with no inertia (v_{k-1} against itself). */
+NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev,
+                                      const caekf_scalar_t *u_prev, caekf_scalar_t *g0, caekf_scalar_t *mag0)
+{
+    caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
+    contacts_at(m, xprev, ct0);
+    momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
+}
+
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
-                          const caekf_scalar_t *u, caekf_scalar_t *g)
+                          const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
+    caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
     int i;
-    for (i = 0; i < nc; ++i) {
-        caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);
-    }
+    contacts_at(m, xk, ct);
     for (i = 0; i < nq; ++i) {
-        g[i] = (xk[i] - xprev[i]) / m->p.dt - xk[nq + i];
+        const caekf_scalar_t v = m->trap ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
+        g[i] = (xk[i] - xprev[i]) / m->p.dt - v;
     }
     momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
+    if (m->trap) {
+        step_start_force(m, xprev, u_prev, g0, mag0);
+        for (i = 0; i < nq; ++i) {
+            g[nq + i] += g0[i];
+        }
+    }
     for (i = 0; i < nc; ++i) {
         g[2 * nq + i] = xk[2 * nq + i] - xprev[2 * nq + i];
     }
 }
 
-void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, caekf_scalar_t Jk[CAEKF_N][CAEKF_N],
-                           caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
+/* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): weight w on the
+ * force, through delta (q columns), its rate (v columns) and gamma_c. */
+static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
+                                 caekf_scalar_t J[CAEKF_N][CAEKF_N])
+{
+    const int nq = CAEKF_DIM_NQ(m), a = m->contact_i[c], b = m->contact_j[c], g = 2 * nq + c;
+    add_contact_block(&J[nq][0], CAEKF_N, a, b, ct->dfc_ddelta);
+    add_contact_block(&J[nq][nq], CAEKF_N, a, b, ct->dfc_drate);
+    if (a >= 0) {
+        J[nq + a][g] += ct->dfc_dgamma;
+    }
+    if (b >= 0) {
+        J[nq + b][g] -= ct->dfc_dgamma;
+    }
+}
+
+void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
+                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    const caekf_scalar_t inv_dt = 1 / m->p.dt;
+    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = m->trap ? CAEKF_C(0.5) : 1;
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
     int i, j, c;
     for (i = 0; i < n; ++i) {
         for (j = 0; j < n; ++j) {
@@ -227,35 +292,35 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, cae
     }
     for (i = 0; i < nq; ++i) {
         Jk[i][i] = inv_dt;
-        Jk[i][nq + i] = -1;
+        Jk[i][nq + i] = -theta;
         Jprev[i][i] = -inv_dt;
+        Jprev[i][nq + i] = theta - 1;
         Jprev[nq + i][nq + i] = -m->m_dt[i];
         for (j = 0; j < nq; ++j) {
             Jk[nq + i][j] = m->K[i][j];
             Jk[nq + i][nq + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
+            if (m->trap) { /* the step's start: G(x_{k-1}) */
+                Jprev[nq + i][j] = m->K[i][j];
+                Jprev[nq + i][nq + j] += m->C[i][j];
+            }
         }
     }
-    for (c = 0; c < nc; ++c) { /* contact tangents: through delta, its rate and gamma_c */
-        caekf_contact_t ct;
-        const int a = m->contact_i[c], b = m->contact_j[c], g = 2 * nq + c;
-        caekf_model_contact(m, c, xk, xk[g], &ct);
-        add_contact_block(&Jk[nq][0], CAEKF_N, a, b, ct.dfc_ddelta);
-        add_contact_block(&Jk[nq][nq], CAEKF_N, a, b, ct.dfc_drate);
-        if (a >= 0) {
-            Jk[nq + a][g] = ct.dfc_dgamma;
+    contacts_at(m, xk, ct);
+    contacts_at(m, xprev, ct0);
+    for (c = 0; c < nc; ++c) {
+        add_contact_tangents(m, c, &ct[c], Jk);
+        if (m->trap) {
+            add_contact_tangents(m, c, &ct0[c], Jprev);
         }
-        if (b >= 0) {
-            Jk[nq + b][g] = -ct.dfc_dgamma;
-        }
-        Jk[g][g] = 1;
-        Jprev[g][g] = -1;
+        Jk[2 * nq + c][2 * nq + c] = 1;
+        Jprev[2 * nq + c][2 * nq + c] = -1;
     }
 }
 
 #define LU_REL_TOL (CAEKF_EPS * 16)
 
-/* A = M/dt + C + dt K + sum_c (dt f_c'(delta) + f_c'(rate)) b_c b_c^T: the Jacobian of the momentum
- * rows with respect to v_k once q_k = q_{k-1} + dt v_k is substituted. Returns the LU refusal
+/* A = M/hs + C + hs K + sum_c (hs f_c'(delta) + f_c'(rate)) b_c b_c^T: the Jacobian of the momentum
+ * rows with respect to v_k once q_k is substituted (dq_k/dv_k = hs). Returns the LU refusal
  * threshold LU_REL_TOL * max|A_ij| (a maximum does not depend on the order it is taken in; a NaN
  * makes the LU refuse either way). */
 static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_t *ct, caekf_scalar_t *A)
@@ -268,7 +333,7 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     }
     for (i = 0; i < nc; ++i) {
         if (ct[i].delta > 0) {
-            add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->p.dt * ct[i].dfc_ddelta + ct[i].dfc_drate);
+            add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
     for (i = 0; i < nq * nq; ++i) {
@@ -293,33 +358,28 @@ static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar
     }
 }
 
-/* Whether any contact is closed (delta > 0): the Newton matrix and F then differ from the constants. */
-static int any_contact(const caekf_contact_t *ct, int nc)
-{
-    int i, any = 0;
-    for (i = 0; i < nc; ++i) {
-        any |= ct[i].delta > 0;
-    }
-    return any;
-}
-
-int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u,
-                       int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters)
+int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
+                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
+                       caekf_scalar_t work[2 * CAEKF_NQ])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
     const caekf_scalar_t *vp = xprev + nq;
     caekf_scalar_t *q = xk;
     caekf_scalar_t *v = xk + nq;
-    const caekf_scalar_t dt = m->p.dt;
+    const caekf_scalar_t dt = m->p.dt, hs = m->hs;
+    caekf_scalar_t *const g0 = work, *const mag0 = work + CAEKF_NQ; /* trapezoidal: the step's start */
     int it, i;
     int result = 1;
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
+    if (m->trap) {
+        step_start_force(m, xprev, u_prev, g0, mag0);
+    }
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
-        q[i] = qp[i] + dt * v[i];
+        q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
     }
     for (i = 0; i < nc; ++i) { /* random walk: gamma_k = gamma_{k-1} */
         xk[2 * nq + i] = xprev[2 * nq + i];
@@ -338,6 +398,14 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         }
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
+        if (m->trap) {
+            for (i = 0; i < nq; ++i) {
+                r[i] += g0[i];
+                if (it > 0) {
+                    mag[i] += mag0[i];
+                }
+            }
+        }
         if (it > 0) {
             for (i = 0; i < nq; ++i) {
                 rmax = caekf_max(rmax, CAEKF_FABS(r[i]));
@@ -365,16 +433,19 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         }
         for (i = 0; i < nq; ++i) {
             v[i] -= r[i];
-            q[i] = qp[i] + dt * v[i];
+            q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
         }
     }
     *iters = it;
     return result;
 }
 
-/* Right-hand sides of the linearised eq. (19): A dv_k = -K_t dq_{k-1} + M/dt dv_{k-1}
- * - sum_c b_c f_c'(gamma) dgamma_c, one column per component of x_{k-1}. */
-static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+/* Right-hand sides of the linearised step, A dv_k = -(dg/dx_{k-1}) dx_{k-1}, one column per component of
+ * x_{k-1}: backward Euler -K_t dq + M/hs dv - sum_c b_c f_c'(gamma) dgamma_c with the tangents at x_k;
+ * the trapezoidal rule adds the step's start, -K_t0 dq - (C_t0 + hs K_t) dv - sum_c b_c f_c0'(gamma),
+ * with the tangents at x_{k-1} (ct0; NULL for backward Euler). */
+static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
+                           caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
@@ -382,36 +453,59 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, ca
         for (j = 0; j < n; ++j) {
             fv[i][j] = j < nq ? -m->K[i][j] : 0;
         }
-        fv[i][nq + i] = m->m_dt[i];
+        if (ct0 != 0) {
+            for (j = 0; j < nq; ++j) {
+                fv[i][j] -= m->K[i][j];
+                fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
+            }
+            fv[i][nq + i] += m->m_dt[i];
+        } else {
+            fv[i][nq + i] = m->m_dt[i];
+        }
     }
     for (i = 0; i < nc; ++i) {
         const int a = m->contact_i[i], b = m->contact_j[i];
-        if (!(ct[i].delta > 0)) {
-            continue;
+        if (ct[i].delta > 0) {
+            add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct[i].dfc_ddelta);
+            if (ct0 != 0) {
+                add_contact_block(&fv[0][nq], CAEKF_N, a, b, -m->hs * ct[i].dfc_ddelta);
+            }
+            if (a >= 0) {
+                fv[a][2 * nq + i] = -ct[i].dfc_dgamma;
+            }
+            if (b >= 0) {
+                fv[b][2 * nq + i] = ct[i].dfc_dgamma;
+            }
         }
-        add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct[i].dfc_ddelta);
-        if (a >= 0) {
-            fv[a][2 * nq + i] = -ct[i].dfc_dgamma;
-        }
-        if (b >= 0) {
-            fv[b][2 * nq + i] = ct[i].dfc_dgamma;
+        if (ct0 != 0 && ct0[i].delta > 0) {
+            add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct0[i].dfc_ddelta);
+            add_contact_block(&fv[0][nq], CAEKF_N, a, b, -ct0[i].dfc_drate);
+            if (a >= 0) {
+                fv[a][2 * nq + i] -= ct0[i].dfc_dgamma;
+            }
+            if (b >= 0) {
+                fv[b][2 * nq + i] += ct0[i].dfc_dgamma;
+            }
         }
     }
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+                             const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j;
-    for (i = 0; i < nc; ++i) {
-        caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);
+    int i, j, closed, closed0 = 0;
+    contacts_at(m, xk, ct);
+    closed = any_contact(ct, nc);
+    if (m->trap) {
+        contacts_at(m, xprev, ct0);
+        closed0 = any_contact(ct0, nc);
     }
-    if (!any_contact(ct, nc)) { /* linear step: the constant F */
+    if (!closed && !closed0) { /* linear step: the constant F */
         for (i = 0; i < nq; ++i) {
             for (j = 0; j < n; ++j) {
                 fv[i][j] = m->fv0[i][j];
@@ -419,11 +513,15 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
         }
         return 0;
     }
-    if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
+    if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
-    transition_rhs(m, ct, fv); /* solved in place */
-    solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
+    transition_rhs(m, ct, m->trap ? ct0 : 0, fv); /* solved in place */
+    if (closed) {
+        solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
+    } else { /* trapezoidal, closed only at the step's start: A is A0 */
+        solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
+    }
     return 0;
 }
 
@@ -441,6 +539,8 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         return -1;
     }
     m->p = *p;
+    m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
+    m->hs = m->trap ? p->dt / 2 : p->dt;
     m->nq = nq = p->bodies;
     m->nc = p->contacts;
     m->n = 2 * p->bodies + p->contacts;
@@ -460,10 +560,10 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         m->contact_j[i] = p->contact_b[i] - 1;
     }
     for (i = 0; i < nq; ++i) {
-        m->m_dt[i] = p->m[i] / p->dt;
+        m->m_dt[i] = p->m[i] / m->hs;
         m->nnz[i] = 0;
         for (j = 0; j < nq; ++j) {
-            const caekf_scalar_t a = m->C[i][j] + p->dt * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+            const caekf_scalar_t a = m->C[i][j] + m->hs * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
             m->A0[i * nq + j] = a;
             m->A0_lu[i * nq + j] = a;
             if (m->K[i][j] != 0 || m->C[i][j] != 0) {
@@ -471,28 +571,28 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
             }
         }
     }
-    /* A0 = M/dt + C + dt K is positive definite for valid parameters; the check is belt and braces. */
+    /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */
     if (caekf_lu_factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
     }
-    transition_rhs(m, none, m->fv0);
+    transition_rhs(m, none, m->trap ? none : 0, m->fv0);
     solve(m->A0_lu, nq, m->A0_piv, &m->fv0[0][0], m->n, CAEKF_N);
     return 0;
 }
 
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                           caekf_scalar_t F[CAEKF_N][CAEKF_N])
+                           const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t F[CAEKF_N][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m);
     int i, j;
     /* The v-rows land in F's rows nq .. 2 nq - 1 directly. */
-    if (caekf_model_transition_v(m, xk, (caekf_scalar_t(*)[CAEKF_N]) & F[nq][0]) != 0) {
+    if (caekf_model_transition_v(m, xk, xprev, (caekf_scalar_t(*)[CAEKF_N]) & F[nq][0]) != 0) {
         return -1;
     }
-    /* dq_k = dq_{k-1} + dt dv_k; dgamma_k = dgamma_{k-1} (eq. 23's last rows). */
+    /* dq_k = dq_{k-1} + (dt - hs) dv_{k-1} + hs dv_k; dgamma_k = dgamma_{k-1} (eq. 23's last rows). */
     for (i = 0; i < nq; ++i) {
         for (j = 0; j < n; ++j) {
-            F[i][j] = m->p.dt * F[nq + i][j] + (i == j ? 1 : 0);
+            F[i][j] = m->hs * F[nq + i][j] + (i == j ? 1 : 0) + (j == nq + i ? m->p.dt - m->hs : 0);
         }
     }
     for (i = 2 * nq; i < n; ++i) {

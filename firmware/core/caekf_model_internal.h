@@ -31,27 +31,32 @@
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 
-/* Eq. (19) residual g_d(x_k, x_{k-1}, u_k) of the augmented state x = [q; v; gamma]:
- *   rows 0..nq-1:     (q_k - q_{k-1})/dt - v_k
- *   rows nq..2nq-1:   M (v_k - v_{k-1})/dt + C v_k + K q_k - B_u u_k + sum_c b_c f_c(x_k, gamma_c)
+/* The step's residual g(x_k, x_{k-1}, u_{k-1}, u_k) of the augmented state x = [q; v; gamma], theta = 1
+ * (backward Euler, eq. 19) or 1/2 (trapezoidal), G(x, u) = C v + K q - B_u u + sum_c b_c f_c(x, gamma_c):
+ *   rows 0..nq-1:     (q_k - q_{k-1})/dt - theta v_k - (1 - theta) v_{k-1}
+ *   rows nq..2nq-1:   [M (v_k - v_{k-1})/dt + theta G(x_k, u_k) + (1 - theta) G(x_{k-1}, u_{k-1})] / theta
  *   rows 2nq..n-1:    gamma_k - gamma_{k-1} */
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
-                          const caekf_scalar_t *u, caekf_scalar_t *g);
+                          const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g);
 
-/* Analytic Jacobians of eq. (19): dg/dx_k at x_k (gammas included) and dg/dx_{k-1} (constant); n x n in
- * arrays of the capacity. */
-void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, caekf_scalar_t Jk[CAEKF_N][CAEKF_N],
-                           caekf_scalar_t Jprev[CAEKF_N][CAEKF_N]);
+/* Analytic Jacobians of that residual: dg/dx_k and dg/dx_{k-1} (gammas included); n x n in arrays of the
+ * capacity. */
+void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
+                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N]);
 
-/* Eq. (10) F = -(dg/dx_k)^-1 dg/dx_{k-1}, computed from the structure of eq. (19): one nq x nq LU of
- * A = M/dt + C + dt K_t (+ the contacts' damping tangents) instead of an n x n inverse. The gamma rows
+/* Eq. (10) F = -(dg/dx_k)^-1 dg/dx_{k-1}, computed from the residual's structure: one nq x nq LU of
+ * A = M/hs + C_t + hs K_t (the contacts' tangents at x_k) instead of an n x n inverse. The gamma rows
  * are identity rows by construction. Returns 0, or -1 if A is singular. */
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                           caekf_scalar_t F[CAEKF_N][CAEKF_N]);
+                           const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t F[CAEKF_N][CAEKF_N]);
 
-/* The v-rows of F only (nq x n), which is all the filter needs: F's q-rows are I + dt * (v-rows) and its
- * gamma rows are identity rows. Returns 0, or -1 if A is singular. */
+/* The v-rows of F only (nq x n), which is all the filter needs: F's q-rows are
+ * [I, (dt - hs) I, 0] + hs * (v-rows), and its gamma rows are identity rows. Returns 0, or -1 if A is
+ * singular. */
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+                             const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+
+/* Whether a contact is closed at x (the step map then differs from the constant linear one). */
+int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x);
 
 #endif /* CAEKF_MODEL_INTERNAL_H */

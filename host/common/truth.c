@@ -388,7 +388,7 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, const caekf_trut
     caekf_model_params_t mp;
     caekf_model_t model;
     plant_t pl;
-    double x[CAEKF_N] = {0}, xn[CAEKF_N], u[CAEKF_MAX_INPUTS + 1] = {0};
+    double x[CAEKF_N] = {0}, xn[CAEKF_N], u[CAEKF_MAX_INPUTS + 1] = {0}, work[2 * CAEKF_NQ];
     long steps = caekf_scenario_steps(sc);
     int sub = (int)sc->truth_substeps;
     double h = sc->dt / sub;
@@ -399,6 +399,7 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, const caekf_trut
         return -1;
     }
     mp.dt = h;
+    mp.discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER; /* the legacy truth, whatever the filter uses */
     if (caekf_model_init(&model, &mp) != 0) {
         return -1;
     }
@@ -412,7 +413,7 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, const caekf_trut
             double t = (double)(k - 1) * sc->dt + (double)s * h;
             int it = 0;
             inputs_at(&pl, t, u);
-            if (caekf_model_newton(&model, x, u, CAEKF_NEWTON_MAX_ITER, DBL_EPSILON * 256, xn, &it) != 0) {
+            if (caekf_model_newton(&model, x, u, u, CAEKF_NEWTON_MAX_ITER, DBL_EPSILON * 256, xn, &it, work) != 0) {
                 out.newton_failed++;
             }
             out.newton_iters += it;

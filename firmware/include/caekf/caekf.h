@@ -135,6 +135,8 @@ typedef struct {
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
     caekf_filter_dims_t dims;               /* sizes, sensed states, scaled R; the gamma policies */
     caekf_scalar_t gamma_min_scaled[CAEKF_MAX_CONTACTS + 1];
+    caekf_scalar_t u_prev[CAEKF_MAX_INPUTS];  /* inputs at the estimate's time (the trapezoidal rule's start) */
+    uint32_t u_prev_known;                  /* 0 until a step or caekf_correct has seen the inputs */
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;
@@ -226,6 +228,13 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s);
  * Non-finite u or y: CAEKF_ERR_INPUT, flags INPUT_REJECTED, state bit-for-bit untouched.
  * A non-finite intermediate result rolls the step back (CAEKF_ERR_NUMERIC). `report` may be NULL. */
 caekf_status_t caekf_step(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, caekf_report_t *report);
+
+/* The measurements y at the estimate's own time, without a time update: the first sample of a recording
+ * that starts at t0, where the initial estimate (q0, v0) is given. Correction and constraints as in
+ * caekf_step; u is remembered as the inputs at t0 (the trapezoidal rule's first step starts from them).
+ * Afterwards call caekf_step for each later sample. Without it the first caekf_step advances from t0 to
+ * its own sample with its inputs held over the interval. (docs/discretisation.md: the time convention.) */
+caekf_status_t caekf_correct(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, caekf_report_t *report);
 
 /* Time update only, for a step whose measurement is missing (e.g. frames lost on the bus): the model
  * still advances one dt with the inputs u (the caller may hold the last known u), P grows by Q, the

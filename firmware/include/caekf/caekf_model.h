@@ -1,6 +1,6 @@
 /*
- * The lumped contact model (paper Sec. 3.1) discretised by backward Euler: eq. (19) plus the damping
- * term C v_k that the paper's equation omits. The mechanism is described by the settings
+ * The lumped contact model (paper Sec. 3.1), discretised implicitly: backward Euler (eq. 19 plus the
+ * damping term C v_k that the paper's equation omits) or the trapezoidal rule (docs/discretisation.md). The mechanism is described by the settings
  * (docs/mechanism.md): bodies on a line, spring-damper links between two bodies or a body and ground
  * (body 0), input forces, sensors and contacts. A contact between bodies a and b has penetration
  * delta = q_a - q_b - gap; its force f = gamma delta^n (1 + lambda d delta/dt) for delta > 0 acts -f on
@@ -19,6 +19,13 @@ extern "C" {
 
 /* Sensor kinds (caekf_model_params_t.sensor_kind). */
 typedef enum { CAEKF_SENSOR_POSITION = 0, CAEKF_SENSOR_VELOCITY = 1 } caekf_sensor_kind_t;
+
+/* How the continuous model becomes the step map x_{k-1} -> x_k (caekf_model_params_t.discretisation).
+ * Both are implicit and Newton-solved. Backward Euler is the paper's eq. (19): first order, and it damps
+ * the mechanism's modes numerically by a factor that grows with (omega dt)^2, an error gamma then
+ * absorbs. The trapezoidal rule weighs both ends of the step equally: second order, no numerical
+ * damping, the same cost (one nq x nq solve per Newton iteration). */
+typedef enum { CAEKF_DISCRETISATION_BACKWARD_EULER = 0, CAEKF_DISCRETISATION_TRAPEZOIDAL = 1 } caekf_discretisation_t;
 
 /* The mechanism. Plain data, so a const instance can live in flash. Body numbers are 1-based, 0 is the
  * ground; only the first `bodies`, `springs`, ... elements of each array are in use. */
@@ -40,6 +47,7 @@ typedef struct {
     caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS]; /* [m] */
     caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];   /* exponent, >= 1 */
     caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS]; /* Hunt-Crossley damping [s/m] */
+    int discretisation;                             /* caekf_discretisation_t */
 } caekf_model_params_t;
 
 /* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc states
@@ -50,12 +58,16 @@ typedef struct {
     int contact_i[CAEKF_MAX_CONTACTS], contact_j[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
-    caekf_scalar_t m_dt[CAEKF_NQ];                  /* M / dt (diagonal) */
+    /* The implicit stage: the momentum rows are scaled so that their v_k-derivative is
+     * M/hs + C_t + hs K_t, with hs = dt (backward Euler) or dt/2 (trapezoidal, rows times 2). */
+    caekf_scalar_t hs;
+    int trap;                                       /* trapezoidal: the step's start enters the rows */
+    caekf_scalar_t m_dt[CAEKF_NQ];                  /* M / hs (diagonal) */
     /* Row i of K and C is nonzero in columns nz[i][0 .. nnz[i]-1] (ascending): the residual skips the
      * structural zeros, which change no sum. */
     unsigned char nz[CAEKF_NQ][CAEKF_NQ];
     unsigned char nnz[CAEKF_NQ];
-    /* A0 = M/dt + C + dt K, the Newton matrix without contact, packed nq x nq. Without contact the step
+    /* A0 = M/hs + C + hs K, the Newton matrix without contact, packed nq x nq. Without contact the step
      * is linear: A0's LU and the v-rows of F are constants, computed once by the same code the contact
      * path runs, so using them changes no bit of the result. */
     caekf_scalar_t A0[CAEKF_NQ * CAEKF_NQ];
@@ -102,14 +114,18 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
 void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_scalar_t gamma,
                          caekf_contact_t *out);
 
-/* Newton-Raphson solve of eq. (19) for x_k given x_{k-1} and the inputs u_k (one per input; the gammas
- * carry over). Unknown v_k (q_k = q_{k-1} + dt v_k), initial guess v_{k-1}. Converged when the largest
+/* Newton-Raphson solve of the step for x_k given x_{k-1}, the inputs u_{k-1} at its start (used by the
+ * trapezoidal rule only) and u_k (one per input; the gammas carry over). Backward Euler, eq. (19):
+ * unknown v_k, q_k = q_{k-1} + dt v_k. Trapezoidal: q_k = q_{k-1} + dt/2 (v_{k-1} + v_k), and the
+ * momentum balance is the mean of its two ends. Initial guess v_{k-1}. Converged when the largest
  * momentum-row residual is <= rtol times the largest row's sum of term magnitudes (a norm-wise backward
  * error). At most max_iter iterations (clamped to CAEKF_NEWTON_MAX_ITER). Returns 0 when converged, 1
  * when the bound was hit, 2 on a singular Jacobian (x_k holds the last iterate in both cases).
- * *iters = linear solves done. */
-int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u,
-                       int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters);
+ * *iters = linear solves done. work: the trapezoidal rule's constant start-of-step terms (caller-owned,
+ * off the stack; unused by backward Euler). */
+int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
+                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
+                       caekf_scalar_t work[2 * CAEKF_NQ]);
 
 #ifdef __cplusplus
 }

@@ -37,7 +37,8 @@ RULES = {"finite": 0, "> 0": 1, ">= 0": 2, "(0, 1)": 3, "int": 4, ">= 1": 5}
 RULE_MACROS = {"finite": "FINITE", "> 0": "POS", ">= 0": "NONNEG", "(0, 1)": "OPEN01", "int": "INT", ">= 1": "GE1"}
 CAPACITIES = ("bodies", "springs", "inputs", "sensors", "contacts")
 C_ENUMS = {"mode": ("caekf_mode_t", "CAEKF_MODE_"), "switchoff": ("caekf_switchoff_t", "CAEKF_SWITCHOFF_"),
-           "cov_update": ("caekf_cov_update_t", "CAEKF_COV_"), "sensor_kind": ("caekf_sensor_kind_t", "CAEKF_SENSOR_")}
+           "cov_update": ("caekf_cov_update_t", "CAEKF_COV_"), "sensor_kind": ("caekf_sensor_kind_t", "CAEKF_SENSOR_"),
+           "discretisation": ("caekf_discretisation_t", "CAEKF_DISCRETISATION_")}
 GENERATED = "GENERATED from sim/src/caekf_sim/schema/settings.toml by codegen.py: do not edit"
 
 
