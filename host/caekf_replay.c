@@ -52,7 +52,9 @@ static void usage(FILE *f)
           "Reads a CSV whose header starts with the mechanism's measurement columns: t, the inputs (u, or\n"
           "u1..u<inputs>), one column per sensor (y<body> position, yv<body> velocity, in sensor order);\n"
           "the paper's t,u,y1,y4 (extra columns ignored; stdin by default; t strictly increasing by the\n"
-          "scenario's dt within 1 %; at most 2,000,000 rows). Writes t,q1..q<bodies>,v1..v<bodies>, gamma\n"
+          "scenario's dt within 1 %; at most 2,000,000 rows). The scenario's q0, v0 are the state at t = 0:\n"
+          "a first row at t = 0 is a correction only, any other first row is one dt after the start.\n"
+          "Writes t,q1..q<bodies>,v1..v<bodies>, gamma\n"
           "(contact 1) and gamma2.. (further contacts), p_norm, p_gg (contact 1) and p_gg2.., flags,\n"
           "newton_iters, nis (stdout by default; the paper:\n"
           "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis).\n"
@@ -233,7 +235,15 @@ int main(int argc, char **argv)
         caekf_scalar_t u[CAEKF_MAX_INPUTS + 1], y[CAEKF_MAX_SENSORS], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;
         caekf_report_t rep;
         caekf_meas_scalars(m, &cols, u, y);
-        if ((m->has_y ? caekf_step(&est, u, y, &rep) : caekf_predict(&est, u, &rep)) != CAEKF_OK) {
+        caekf_status_t st;
+        if (k == 0 && m->has_y && fabs(m->t) <= 0.5 * sc.dt) {
+            /* The time convention (docs/discretisation.md): q0, v0 are the state at t = 0, so a first
+             * row at t = 0 is corrected without a time update; otherwise it is one dt after the start. */
+            st = caekf_correct(&est, u, y, &rep);
+        } else {
+            st = m->has_y ? caekf_step(&est, u, y, &rep) : caekf_predict(&est, u, &rep);
+        }
+        if (st != CAEKF_OK) {
             sum.rejected++;
         }
         (void)caekf_get_state(&est, x);

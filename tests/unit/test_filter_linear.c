@@ -1,6 +1,10 @@
 /* With contact never active the estimator must be an ordinary linear Kalman filter. The reference
- * filter here is written independently, in double and physical units, from the backward-Euler
- * matrices: [I, -dt I; dt K, M + dt C] x_k = [q_{k-1}; M v_{k-1} + dt B_u u_k]. */
+ * filter here is written independently, in double and physical units, from the theta-method matrices
+ * (theta = 1 backward Euler, 1/2 trapezoidal, h = dt):
+ *   [I, -theta h I; theta h K, M + theta h C] x_k = [I, (1-theta) h I; -(1-theta) h K, M - (1-theta) h C] x_{k-1}
+ *                                                  + [0; h B_u (theta u_k + (1-theta) u_{k-1})].
+ * It also pins the time convention: the first step holds its own input (u_{k-1} = u_k), and a sample at
+ * t0 given to caekf_correct is a correction without a time update whose input starts the next step. */
 #include <math.h>
 #include <string.h>
 
@@ -48,7 +52,8 @@ static void mat_inverse(double a[NX][NX], double inv[NX][NX])
 typedef struct {
     double F[NX][NX], Ainv[NX][NX];
     double x[NX], P[NX][NX];
-    double qd[NX], r, dt;
+    double qd[NX], r, dt, theta, u_prev;
+    int u_prev_known;
     double m[4];
 } linear_kf_t;
 
@@ -58,6 +63,10 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
     double K[4][4] = {{0}}, C[4][4] = {{0}}, A[NX][NX] = {{0}}, B[NX][NX] = {{0}};
     int i, j, k;
     double dt = (double)p->dt;
+    const double th = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? 0.5 : 1.0;
+    kf->theta = th;
+    kf->u_prev = 0;
+    kf->u_prev_known = 0;
     K[0][0] = (double)p->spring_k[0] + (double)p->spring_k[1]; K[0][1] = K[1][0] = -(double)p->spring_k[1]; K[1][1] = (double)p->spring_k[1];
     K[2][2] = (double)p->spring_k[2]; K[2][3] = K[3][2] = -(double)p->spring_k[2]; K[3][3] = (double)p->spring_k[2] + (double)p->spring_k[3];
     C[0][0] = (double)p->spring_c[0] + (double)p->spring_c[1]; C[0][1] = C[1][0] = -(double)p->spring_c[1]; C[1][1] = (double)p->spring_c[1];
@@ -65,12 +74,14 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
     for (i = 0; i < 4; ++i) {
         kf->m[i] = (double)p->m[i];
         A[i][i] = 1;
-        A[i][4 + i] = -dt;
+        A[i][4 + i] = -th * dt;
         B[i][i] = 1;
-        B[4 + i][4 + i] = kf->m[i];
+        B[i][4 + i] = (1 - th) * dt;
         for (j = 0; j < 4; ++j) {
-            A[4 + i][j] = dt * K[i][j];
-            A[4 + i][4 + j] = (i == j ? kf->m[i] : 0) + dt * C[i][j];
+            A[4 + i][j] = th * dt * K[i][j];
+            A[4 + i][4 + j] = (i == j ? kf->m[i] : 0) + th * dt * C[i][j];
+            B[4 + i][j] = -(1 - th) * dt * K[i][j];
+            B[4 + i][4 + j] = (i == j ? kf->m[i] : 0) - (1 - th) * dt * C[i][j];
         }
     }
     mat_inverse(A, kf->Ainv);
@@ -93,27 +104,37 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
     kf->dt = dt;
 }
 
-static void kf_step(linear_kf_t *kf, double u, double y1, double y4)
+/* One sample: a time update (unless `predict` is 0, a sample at the estimate's own time), then the
+ * correction. */
+static void kf_step(linear_kf_t *kf, double u, double y1, double y4, int predict)
 {
     double xp[NX], T[NX][NX], Pp[NX][NX], S[2][2], Si[2][2], G[NX][2], det, e[2];
     int i, j, k;
-    for (i = 0; i < NX; ++i) { /* x- = F x + Ainv [0; dt B_u u] */
-        double acc = kf->Ainv[i][4] * kf->dt * u;
-        for (k = 0; k < NX; ++k) acc += kf->F[i][k] * kf->x[k];
-        xp[i] = acc;
+    const double u0 = kf->u_prev_known ? kf->u_prev : u;
+    kf->u_prev = u;
+    kf->u_prev_known = 1;
+    if (!predict) {
+        memcpy(xp, kf->x, sizeof xp);
+        memcpy(Pp, kf->P, sizeof Pp);
+    } else {
+        for (i = 0; i < NX; ++i) { /* x- = F x + Ainv [0; dt B_u (theta u_k + (1 - theta) u_{k-1})] */
+            double acc = kf->Ainv[i][4] * kf->dt * (kf->theta * u + (1 - kf->theta) * u0);
+            for (k = 0; k < NX; ++k) acc += kf->F[i][k] * kf->x[k];
+            xp[i] = acc;
+        }
+        for (i = 0; i < NX; ++i)
+            for (j = 0; j < NX; ++j) {
+                double acc = 0;
+                for (k = 0; k < NX; ++k) acc += kf->F[i][k] * kf->P[k][j];
+                T[i][j] = acc;
+            }
+        for (i = 0; i < NX; ++i)
+            for (j = 0; j < NX; ++j) {
+                double acc = (i == j) ? kf->qd[i] : 0;
+                for (k = 0; k < NX; ++k) acc += T[i][k] * kf->F[j][k];
+                Pp[i][j] = acc;
+            }
     }
-    for (i = 0; i < NX; ++i)
-        for (j = 0; j < NX; ++j) {
-            double acc = 0;
-            for (k = 0; k < NX; ++k) acc += kf->F[i][k] * kf->P[k][j];
-            T[i][j] = acc;
-        }
-    for (i = 0; i < NX; ++i)
-        for (j = 0; j < NX; ++j) {
-            double acc = (i == j) ? kf->qd[i] : 0;
-            for (k = 0; k < NX; ++k) acc += T[i][k] * kf->F[j][k];
-            Pp[i][j] = acc;
-        }
     S[0][0] = Pp[0][0] + kf->r; S[0][1] = Pp[0][3]; S[1][0] = Pp[3][0]; S[1][1] = Pp[3][3] + kf->r;
     det = S[0][0] * S[1][1] - S[0][1] * S[1][0];
     Si[0][0] = S[1][1] / det; Si[1][1] = S[0][0] / det; Si[0][1] = -S[0][1] / det; Si[1][0] = -S[1][0] / det;
@@ -128,7 +149,7 @@ static void kf_step(linear_kf_t *kf, double u, double y1, double y4)
         for (j = 0; j < NX; ++j) kf->P[i][j] = Pp[i][j] - G[i][0] * Pp[0][j] - G[i][1] * Pp[3][j];
 }
 
-static void compare_with_linear_kf(int mode)
+static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0)
 {
     caekf_settings_t s;
     linear_kf_t kf;
@@ -139,10 +160,13 @@ static void compare_with_linear_kf(int mode)
     int i, j;
     paper_settings(&s, EXP_SWITCHED);
     s.mode = mode;
+    s.model.discretisation = discretisation;
     s.model.contact_gap[0] = 1; /* 1 m: contact is never active */
+    s.v0[0] = (caekf_scalar_t)2e-3; /* not at rest: a time shift would show */
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
     (void)caekf_get_gamma(&est, &gamma0);
     kf_init(&kf, &s);
+    kf.x[4] = (double)s.v0[0];
     TEST_ASSERT_EQUAL_INT(0, truth_open());
     while (n < STEPS && truth_next(&r) == 1) {
         caekf_scalar_t y[2], x[CAEKF_N], P[CAEKF_N][CAEKF_N];
@@ -150,9 +174,14 @@ static void compare_with_linear_kf(int mode)
         /* Measurements from the contact truth are fine: any data exercises the filter. */
         y[0] = (caekf_scalar_t)r.y1;
         y[1] = (caekf_scalar_t)r.y4;
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+        if (n == 0 && start_at_t0) { /* this sample is taken as the one at t0 */
+            TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_correct(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+            TEST_ASSERT_EQUAL_INT(0, rep.newton_iters);
+        } else {
+            TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+        }
         TEST_ASSERT_FALSE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
-        kf_step(&kf, r.u, r.y1, r.y4);
+        kf_step(&kf, r.u, r.y1, r.y4, !(n == 0 && start_at_t0));
         (void)caekf_get_state(&est, x);
         (void)caekf_get_covariance(&est, P);
         for (i = 0; i < NX; ++i) {
@@ -175,13 +204,21 @@ static void compare_with_linear_kf(int mode)
     }
 }
 
-static void test_switched_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED); }
-static void test_canonical_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_CANONICAL); }
+#define BE CAEKF_DISCRETISATION_BACKWARD_EULER
+#define TRAP CAEKF_DISCRETISATION_TRAPEZOIDAL
+static void test_switched_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, BE, 0); }
+static void test_canonical_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_CANONICAL, BE, 0); }
+static void test_trapezoidal_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, TRAP, 0); }
+static void test_a_sample_at_t0_is_a_correction_only(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, TRAP, 1); }
+static void test_a_sample_at_t0_is_a_correction_only_be(void) { compare_with_linear_kf(CAEKF_MODE_CANONICAL, BE, 1); }
 
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_switched_without_contact_is_a_linear_kf);
     RUN_TEST(test_canonical_without_contact_is_a_linear_kf);
+    RUN_TEST(test_trapezoidal_without_contact_is_a_linear_kf);
+    RUN_TEST(test_a_sample_at_t0_is_a_correction_only);
+    RUN_TEST(test_a_sample_at_t0_is_a_correction_only_be);
     return UNITY_END();
 }

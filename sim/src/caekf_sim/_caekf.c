@@ -562,14 +562,15 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
     return det > 0 ? log_r2 - log(det) : (double)NAN;
 }
 
-/* _run(u, y, has_y, x, p_diag, flags, newton_iters, nis, delta, status, p_norm, log_det_s)
+/* _run(u, y, has_y, x, p_diag, flags, newton_iters, nis, delta, status, p_norm, log_det_s, correct_first)
  *
  * The replay loop of caekf-replay over `steps` rows, from this estimator's current state, without the GIL.
  * y: steps * sensors doubles (one row per step) [m or m/s], which sets `steps`; u: steps * inputs doubles
  * [N]; has_y: steps bytes (0: caekf_predict) or None. Outputs (None to skip): x steps * n doubles, p_diag
  * steps * n doubles (diagonal of P in physical units), flags uint32, newton_iters int32, nis, delta [m]
  * doubles, status int8, p_norm doubles (2-norm of P, the costly Jacobi sweeps) and log_det_s doubles
- * (log det of the innovation covariance, log_det_s() above), one per step. */
+ * (log det of the innovation covariance, log_det_s() above), one per step. correct_first: row 0 is a sample
+ * at the estimate's own time (t0), corrected without a time update (caekf_correct), as caekf-replay does. */
 static PyObject *est_run(EstObject *self, PyObject *args)
 {
     PyObject *o[12];
@@ -587,10 +588,10 @@ static PyObject *est_run(EstObject *self, PyObject *args)
     uint32_t *flags;
     int32_t *iters;
     signed char *status;
-    int n, ny, nu;
+    int n, ny, nu, correct_first = 0;
 
-    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOO:_run", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
-                          &o[8], &o[9], &o[10], &o[11])) {
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOO|p:_run", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &correct_first)) {
         return NULL;
     }
     if (check_ready(self) != 0) {
@@ -655,7 +656,7 @@ static PyObject *est_run(EstObject *self, PyObject *args)
             for (i = 0; i < ny; ++i) {
                 ys[i] = (caekf_scalar_t)y[k * ny + i];
             }
-            st = caekf_step(&self->est, us, ys, &rep);
+            st = k == 0 && correct_first ? caekf_correct(&self->est, us, ys, &rep) : caekf_step(&self->est, us, ys, &rep);
         } else {
             st = caekf_predict(&self->est, us, &rep);
         }

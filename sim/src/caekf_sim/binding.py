@@ -362,6 +362,9 @@ class Estimator:
             t = np.asarray(t, dtype=np.float64).reshape(-1)
             if len(t) != n:
                 raise ValueError(f"t must have {n} entries, got {len(t)}")
+        # The time convention (docs/discretisation.md): q0, v0 are the state at t = 0, so a first row at
+        # t = 0 is corrected without a time update; otherwise the first row is one dt after the start.
+        at_t0 = n > 0 and self._c.step_count == 0 and bool(has[0]) and abs(t[0]) <= 0.5 * self.settings.dt
         x = np.empty((n, nx))
         pd = np.empty((n, nx)) if p_diag else None
         flags = np.empty(n, dtype=np.uint32)
@@ -371,7 +374,7 @@ class Estimator:
         status = np.empty(n, dtype=np.int8)
         pn = np.empty(n) if p_norm else None
         ld = np.empty(n) if log_det_s else None
-        self._c._run(u, y, None if has.all() else has, x, pd, flags, iters, nis, delta, status, pn, ld)
+        self._c._run(u, y, None if has.all() else has, x, pd, flags, iters, nis, delta, status, pn, ld, at_t0)
         return RunResult(t=t, x=x, P_diag=pd, flags=flags, nis=nis, newton_iters=iters, delta=delta,
                          status=status, has_y=has, p_norm=pn, log_det_s=ld, settings=self.settings)
 
