@@ -2,7 +2,8 @@
 and the ground, a position sensor on body 1 and a velocity sensor on body 3, inputs on bodies 1 and 2.
 
 Its measurements come from the C model itself: an estimator started at the true gamma and run with every
-measurement missing is a backward-Euler simulation of the plant (caekf_predict only)."""
+measurement missing is a simulation of the plant by the filter's own step map (caekf_predict only; the
+default discretisation, the trapezoidal rule)."""
 from __future__ import annotations
 
 import pickle
