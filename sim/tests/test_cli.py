@@ -54,3 +54,20 @@ def test_observability_command_confirms_both_claims(capsys):
     out = capsys.readouterr().out
     assert "claim 1 (contact active: observable, even with one position sensor): confirmed" in out
     assert "claim 2 (contact inactive: unobservable, gamma's mode at lambda = 0): confirmed" in out
+
+
+def test_estimate_discretisation_in_both_engines(tmp_path: Path):
+    """--discretisation reaches the C settings and the numpy config alike: the engines agree with the
+    trapezoidal rule, which moves the states off the preset's backward Euler."""
+    t = tmp_path / "truth.csv"
+    assert main(["truth", "--t-end", "0.5", "--out", str(t)]) == 0
+    runs = {}
+    for engine in ("c", "numpy"):
+        for disc in ("trapezoidal", None):
+            e = tmp_path / f"{engine}-{disc}.csv"
+            extra = ["--discretisation", disc] if disc else []
+            assert main(["estimate", "--measurements", str(t), "--engine", engine, "--out", str(e)] + extra) == 0
+            runs[engine, disc] = read_result_csv(e).x
+    np.testing.assert_allclose(runs["c", "trapezoidal"], runs["numpy", "trapezoidal"], rtol=1e-8, atol=1e-15)
+    np.testing.assert_allclose(runs["c", None], runs["numpy", None], rtol=1e-8, atol=1e-15)
+    assert np.max(np.abs(runs["c", "trapezoidal"][:, :8] - runs["c", None][:, :8])) > 1e-9

@@ -4,6 +4,10 @@ Augmented state x* = [q_1..q_nq, v_1..v_nq, gamma_1..gamma_nc] (eq. 2, 18) for a
 mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). One step k:
   prediction   Newton solve of eq. (19) with gamma_{k-1}  -> x_k^-
                F_k = -(dg/dx_k)^-1 dg/dx_{k-1}             (eq. 10, full N x N Jacobians)
+               (`discretisation` = "trapezoidal": the trapezoidal step of model.py instead of eq. 19;
+               its start-of-step force G(x_{k-1}, u_{k-1}) puts K, C and the contact tangents at
+               x_{k-1} into dg/dx_{k-1}. u_{k-1} is the previous step's input; the first step holds
+               its own u_k over the interval unless `correct` gave the inputs at t0, as the C core.)
                P_k^- = F P F^T + Q                          (eq. 12)
   correction   G = P H^T (H P H^T + R)^-1, x += G (y - H x), P = (I - G H) P   (eqs. 13-15)
   modes        canonical: Table 1 every step, every gamma live.
@@ -36,7 +40,7 @@ import numpy as np
 
 from . import flags as fl
 from .mechanism import Mechanism, body_values, contact_values, scenario_value
-from .model import StepSolver, as_gammas, contact_law
+from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_gammas, contact_law
 from .scenario import Scenario
 
 # The paper's layout (4 bodies, one contact); a general mechanism has N = 2 nq + nc (AugmentedEKF.n).
@@ -61,8 +65,13 @@ class EstimatorConfig:
     joseph: bool = False  # Joseph-form covariance updates instead of eq. (15)
     newton_max_iter: int = 20
     gate_nis: float = math.inf  # innovation gate on the gammas (the C setting gamma_gate_nis); inf: off
+    # The step map (the setting `discretisation`): BACKWARD_EULER (eq. 19) | TRAPEZOIDAL. Backward Euler
+    # here (the numpy reference's own default); experiments.scenario_config takes the scenario's.
+    discretisation: str = BACKWARD_EULER
 
     def __post_init__(self) -> None:
+        if self.discretisation not in DISCRETISATIONS:
+            raise ValueError(f"unknown discretisation {self.discretisation!r}")
         if self.mode not in (CANONICAL, SWITCHED):
             raise ValueError(f"unknown mode {self.mode!r}")
         if self.switch_variant not in (VARIANT_PAPER, VARIANT_CONSISTENT):
@@ -109,7 +118,9 @@ class AugmentedEKF:
         self.nx = 2 * nq
         self.n = n = 2 * nq + nc
         self.ig = list(range(self.nx, n))  # indices of the gammas
-        self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter)
+        self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
+        self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
+        self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
         self.dt = sc.dt
         self.H = measurement_matrix(p)
         self.Hx = self.H[:, : self.nx]
@@ -133,43 +144,73 @@ class AugmentedEKF:
         Jk[nq : self.nx, :nq] = p.K
         Jk[nq : self.nx, nq : self.nx] = np.diag(m_dt) + p.C
         Jk[self.nx :, self.nx :] = np.eye(nc)
+        if self.trapezoidal:
+            # The trapezoidal residual (model.py, unscaled): both ends weigh 1/2 in the q rows' mean
+            # velocity and in the momentum balance's G; the start's K and C enter dg/dx_{k-1}.
+            Jk[:nq, nq : self.nx] = -0.5 * np.eye(nq)
+            Jk[nq : self.nx, :nq] = 0.5 * p.K
+            Jk[nq : self.nx, nq : self.nx] = np.diag(m_dt) + 0.5 * p.C
+            self.Jprev[:nq, nq : self.nx] = -0.5 * np.eye(nq)
+            self.Jprev[nq : self.nx, :nq] = 0.5 * p.K
+            self.Jprev[nq : self.nx, nq : self.nx] += 0.5 * p.C
         self.Jk0 = Jk
+        self.Jprev0 = self.Jprev
         self.F0 = self._transition(Jk)  # F while every contact is open: constant, computed once
         self.I = np.eye(n)
 
     # ---- prediction -------------------------------------------------------------------
-    def _transition(self, Jk: np.ndarray) -> np.ndarray:
+    def _transition(self, Jk: np.ndarray, Jprev: Optional[np.ndarray] = None) -> np.ndarray:
         """Eq. (10): F = -(dg/dx_k)^-1 dg/dx_{k-1}."""
-        return -np.linalg.solve(Jk, self.Jprev)
+        return -np.linalg.solve(Jk, self.Jprev if Jprev is None else Jprev)
 
-    def transition_matrix(self, q: np.ndarray, gamma: Any, v: Optional[np.ndarray] = None) -> np.ndarray:
-        """F_k at the predicted state (eq. 10 with the full Jacobians of eq. 19); v for Hunt-Crossley."""
-        nq, Jk = self.nq, None
+    def _add_contacts(self, J: Optional[np.ndarray], J0: np.ndarray, weight: float, q: np.ndarray, gamma: Any,
+                      v: Optional[np.ndarray]) -> Optional[np.ndarray]:
+        """J (a copy of J0 when None) plus `weight` times every closed contact's tangents at (q, v): dG/dq,
+        dG/dv and dG/dgamma_c of b_c f_c. Returns None when no contact contributes and J was None."""
+        nq = self.nq
         for c, ((a, b, gap, n, lam), g) in enumerate(zip(self.solver.contacts, as_gammas(gamma))):
             delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
             dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
             _, kc, kd, dfc_dg = contact_law(delta, dd, g, n, lam)
             if kc == 0.0 and kd == 0.0 and dfc_dg == 0.0:
                 continue
-            if Jk is None:
-                Jk = self.Jk0.copy()
+            if J is None:
+                J = J0.copy()
             bb = self.plant.B_c[c]
-            Jk[nq : self.nx, :nq] += kc * np.outer(bb, bb)
+            J[nq : self.nx, :nq] += weight * kc * np.outer(bb, bb)
             if kd != 0.0:
-                Jk[nq : self.nx, nq : self.nx] += kd * np.outer(bb, bb)
-            Jk[nq : self.nx, self.nx + c] = dfc_dg * bb
-        return self.F0 if Jk is None else self._transition(Jk)
+                J[nq : self.nx, nq : self.nx] += weight * kd * np.outer(bb, bb)
+            J[nq : self.nx, self.nx + c] = weight * dfc_dg * bb
+        return J
+
+    def transition_matrix(self, q: np.ndarray, gamma: Any, v: Optional[np.ndarray] = None,
+                          x_prev: Optional[np.ndarray] = None) -> np.ndarray:
+        """F_k at the predicted state (eq. 10 with the full Jacobians of the step); v for Hunt-Crossley.
+        Trapezoidal: x_prev = x_{k-1} (the start-of-step tangents; None: no contact there)."""
+        if not self.trapezoidal:
+            Jk = self._add_contacts(None, self.Jk0, 1.0, q, gamma, v)
+            return self.F0 if Jk is None else self._transition(Jk)
+        Jk = self._add_contacts(None, self.Jk0, 0.5, q, gamma, v)
+        Jprev = None
+        if x_prev is not None:
+            nq, nx = self.nq, self.nx
+            Jprev = self._add_contacts(None, self.Jprev0, 0.5, x_prev[:nq], x_prev[nx:], x_prev[nq:nx])
+        if Jk is None and Jprev is None:
+            return self.F0
+        return self._transition(self.Jk0 if Jk is None else Jk, Jprev)
 
     def predict(self, u: Any) -> Tuple[np.ndarray, np.ndarray, int, bool]:
-        """Newton solve of eq. (19): returns (x_k^-, F_k, iterations, converged)."""
+        """Newton solve of the step: returns (x_k^-, F_k, iterations, converged). The trapezoidal rule
+        starts from the inputs of the last step or `correct` (self.u_prev; none yet: u)."""
         x, nq, nx = self.x, self.nq, self.nx
         gammas = x[nx:]
-        q, v, iters, ok = self.solver.solve(x[:nq], x[nq:nx], u, gammas)
+        u_prev = u if self.u_prev is None else self.u_prev
+        q, v, iters, ok = self.solver.solve(x[:nq], x[nq:nx], u, gammas, u_prev)
         xp = np.empty(self.n)
         xp[:nq] = q
         xp[nq:nx] = v
         xp[nx:] = gammas  # random walk: gamma_k^- = gamma_{k-1}^+ (eq. 19, last rows)
-        return xp, self.transition_matrix(q, gammas, v), iters, ok
+        return xp, self.transition_matrix(q, gammas, v, x), iters, ok
 
     # ---- correction -------------------------------------------------------------------
     def _index(self, live: Sequence[int]) -> Index:
@@ -247,11 +288,21 @@ class AugmentedEKF:
         return float(e @ np.linalg.solve(S, e))
 
     # ---- one step -----------------------------------------------------------------------
-    def step(self, u: Any, y: np.ndarray) -> Tuple[int, int]:
-        """Advance one sample with input(s) u_k and measurement y_k; returns (flags, Newton iters)."""
+    def correct(self, u: Any, y: np.ndarray) -> int:
+        """The measurements y at the estimate's own time, without a time update (a recording's sample at
+        t0, where the initial estimate is given), as the C core's caekf_correct: the correction and
+        constraint of `step` with P^- = P; u is remembered as the inputs at t0. Returns the flags."""
+        return self.step(u, y, predict=False)[0]
+
+    def step(self, u: Any, y: np.ndarray, predict: bool = True) -> Tuple[int, int]:
+        """Advance one sample with input(s) u_k and measurement y_k; returns (flags, Newton iters).
+        predict=False: `correct`."""
         cfg = self.cfg
         status = 0
-        xp, F, iters, ok = self.predict(u)
+        if predict:
+            xp, F, iters, ok = self.predict(u)
+        else:
+            xp, F, iters, ok = self.x.copy(), self.I, 0, True
         if not ok:
             status |= fl.NEWTON_NOT_CONVERGED
         closed = [d > 0.0 for d in self.solver.penetrations(xp[: self.nq])]  # eq. (21), per contact
@@ -264,9 +315,11 @@ class AugmentedEKF:
         L = self._index(live)
         P = self.P
         consistent = cfg.switch_variant == VARIANT_CONSISTENT
-        if not frozen:
+        if not predict:
+            Pm = P.copy()  # no time update: P^- = P
+        elif not frozen:
             Pm = F @ P @ F.T + self.Q  # eq. (12)
-        else:
+        elif not _block(F, L, [self.ig[c] for c in frozen]).any():
             # F_Lg = 0 for a frozen gamma (its contact is open: df_c/dgamma = 0), eq. (23).
             FLL = _block(F, L, L)
             Pm = P.copy()
@@ -275,6 +328,18 @@ class AugmentedEKF:
                 for c in frozen:
                     g = self.ig[c]
                     col = FLL @ P[L, g]
+                    Pm[L, g] = col
+                    Pm[g, L] = col
+        else:
+            # The trapezoidal step's start: a contact closed at x_{k-1} and open at x_k^- still moved the
+            # states through its gamma (F_Lg != 0) although its gamma is frozen: the live rows of F in full.
+            FL = _block(F, L, slice(0, self.n))
+            Pm = P.copy()
+            _set_block(Pm, L, L, FL @ P @ FL.T + _block(self.Q, L, L))
+            if consistent:
+                for c in frozen:
+                    g = self.ig[c]
+                    col = FL @ P[:, g]
                     Pm[L, g] = col
                     Pm[g, L] = col
             # Q_gamma = 0 (eq. 21): the frozen P_gg and gamma stay as they are.
@@ -294,6 +359,7 @@ class AugmentedEKF:
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(Pp))):
             status |= fl.NON_FINITE
         self.x, self.P = x, Pp
+        self.u_prev = u
         return status, iters
 
 

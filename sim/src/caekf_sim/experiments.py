@@ -21,21 +21,28 @@ def _config(preset: schema.Preset) -> EstimatorConfig:
     def value(name: str) -> float:
         return preset.values.get(name, schema.SCHEMA.by_name(name).default_value())
 
-    mode = schema.SCHEMA.by_name("mode").values[int(value("mode"))]
-    return EstimatorConfig(mode=CANONICAL if mode == "canonical" else SWITCHED,
-                           q_gamma_scale=value("q_gamma_scale"), constrained=bool(value("constraint_enabled")))
+    def enum(name: str) -> str:
+        return schema.SCHEMA.by_name(name).values[int(value(name))]
+
+    return EstimatorConfig(mode=CANONICAL if enum("mode") == "canonical" else SWITCHED,
+                           q_gamma_scale=value("q_gamma_scale"), constrained=bool(value("constraint_enabled")),
+                           discretisation=enum("discretisation"))
 
 
 EXPERIMENTS: Dict[str, EstimatorConfig] = {p.name: _config(p) for p in schema.SCHEMA.presets}
+DEFAULT = "default"  # no preset: the scenario's own settings (scenario_config)
 
 
 def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig:
     """The configuration the C tools run: the scenario's estimator settings (mode, switchoff, cov_update,
-    q_gamma_scale, constraint_enabled, gamma_gate_nis (0: off), newton_max_iter) with preset `name`'s
-    values over them; for the cross-check of caekf-replay on any mechanism."""
+    q_gamma_scale, constraint_enabled, gamma_gate_nis (0: off), newton_max_iter, discretisation) with preset
+    `name`'s values over them (None or "default": no preset); for the cross-check of caekf-replay and the
+    binding on any mechanism."""
     values = {s.name: float(getattr(sc, s.keys[0])) for s in schema.SCHEMA.settings
               if s.name in ("mode", "switchoff", "cov_update", "q_gamma_scale", "constraint_enabled",
-                            "gamma_gate_nis", "newton_max_iter")}
+                            "gamma_gate_nis", "newton_max_iter", "discretisation")}
+    if name == DEFAULT:
+        name = None
     if name is not None:
         values.update(schema.preset(name).values)
 
@@ -47,7 +54,8 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
     return EstimatorConfig(mode=CANONICAL if enum("mode") == "canonical" else SWITCHED,
                            switch_variant=enum("switchoff"), q_gamma_scale=float(values["q_gamma_scale"]),
                            constrained=bool(values["constraint_enabled"]), joseph=enum("cov_update") == "joseph",
-                           newton_max_iter=int(values["newton_max_iter"]), gate_nis=gate if gate > 0 else math.inf)
+                           newton_max_iter=int(values["newton_max_iter"]), gate_nis=gate if gate > 0 else math.inf,
+                           discretisation=enum("discretisation"))
 
 
 def experiment_config(name: str, **overrides) -> EstimatorConfig:

@@ -35,6 +35,7 @@ def _filterpy_ekf_class():
         def predict_x(self, u=0) -> None:  # called first by predict(); F must be set here
             self.model.x = self.x.ravel().copy()
             xp, F, _, _ = self.model.predict(self.u_k)
+            self.model.u_prev = self.u_k  # the trapezoidal rule's next start (backward Euler ignores it)
             self.F = F
             self.x = xp.reshape(NA, 1)
 

@@ -1,4 +1,5 @@
-"""The implicit backward-Euler step (eq. 19) of any lumped mechanism on a line (mechanism.py).
+"""The implicit step of any lumped mechanism on a line (mechanism.py): backward Euler (eq. 19) or the
+trapezoidal rule (the setting `discretisation`).
 
 Conventions (shared with the C core): x = [q_1..q_nq, v_1..v_nq]; inputs enter through B_u (one
 column per input), contact c through b_c = e_a - e_b (ground omitted) with the law of
@@ -14,6 +15,15 @@ Convergence (the same test as the C core, caekf_model_newton): after at least on
 max_i |r_i| <= rtol * max_i mag_i, where mag_i is the sum of the magnitudes of row i's terms
 (a norm-wise backward error: a lightly loaded row cannot be resolved better than the rounding
 the coupled solve spreads from the heavily loaded ones); rtol = 256 eps.
+
+Trapezoidal rule, with the generalised force G(q, v, u) = C v + K q - B_u u + sum_c b_c f_c(q, v, gamma_c):
+    (q_k - q_{k-1})/h - (v_{k-1} + v_k)/2 = 0
+    M (v_k - v_{k-1})/h + G(q_k, v_k, u_k)/2 + G(q_{k-1}, v_{k-1}, u_{k-1})/2 = 0
+The momentum rows are solved multiplied by 2, i.e. with the half step s = h/2:
+    r(v_k) = M (v_k - v_{k-1})/s + G(q_k, v_k, u_k) + G_0,   q_k = q_{k-1} + s (v_{k-1} + v_k),
+G_0 = G(q_{k-1}, v_{k-1}, u_{k-1}) a constant of the step, and the same Newton matrix as above with s for
+h: A = M/s + C + s K + sum_c (s df_c/ddelta + df_c/dddelta) b_c b_c^T. The sizes of G_0's terms join
+each row's magnitude in the convergence test (its rounding is part of the residual's).
 """
 from __future__ import annotations
 
@@ -30,6 +40,11 @@ B_INPUT = np.array([1.0, 0.0, 0.0, 0.0])
 
 NEWTON_RTOL = 256 * np.finfo(float).eps
 NEWTON_MAX_ITER = 20
+
+# The setting `discretisation` (schema enum, in its order).
+BACKWARD_EULER = "backward_euler"
+TRAPEZOIDAL = "trapezoidal"
+DISCRETISATIONS = (BACKWARD_EULER, TRAPEZOIDAL)
 
 # The model is the mechanism: `Plant` is the name the callers written for the paper's chain use.
 Plant = Mechanism
@@ -55,20 +70,26 @@ def as_gammas(gamma: Any) -> Tuple[float, ...]:
 
 @dataclass
 class StepSolver:
-    """Backward-Euler step of eq. (19) for a fixed step h, with the linear part factorised once.
+    """One implicit step for a fixed step h (backward Euler, eq. 19, or the trapezoidal rule: `scheme`),
+    with the linear part factorised once.
 
     `solve` reproduces Newton-from-v_{k-1}: when neither the initial guess nor the linear
     solution has a contact closed, one Newton iteration lands on the linear solution exactly, so
     we take it straight from the precomputed inverse (1 iteration); otherwise we iterate.
     u: a number (one input) or one value per input; gamma: a number (one contact) or one per contact.
+    The trapezoidal rule also needs the inputs at the step's start, u_prev (solve's argument; None:
+    u held over the step).
     """
 
     plant: Mechanism
     h: float
     rtol: float = NEWTON_RTOL
     max_iter: int = NEWTON_MAX_ITER
+    scheme: str = BACKWARD_EULER
     # derived
-    J0: np.ndarray = field(init=False)  # M/h + C + hK: Newton Jacobian without contact
+    hs: float = field(init=False)  # the implicit stage's step: h (backward Euler) or h/2 (trapezoidal)
+    trapezoidal: bool = field(init=False)
+    J0: np.ndarray = field(init=False)  # M/hs + C + hs K: Newton Jacobian without contact
     J0_inv: np.ndarray = field(init=False)
     m_h: np.ndarray = field(init=False)
     abs_C: np.ndarray = field(init=False)
@@ -77,7 +98,11 @@ class StepSolver:
     input_rows: Tuple[int, ...] = field(init=False)
 
     def __post_init__(self) -> None:
-        p, h = self.plant, self.h
+        if self.scheme not in DISCRETISATIONS:
+            raise ValueError(f"unknown discretisation {self.scheme!r}; choose from {', '.join(DISCRETISATIONS)}")
+        self.trapezoidal = self.scheme == TRAPEZOIDAL
+        self.hs = self.h / 2 if self.trapezoidal else self.h
+        p, h = self.plant, self.hs
         self.m_h = p.m / h
         self.J0 = np.diag(self.m_h) + p.C + h * p.K
         self.J0_inv = np.linalg.inv(self.J0)
@@ -90,10 +115,43 @@ class StepSolver:
         """delta of each contact at positions q (plain floats)."""
         return [(q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap for a, b, gap, _, _ in self.contacts]
 
+    def positions(self, q_prev: np.ndarray, v_prev: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """q_k of the step for the velocities v_k."""
+        if self.trapezoidal:
+            return q_prev + self.hs * (v_prev + v)
+        return q_prev + self.h * v
+
+    def force(self, q: np.ndarray, v: np.ndarray, u: Any, gamma: Any) -> Tuple[np.ndarray, np.ndarray]:
+        """G(q, v, u) = C v + K q - B_u u + sum_c b_c f_c and each row's sum of term magnitudes."""
+        p = self.plant
+        Cv, Kq = p.C * v[None, :], p.K * q[None, :]
+        G = Cv.sum(axis=1) + Kq.sum(axis=1)
+        mag = np.abs(Cv).sum(axis=1) + np.abs(Kq).sum(axis=1)
+        for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
+            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+            dd = (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+            fc = contact_law(delta, dd, g, n, lam)[0]
+            for end, sign in ((a, 1.0), (b, -1.0)):
+                if end >= 0:
+                    G[end] += sign * fc
+                    mag[end] += abs(fc)
+        for row, uj in zip(self.input_rows, as_inputs(u)):
+            G[row] -= uj
+            mag[row] += abs(uj)
+        return G, mag
+
     def residual(
-        self, v: np.ndarray, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any
+        self, v: np.ndarray, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any,
+        start: "Tuple[np.ndarray, np.ndarray] | None" = None,
     ) -> Tuple[np.ndarray, np.ndarray, List[float]]:
-        """Momentum rows of eq. (19) in v_k, each row's sum of term magnitudes, and the deltas."""
+        """Momentum rows of the step in v_k, each row's sum of term magnitudes, and the deltas.
+        Trapezoidal: `start` = (G_0, its magnitudes), from `force` at the step's start."""
+        if self.trapezoidal:
+            q = self.positions(q_prev, v_prev, v)
+            inertia = self.m_h * (v - v_prev)
+            G, mag = self.force(q, v, u, gamma)
+            g0, mag0 = start if start is not None else (np.zeros_like(v), np.zeros_like(v))
+            return inertia + G + g0, np.abs(inertia) + mag + mag0, self.penetrations(q)
         p = self.plant
         q = q_prev + self.h * v
         inertia = self.m_h * (v - v_prev)
@@ -117,7 +175,7 @@ class StepSolver:
         return r, mag, deltas
 
     def jacobian(self, q: np.ndarray, gamma: Any, v: "np.ndarray | None" = None) -> np.ndarray:
-        """dr/dv_k = M/h + C + h K + sum_c (h df_c/ddelta + df_c/dddelta) b_c b_c^T (v: for Hunt-Crossley)."""
+        """dr/dv_k = M/hs + C + hs K + sum_c (hs df_c/ddelta + df_c/dddelta) b_c b_c^T (v: for Hunt-Crossley)."""
         J = self.J0
         for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
             delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
@@ -127,7 +185,7 @@ class StepSolver:
                 continue
             if J is self.J0:
                 J = self.J0.copy()
-            hk = self.h * kc + kd
+            hk = self.hs * kc + kd
             if a >= 0:
                 J[a, a] += hk
             if a >= 0 and b >= 0:
@@ -137,43 +195,63 @@ class StepSolver:
                 J[b, b] += hk
         return J
 
-    def linear_velocity(self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any) -> np.ndarray:
-        """Exact root of the contact-free residual: J0 v = M/h v_prev - K q_prev + B_u u."""
-        rhs = self.m_h * v_prev - self.plant.K @ q_prev
+    def linear_velocity(
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any,
+        start: "Tuple[np.ndarray, np.ndarray] | None" = None,
+    ) -> np.ndarray:
+        """Exact root of the contact-free residual: J0 v = M/h v_prev - K q_prev + B_u u (backward Euler);
+        trapezoidal: J0 v = M/s v_prev - K (q_prev + s v_prev) + B_u u - G_0."""
+        if self.trapezoidal:
+            rhs = self.m_h * v_prev - self.plant.K @ (q_prev + self.hs * v_prev)
+            if start is not None:
+                rhs = rhs - start[0]
+        else:
+            rhs = self.m_h * v_prev - self.plant.K @ q_prev
         for row, uj in zip(self.input_rows, as_inputs(u)):
             rhs[row] += uj
         return self.J0_inv @ rhs
 
+    def step_start(self, q_prev: np.ndarray, v_prev: np.ndarray, u_prev: Any, gamma: Any
+                   ) -> "Tuple[np.ndarray, np.ndarray] | None":
+        """The trapezoidal rule's constant G_0 = G(q_{k-1}, v_{k-1}, u_{k-1}) and its magnitudes; None for
+        backward Euler."""
+        return self.force(q_prev, v_prev, u_prev, gamma) if self.trapezoidal else None
+
     def solve(
-        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any, u_prev: Any = None
     ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
-        """One step: returns (q_k, v_k, Newton iterations, converged)."""
-        h = self.h
-        if all(d <= 0.0 for d in self.penetrations(q_prev + h * v_prev)):
-            v = self.linear_velocity(q_prev, v_prev, u)
-            q = q_prev + h * v
+        """One step: returns (q_k, v_k, Newton iterations, converged). u_prev: the trapezoidal rule's inputs
+        at the step's start (None: u)."""
+        start = self.step_start(q_prev, v_prev, u if u_prev is None else u_prev, gamma)
+        if all(d <= 0.0 for d in self.penetrations(self.positions(q_prev, v_prev, v_prev))):
+            v = self.linear_velocity(q_prev, v_prev, u, start)
+            q = self.positions(q_prev, v_prev, v)
             if all(d <= 0.0 for d in self.penetrations(q)):
                 return q, v, 1, True
-        return self.newton(q_prev, v_prev, u, gamma)
+        return self.newton(q_prev, v_prev, u, gamma, u_prev, start)
 
     def newton(
-        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any, u_prev: Any = None,
+        start: "Tuple[np.ndarray, np.ndarray] | None" = None,
     ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
-        """Plain Newton on the residual of eq. (19) from v_{k-1}; bounded iterations.
+        """Plain Newton on the step's residual from v_{k-1}; bounded iterations. u_prev as for `solve`
+        (start: its G_0, when already computed).
 
         Returns the last iterate and the number of linear solves done when it gives up.
         """
+        if start is None:
+            start = self.step_start(q_prev, v_prev, u if u_prev is None else u_prev, gamma)
         v = v_prev.copy()
         for it in range(self.max_iter + 1):
-            r, mag, _ = self.residual(v, q_prev, v_prev, u, gamma)
+            r, mag, _ = self.residual(v, q_prev, v_prev, u, gamma, start)
             # At least one update (it solves the linear part exactly); NaN never converges.
             if it > 0 and np.max(np.abs(r)) <= self.rtol * np.max(mag):
-                return q_prev + self.h * v, v, it, True
+                return self.positions(q_prev, v_prev, v), v, it, True
             if it == self.max_iter:
                 break
-            J = self.jacobian(q_prev + self.h * v, gamma, v)
+            J = self.jacobian(self.positions(q_prev, v_prev, v), gamma, v)
             try:
                 v = v - np.linalg.solve(J, r)
             except np.linalg.LinAlgError:
                 break
-        return q_prev + self.h * v, v, it, False
+        return self.positions(q_prev, v_prev, v), v, it, False

@@ -3,8 +3,9 @@
 `estimate(scenario, experiment, t, u, y)` returns gamma, P_gamma,gamma, NIS and the health flags
 of every step. By default it runs the shipped C estimator in process through the binding
 (`caekf_sim.run`, double); backend="replay" runs the same C code through `caekf-replay` (CSV over
-pipes: an independent path, kept for cross-checks) and backend="numpy" the numpy reference (no
-innovation gate, no NIS). `experiment` is a preset of the settings schema, or "default" for none.
+pipes: an independent path, kept for cross-checks) and backend="numpy" the numpy reference (no NIS;
+a preset without the innovation gate, "default" with the scenario's settings: gate and discretisation).
+`experiment` is a preset of the settings schema, or "default" for none.
 """
 from __future__ import annotations
 
@@ -64,10 +65,12 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
         return Estimate(gamma=res.gamma.copy(), p_gg=np.asarray(res.p_gg, float).copy(), nis=res.nis.copy(),
                         flags=res.flags.astype(np.int64))
     if backend == "numpy":
-        from ..experiments import experiment_config
+        from ..experiments import experiment_config, scenario_config
         from ..estimator import run_estimator
 
-        ref = run_estimator(sc, experiment_config(experiment), t, u, y, keep_P=False)
+        # "default": the scenario's own settings, as the binding runs them (discretisation included)
+        cfg = scenario_config(sc) if preset is None else experiment_config(preset)
+        ref = run_estimator(sc, cfg, t, u, y, keep_P=False)
         return Estimate(gamma=ref.gamma.copy(), p_gg=ref.p_gg.copy(), nis=np.full(len(t), np.nan),
                         flags=ref.flags.astype(np.int64))
     if backend != "replay":

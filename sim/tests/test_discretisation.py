@@ -1,0 +1,179 @@
+"""The numpy reference's two step maps (the setting `discretisation`): the trapezoidal rule's order, its F
+against finite differences, the inputs at the step's start, and where the setting comes from.
+
+Expectations come from the equations (the exact solution of a linear system by the matrix exponential,
+central differences of the step map), never from a stored run; the C core is compared in
+test_binding_mechanism.py."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from caekf_sim.estimator import AugmentedEKF, EstimatorConfig
+from caekf_sim.experiments import EXPERIMENTS, experiment_config, scenario_config
+from caekf_sim.mechanism import Mechanism, contact_values
+from caekf_sim.model import BACKWARD_EULER, TRAPEZOIDAL, StepSolver
+from caekf_sim.scenario import default_scenario_path, load_scenario
+from mechanism_support import Sc
+
+# Two bodies on a line, body 1 tied to the ground, lightly damped (modes at 5 and 17 rad/s: omega dt small at
+# the steps below, so the errors are in their asymptotic range); one input on body 1; no contact.
+TWO = {"bodies": 2, "m1": 1.0, "m2": 0.5, "springs": 2,
+       "spring1_a": 1, "spring1_b": 0, "spring1_k": 40.0, "spring1_c": 0.5,
+       "spring2_a": 1, "spring2_b": 2, "spring2_k": 90.0, "spring2_c": 0.2,
+       "inputs": 1, "input1_body": 1, "input1_amp": 0.0, "input1_freq": 0.0, "input1_phase": 0.0,
+       "sensors": 1, "sensor1_body": 1, "contacts": 0}
+U_AMP, U_OMEGA = 2.0, 7.0  # u(t) = U_AMP sin(U_OMEGA t) [N]
+
+
+def _exact(mech: Mechanism, x0: np.ndarray, t: float) -> np.ndarray:
+    """x(t) of M q'' + C q' + K q = B_u u(t), u a sine: the matrix exponential of the system extended by
+    the sine's own oscillator s' = w c, c' = -w s (s(0) = 0, c(0) = 1, u = U_AMP s)."""
+    nq = mech.nq
+    Minv = np.diag(1.0 / mech.m)
+    A = np.zeros((2 * nq + 2, 2 * nq + 2))
+    A[:nq, nq : 2 * nq] = np.eye(nq)
+    A[nq : 2 * nq, :nq] = -Minv @ mech.K
+    A[nq : 2 * nq, nq : 2 * nq] = -Minv @ mech.C
+    A[nq : 2 * nq, 2 * nq] = U_AMP * (Minv @ mech.B_u)[:, 0]
+    A[2 * nq, 2 * nq + 1] = U_OMEGA
+    A[2 * nq + 1, 2 * nq] = -U_OMEGA
+    return (expm(A * t) @ np.r_[x0, 0.0, 1.0])[: 2 * nq]
+
+
+def _error_after_one_second(scheme: str, h: float) -> float:
+    """Largest state error at t = 1 s of the step map with step h, u sampled at the steps' ends."""
+    mech = Mechanism.from_scenario(TWO)
+    solver = StepSolver(mech, h, scheme=scheme)
+    q, v = np.array([1e-3, -2e-3]), np.array([0.05, 0.0])
+    x_ref = _exact(mech, np.r_[q, v], 1.0)
+    steps = int(round(1.0 / h))
+    u_prev = 0.0  # u(0)
+    for k in range(1, steps + 1):
+        u = U_AMP * np.sin(U_OMEGA * k * h)
+        q, v, it, ok = solver.solve(q, v, u, (), u_prev)
+        assert ok and it == 1
+        u_prev = u
+    q_ref, v_ref = x_ref[:2], x_ref[2:]
+    return max(np.max(np.abs(q - q_ref)) / np.max(np.abs(q_ref)), np.max(np.abs(v - v_ref)) / np.max(np.abs(v_ref)))
+
+
+@pytest.mark.parametrize("scheme, ratio", [(TRAPEZOIDAL, 4.0), (BACKWARD_EULER, 2.0)])
+def test_order_of_the_step_map(scheme, ratio):
+    """Halving dt cuts the one-second error by ~4 (trapezoidal: second order) or ~2 (backward Euler)."""
+    errs = [_error_after_one_second(scheme, h) for h in (4e-3, 2e-3, 1e-3)]
+    for coarse, fine in zip(errs, errs[1:]):
+        assert coarse / fine == pytest.approx(ratio, rel=0.1), errs
+    if scheme == TRAPEZOIDAL:
+        assert errs[-1] < 0.05 * _error_after_one_second(BACKWARD_EULER, 1e-3)
+
+
+def test_trapezoidal_step_with_the_inputs_held_is_first_order():
+    """The input at the step's start matters: u_k used at both ends costs the second order."""
+    mech = Mechanism.from_scenario(TWO)
+    errs = []
+    for h in (2e-3, 1e-3):
+        solver = StepSolver(mech, h, scheme=TRAPEZOIDAL)
+        q, v = np.array([1e-3, -2e-3]), np.array([0.05, 0.0])
+        x_ref = _exact(mech, np.r_[q, v], 1.0)
+        for k in range(1, int(round(1.0 / h)) + 1):
+            q, v, _, _ = solver.solve(q, v, U_AMP * np.sin(U_OMEGA * k * h), ())  # u_prev None: u_k
+        errs.append(np.max(np.abs(np.r_[q, v] - x_ref)))
+    assert errs[0] / errs[1] == pytest.approx(2.0, rel=0.15)
+
+
+# The 5-body mechanism of test_mechanism.py, cut to what the step needs: a Hunt-Crossley n = 1 contact
+# between body 3 and the ground, and an n = 2.3 contact between the ground and body 4.
+FIVE = {
+    "dt": 1e-3, "t_end": 1.0, "bodies": 5, "m1": 1.0, "m2": 2.0, "m3": 0.5, "m4": 1.5, "m5": 1.0,
+    "springs": 5, "spring1_a": 1, "spring1_b": 0, "spring1_k": 3e3, "spring1_c": 4.0,
+    "spring2_a": 2, "spring2_b": 1, "spring2_k": 1e4, "spring2_c": 1.0,
+    "spring3_a": 3, "spring3_b": 2, "spring3_k": 5e3, "spring3_c": 0.0,
+    "spring4_a": 4, "spring4_b": 5, "spring4_k": 8e3, "spring4_c": 2.0,
+    "spring5_a": 0, "spring5_b": 5, "spring5_k": 2e3, "spring5_c": 3.0,
+    "inputs": 2, "input1_body": 1, "input1_amp": 1.0, "input1_freq": 1.0, "input1_phase": 0.0,
+    "input2_body": 4, "input2_amp": 2.0, "input2_freq": 0.5, "input2_phase": 1.0,
+    "sensors": 3, "sensor1_body": 1, "sensor1_kind": "position", "sensor2_body": 4, "sensor2_kind": "velocity",
+    "sensor3_body": 5, "sensor3_kind": 0,
+    "contacts": 2, "contact1_a": 3, "contact1_b": 0, "contact1_gap": 2e-4, "contact1_n": 1.0,
+    "contact1_lambda": 30.0, "contact1_gamma": 3e5, "contact2_a": 0, "contact2_b": 4, "contact2_gap": 1e-4,
+    "contact2_n": 2.3, "contact2_lambda": 0.0, "contact2_gamma": 1e12,
+    "contact1_gamma0": 2e5, "contact1_sigma_gamma0": 1e5, "contact1_sigma_q_gamma": 1e3, "contact1_gamma_min": 1e3,
+    "contact2_gamma0": 8e11, "contact2_sigma_gamma0": 3e11, "contact2_sigma_q_gamma": 1e9,
+    "contact2_gamma_min": 1e9, "sigma_q0": 1e-6, "sigma_v0": 1e-5, "sigma_qx_q": 1e-9, "sigma_qx_v": 1e-7,
+    "sigma_r": 1e-7, "sigma_rv": 1e-5, "noise_std": 0.0, "noise_std_v": 0.0, "seed": 1, "truth_substeps": 2,
+}
+
+
+@pytest.mark.parametrize("v3, closed_at_end", [(1e-3, (True, True)), (-1.2e-2, (False, True))])
+def test_trapezoidal_transition_matrix_matches_finite_differences(v3, closed_at_end):
+    """F = d x_k / d x_{k-1} of the trapezoidal step with both contacts closed at x_{k-1}: at x_k too, or
+    contact 1 opening during the step (its gamma then moves x_k through the step's start alone)."""
+    five = Sc(FIVE)
+    ekf = AugmentedEKF(five, EstimatorConfig(discretisation=TRAPEZOIDAL))
+    q0 = np.array([1e-4, 2e-4, 2e-4 + 3e-6, -(1e-4 + 2e-5), -5e-5])
+    v0 = np.array([1e-3, -2e-3, v3, 3e-3, -1e-3])
+    assert np.all(ekf.plant.penetrations(q0) > 0)
+    x0 = np.r_[q0, v0, contact_values(five, "gamma", 2)]
+    u, u_prev = [0.3, 0.1], [0.25, 0.2]
+    ekf.x, ekf.u_prev = x0.copy(), u_prev
+    xp, F, _, ok = ekf.predict(u)
+    assert ok and tuple(ekf.plant.penetrations(xp[:5]) > 0) == closed_at_end
+    step = np.r_[np.full(5, 1e-10), np.full(5, 1e-8), 1e-1, 1e5]
+    Fd = np.empty_like(F)
+    for j in range(ekf.n):
+        cols = []
+        for s in (+1, -1):
+            ekf.x = x0.copy()
+            ekf.x[j] += s * step[j]
+            cols.append(ekf.predict(u)[0])
+        Fd[:, j] = (cols[0] - cols[1]) / (2 * step[j])
+    assert np.all(np.abs(F - Fd) <= 1e-6 * np.abs(F).max(axis=1, keepdims=True))
+    assert np.any(F[:10, 10] != 0) and np.any(F[:10, 11] != 0)
+
+
+def test_inputs_at_the_step_start():
+    """The first step holds its own u over the interval; later steps start from the previous step's u;
+    `correct` (a sample at t0) records its u without moving the state in time."""
+    five = Sc(FIVE)
+    cfg = EstimatorConfig(discretisation=TRAPEZOIDAL)
+    y = np.zeros(3)
+    u0, u1, u2 = [0.5, -0.2], [0.3, 0.1], [0.1, 0.4]
+
+    def solved(ekf, u, u_prev):
+        q, v, _, _ = ekf.solver.solve(ekf.x[:5], ekf.x[5:10], u, ekf.x[10:], u_prev)
+        return np.r_[q, v]
+
+    a = AugmentedEKF(five, cfg)
+    assert a.u_prev is None
+    assert np.array_equal(a.predict(u1)[0][:10], solved(a, u1, u1))
+    a.step(u1, y)
+    assert a.u_prev == u1
+    assert np.array_equal(a.predict(u2)[0][:10], solved(a, u2, u1))
+
+    b = AugmentedEKF(five, cfg)
+    x_before, P_before = b.x.copy(), b.P.copy()
+    b.correct(u0, y)
+    assert b.u_prev == u0
+    # the correction alone: positions pulled towards y with P^- = P (no Q added), the gammas unmoved
+    # (their contacts are open, so frozen)
+    assert np.array_equal(b.x[10:], x_before[10:]) and np.all(np.diag(b.P) <= np.diag(P_before))
+    assert np.array_equal(b.P[10:, 10:], P_before[10:, 10:])
+    assert np.array_equal(b.predict(u1)[0][:10], solved(b, u1, u0))
+
+
+def test_the_setting_comes_from_the_schema():
+    """Presets (the paper's experiments) run backward Euler; no preset: the scenario's value, whose
+    default is the trapezoidal rule; the numpy config's own default stays backward Euler."""
+    sc = load_scenario(default_scenario_path())
+    assert {c.discretisation for c in EXPERIMENTS.values()} == {BACKWARD_EULER}
+    assert experiment_config("switched").discretisation == BACKWARD_EULER
+    assert scenario_config(sc).discretisation == scenario_config(sc, "default").discretisation == TRAPEZOIDAL
+    assert scenario_config(sc, "canonical").discretisation == BACKWARD_EULER
+    assert scenario_config(sc.replace(discretisation=0)).discretisation == BACKWARD_EULER
+    assert EstimatorConfig().discretisation == BACKWARD_EULER
+    with pytest.raises(ValueError, match="unknown discretisation"):
+        EstimatorConfig(discretisation="rk4")
+    with pytest.raises(ValueError, match="unknown discretisation"):
+        StepSolver(Mechanism.from_scenario(TWO), 1e-3, scheme="euler")
