@@ -11,7 +11,7 @@
 
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
-CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= 2 * CAEKF_NQ, scratch_holds_the_newton_work);
+CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N, scratch_holds_the_substep_work);
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
@@ -61,6 +61,13 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     }
     est->cfg = *s;
     (void)caekf_model_init(&est->model, mp);
+    if (s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
+        caekf_model_params_t sub = *mp;
+        sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
+        (void)caekf_model_init(&est->sub_model, &sub);
+    } else {
+        est->sub_model = est->model;
+    }
     nq = est->model.nq;
     nc = est->model.nc;
     n = est->model.n;
@@ -143,15 +150,86 @@ static int all_finite(const caekf_scalar_t *v, int n)
     return nf == 0;
 }
 
-/* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step) and
- * P- = F P F^T + Q into P_work (upper triangle); z = S^-1 x_k-. Returns 0, or -1 on a singular matrix. */
-static int predict_covariance(caekf_t *est, int closed)
+/* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
+ * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows); F's gamma rows
+ * stay identity rows. Returns 0, 1 when a Newton solve did not converge, -1 on a singular matrix. */
+static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u, int *iters)
+{
+    const caekf_model_t *m = &est->sub_model;
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = est->cfg.contact_substeps;
+    const caekf_scalar_t hs = m->hs, c2 = m->p.dt - m->hs;
+    caekf_scalar_t xa[CAEKF_N], ua[CAEKF_MAX_INPUTS], ub[CAEKF_MAX_INPUTS];
+    /* scratch: the Newton work, then F_j's v-rows (fj) and the new v-rows of the product (vnew) */
+    caekf_scalar_t(*fj)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])est->scratch.m;
+    caekf_scalar_t(*vnew)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])(est->scratch.m + CAEKF_NQ * CAEKF_N);
+    int i, j, k, step, result = 0;
+    for (i = 0; i < nq; ++i) {
+        for (j = 0; j < n; ++j) {
+            est->fq[i][j] = i == j ? 1 : 0;
+            est->fv[i][j] = j == nq + i ? 1 : 0;
+        }
+    }
+    for (i = 0; i < n; ++i) {
+        xa[i] = est->x_prev[i];
+    }
+    for (i = 0; i < nu; ++i) {
+        ub[i] = u0[i];
+    }
+    for (step = 1; step <= steps; ++step) {
+        int it = 0;
+        for (i = 0; i < nu; ++i) {
+            ua[i] = ub[i];
+            ub[i] = step == steps ? u[i] : u0[i] + (u[i] - u0[i]) * (caekf_scalar_t)step / (caekf_scalar_t)steps;
+        }
+        if (caekf_model_newton(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
+                               est->scratch.m) != 0) {
+            result = 1;
+        }
+        *iters += it;
+        if (caekf_model_transition_v(m, est->x_pred, xa, fj) != 0) {
+            return -1;
+        }
+        for (i = 0; i < nq; ++i) { /* F_j's v-rows times the product so far (gamma rows: identity) */
+            for (j = 0; j < n; ++j) {
+                caekf_scalar_t acc = j >= 2 * nq ? fj[i][j] : 0;
+                for (k = 0; k < nq; ++k) {
+                    acc += fj[i][k] * est->fq[k][j] + fj[i][nq + k] * est->fv[k][j];
+                }
+                vnew[i][j] = acc;
+            }
+        }
+        for (i = 0; i < nq; ++i) { /* q-rows: [I, c2 I, 0] + hs * v-rows, times the product */
+            for (j = 0; j < n; ++j) {
+                est->fq[i][j] += c2 * est->fv[i][j] + hs * vnew[i][j];
+                est->fv[i][j] = vnew[i][j];
+            }
+        }
+        for (i = 0; i < n; ++i) {
+            xa[i] = est->x_pred[i];
+        }
+    }
+    return result;
+}
+
+/* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step; after
+ * substeps their product, in fq and fv) and P- = F P F^T + Q into P_work (upper triangle);
+ * z = S^-1 x_k-. Returns 0, or -1 on a singular matrix. */
+static int predict_covariance(caekf_t *est, int closed, int substepped)
 {
     const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
     caekf_scalar_t *z = est->x_pred;
-    int i;
-    if (closed) {
+    int i, j;
+    if (substepped) { /* scaled: S^-1 F S */
+        est->fv_const = 0;
+        for (i = 0; i < nq; ++i) {
+            for (j = 0; j < n; ++j) {
+                est->fq[i][j] *= s[j] / s_q;
+                est->fv[i][j] *= s[j] / s_v;
+            }
+        }
+        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
+    } else if (closed) {
         est->fv_const = 0;
         if (caekf_model_transition_v(&est->model, est->x_pred, est->x_prev, est->fv) != 0) {
             return -1;
@@ -169,7 +247,8 @@ static int predict_covariance(caekf_t *est, int closed)
     }
     /* From here on P_work holds the upper triangle only; the commit mirrors it. */
     caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.hs * s_v / s_q,
-                             (est->model.p.dt - est->model.hs) * s_v / s_q, est->q_diag, &est->dims);
+                             (est->model.p.dt - est->model.hs) * s_v / s_q, substepped ? est->fq : 0, est->q_diag,
+                             &est->dims);
     return 0;
 }
 
@@ -186,7 +265,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
     int iters = 0;
-    int i, nq, nc, n, ny, nu, any_contact = 0;
+    int i, nq, nc, n, ny, nu, any_contact = 0, substepped = 0;
     const caekf_scalar_t *s;
     caekf_scalar_t nis = 0;
 
@@ -230,10 +309,23 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n; ++i) {
             est->x_pred[i] = xprev[i];
         }
-    } else if (caekf_model_newton(&est->model, xprev, est->u_prev_known ? est->u_prev : u, u,
-                                  est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &iters,
-                                  est->scratch.m) != 0) {
-        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
+    } else {
+        const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
+        int r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
+                                   est->x_pred, &iters, est->scratch.m);
+        if (est->cfg.contact_substeps > 1 && (caekf_model_any_contact(&est->model, est->x_pred) ||
+                                              caekf_model_any_contact(&est->model, xprev))) {
+            substepped = 1; /* the one-step solution only decided that substeps are needed */
+            r = substep_predict(est, u0, u, &iters);
+            if (r < 0) {
+                flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+                st = CAEKF_ERR_SINGULAR;
+                goto done;
+            }
+        }
+        if (r != 0) {
+            flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
+        }
     }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
         caekf_contact_t c;
@@ -255,8 +347,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (est->model.trap &&
-                                                        caekf_model_any_contact(&est->model, xprev))) != 0) {
+    } else if (predict_covariance(est, any_contact || (est->model.trap && caekf_model_any_contact(&est->model, xprev)),
+                                  substepped) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;

@@ -71,11 +71,12 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
 
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, caekf_scalar_t c2,
-                              const caekf_scalar_t *q_diag, const caekf_filter_dims_t *d)
+                              caekf_scalar_t fq[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag,
+                              const caekf_filter_dims_t *d)
 {
     const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
-    caekf_scalar_t w[CAEKF_NQ];
+    caekf_scalar_t w[CAEKF_NQ], wq[CAEKF_NQ];
     int i, j, k;
     for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
         const unsigned char *idx = pat->nz[i];
@@ -112,7 +113,15 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             tq[j] = pi[j] + c * s;
         }
     }
-    if (c2 != 0) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
+    if (fq != 0) { /* dense q-rows: T_q = Fq P */
+        for (i = 0; i < nq; ++i) {
+            caekf_scalar_t *tq = T + i * n;
+            const caekf_scalar_t *pj = P;
+            for (j = 0; j < n; ++j, pj += n) {
+                tq[j] = dot(fq[i], pj, n);
+            }
+        }
+    } else if (c2 != 0) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
         for (i = 0; i < nq; ++i) {
             const caekf_scalar_t *pv = P + (nq + i) * n;
             caekf_scalar_t *tq = T + i * n;
@@ -146,7 +155,16 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             }
             w[j] = s;
         }
-        if (i < nq) {
+        if (i < nq && fq != 0) { /* q-columns T_i Fq_j^T, all read before any is written */
+            for (j = i; j < nq; ++j) {
+                wq[j] = dot(t, fq[j], n);
+            }
+            dd = wq[i];
+            for (j = i + 1; j < nq; ++j) {
+                t[j] = flush(wq[j]);
+            }
+            j = nq;
+        } else if (i < nq) {
             dd = t[i] + c * w[i];
             if (c2 != 0) { /* T's v-columns are still T's here: they are overwritten below */
                 dd += c2 * t[nq + i];

@@ -30,11 +30,13 @@ void caekf_mirror_upper(caekf_scalar_t *P, int n);
 
 /* Eq. (12) P- = F P F^T + Q with the structure of eq. (10): fv holds the v-rows of the scaled F (compacted)
  * and the q-rows are [I, c2 I, 0] + c * fv (c = hs s_v / s_q, c2 = (dt - hs) s_v / s_q: 0 for backward
- * Euler); the gamma rows are identity rows. Q_gamma and the gamma
+ * Euler), or, when fq is not NULL, fq's dense rows (the product of substep maps; c, c2 unused); the gamma
+ * rows are identity rows. Q_gamma and the gamma
  * rows/columns are handled per gamma policy (eqs. 21-24). P: full symmetric; P_pred: upper triangle. */
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *P_pred, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, caekf_scalar_t c2,
-                              const caekf_scalar_t *q_diag, const caekf_filter_dims_t *d);
+                              caekf_scalar_t fq[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag,
+                              const caekf_filter_dims_t *d);
 
 /* Eqs. (13)-(15), or (25)-(27) with the policies, for the scaled measurements y_s. Standard or Joseph
  * form. Returns 0, or sets CAEKF_FLAG_SINGULAR_INNOVATION and leaves z, P untouched. *nis: the

@@ -199,6 +199,7 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_CONSTRAINT_ENABLED: return &s->constraint_enabled;
     case CAEKF_PARAM_PSD_CHECK_PERIOD: return &s->psd_check_period;
     case CAEKF_PARAM_DISCRETISATION: return &m->discretisation;
+    case CAEKF_PARAM_CONTACT_SUBSTEPS: return &s->contact_substeps;
     default: return NULL;
     }
 }

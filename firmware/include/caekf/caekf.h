@@ -96,6 +96,11 @@ typedef struct {
      * maps them onto gamma is void, e.g. the first measurements after a gap during contact. */
     caekf_scalar_t gamma_gate_nis;
 
+    /* While a contact is closed at either end of a step, the model integrates the step in this many
+     * substeps of dt/contact_substeps (inputs linear in between) and F is the product of their maps:
+     * an impact lasting a few samples is then resolved. 1: one step of dt always. */
+    int contact_substeps;
+
     int newton_max_iter;           /* 1..CAEKF_NEWTON_MAX_ITER */
     caekf_scalar_t newton_rtol;    /* residual tolerance relative to the size of the equation's terms */
 } caekf_settings_t;
@@ -118,6 +123,7 @@ typedef struct {
 typedef struct {
     caekf_settings_t cfg;
     caekf_model_t model;                    /* derived model matrices */
+    caekf_model_t sub_model;                /* the same at dt / contact_substeps (when > 1) */
     caekf_scalar_t scale[CAEKF_N];          /* S */
     caekf_scalar_t z[CAEKF_N];              /* scaled state */
     caekf_scalar_t P[CAEKF_N * CAEKF_N];    /* scaled covariance */
@@ -130,6 +136,7 @@ typedef struct {
     caekf_scalar_t x_prev[CAEKF_N];         /* step work: x_{k-1}, then x_k- and the scaled z */
     caekf_scalar_t x_pred[CAEKF_N];
     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of the scaled F */
+    caekf_scalar_t fq[CAEKF_NQ][CAEKF_N];   /* step work: q-rows of F after substeps (else implied by fv) */
     caekf_fv_pattern_t fv_pattern;          /* fv's rows, compacted to their nonzeros: their columns */
     uint32_t fv_const;                      /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */

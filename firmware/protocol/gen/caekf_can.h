@@ -252,6 +252,7 @@ extern "C" {
 #define CAEKF_CAN_CTRL_PARAM_PARAM_ID_CONSTRAINT_ENABLED_CHOICE (120u)
 #define CAEKF_CAN_CTRL_PARAM_PARAM_ID_PSD_CHECK_PERIOD_CHOICE (121u)
 #define CAEKF_CAN_CTRL_PARAM_PARAM_ID_DISCRETISATION_CHOICE (122u)
+#define CAEKF_CAN_CTRL_PARAM_PARAM_ID_CONTACT_SUBSTEPS_CHOICE (123u)
 
 #define CAEKF_CAN_EST_ACK_ACK_STATUS_REFUSED_INIT_CHOICE (-6)
 #define CAEKF_CAN_EST_ACK_ACK_STATUS_REFUSED_NO_SETTINGS_CHOICE (-5)
@@ -538,7 +539,7 @@ struct caekf_can_ctrl_param_t {
     /**
      * Which setting (value table generated from the settings schema; names are the scenario file keys). Integer, enum and bool settings need an integral value.
      *
-     * Range: 0..122 (0..122 -)
+     * Range: 0..123 (0..123 -)
      * Scale: 1
      * Offset: 0
      */
