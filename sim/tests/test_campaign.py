@@ -95,6 +95,36 @@ def test_metrics_follow_their_definitions():
     assert run_metrics(t, g_true, delta, Estimate(gamma, p_gg, nis, flags))["diverged"]
 
 
+def test_metrics_of_several_contacts_report_each_and_the_worst():
+    """Two contacts: contact 1's columns as for one contact, contact 2's with _c2; contact 2 diverges, so
+    the run has diverged (worst contact) while contact 1 has not; NEES and |error| worst of the two."""
+    n = 500
+    t = np.arange(1, n + 1) * 1e-3
+    delta = np.full((n, 2), -1e-4)
+    delta[100:200, 0] = 1e-6
+    delta[300:400, 1] = 1e-6
+    g_true = np.array([1e8, 4e8])
+    gamma = np.column_stack([np.full(n, 1.01e8), np.full(n, 4e8)])
+    gamma[300:, 1] = 9e8  # contact 2 ends 125 % off
+    p_gg = np.column_stack([np.full(n, 1e12), np.full(n, 1e14)])
+    nis, flags = np.ones(n), np.zeros(n, dtype=np.int64)
+    m = run_metrics(t, g_true, delta, Estimate(gamma, p_gg, nis, flags))
+    one = run_metrics(t, g_true[0], delta[:, 0], Estimate(gamma[:, 0], p_gg[:, 0], nis, flags))
+    for k, v in one.items():  # contact 1 keeps the one-contact names and values
+        if not k.endswith("_worst") and k not in ("worst_contact", "nis_mean_free_before_contact"):
+            assert m[k] == v or (isinstance(v, float) and math.isnan(v) and math.isnan(m[k])), k
+    assert m["final_err"] == pytest.approx(0.01) and m["final_err_c2"] == pytest.approx(1.25)
+    assert not m["diverged"] and m["diverged_c2"] and m["diverged_worst"]
+    assert m["worst_contact"] == 2 and m["abs_final_err_worst"] == m["abs_final_err_c2"]
+    assert m["nees_final"] == pytest.approx(1.0) and m["nees_final_c2"] == pytest.approx(25e16 / 1e14)
+    assert m["nees_final_worst"] == m["nees_final_c2"]
+    assert m["consistent_3sigma"] and not m["consistent_3sigma_c2"] and not m["consistent_3sigma_worst"]
+    assert m["t_first_contact"] == t[100] and m["t_first_contact_c2"] == t[300]
+    assert m["nis_mean_free_before_contact"] == 1.0 and one["worst_contact"] == 1
+    # one contact: the worst columns are contact 1's
+    assert one["abs_final_err_worst"] == one["abs_final_err"] and one["diverged_worst"] == one["diverged"]
+
+
 def _small_family():
     fam = load_spec(SPEC, runs=4, seed=5, t_end=4.0)
     # forcing fast enough that 4 s include contact (the family's other values as drawn)
