@@ -367,3 +367,29 @@ def test_tune_fits_the_noise_of_any_mechanism(general):
     assert res.scenario.replace(sigma_rv=mistuned.sigma_rv) == mistuned  # only sigma_rv changed
     with pytest.raises(ValueError, match="contact2_sigma_q_gamma"):
         tune(mistuned, [Record("r", tr.t, tr.u, tr.y)], params=["contact2_sigma_q_gamma"])
+
+
+def test_tune_command_reads_the_mechanism_columns(general, tmp_path, capsys):
+    """`caekf-sim tune` on the 3-body mechanism: a record with its columns t,u1,u2,y1,yv3 (caekf-truth's),
+    every noise std it uses tuned by default, a one-line error for a record with the paper's columns."""
+    from caekf_sim.cli import main
+    from caekf_sim.settings_adapter import scenario_toml
+    from caekf_sim.truth import write_truth_csv
+
+    sc = general.replace(noise_std=1e-7, noise_std_v=1e-3, sigma_r=1e-7, sigma_rv=1e-3, t_end=1.0)
+    scen, rec, out = tmp_path / "g.toml", tmp_path / "r.csv", tmp_path / "tuned.toml"
+    scen.write_text(scenario_toml(sc))
+    tr = binding.truth(sc)
+    write_truth_csv(tr, rec)
+    assert rec.read_text().split("\n", 1)[0].startswith("t,u1,u2,y1,yv3,")
+    assert main(["tune", "--scenario", str(scen), "--runs", str(rec), "--max-evals", "8", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    for k in ("sigma_qx_q", "sigma_qx_v", "sigma_r", "sigma_rv", "contact1_sigma_q_gamma"):
+        assert k in text.split("\n", 1)[0]  # "tuned <params> on 1 run(s) ..."
+    assert "mean NIS 2 (one per sensor)" in text
+    assert load_scenario(out).bodies == 3
+    paper_cols = tmp_path / "p.csv"
+    paper_cols.write_text("t,u,y1,y4\n0.001,0,0,0\n0.002,0,0,0\n")
+    assert main(["tune", "--scenario", str(scen), "--runs", str(paper_cols), "--max-evals", "2"]) == 3
+    err = capsys.readouterr().err.strip()
+    assert "no column(s) u1, u2, yv3" in err and "\n" not in err
