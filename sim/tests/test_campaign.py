@@ -96,6 +96,36 @@ def test_metrics_follow_their_definitions():
     assert run_metrics(t, g_true, delta, Estimate(gamma, p_gg, nis, flags))["diverged"]
 
 
+def test_metrics_of_several_contacts_report_each_and_the_worst():
+    """Two contacts: contact 1's columns as for one contact, contact 2's with _c2; contact 2 diverges, so
+    the run has diverged (worst contact) while contact 1 has not; NEES and |error| worst of the two."""
+    n = 500
+    t = np.arange(1, n + 1) * 1e-3
+    delta = np.full((n, 2), -1e-4)
+    delta[100:200, 0] = 1e-6
+    delta[300:400, 1] = 1e-6
+    g_true = np.array([1e8, 4e8])
+    gamma = np.column_stack([np.full(n, 1.01e8), np.full(n, 4e8)])
+    gamma[300:, 1] = 9e8  # contact 2 ends 125 % off
+    p_gg = np.column_stack([np.full(n, 1e12), np.full(n, 1e14)])
+    nis, flags = np.ones(n), np.zeros(n, dtype=np.int64)
+    m = run_metrics(t, g_true, delta, Estimate(gamma, p_gg, nis, flags))
+    one = run_metrics(t, g_true[0], delta[:, 0], Estimate(gamma[:, 0], p_gg[:, 0], nis, flags))
+    for k, v in one.items():  # contact 1 keeps the one-contact names and values
+        if not k.endswith("_worst") and k not in ("worst_contact", "nis_mean_free_before_contact"):
+            assert m[k] == v or (isinstance(v, float) and math.isnan(v) and math.isnan(m[k])), k
+    assert m["final_err"] == pytest.approx(0.01) and m["final_err_c2"] == pytest.approx(1.25)
+    assert not m["diverged"] and m["diverged_c2"] and m["diverged_worst"]
+    assert m["worst_contact"] == 2 and m["abs_final_err_worst"] == m["abs_final_err_c2"]
+    assert m["nees_final"] == pytest.approx(1.0) and m["nees_final_c2"] == pytest.approx(25e16 / 1e14)
+    assert m["nees_final_worst"] == m["nees_final_c2"]
+    assert m["consistent_3sigma"] and not m["consistent_3sigma_c2"] and not m["consistent_3sigma_worst"]
+    assert m["t_first_contact"] == t[100] and m["t_first_contact_c2"] == t[300]
+    assert m["nis_mean_free_before_contact"] == 1.0 and one["worst_contact"] == 1
+    # one contact: the worst columns are contact 1's
+    assert one["abs_final_err_worst"] == one["abs_final_err"] and one["diverged_worst"] == one["diverged"]
+
+
 def _small_family():
     fam = load_spec(SPEC, runs=4, seed=5, t_end=4.0)
     # forcing fast enough that 4 s include contact (the family's other values as drawn)
@@ -198,3 +228,110 @@ def test_numpy_backend_runs_the_default_as_the_binding():
         np.testing.assert_allclose(y.gamma, x.gamma, rtol=1e-8, atol=0)
         np.testing.assert_array_equal(y.flags, x.flags)
         assert np.isnan(y.nis).all()
+
+
+# --- families of structures (sim/families/structures.toml) -----------------------------------------
+
+STRUCTURES = SPEC.with_name("structures.toml")
+
+
+def test_structures_family_validates_against_the_schema(tmp_path):
+    """Every drawn mechanism is a valid scenario (the schema's ranges, the mechanism's rules, the C
+    estimator's validation), within the spec's ranges, and its forcing is 1.15-1.8x the amplitude that
+    closes its contacts quasi-statically."""
+    import caekf_sim
+    from caekf_sim.campaign.structure import closing_amplitude
+    from caekf_sim.cli import main
+    from caekf_sim.mechanism import Mechanism, contact_values
+    from caekf_sim.scenario import load_scenario
+
+    fam = load_spec(STRUCTURES, runs=40)
+    assert main(["family", str(STRUCTURES), "--runs", "40", "--out", str(tmp_path)]) == 0
+    seen = set()
+    for r in fam.runs:
+        s = r.scenario
+        assert load_scenario(tmp_path / f"run-{r.run:04d}.toml") == s
+        mech = Mechanism.from_scenario(s)
+        caekf_sim.Estimator(s)  # caekf_settings_validate accepts it
+        assert 2 <= s.bodies <= 8 and 1 <= s.contacts <= 2 and s.inputs == 1 and s.sensors == 2
+        seen.add((s.bodies, s.contacts))
+        assert np.all((0.5 <= mech.m) & (mech.m <= 2.0))
+        assert np.all((1e3 <= mech.spring_k) & (mech.spring_k <= 2e4))
+        assert np.all((1.0 <= mech.spring_c) & (mech.spring_c <= 10.0))
+        assert np.all((0.5e-3 <= mech.contact_gap) & (mech.contact_gap <= 2e-3))
+        assert np.linalg.matrix_rank(mech.K) == s.bodies  # every piece of the chain is held by the ground
+        gamma, gamma0 = contact_values(s, "gamma", s.contacts), contact_values(s, "gamma0", s.contacts)
+        assert np.all((1e7 <= gamma) & (gamma <= 1e9)) and np.all((0.5 <= gamma0 / gamma) & (gamma0 / gamma <= 1.5))
+        np.testing.assert_allclose(contact_values(s, "sigma_gamma0", s.contacts), gamma0 / 3, rtol=1e-15)
+        np.testing.assert_allclose(contact_values(s, "sigma_q_gamma", s.contacts), gamma0 / 75, rtol=1e-15)
+        assert 0.03 <= s.input1_freq <= 0.2 and s.noise_std in (0.0, 5e-9, 2e-8, 5e-8)
+        a, _ = closing_amplitude(s.values())
+        assert 1.15 <= s.input1_amp / a <= 1.8 and s.input1_amp / a == pytest.approx(r.values["closing"], rel=1e-12)
+    assert len({b for b, _ in seen}) >= 5 and {c for _, c in seen} == {1, 2}
+
+
+def test_structures_family_is_reproducible_and_prefix_stable():
+    a, b, c = load_spec(STRUCTURES, runs=8), load_spec(STRUCTURES, runs=8), load_spec(STRUCTURES, runs=3)
+    assert [r.scenario for r in a.runs] == [r.scenario for r in b.runs]
+    assert [r.values for r in a.runs] == [r.values for r in b.runs]
+    assert [r.scenario for r in a.runs[:3]] == [r.scenario for r in c.runs]
+    assert load_spec(STRUCTURES, runs=3, seed=1).runs[0].scenario != c.runs[0].scenario
+
+
+def test_every_drawn_contact_closes_in_the_truth():
+    """On the family's first members (1 and 2 contacts), the truth's contact statistics: every contact
+    closes, and no integration fails."""
+    from caekf_sim.campaign.metrics import contact_suffix, truth_stats
+    from caekf_sim.campaign.runner import truth_arrays
+
+    fam = load_spec(STRUCTURES, runs=8)
+    assert {r.scenario.contacts for r in fam.runs} == {1, 2}
+    for r in fam.runs:
+        tr = truth_arrays(r.scenario)
+        stats = truth_stats(tr.delta, r.scenario.contacts)
+        assert not tr.failed
+        for c in range(r.scenario.contacts):
+            assert stats[f"truth_contact_onsets{contact_suffix(c)}"] > 0, (r.run, c)
+            assert stats[f"truth_max_delta{contact_suffix(c)}"] > 0, (r.run, c)
+
+
+def test_small_structures_campaign_has_finite_metrics(tmp_path):
+    import pyarrow.parquet as pq
+
+    from caekf_sim.cli import main
+
+    out = tmp_path / "s"
+    assert main(["campaign", str(STRUCTURES), "--runs", "4", "--t-end", "10", "--out", str(out), "--no-progress",
+                 "--workers", "1", "--experiment", "switched", "--experiment", "switched-highq-constrained"]) == 0
+    rows = pq.read_table(out / "runs.parquet").to_pylist()
+    assert len(rows) == 8
+    for r in rows:
+        assert not r["truth_failed"]
+        names = ["abs_final_err_worst", "nees_final_worst", "nis_mean", "nis_max"]
+        names += [f"{m}{'' if c == 1 else f'_c{c}'}" for c in range(1, r["contacts"] + 1)
+                  for m in ("final_err", "nees_final", "min_gamma", "truth_max_delta")]
+        for k in names:
+            assert math.isfinite(r[k]), (r["run"], r["experiment"], k)
+    assert "bodies = " in (out / "summary.txt").read_text()
+
+
+def test_truth_check_runs_on_a_structure(capsys):
+    from caekf_sim.cli import main
+
+    assert main(["truth-check", "--spec", str(STRUCTURES), "--runs", "1", "--t-end", "1", "--no-paper"]) == 0
+    assert "failures: caekf-truth 0/1" in capsys.readouterr().out
+
+
+def test_structure_spec_errors_are_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    paper = SPEC.parent.parent / "scenarios" / "paper.toml"
+    base = STRUCTURES.read_text().replace('base = "../scenarios/paper.toml"', f'base = "{paper}"')
+    for old, new, what in (
+        (', over = "contacts" }', " }", "not a scenario key pattern"),
+        ("ground_contact = 0.3", "ground_contact = 1.3", "a probability in [0, 1]"),
+        ("inputs = 1\n", "inputs = 1\nbogus = 2\n", "unknown key(s) bogus in [structure]"),
+    ):
+        bad.write_text(base.replace(old, new, 1))
+        with pytest.raises(ValueError) as exc:
+            load_spec(bad, runs=2)
+        assert what in str(exc.value) and "\n" not in str(exc.value)

@@ -376,6 +376,7 @@ class EstimateResult:
     P: Optional[np.ndarray] = None  # (N, n, n) when kept
     wall_time: float = float("nan")
     n_contacts: int = 1
+    p_ggs: Optional[np.ndarray] = None  # (N, nc): P^+ of every gamma_c
 
     @property
     def gammas(self) -> np.ndarray:
@@ -446,4 +447,5 @@ def run_estimator(
         P=Ps if keep_P else None,
         wall_time=wall,
         n_contacts=ekf.nc,
+        p_ggs=Ps[:, ekf.ig, ekf.ig].copy(),
     )

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Optional, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -26,7 +26,6 @@ PathLike = Union[str, Path]
 
 MAX_ROWS = 2_000_000  # CAEKF_CSV_MAX_ROWS (host/common/csv.h)
 DT_TOL = 0.01  # CAEKF_CSV_DT_TOL: |t[k] - t[k-1] - dt| <= 1 % of dt
-REQUIRED = ("t", "u", "y1", "y4")
 
 
 class MeasurementError(ValueError):
@@ -35,13 +34,14 @@ class MeasurementError(ValueError):
 
 @dataclass
 class Measurements:
-    """One recorded run: t [s], u [N], y = [q1, q4] [m] per sample (NaN rows: lost measurements), and the
-    truth when the file has its columns (a caekf-truth / caekf-sim truth CSV)."""
+    """One recorded run: t [s], u [N] ((n,) for one input, else (n, inputs)), y (n, sensors) [m or m/s] per
+    sample (the paper: [q1, q4]; NaN rows: lost measurements), and the truth when the file has the paper's
+    truth columns (a caekf-truth / caekf-sim truth CSV)."""
 
     name: str
     t: np.ndarray
     u: np.ndarray
-    y: np.ndarray  # (n, 2)
+    y: np.ndarray  # (n, sensors)
     truth: Optional[Truth] = None
 
     def __len__(self) -> int:
@@ -58,8 +58,26 @@ def check_input_file(path: PathLike) -> Path:
     return p
 
 
-def read_measurements_csv(path: PathLike, dt: float) -> Measurements:
-    """Read and check a measurement CSV (module docstring); dt <= 0 checks only that t increases."""
+def _and(names: Sequence[str]) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def columns_of(sc: Any) -> Tuple[Tuple[str, ...], Tuple[str, ...]]:
+    """(input columns, sensor columns) of a scenario's mechanism: ("u",), ("y1", "y4") for the paper."""
+    from .mechanism import Mechanism
+
+    mech = Mechanism.from_scenario(sc)
+    return mech.input_names(), mech.sensor_names()
+
+
+def read_measurements_csv(path: PathLike, dt: float, columns: Optional[Tuple[Sequence[str], Sequence[str]]] = None
+                          ) -> Measurements:
+    """Read and check a measurement CSV (module docstring); dt <= 0 checks only that t increases.
+    `columns`: the (inputs, sensors) column names of the mechanism (`columns_of(scenario)`; default the
+    paper's ("u",), ("y1", "y4")). u is (n,) for one input, else (n, inputs); y is (n, sensors)."""
+    in_cols, y_cols = (("u",), ("y1", "y4")) if columns is None else (tuple(columns[0]), tuple(columns[1]))
+    required = ("t",) + in_cols + y_cols
+    listed = ",".join(required)
     p = check_input_file(path)
     cols: Dict[str, List[float]] = {}
     try:
@@ -75,16 +93,18 @@ def read_measurements_csv(path: PathLike, dt: float) -> Measurements:
             raise MeasurementError(f"{p}:1: empty input")
         header = [c.strip() for c in header_line.rstrip("\r\n").split(",")]
         if "\0" in header_line or any(not c for c in header):
-            raise MeasurementError(f"{p}:1: bad header: expected the columns t,u,y1,y4 (and optionally more)")
-        missing = [c for c in REQUIRED if c not in header]
+            raise MeasurementError(f"{p}:1: bad header: expected the columns {listed} (and optionally more)")
+        missing = [c for c in required if c not in header]
         if missing:
             raise MeasurementError(f"{p}:1: bad header: no column(s) {', '.join(missing)} "
-                                   f"(a measurement CSV has t,u,y1,y4)")
+                                   f"(a measurement CSV has {listed})")
         if len(set(header)) != len(header):
             raise MeasurementError(f"{p}:1: bad header: a column name appears twice")
         for c in header:
             cols[c] = []
-        i_t, i_y1, i_y4 = header.index("t"), header.index("y1"), header.index("y4")
+        i_t = header.index("t")
+        i_y = [header.index(c) for c in y_cols]
+        both = ("both" if len(y_cols) == 2 else "all")
         ncol = len(header)
         prev_t = math.nan
         lineno = 1
@@ -100,15 +120,16 @@ def read_measurements_csv(path: PathLike, dt: float) -> Measurements:
                 fields = line.split(",")
                 if len(fields) != ncol:
                     raise MeasurementError(f"{p}:{lineno}: wrong column count: {len(fields)}, the header has {ncol}")
-                lost = not fields[i_y1].strip() and not fields[i_y4].strip()
+                lost = all(not fields[i].strip() for i in i_y)
                 row = []
                 for i, text in enumerate(fields):
                     text = text.strip()
-                    if lost and i in (i_y1, i_y4):
+                    if lost and i in i_y:
                         row.append(math.nan)
                         continue
-                    if not text and i in (i_y1, i_y4):
-                        raise MeasurementError(f"{p}:{lineno}: y1 and y4 must both be present or both be empty")
+                    if not text and i in i_y:
+                        raise MeasurementError(f"{p}:{lineno}: {_and(y_cols)} must {both} be present or {both} "
+                                               "be empty")
                     try:
                         v = float(text)
                     except ValueError:
@@ -134,12 +155,15 @@ def read_measurements_csv(path: PathLike, dt: float) -> Measurements:
     if not cols["t"]:
         raise MeasurementError(f"{p}:1: no data rows after the header")
     arr = {c: np.asarray(v, dtype=float) for c, v in cols.items()}
+    y = np.column_stack([arr[c] for c in y_cols])
+    u = arr[in_cols[0]] if len(in_cols) == 1 else np.column_stack([arr[c] for c in in_cols]) if in_cols \
+        else np.empty((len(arr["t"]), 0))
     truth = None
-    if all(c in arr for c in TRUTH_COLUMNS):
-        truth = Truth(t=arr["t"], u=arr["u"], y=np.column_stack([arr["y1"], arr["y4"]]),
+    if (in_cols, y_cols) == (("u",), ("y1", "y4")) and all(c in arr for c in TRUTH_COLUMNS):
+        truth = Truth(t=arr["t"], u=arr["u"], y=y,
                       q=np.column_stack([arr[f"q{i}"] for i in range(1, 5)]),
                       v=np.column_stack([arr[f"v{i}"] for i in range(1, 5)]), delta=arr["delta"])
-    return Measurements(p.name, arr["t"], arr["u"], np.column_stack([arr["y1"], arr["y4"]]), truth)
+    return Measurements(p.name, arr["t"], u, y, truth)
 
 
 def read_candump(path: PathLike, dt: float, run: Optional[int] = None) -> Measurements:

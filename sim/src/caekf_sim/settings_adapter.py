@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Dict, Mapping, Optional, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 from . import schema
 from .scenario import Scenario
@@ -107,17 +107,30 @@ def default_settings(precision: str = "double", **values: Any) -> Settings:
 
 # --- noise tuning (caekf-sim tune) ------------------------------------------------------------------
 
-# The noise standard deviations tune may change: the same names in Settings and in the scenario file.
-TUNABLE_NOISE: Tuple[str, ...] = ("sigma_qx_q", "sigma_qx_v", "sigma_q_gamma", "sigma_r")
+# The noise standard deviations tune may change: the schema's noise settings that are standard
+# deviations (sigma_*; not the factor q_gamma_scale), by scenario key (per contact: contact{i}_sigma_q_gamma).
+TUNABLE_NOISE: Tuple[str, ...] = tuple(k for k, s, _ in schema.SCHEMA.keys()
+                                       if s.kind == "noise" and s.name.startswith("sigma_"))
 
 
-def noise_of(sc: Scenario) -> Dict[str, float]:
-    return {n: float(getattr(sc, n)) for n in TUNABLE_NOISE}
+def tunable_noise(sc: Scenario) -> Tuple[str, ...]:
+    """The noise keys `tune` searches by default for scenario `sc`: those of TUNABLE_NOISE its mechanism
+    uses (contact{i}_sigma_q_gamma for its contacts) and sets > 0 (the search is on a log scale; a 0,
+    e.g. sigma_rv without velocity sensors, stays off)."""
+    values = sc.values()
+    return tuple(k for k in TUNABLE_NOISE if k in values and float(values[k]) > 0)
+
+
+def noise_of(sc: Scenario, keys: Optional[Sequence[str]] = None) -> Dict[str, float]:
+    """Values of noise keys (default: every key of TUNABLE_NOISE the scenario uses)."""
+    values = sc.values()
+    keys = [k for k in TUNABLE_NOISE if k in values] if keys is None else [schema.canonical(k) for k in keys]
+    return {k: float(values[k]) for k in keys}
 
 
 def scenario_with_noise(sc: Scenario, noise: Mapping[str, float]) -> Scenario:
-    """The scenario with some of TUNABLE_NOISE replaced (what `tune` writes)."""
-    bad = sorted(set(noise) - set(TUNABLE_NOISE))
+    """The scenario with some of TUNABLE_NOISE replaced (what `tune` writes); keys or their aliases."""
+    bad = sorted(k for k in noise if schema.canonical(k) not in TUNABLE_NOISE)
     if bad:
         raise ValueError(f"not a tunable noise setting: {', '.join(bad)}")
     return sc.replace(**{k: float(v) for k, v in noise.items()})

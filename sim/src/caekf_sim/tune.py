@@ -11,13 +11,19 @@ from the binding's run (`log_det_s=True`, derived from the posterior covariance,
 is Nelder-Mead over log10 of the chosen standard deviations (scipy.optimize), each evaluation one
 `caekf_sim.run` per record (the whole loop in C).
 
-Consistency is reported as the NIS statistics of a 2-dof chi-square: the mean NIS (2 for a consistent
-filter; its 95 % band for N steps is chi2(2N)/N) and the fraction of steps whose NIS lies in the
-per-step 95 % band [chi2.ppf(0.025, 2), chi2.ppf(0.975, 2)] (0.95 for a consistent filter).
+Any mechanism (docs/mechanism.md): the searched settings are the noise standard deviations the
+mechanism uses (settings_adapter.tunable_noise: sigma_qx_q, sigma_qx_v, sigma_r, sigma_rv and every
+contact's contact{i}_sigma_q_gamma, as the schema names them), or a chosen subset.
 
-Records: t,u,y1,y4 CSVs (extra columns ignored, empty y1 and y4 = lost measurement, bridged by
-caekf_predict), and candump -L logs of the CAN bench (BENCH_U with BENCH_Y1 / BENCH_Y4, or BENCH_YP in the
-production profile; one record per configuration, i.e. from each CTRL_RESET on).
+Consistency is reported as the NIS statistics of a chi-square with one degree of freedom per sensor (d):
+the mean NIS (d for a consistent filter; its 95 % band for N steps is chi2(d N)/N) and the fraction of
+steps whose NIS lies in the per-step 95 % band [chi2.ppf(0.025, d), chi2.ppf(0.975, d)] (0.95 for a
+consistent filter).
+
+Records: CSVs with the mechanism's measurement columns (t, the inputs, one column per sensor: t,u,y1,y4
+for the paper; extra columns ignored, a row with every sensor empty = lost measurement, bridged by
+caekf_predict), and, for the paper's mechanism, candump -L logs of the CAN bench (BENCH_U with BENCH_Y1 /
+BENCH_Y4, or BENCH_YP in the production profile; one record per configuration, i.e. from each CTRL_RESET on).
 """
 from __future__ import annotations
 
@@ -28,40 +34,50 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .binding import require_paper_mechanism, run
+from .binding import run
+from .mechanism import contact_values
 from .scenario import Scenario
-from .settings_adapter import TUNABLE_NOISE, noise_of, scenario_with_noise, settings_for
+from .schema import canonical
+from .settings_adapter import noise_of, scenario_with_noise, settings_for, tunable_noise
 
 PathLike = Union[str, Path]
-NIS_DOF = 2
+NIS_DOF = 2  # the paper's two position sensors; in general one degree of freedom per sensor
 
 
 @dataclass
 class Record:
-    """One recorded run: inputs [N] and measurements [m] per sample; NaN y rows are lost measurements."""
+    """One recorded run: inputs [N] ((n,) for one input, else (n, inputs)) and measurements (n, sensors)
+    [m or m/s] per sample; NaN y rows are lost measurements."""
 
     name: str
     t: np.ndarray
     u: np.ndarray
-    y: np.ndarray  # (n, 2)
+    y: np.ndarray  # (n, sensors)
 
     def __len__(self) -> int:
         return len(self.t)
 
 
-def read_record_csv(path: PathLike) -> Record:
-    """A t,u,y1,y4 CSV (header names the columns; extra ones ignored; empty fields are NaN)."""
+def read_record_csv(path: PathLike, sc: Optional[Scenario] = None) -> Record:
+    """A CSV with the measurement columns of scenario `sc`'s mechanism (default the paper's t,u,y1,y4; the
+    header names the columns; extra ones ignored; empty fields are NaN)."""
+    from .measurements import columns_of
+
     path = Path(path)
+    ins, sens = (("u",), ("y1", "y4")) if sc is None else columns_of(sc)
+    want = ("t",) + tuple(ins) + tuple(sens)
     with open(path, encoding="utf-8") as f:
         header = [c.strip() for c in f.readline().split(",")]
-    missing = [c for c in ("t", "u", "y1", "y4") if c not in header]
+    missing = [c for c in want if c not in header]
     if missing:
         raise ValueError(f"{path}: no column(s) {', '.join(missing)} in the header")
-    cols = [header.index(c) for c in ("t", "u", "y1", "y4")]
+    cols = [header.index(c) for c in want]
     data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=cols, ndmin=2, filling_values=np.nan)
     if data.size == 0:
         raise ValueError(f"{path}: no rows")
-    return Record(path.name, data[:, 0], data[:, 1], np.ascontiguousarray(data[:, 2:4]))
+    ni = len(ins)
+    u = data[:, 1] if ni == 1 else np.ascontiguousarray(data[:, 1:1 + ni])
+    return Record(path.name, data[:, 0], u, np.ascontiguousarray(data[:, 1 + ni:]))
 
 
 def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = None) -> List[Record]:
@@ -127,10 +143,11 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
 
 # --- consistency -----------------------------------------------------------------------------------
 
-def nis_band(p: float = 0.95) -> Tuple[float, float]:
+def nis_band(p: float = 0.95, dof: int = NIS_DOF) -> Tuple[float, float]:
+    """Per-step band of a chi-square NIS with `dof` degrees of freedom (the number of sensors)."""
     from scipy.stats import chi2
 
-    return float(chi2.ppf((1 - p) / 2, NIS_DOF)), float(chi2.ppf((1 + p) / 2, NIS_DOF))
+    return float(chi2.ppf((1 - p) / 2, dof)), float(chi2.ppf((1 + p) / 2, dof))
 
 
 @dataclass
@@ -139,11 +156,12 @@ class Consistency:
 
     steps: int  # steps with a correction
     nis_mean: float
-    nis_mean_band: Tuple[float, float]  # 95 % band of the mean NIS of a consistent filter (chi2(2N)/N)
+    nis_mean_band: Tuple[float, float]  # 95 % band of the mean NIS of a consistent filter (chi2(d N)/N)
     in_band: float  # fraction of steps whose NIS lies in the per-step 95 % band
     nll: float  # mean of log det S + NIS per step (the tuning objective)
-    gamma_final_err: float  # relative error of the last gamma estimate (NaN without gamma_true)
-    gamma_rms_err: float  # RMS relative gamma error over the last quarter of the run
+    gamma_final_err: float  # relative error of the last gamma estimate (NaN without gamma_true); RMS over contacts
+    gamma_rms_err: float  # RMS relative gamma error over the last quarter of the run (and the contacts)
+    dof: int = NIS_DOF  # degrees of freedom of the NIS: the number of sensors
 
     @property
     def consistent(self) -> bool:
@@ -155,11 +173,14 @@ def _corrected(res) -> np.ndarray:
     return (res.status == 0) & ((res.flags & bad) == 0)
 
 
-def consistency(results: Sequence, gamma_true: Optional[float] = None, burn_in: int = 0) -> Consistency:
-    """Pooled NIS consistency of runs (RunResult) after `burn_in` steps each, and gamma error."""
+def consistency(results: Sequence, gamma_true: Union[None, float, Sequence[float], np.ndarray] = None,
+                burn_in: int = 0) -> Consistency:
+    """Pooled NIS consistency of runs (RunResult) after `burn_in` steps each, and the gamma error of
+    every contact (gamma_true: a number for one contact, else one per contact)."""
     from scipy.stats import chi2
 
-    lo, hi = nis_band()
+    dof = int(results[0].settings.sensors) if results else NIS_DOF
+    lo, hi = nis_band(dof=dof)
     nis = np.concatenate([r.nis[burn_in:][_corrected(r)[burn_in:]] for r in results])
     ld = np.concatenate([r.log_det_s[burn_in:] for r in results if r.log_det_s is not None]) \
         if all(r.log_det_s is not None for r in results) else np.array([np.nan])
@@ -167,19 +188,21 @@ def consistency(results: Sequence, gamma_true: Optional[float] = None, burn_in: 
     n = len(nis)
     nll = float(np.mean(ld[ok]) + np.mean(nis)) if ok.any() and n else float("nan")
     gf, gr = float("nan"), float("nan")
-    if gamma_true:
-        errs = [r.gamma / gamma_true - 1.0 for r in results]
+    g_true = None if gamma_true is None else np.atleast_1d(np.asarray(gamma_true, dtype=float))
+    if g_true is not None and g_true.size and np.all(g_true != 0) and np.all(np.isfinite(g_true)):
+        errs = [r.gammas / g_true - 1.0 for r in results]
         gf = float(np.sqrt(np.mean([e[-1] ** 2 for e in errs])))
-        gr = float(np.sqrt(np.mean(np.concatenate([e[-max(1, len(e) // 4):] ** 2 for e in errs]))))
+        gr = float(np.sqrt(np.mean(np.concatenate([e[-max(1, len(e) // 4):].ravel() ** 2 for e in errs]))))
     return Consistency(
         steps=n,
         nis_mean=float(np.mean(nis)) if n else float("nan"),
-        nis_mean_band=(float(chi2.ppf(0.025, NIS_DOF * n) / n), float(chi2.ppf(0.975, NIS_DOF * n) / n))
+        nis_mean_band=(float(chi2.ppf(0.025, dof * n) / n), float(chi2.ppf(0.975, dof * n) / n))
         if n else (float("nan"), float("nan")),
         in_band=float(np.mean((nis >= lo) & (nis <= hi))) if n else float("nan"),
         nll=nll,
         gamma_final_err=gf,
         gamma_rms_err=gr,
+        dof=dof,
     )
 
 
@@ -203,26 +226,28 @@ class TuneResult:
     evaluations: int
 
 
-def tune(sc: Scenario, records: Sequence[Record], params: Sequence[str] = TUNABLE_NOISE,
+def tune(sc: Scenario, records: Sequence[Record], params: Optional[Sequence[str]] = None,
          holdout: Sequence[Record] = (), experiment: str = "switched", precision: str = "double",
-         gamma_true: Optional[float] = None, burn_in_s: float = 0.5, max_evals: int = 400,
+         gamma_true: Union[None, float, Sequence[float]] = None, burn_in_s: float = 0.5, max_evals: int = 400,
          decades: float = 4.0, **overrides) -> TuneResult:
-    """Maximum-likelihood noise for `params` (names from TUNABLE_NOISE) over `records`.
+    """Maximum-likelihood noise for `params` (scenario keys of TUNABLE_NOISE or their aliases; default:
+    tunable_noise(sc), every noise std the mechanism uses) over `records`, any mechanism.
 
     The search starts from the scenario's values and stays within `decades` orders of magnitude of
-    them. `gamma_true` (default: the scenario's gamma) is only used for the reported gamma error.
+    them. `gamma_true` (default: the scenario's gamma of every contact) is only used for the reported
+    gamma error.
     """
     from scipy.optimize import minimize
 
-    # the records (t,u,y1,y4 CSVs, the bench's candump) and TUNABLE_NOISE (sigma_r, contact 1's
-    # sigma_q_gamma) are the paper's
-    require_paper_mechanism(sc, "tune")
-    bad = sorted(set(params) - set(TUNABLE_NOISE))
+    usable = tuple(noise_of(sc))
+    params = list(tunable_noise(sc) if params is None else [canonical(p) for p in params])
+    bad = sorted(set(params) - set(usable))
     if bad or not params:
-        raise ValueError(f"tunable noise settings are {', '.join(TUNABLE_NOISE)}; got {', '.join(params) or 'none'}")
+        raise ValueError(f"tunable noise settings of this mechanism are {', '.join(usable)}; "
+                         f"got {', '.join(bad) or 'none'}")
     if not records:
         raise ValueError("no records to tune on")
-    gamma_true = sc.gamma if gamma_true is None else gamma_true
+    g_true = contact_values(sc, "gamma", int(sc.contacts)) if gamma_true is None else gamma_true  # NaN: no truth
     burn_in = int(round(burn_in_s / sc.dt))
     before = noise_of(sc)
     x0 = np.log10([before[p] for p in params])
@@ -250,7 +275,7 @@ def tune(sc: Scenario, records: Sequence[Record], params: Sequence[str] = TUNABL
     tuned = scenario_at(opt.x)
 
     def measure(s: Scenario, recs: Sequence[Record]) -> Optional[Consistency]:
-        return consistency(run_records(s, recs, experiment, precision, **overrides), gamma_true, burn_in) \
+        return consistency(run_records(s, recs, experiment, precision, **overrides), g_true, burn_in) \
             if recs else None
 
     return TuneResult(
@@ -262,11 +287,14 @@ def tune(sc: Scenario, records: Sequence[Record], params: Sequence[str] = TUNABL
 def report_text(r: TuneResult, params: Sequence[str]) -> str:
     from .bench.results import format_table
 
-    lo, hi = nis_band()
-    lines = ["noise (std)        before        after"]
-    for p in TUNABLE_NOISE:
-        mark = "" if p in params else "  (kept)"
-        lines.append(f"{p:<16} {r.noise_before[p]:>12.4e} {r.noise_after[p]:>12.4e}{mark}")
+    dof = r.train_before.dof
+    lo, hi = nis_band(dof=dof)
+    tuned = {canonical(p) for p in params}
+    w = max(16, max(len(p) for p in r.noise_before))
+    lines = [f"{'noise (std)':<{w}}   before        after"]
+    for p in r.noise_before:
+        mark = "" if p in tuned else "  (kept)"
+        lines.append(f"{p:<{w}} {r.noise_before[p]:>12.4e} {r.noise_after[p]:>12.4e}{mark}")
     rows = []
     for label, c in (("train, before", r.train_before), ("train, after", r.train_after),
                      ("held-out, before", r.holdout_before), ("held-out, after", r.holdout_after)):
@@ -278,6 +306,7 @@ def report_text(r: TuneResult, params: Sequence[str]) -> str:
     lines.append("")
     lines.append(format_table(["runs", "steps", "mean NIS", "95 % band of mean", f"NIS in [{lo:.3f}, {hi:.2f}]",
                                "mean log det S + NIS", "gamma err final", "gamma err RMS last 1/4"], rows))
-    lines.append(f"(consistent filter: mean NIS 2, 95 % of steps in the band; {r.evaluations} evaluations)")
+    lines.append(f"(consistent filter: mean NIS {dof} (one per sensor), 95 % of steps in the band; "
+                 f"{r.evaluations} evaluations)")
     return "\n".join(lines)
 

@@ -17,7 +17,7 @@ import numpy as np
 from ..scenario import Scenario
 from ..truth import simulate
 from .estimate import estimate
-from .metrics import run_metrics
+from .metrics import contact_suffix, run_metrics, truth_stats
 from .spec import Family, Run, scenario_text
 from .tools import require_tool
 
@@ -36,31 +36,38 @@ class Task:
 @dataclass(frozen=True)
 class TruthArrays:
     t: np.ndarray
-    u: np.ndarray
-    y: np.ndarray
-    delta: np.ndarray
+    u: np.ndarray  # (N,) for one input, else (N, inputs) [N]
+    y: np.ndarray  # (N, sensors)
+    delta: np.ndarray  # (N,) for one contact, else (N, contacts) [m]
     failed: bool
-    q: np.ndarray  # (N, 4) true positions [m]
-    v: np.ndarray  # (N, 4) true velocities [m/s]
+    q: np.ndarray  # (N, bodies) true positions [m]
+    v: np.ndarray  # (N, bodies) true velocities [m/s]
+
+    @property
+    def deltas(self) -> np.ndarray:
+        """delta as (N, contacts)."""
+        return self.delta.reshape(len(self.t), -1)
+
+
+def _failed_truth(sc: Scenario) -> TruthArrays:
+    """A run whose integration failed: NaN arrays of the mechanism's shapes."""
+    n = sc.n_steps
+    nan = lambda *shape: np.full((n,) + shape, np.nan)  # noqa: E731
+    one = lambda k: nan() if k == 1 else nan(k)  # noqa: E731
+    return TruthArrays(nan(), one(sc.inputs), nan(sc.sensors), one(sc.contacts), True, nan(sc.bodies),
+                       nan(sc.bodies))
 
 
 def truth_arrays(sc: Scenario, backend: str = "binding") -> TruthArrays:
-    """Measurements and penetration of a scenario: caekf-truth's C generator in process (binding,
-    default), the caekf-truth program ("c", "c-backward-euler") or the numpy truth. Every truth backend
-    simulates the paper's mechanism only (so far): another is a one-line ValueError."""
-    from ..binding import require_paper_mechanism
-
-    require_paper_mechanism(sc, f"the {backend} truth")
+    """Measurements and penetrations of a scenario, any mechanism: caekf-truth's C generator in process
+    (binding, default), the caekf-truth program ("c", "c-backward-euler") or the numpy truth."""
     if backend == "binding":
         from ..binding import truth as c_truth
 
         try:
             tr = c_truth(sc)
         except ValueError:  # the integration failed: report the run as failed
-            n = sc.n_steps
-            nan = np.full(n, np.nan)
-            return TruthArrays(nan, nan, np.full((n, 2), np.nan), nan, True, np.full((n, 4), np.nan),
-                               np.full((n, 4), np.nan))
+            return _failed_truth(sc)
         return TruthArrays(tr.t, tr.u, tr.y, tr.delta, False, tr.q, tr.v)
     if backend == "numpy":
         tr = simulate(sc)
@@ -69,6 +76,8 @@ def truth_arrays(sc: Scenario, backend: str = "binding") -> TruthArrays:
         raise ValueError(f"unknown truth backend {backend!r}; choose from {TRUTH_BACKENDS}")
     tool = require_tool("caekf-truth")
     method = "backward-euler" if backend == "c-backward-euler" else "dop853"
+    ni, ns, nq, nc = sc.inputs, sc.sensors, sc.bodies, sc.contacts
+    width = 1 + ni + ns + 2 * nq + nc  # t, u.., y.., q.., v.., delta..: the CSV's columns
     with tempfile.TemporaryDirectory(prefix="caekf-truth-") as tmp:
         scen, binf = Path(tmp) / "scenario.toml", Path(tmp) / "truth.bin"
         scen.write_text(scenario_text(sc), encoding="utf-8")
@@ -76,12 +85,14 @@ def truth_arrays(sc: Scenario, backend: str = "binding") -> TruthArrays:
                                "--method", method], capture_output=True, check=False)
         if proc.returncode not in (0, 5):
             raise RuntimeError(f"caekf-truth exit {proc.returncode}: {proc.stderr.decode(errors='replace').strip()}")
-        rec = np.fromfile(binf, dtype="<f8").reshape(-1, 13)
+        rec = np.fromfile(binf, dtype="<f8").reshape(-1, width)
     n = sc.n_steps
     failed = proc.returncode == 5 or len(rec) < n
     if len(rec) < n:  # the integration stopped: pad so the run is still reported (as failed)
-        rec = np.vstack([rec, np.full((n - len(rec), 13), np.nan)])
-    return TruthArrays(rec[:, 0], rec[:, 1], rec[:, 2:4], rec[:, 12], failed, rec[:, 4:8], rec[:, 8:12])
+        rec = np.vstack([rec, np.full((n - len(rec), width), np.nan)])
+    cols = np.cumsum([1, ni, ns, nq, nq, nc])
+    u, y, q, v, delta = (rec[:, a:b] for a, b in zip(cols[:-1], cols[1:]))
+    return TruthArrays(rec[:, 0], u[:, 0] if ni == 1 else u, y, delta[:, 0] if nc == 1 else delta, failed, q, v)
 
 
 def run_task(task: Task) -> List[Dict[str, Any]]:
@@ -90,22 +101,26 @@ def run_task(task: Task) -> List[Dict[str, Any]]:
     t0 = time.perf_counter()
     tr = truth_arrays(sc, task.truth)
     truth_s = time.perf_counter() - t0
-    closed = tr.delta > 0
+    from ..mechanism import contact_values
+
+    nc = int(sc.contacts)
+    g_true = contact_values(sc, "gamma", nc)
+    g0 = contact_values(sc, "gamma0", nc)
     base: Dict[str, Any] = {"run": task.run.run, "source": task.run.source}
     base.update({k: float(v) for k, v in task.run.values.items()})
-    base.update({
-        "gamma_true": float(sc.gamma), "gamma0": float(sc.gamma0), "truth_failed": bool(tr.failed),
-        "truth_contact_onsets": int(np.count_nonzero(closed[1:] & ~closed[:-1]) + int(closed[0])),
-        "truth_contact_fraction": float(closed.mean()),
-        "truth_max_delta": float(np.nanmax(tr.delta)),
-    })
+    for c in range(nc):
+        base[f"gamma_true{contact_suffix(c)}"] = float(g_true[c])
+        base[f"gamma0{contact_suffix(c)}"] = float(g0[c])
+    base.update({"bodies": int(sc.bodies), "contacts": nc, "sensors": int(sc.sensors),
+                 "truth_failed": bool(tr.failed)})
+    base.update(truth_stats(tr.delta, nc))
     rows = []
     for e in task.experiments:
         t1 = time.perf_counter()
         est = estimate(sc, e, tr.t, tr.u, tr.y, backend=task.estimator)
         row = dict(base)
         row["experiment"] = e
-        row.update(run_metrics(tr.t, sc.gamma, tr.delta, est))
+        row.update(run_metrics(tr.t, g_true, tr.delta, est))
         row["truth_s"] = truth_s
         row["estimate_s"] = time.perf_counter() - t1
         rows.append(row)
@@ -127,12 +142,6 @@ def run_family(family: Family, experiments: Sequence[str], truth: str = "binding
                progress: bool = True) -> List[Dict[str, Any]]:
     """Rows of every (run, experiment), sorted. Local process pool by default (workers: all cores);
     scheduler "tcp://HOST:PORT" or a dask.distributed Client runs the same tasks on Dask."""
-    from ..binding import require_paper_mechanism
-
-    for r in family.runs:  # refused before any run starts, rather than in a worker
-        require_paper_mechanism(r.scenario, f"run {r.run} ({r.source}): the {truth} truth")
-        if estimator != "binding":
-            require_paper_mechanism(r.scenario, f"run {r.run} ({r.source}): the {estimator} estimator backend")
     tasks = [Task(r, tuple(experiments), truth, estimator) for r in family.runs]
     bar = _progress(len(tasks), progress)
     rows: List[Dict[str, Any]] = []

@@ -21,7 +21,8 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 import numpy as np
 
 from ..scenario import Scenario, load_scenario
-from ..schema import ALIASES, canonical
+from ..schema import ALIASES, SCHEMA, canonical, setting_of
+from .structure import count_key, draw_structure, forcing
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -124,6 +125,9 @@ def evaluate(expr: str, names: Mapping[str, float]) -> float:
 def draw(rng: np.random.Generator, name: str, d: Mapping[str, Any]) -> float:
     """One value of distribution d (uniform, loguniform, choice, integers, normal, fixed)."""
     kind = d.get("dist")
+    extra = sorted(set(d) - {"dist", "low", "high", "values", "mean", "std", "value", "over"})
+    if extra:
+        raise ValueError(f"{name}: unknown key(s) {', '.join(extra)} in its distribution")
     if kind == "uniform":
         return float(rng.uniform(float(d["low"]), float(d["high"])))
     if kind == "loguniform":
@@ -165,9 +169,9 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
             spec = tomllib.load(f)
         except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
             raise ValueError(f"{path}: not a TOML family spec: {exc}") from None
-    unknown = sorted(set(spec) - {"family", "draw", "set", "split"})
+    unknown = sorted(set(spec) - {"family", "structure", "draw", "set", "split"})
     if unknown:
-        raise ValueError(f"{path}: unknown tables {unknown} (family, draw, set, split)")
+        raise ValueError(f"{path}: unknown tables {unknown} (family, structure, draw, set, split)")
     if "family" not in spec:
         raise ValueError(f"{path}: no [family] table (docs/family.md)")
     fam = spec["family"]
@@ -186,31 +190,67 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
         base = base.replace(t_end=t_end)
     n = int(runs if runs is not None else fam.get("runs", 100))
     root = int(seed if seed is not None else fam.get("seed", 0))
+    structure: Optional[Dict[str, Any]] = spec.get("structure")
     draws: Dict[str, Any] = spec.get("draw", {})
     sets: Dict[str, str] = spec.get("set", {})
     out = []
     for i, ss in enumerate(np.random.SeedSequence(root).spawn(n)):
         rng = np.random.default_rng(ss)
         values: Dict[str, float] = {}
-        for name, d in draws.items():
-            values[name] = draw(rng, name, d)
-        known = {**{k: float(v) for k, v in base.values().items()},
-                 **{a: float(getattr(base, a)) for a in ALIASES}, **values}
-        for name, expr in sets.items():
-            v = evaluate(str(expr), known)
-            values[name] = known[name] = v
         try:
+            if structure is not None:
+                values.update(draw_structure(rng, structure, draw, f"{path}: run {i}"))
+            for name, d in draws.items():
+                for k, _ in _expand(name, d, {**base.values(), **values}, path):
+                    values[k] = draw(rng, k, d)
+            if structure is not None and "closing" in values:
+                mech_values = {**base.values(), **{canonical(k): v for k, v in values.items()}}
+                values.update(forcing(mech_values, values["closing"]))
+            known = {**{k: float(v) for k, v in base.values().items()},
+                     **{a: float(getattr(base, a)) for a in ALIASES}, **values}
+            for name, expr in sets.items():
+                for k, idx in _expand(name, None, known, path):
+                    v = evaluate(str(expr) if idx is None else str(expr).replace("{i}", str(idx)), known)
+                    values[k] = known[k] = v
             sc = scenario_from_values(base, values)
         except ValueError as exc:
-            raise ValueError(f"{path}: run {i}: {str(exc).replace('replace(): ', '')}") from None
+            msg = str(exc).replace("replace(): ", "")
+            raise ValueError(msg if msg.startswith(f"{path}: run") else f"{path}: run {i}: {msg}") from None
         out.append(Run(run=i, scenario=sc, values=values, source=str(path)))
     splits = tuple(
         Split(name=s["name"], edges=tuple(float(e) for e in s["edges"]) if "edges" in s else None,
               values=tuple(float(v) for v in s["values"]) if "values" in s else None)
         for s in spec.get("split", [])
     )
+    varied = [k for k in (structure or {}) if k in ("bodies", "contacts", "closing")]
+    varied += [name.replace("{i}", "1") for name in draws]  # a template: its first element
     return Family(name=str(fam.get("name", path.stem)), runs=tuple(out), splits=splits,
-                  drawn=tuple(draws), seed=root)
+                  drawn=tuple(varied), seed=root)
+
+
+def _expand(name: str, d: Any, known: Mapping[str, float], path: Path) -> List[Tuple[str, Optional[int]]]:
+    """The names a [draw] or [set] entry stands for: itself, or for a template with "{i}" (`m{i}`,
+    `contact{i}_gamma0`) one name per element in use, i = 1..count; the count is that of the schema setting
+    the key belongs to (bodies, springs, inputs, sensors, contacts), or of the capacity named by `over`
+    for an auxiliary name (`gamma0_ratio{i} = {..., over = "contacts"}`)."""
+    if "{i}" not in name:
+        return [(name, None)]
+    over = d.get("over") if isinstance(d, Mapping) else None
+    if over is not None:
+        if over not in SCHEMA.capacity:
+            raise ValueError(f"{path}: {name}: over = {over!r}, not one of {', '.join(SCHEMA.capacity)}")
+        counter = count_key(over)
+    else:
+        try:
+            setting = setting_of(canonical(name.replace("{i}", "1")))
+        except KeyError:
+            raise ValueError(f"{path}: {name}: not a scenario key pattern; an auxiliary template needs "
+                             "over = \"bodies\" | \"springs\" | \"inputs\" | \"sensors\" | \"contacts\"") from None
+        if setting.in_use_by is None:
+            raise ValueError(f"{path}: {name}: {setting.name} is not an array over the mechanism's elements")
+        counter = SCHEMA.by_name(setting.in_use_by).keys[0]
+    count = int(known.get(counter, SCHEMA.by_name(counter).default_value()))
+    return [(name.replace("{i}", str(i)), i) for i in range(1, count + 1)]
 
 
 def load_folder(folder: PathLike, t_end: Optional[float] = None) -> Family:

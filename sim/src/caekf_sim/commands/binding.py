@@ -182,13 +182,17 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("tune", help="maximum-likelihood Q_x, Q_gamma, R from recorded runs; writes a scenario file")
     add_scenario_arg(p)
     p.add_argument("--runs", type=Path, nargs="*", default=[], metavar="CSV",
-                   help="recorded runs to tune on: t,u,y1,y4 CSVs (extra columns ignored; empty y = lost sample)")
+                   help="recorded runs to tune on: CSVs with the mechanism's columns (t, the inputs, one column per "
+                        "sensor: t,u,y1,y4 for the paper; extra columns ignored; empty y = lost sample)")
     p.add_argument("--candump", type=Path, nargs="*", default=[], metavar="LOG",
-                   help="candump -L logs of the CAN bench (one run per configuration in each log)")
+                   help="candump -L logs of the CAN bench (one run per configuration in each log; the paper's "
+                        "mechanism)")
     p.add_argument("--holdout", type=Path, nargs="*", default=[], metavar="CSV_OR_LOG",
                    help="held-out runs for the before/after report (*.log: candump, else CSV)")
-    p.add_argument("--params", default=",".join(("sigma_qx_q", "sigma_qx_v", "sigma_q_gamma", "sigma_r")),
-                   help="noise settings to tune, comma-separated (default: all four)")
+    p.add_argument("--params", default=None,
+                   help="noise settings to tune, comma-separated scenario keys (default: every noise std the "
+                        "mechanism uses and sets > 0: sigma_qx_q, sigma_qx_v, sigma_r, sigma_rv, "
+                        "contact<i>_sigma_q_gamma)")
     p.add_argument("--experiment", default="switched",
                    help="experiment whose settings the runs use (default switched)")
     p.add_argument("--precision", choices=["double", "float"], default="double",
@@ -202,37 +206,52 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_tune)
 
 
-def _records(paths, dt: float):
-    """Records of CSVs (checked like caekf-replay checks them: caekf_sim.measurements) and *.log candump logs."""
-    from ..measurements import check_input_file, read_measurements_csv
-    from ..tune import Record, read_candump_records
+def _records(paths, sc):
+    """Records of CSVs with the mechanism's columns (checked like caekf-replay checks them:
+    caekf_sim.measurements) and *.log candump logs."""
+    from ..measurements import check_input_file, columns_of, read_measurements_csv
+    from ..tune import Record
 
     out = []
     for path in paths:
         check_input_file(path)
         if str(path).endswith(".log"):
-            out += read_candump_records(path, dt)
+            out += _candump_records(path, sc)
         else:
-            m = read_measurements_csv(path, dt)
+            m = read_measurements_csv(path, sc.dt, columns_of(sc))
             out.append(Record(m.name, m.t, m.u, m.y))
     return out
 
 
+def _candump_records(path, sc):
+    """The bench's records of a candump log: its frames carry the paper's u, y1, y4."""
+    from ..binding import paper_mismatch
+    from ..tune import read_candump_records
+
+    diff = paper_mismatch(sc)
+    if diff is not None:
+        raise UsageError(f"{path}: a candump log of the bench carries the paper's mechanism's u, y1, y4; "
+                         f"this scenario differs: {diff}")
+    return read_candump_records(path, sc.dt)
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
     from ..settings_adapter import scenario_toml
-    from ..tune import read_candump_records, report_text, tune
+    from ..settings_adapter import tunable_noise
+    from ..tune import report_text, tune
 
     # Errors go to caekf-sim's one-line handler: bad input 3, I/O 4 (--debug shows the traceback).
     sc = scenario_from_args(args)
-    params = [p.strip() for p in args.params.split(",") if p.strip()]
-    records = _records(args.runs, sc.dt)
+    params = list(tunable_noise(sc)) if args.params is None else \
+        [p.strip() for p in args.params.split(",") if p.strip()]
+    records = _records(args.runs, sc)
     for log in args.candump:
         if not log.is_file():
             raise FileNotFoundError(f"no such file: {log}")
-        records += read_candump_records(log, sc.dt)
+        records += _candump_records(log, sc)
     if not records:
         raise UsageError("nothing to tune on: give --runs CSV... and/or --candump LOG...")
-    holdout = _records(args.holdout, sc.dt)
+    holdout = _records(args.holdout, sc)
     if args.out is not None:
         check_output_file(args.out)
     t0 = time.perf_counter()

@@ -75,7 +75,11 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     head = (f"family {family.name}: {len(family.runs)} mechanisms{seed}, {t_end:g} s each; truth {args.truth}, "
             f"estimator {args.estimator}; {wall:.1f} s wall ({where})")
     failed = sum(1 for r in rows if r["truth_failed"]) // max(1, len(experiments))
-    text = head + f"\ntruth failures: {failed}/{len(family.runs)}\n\n" + format_summary(summary) + "\n"
+    text = head + f"\ntruth failures: {failed}/{len(family.runs)}\n"
+    if any(r.scenario.contacts > 1 for r in family.runs):
+        text += ("mechanisms with several contacts count by their worst contact: largest |final error|, "
+                 "diverged if any contact diverged, within 3 sigma if every contact is\n")
+    text += "\n" + format_summary(summary) + "\n"
     (out / "summary.txt").write_text(text, encoding="utf-8")
     print(text, end="")
     if not args.no_plots and rows:

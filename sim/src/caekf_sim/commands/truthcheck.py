@@ -1,13 +1,14 @@
-"""`caekf-sim truth-check`: the truths' error against a tight-tolerance reference solver."""
+"""`caekf-sim truth-check`: the truths' error against a tight-tolerance reference solver, any mechanism."""
 from __future__ import annotations
 
 import argparse
 import time
 from pathlib import Path
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Union
 
 import numpy as np
 
+from ..mechanism import Mechanism
 from ..scenario import Scenario, default_scenario_path, load_scenario
 
 REF_RTOL = 1e-11
@@ -24,16 +25,23 @@ def reference(sc: Scenario, integrator: str = "DOP853", t_end: Optional[float] =
     return q, v
 
 
-def errors(q: np.ndarray, v: np.ndarray, q_ref: np.ndarray, v_ref: np.ndarray, gap: float) -> Dict[str, float]:
-    """max |dq| [m], max |dv| [m/s], and max |d delta| over samples in contact relative to max delta."""
+def errors(q: np.ndarray, v: np.ndarray, q_ref: np.ndarray, v_ref: np.ndarray,
+           contacts: Union[float, "Mechanism"]) -> Dict[str, float]:
+    """max |dq| [m], max |dv| [m/s], and max |d delta| over samples in contact relative to max delta (worst
+    contact). `contacts`: the mechanism (any contacts), or the paper's gap (its contact between bodies 2
+    and 3)."""
     n = min(len(q), len(q_ref))
     dq = np.abs(q[:n] - q_ref[:n])
-    d_ref = q_ref[:n, 1] - q_ref[:n, 2] - gap
-    d = q[:n, 1] - q[:n, 2] - gap
-    dmax = float(d_ref.max())
-    rel = float(np.max(np.abs(d - d_ref)[d_ref > 0]) / dmax) if dmax > 0 else float("nan")
-    return {"dq": float(dq.max()), "dv": float(np.abs(v[:n] - v_ref[:n]).max()), "ddelta_rel": rel,
-            "max_delta": dmax}
+    if isinstance(contacts, Mechanism):
+        d_ref, d = contacts.penetrations(q_ref[:n]), contacts.penetrations(q[:n])
+    else:
+        d_ref = (q_ref[:n, 1] - q_ref[:n, 2] - contacts)[:, None]
+        d = (q[:n, 1] - q[:n, 2] - contacts)[:, None]
+    dmax = float(d_ref.max()) if d_ref.size else float("nan")
+    rels = [float(np.max(np.abs(d[:, c] - d_ref[:, c])[d_ref[:, c] > 0]) / d_ref[:, c].max())
+            for c in range(d_ref.shape[1]) if d_ref[:, c].max() > 0]
+    return {"dq": float(dq.max()), "dv": float(np.abs(v[:n] - v_ref[:n]).max()),
+            "ddelta_rel": max(rels) if rels else float("nan"), "max_delta": dmax}
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -82,7 +90,7 @@ def cmd_truth_check(args: argparse.Namespace) -> int:
                 ta = truth_arrays(sc, tr_name)
                 q, v, failed = ta.q, ta.v, ta.failed
             wall = time.perf_counter() - t0
-            e = errors(q, v, q_ref, v_ref, sc.gap)
+            e = errors(q, v, q_ref, v_ref, Mechanism.from_scenario(sc))
             if tr_name in worst:
                 worst[tr_name] = max(worst[tr_name], e["dq"])
             if failed:
