@@ -288,8 +288,9 @@ def paced_stats(run: PacedRun, bitrate: float, window_s: float = 60.0, est_ids=N
 
 
 def format_paced(name: str, rows: List[Dict[str, float]], dt: float, bitrate: float) -> str:
-    lines = [f"{name}: deadline = inputs due + dt ({1e3 * dt:g} ms); latency = last input frame -> EST_STEP, "
-             f"both kernel-timestamped on the bus; bus load = worst-case bits at {bitrate / 1e6:g} Mbit/s"]
+    lines = [f"{name}: deadline = inputs due + dt ({1e3 * dt:g} ms); latency = last input frame -> the frame that "
+             f"closes the step (EST_STEP, EST_PROD, EST_FD), both kernel-timestamped on the bus; bus load = worst-case "
+             f"bits at {bitrate / 1e6:g} Mbit/s (CAN FD frames: data phase at 5 Mbit/s)"]
     lines.append(f"  {'window':>14}  {'steps':>7}  {'answered':>8}  {'misses':>7}  {'p50 us':>7}  {'p99 us':>7}  "
                  f"{'max us':>8}  {'send late p99 us':>16}  {'bus load':>8}")
     for r in rows:

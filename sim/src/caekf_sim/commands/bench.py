@@ -106,7 +106,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "with this --profile and --id-offset for the run and stop it afterwards (its log: "
                         "OUTDIR/caekf-host.log); without it an estimator must already be on the bus")
     p.add_argument("--host-args", default="", metavar="ARGS",
-                   help="with --start-host: more caekf-host options, one string (e.g. --host-args='--step-timeout-ms 1000')")
+                   help="with --start-host: more caekf-host options, one string "
+                        "(e.g. --host-args='--step-timeout-ms 1000')")
     p.add_argument("--then-echo-probe", action="store_true",
                    help="with --realtime --start-host: afterwards the same paced run against caekf-host --echo (the "
                         "estimator replaced by an echo; OUTDIR/realtime-echo.txt, --log's name with -echo)")
