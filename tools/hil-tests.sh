@@ -4,39 +4,33 @@
 #
 #   tools/hil-tests.sh [PYTEST ARGS...]     e.g. tools/hil-tests.sh -k bad_traffic
 #
-# Two passes: the whole suite in the diagnostics profile (test_hil_fd.py runs the CAN FD profile there, with a
-# caekf-host of its own), then test_hil_experiments.py, test_hil_bad_traffic.py and the full fault matrix (all 11
-# classes) in the production profile (CAEKF_HIL_PROFILE=production; out/hil-tests/production/).
-# HIL_PROFILES="diagnostics" runs only the first.
+# Three passes, one vcan0 session each: the whole suite in the diagnostics profile (test_hil_fd.py aside), then
+# test_hil_experiments.py, test_hil_bad_traffic.py and the full fault matrix (all 11 classes) in the production
+# profile (CAEKF_HIL_PROFILE=production; out/hil-tests/production/), then test_hil_bad_traffic.py, the full fault
+# matrix and test_hil_fd.py in the CAN FD profile (out/hil-tests/fd/). HIL_PROFILES="diagnostics" runs only the first.
 #
 # Keeps logs and CSVs in out/hil-tests/ (the full runs' CSVs, summary and figures in out/hil-tests/full/).
 # Exit status: pytest's (125 if no vcan0 could be had).
 set -euo pipefail
-root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
-cd "$root"
-out=$root/out/hil-tests
-py=$root/.venv/bin/python
-[ -x "$py" ] || { echo "hil-tests: no $py: run tools/bootstrap.sh" >&2; exit 1; }
+. "$(dirname "${BASH_SOURCE[0]}")/lib/hil-common.sh"
 t0=$SECONDS
-cmake --preset host-double >/dev/null
-cmake --build --preset host-double
-mkdir -p "$out"
-"$root/build/host-double/host/caekf-truth" --scenario "$root/sim/scenarios/paper.toml" --out "$out/truth.csv" --quiet
+hil_prepare hil-tests "$root/out/hil-tests"
 color=no
 [ -t 1 ] && color=yes
 rc=0
-profiles=${HIL_PROFILES:-diagnostics production}
+profiles=${HIL_PROFILES:-diagnostics production fd}
 for profile in $profiles; do
-	pout=$out
-	tests=("$root/tests/hil")
-	if [ "$profile" != diagnostics ]; then
-		pout=$out/$profile
-		tests=("$root/tests/hil/test_hil_experiments.py" "$root/tests/hil/test_hil_bad_traffic.py"
-			"$root/tests/hil/test_hil_fault_matrix.py")
-		mkdir -p "$pout"
-	fi
+	pout=$out/$profile
+	hil=$root/tests/hil
+	case $profile in
+	diagnostics) pout=$out tests=("$hil" --ignore="$hil/test_hil_fd.py") ;;
+	production) tests=("$hil/test_hil_experiments.py" "$hil/test_hil_bad_traffic.py" "$hil/test_hil_fault_matrix.py") ;;
+	fd) tests=("$hil/test_hil_bad_traffic.py" "$hil/test_hil_fault_matrix.py" "$hil/test_hil_fd.py") ;;
+	*) echo "hil-tests: unknown profile $profile (diagnostics, production, fd)" >&2; exit 2 ;;
+	esac
+	mkdir -p "$pout"
 	prc=0
-	CAEKF_HIL_PROFILE=$profile CAEKF_HIL_TRUTH=$out/truth.csv CAEKF_HIL_OUT=$pout CAEKF_BUILD_DIR=$root/build/host-double \
+	CAEKF_HIL_PROFILE=$profile CAEKF_HIL_TRUTH=$out/truth.csv CAEKF_HIL_OUT=$pout CAEKF_BUILD_DIR=$build \
 		MPLBACKEND=Agg "$root/tools/with-vcan.sh" -- "$py" -m pytest "${tests[@]}" -p no:cacheprovider -rA \
 		--color="$color" "$@" || prc=$?
 	if [ "$profile" != diagnostics ] && [ "$prc" = 5 ]; then

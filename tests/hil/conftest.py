@@ -11,15 +11,13 @@ Environment:
   CAEKF_HIL_TRUTH        truth CSV made beforehand (default: caekf-truth is run here)
   CAEKF_HIL_OUT          where logs and CSVs of the run are kept (default: pytest's tmp dir)
   CAEKF_HIL_WINDOW       lockstep window of the full runs (default 32 steps in flight; 1 = strict lockstep)
-  CAEKF_HIL_PROFILE      protocol profile of caekf-host and the bench: diagnostics (default) or production
+  CAEKF_HIL_PROFILE      protocol profile of caekf-host and the bench: diagnostics (default), production or fd
 """
 from __future__ import annotations
 
 import contextlib
 import os
-import signal
 import subprocess
-import time
 from pathlib import Path
 from typing import Dict
 
@@ -86,32 +84,23 @@ def truth(binaries, out_dir):
 
 @contextlib.contextmanager
 def host_process(iface: str, binaries, log_path: Path, *extra: str, profile: str = PROFILE):
-    """caekf-host on the interface while the block runs (profile, extra options); its log is printed at the
-    end. Fails the test with the log if it exits at start-up."""
-    log = open(log_path, "w")
-    # --step-timeout-ms: the bench sends a step's three frames in one burst, so a partial step can only come
-    # from the machine stalling between them; a QEMU TCG guest on a busy host stalls for tens of ms at times,
-    # and the app's 20 ms default (a real-time setting) then drops the step, shifting the estimator against
-    # the truth for the rest of the run. A second keeps the comparison with caekf-replay about the estimator.
-    proc = subprocess.Popen([str(binaries["host"]), "--iface", iface, "--status-period-ms", "0",
-                             "--step-timeout-ms", HOST_STEP_TIMEOUT_MS, "--profile", profile, *extra], stdout=log,
-                            stderr=subprocess.STDOUT)
-    time.sleep(0.2)
-    if proc.poll() is not None:
-        log.close()
-        pytest.fail(f"HIL: caekf-host exited at start-up ({proc.returncode}): {log_path.read_text()}",
-                    pytrace=False)
+    """caekf-host on the interface while the block runs (profile, extra options; caekf_sim.bench.hostproc); its
+    log is printed at the end. Fails the test with the log if it exits at start-up."""
+    from caekf_sim.bench.hostproc import HostError, running_host
+
+    # --step-timeout-ms: the bench sends a step's frames in one burst, so a partial step can only come from the
+    # machine stalling between them; a guest on a busy host stalls for tens of ms at times, and the app's 20 ms
+    # default (a real-time setting) then drops the step, shifting the estimator against the truth for the rest
+    # of the run. A second keeps the comparison with caekf-replay about the estimator.
     try:
-        yield proc
+        with running_host(binaries["host"], iface, log_path, profile,
+                          extra=("--step-timeout-ms", HOST_STEP_TIMEOUT_MS, *extra), settle=0.2) as proc:
+            yield proc
+    except HostError as e:
+        pytest.fail(f"HIL: {e}", pytrace=False)
     finally:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        log.close()
-        print(log_path.read_text())
+        if log_path.exists():
+            print(log_path.read_text())
 
 
 @pytest.fixture(scope="session")

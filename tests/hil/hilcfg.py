@@ -13,9 +13,9 @@ TRUTH_BIN = BUILD / "host" / "caekf-truth"
 SCENARIO = REPO / "sim" / "scenarios" / "paper.toml"
 IFACE = os.environ.get("CAEKF_HIL_IFACE", "vcan0")
 HOST_STEP_TIMEOUT_MS = os.environ.get("CAEKF_HIL_STEP_TIMEOUT_MS", "1000")  # see conftest.estimator
-# Protocol profile of caekf-host and the bench (caekf_sim.bench.profiles). tools/hil-tests.sh runs the whole
-# suite in diagnostics and test_hil_experiments.py, test_hil_bad_traffic.py, the fault matrix and
-# test_hil_id_offset.py in production.
+# Protocol profile of caekf-host and the bench (caekf_sim.bench.profiles). tools/hil-tests.sh runs the suite
+# in diagnostics (test_hil_fd.py aside), test_hil_experiments.py, test_hil_bad_traffic.py and the fault matrix in
+# production, and test_hil_bad_traffic.py, the fault matrix and test_hil_fd.py in fd.
 PROFILE = os.environ.get("CAEKF_HIL_PROFILE", "diagnostics")
 from caekf_sim.schema import preset_names
 

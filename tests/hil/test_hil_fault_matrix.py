@@ -1,9 +1,11 @@
 """Fault-injection matrix over the HIL bus: one run of the switched experiment, 0-15 s (into the first
 contact, 12.8-17.2 s), strict lockstep, with faults of every class spread over the run (seeded schedule).
-It runs in the profile CAEKF_HIL_PROFILE (tools/hil-tests.sh: diagnostics, then production); the profile's
-position frame takes the roles of BENCH_Y1 (wrong DLC, duplicate) and BENCH_Y4 (counter jump): BENCH_YP in
-production, where a duplicated BENCH_YP completes its step with the step's BENCH_U and the step's own BENCH_YP
-then comes late (RX_LATE instead of RX_REPEATED).
+It runs in the profile CAEKF_HIL_PROFILE (tools/hil-tests.sh: diagnostics, production, then fd); the profile's
+input frames take the roles of BENCH_U (bad CRC, NaN), BENCH_Y1 (wrong DLC, duplicate) and BENCH_Y4 (counter
+jump): BENCH_YP for both positions in production, where a duplicated BENCH_YP completes its step with the step's
+BENCH_U and the step's own BENCH_YP then comes late (RX_LATE instead of RX_REPEATED); BENCH_FD for all three in
+the fd profile (CAN FD frames, CRC-16; one frame per step, so a duplicate completes its step by itself and a
+reordered pair costs 3 RX_COUNTER_JUMP).
 
 Fault classes (sim/src/caekf_sim/bench/faults.py builds the frames):
   non-destructive -- the estimator still gets every step's valid inputs, so it must run every step and its
@@ -84,8 +86,6 @@ def _schedule():
 
 
 def _await_acks(bench, tokens, timeout=10.0):
-    from caekf_sim.bench.codec import records_array
-
     want = set(tokens)
     got = {}
     ack_id = bench.codec.messages["EST_ACK"].frame_id
@@ -94,9 +94,9 @@ def _await_acks(bench, tokens, timeout=10.0):
         blob = bench.recv(0.2)
         if not blob:
             continue
-        recs = records_array(blob)
+        recs = bench.records(blob)
         for r in recs[recs["id"] == ack_id]:
-            a = bench._decode_ack(bytes(r["data"]))
+            a = bench._decode_ack(bytes(r["data"][:8]))
             if a.token in want:
                 got[a.token] = a
     return got
@@ -232,10 +232,16 @@ def fault_run(bench, sc, inputs):
     return dict(rec=rec, dec=dec, h=health_delta(before, after), n=n, lost=lost, seg_starts=seg_starts,
                 episodes=episodes, storm_acks=storm_acks, acks_in_run=faults.count_acks(bench, rec.chunks),
                 validations=validations, inject_rows=inject_rows, elapsed=elapsed, params=params,
-                yp=y_a == "BENCH_YP", inputs_per_step=len(bench.profile.input_messages),
-                # STEP_GAP is an app flag (bit 13): every step in diagnostics (EST_STEP); production carries it
-                # on EST_PAGE page 10 only (EST_PROD has the estimator's bits 0..11)
-                gap_every_step=bench.profile.results["flags"].message == "EST_STEP")
+                yp=faults.duplicate_completes_step(bench), inputs_per_step=len(bench.profile.input_messages),
+                # STEP_GAP is an app flag (bit 13): every step in diagnostics (EST_STEP) and fd (EST_FD); production
+                # carries it on EST_PAGE page 10 only (EST_PROD has the estimator's bits 0..11)
+                gap_every_step=_flags_bits(bench) > 13, closing=bench.profile.closing)
+
+
+def _flags_bits(bench):
+    """Width of the FLAGS signal the profile carries every step (16: EST_STEP, EST_FD; 12: EST_PROD)."""
+    src = bench.profile.results["flags"]
+    return bench.codec.messages[src.message].signals[src.signal].length if src.page is None else 0
 
 
 # --- references (caekf-replay) ------------------------------------------------------------------------------
@@ -485,7 +491,7 @@ def _table(fr, m):
     s, d = _fmt_rec(rec.get("reorder"))
     rows.append(["reordered pair", f"{n['reorder']} (3 steps lost each)",
                  f"RX_COUNTER_JUMP {3 * fr['inputs_per_step']} each, STEPS_SKIPPED +{h['STEPS_SKIPPED']} (incl. silence), "
-                 + (f"{m['gap_flagged']} EST_STEP with STEP_GAP (one per run of lost steps; episodes that touch merge)"
+                 + (f"{m['gap_flagged']} {fr['closing']} with STEP_GAP (one per run of lost steps; episodes that touch merge)"
                   if fr["gap_every_step"] else "STEP_GAP on EST_PAGE page 10 only in this profile"), s, d])
     s, d = _fmt_rec(rec.get("silence"))
     rows.append([f"bus silence {SILENCE_LEN} steps", f"{n['silence']} episodes ({n['silence'] * SILENCE_LEN} steps)",

@@ -21,6 +21,7 @@ after the run (`decode_run`), which also checks their E2E protection.
 from __future__ import annotations
 
 import os
+import struct
 import sys
 import time
 from array import array
@@ -31,7 +32,7 @@ import numpy as np
 
 from .. import schema
 from . import e2e
-from .codec import RECORD, RECORD_SIZE, Codec, records_array
+from .codec import RECORD, RECORD_FD, Codec, record_size, records_array
 from .profiles import Profile, get_profile
 from .transport import Transport, make_transport, open_bus
 
@@ -119,6 +120,11 @@ class Decoded:
     carried: Dict[str, np.ndarray] = field(default_factory=dict)  # column -> rows whose value came over CAN
 
 
+def profile_is_fd(profile: Profile, codec: Codec) -> bool:
+    """Whether a profile's step frames are CAN FD ones (the DBC says so: VFrameFormat StandardCAN_FD)."""
+    return any(codec.messages[m].is_fd for m in (*profile.input_messages, profile.closing))
+
+
 def _now() -> float:
     return time.perf_counter()
 
@@ -130,6 +136,11 @@ class Bench:
                  channel: str = "vcan0", profile: str = "diagnostics") -> None:
         self.codec = codec or Codec()
         self.profile: Profile = get_profile(profile)
+        # the fd profile's bench moves every frame as a 72-byte struct canfd_frame record (classic ones too)
+        self.wide = profile_is_fd(self.profile, self.codec)
+        self.rsize = record_size(self.wide)
+        if getattr(transport, "size", self.rsize) != self.rsize:
+            raise BenchError(f"profile {self.profile.name} needs a {'CAN FD' if self.wide else 'classic'} transport")
         self.transport = transport
         self.channel = channel
         self.tx_counter: Dict[str, int] = {m.name: 0 for m in self.codec.messages.values() if m.to_estimator}
@@ -137,7 +148,10 @@ class Bench:
         self.journal: Optional[List[Tuple[float, int, bytes]]] = [] if record_log else None
         self.wall_offset = time.time() - _now()
         self.rx_bad_crc = 0  # control frames from the estimator that failed the CRC
-        self._est_step_pat = RECORD.pack(self.codec.messages[self.profile.closing].frame_id, 8, bytes(8))[:5]
+        closing = self.codec.messages[self.profile.closing]
+        self._est_step_pat = struct.pack("<IB", closing.frame_id, closing.length)  # id and length of its records
+        step = closing.signals["STEP"]
+        self._step_at = (8 + step.start // 8, 8 + (step.start + step.length + 7) // 8, step.start % 8)
         self._step_mask = self.profile.step_mask
         self._ack_id = self.codec.messages["EST_ACK"].frame_id
         self._health_id = self.codec.messages["EST_HEALTH"].frame_id
@@ -147,8 +161,12 @@ class Bench:
              record_log: bool = False, codec: Optional[Codec] = None, profile: str = "diagnostics",
              **bus_kwargs) -> "Bench":
         codec = codec or Codec()
+        wide = profile_is_fd(get_profile(profile), codec)
+        if wide:
+            bus_kwargs.setdefault("fd", True)
         bus = open_bus(interface, channel, **bus_kwargs)
-        return cls(make_transport(bus, codec.from_estimator_ids, fast=fast), codec, record_log, channel, profile)
+        return cls(make_transport(bus, codec.from_estimator_ids, fast=fast, wide=wide), codec, record_log, channel,
+                   profile)
 
     def close(self) -> None:
         self.transport.close()
@@ -173,8 +191,24 @@ class Bench:
         if advance:
             self.tx_counter[name] = (c + 1) & 15
         if dlc is not None:
-            return self.codec.record(name, data[:dlc], dlc)
-        return self.codec.record(name, data)
+            return self.record(name, data[:dlc], dlc)
+        return self.record(name, data)
+
+    def record(self, name_or_id, data: bytes, dlc: Optional[int] = None, fd: Optional[bool] = None) -> bytes:
+        """One raw record in this bench's format (Codec.record; 72-byte canfd_frame records in the fd profile,
+        a CAN FD frame there when `fd` or, by default, for a CAN FD message or more than 8 bytes)."""
+        return self.codec.record(name_or_id, data, dlc, wide=self.wide, fd=fd)
+
+    def records(self, blob: bytes) -> np.ndarray:
+        """A blob of this bench's records as a structured array (codec.records_array)."""
+        return records_array(blob, self.wide)
+
+    def unpack_record(self, blob: bytes, off: int) -> Tuple[int, int, bytes]:
+        """(id, dlc or length, data) of the record at `off`."""
+        if self.wide:
+            fid, dlc, _, data = RECORD_FD.unpack_from(blob, off)
+            return fid, dlc, data
+        return RECORD.unpack_from(blob, off)
 
     def send(self, blob: bytes) -> None:
         self.transport.send(blob)
@@ -193,16 +227,17 @@ class Bench:
             blob = self.recv(0.0)
             if not blob:
                 return n
-            n += len(blob) // RECORD_SIZE
+            n += len(blob) // self.rsize
 
     def _next_token(self) -> int:
         self.token = (self.token + 1) & 0xFF
         return self.token
 
     def _control_frames(self, blob: bytes) -> Iterable[Tuple[int, bytes]]:
-        for off in range(0, len(blob), RECORD_SIZE):
-            fid, dlc, data = RECORD.unpack_from(blob, off)
+        for off in range(0, len(blob), self.rsize):
+            fid, dlc, data = self.unpack_record(blob, off)
             if fid in (self._ack_id, self._health_id):
+                data = data[:8]
                 info = self.codec.by_id[fid]
                 if dlc != 8 or not e2e.crc_ok(info.data_id, data):
                     self.rx_bad_crc += 1
@@ -335,18 +370,18 @@ class Bench:
         n = stop - start
         if n <= 0:
             return []
-        recs = np.zeros((n, len(order), RECORD_SIZE), dtype=np.uint8)
+        recs = np.zeros((n, len(order), self.rsize), dtype=np.uint8)
         for j, name in enumerate(order):
             info = self.codec.messages[name]
             c0 = self.tx_counter[name]
             counters = (c0 + np.arange(n)) & 15
-            sealed = e2e.seal_np(info.data_id, counters, inputs.payloads[name][start:stop])
-            recs[:, j, 0:4] = np.frombuffer(RECORD.pack(info.frame_id, 8, bytes(8))[:4], np.uint8)
-            recs[:, j, 4] = 8
-            recs[:, j, 8:] = sealed
+            seal = e2e.seal_fd_np if info.is_fd else e2e.seal_np
+            sealed = seal(info.data_id, counters, inputs.payloads[name][start:stop])
+            recs[:, j, :8] = np.frombuffer(self.record(name, bytes(info.length))[:8], np.uint8)
+            recs[:, j, 8:8 + info.length] = sealed
             self.tx_counter[name] = int((c0 + n) & 15)
         flat = recs.tobytes()
-        size = len(order) * RECORD_SIZE
+        size = len(order) * self.rsize
         if extra:
             return [extra + flat[i:i + size] for i in range(0, len(flat), size)]
         return [flat[i:i + size] for i in range(0, len(flat), size)]
@@ -354,14 +389,15 @@ class Bench:
     # --- runs -----------------------------------------------------------------------------
 
     def _step_of(self, chunk: bytes, p: int) -> int:
-        """STEP (at bit 12, the profile's closing-message width) of the record at offset p."""
-        return ((chunk[p + 9] >> 4) | (chunk[p + 10] << 4) | ((chunk[p + 11] & 0x0F) << 12)) & self._step_mask
+        """STEP (its DBC start bit and width in the profile's closing message) of the record at offset p."""
+        a, b, shift = self._step_at
+        return (int.from_bytes(chunk[p + a:p + b], "little") >> shift) & self._step_mask
 
     def _last_est_step(self, chunk: bytes) -> int:
         """STEP of the last closing record (EST_STEP, EST_PROD) in a chunk, -1 if none."""
         pat = self._est_step_pat
         p = chunk.rfind(pat)
-        while p >= 0 and p % RECORD_SIZE:
+        while p >= 0 and p % self.rsize:
             p = chunk.rfind(pat, 0, p + len(pat) - 1)  # a match inside data bytes: look further back
         return self._step_of(chunk, p) if p >= 0 else -1
 
@@ -521,7 +557,7 @@ class Bench:
                 journal.append((tr, 1, chunk))
             p = chunk.find(pat) if sent else -1
             while p >= 0:
-                if p % RECORD_SIZE == 0:
+                if p % self.rsize == 0:
                     s = self._step_of(chunk, p)
                     i = sent - 1 - ((wire[sent - 1] - s) & self._step_mask)
                     if 0 <= i < n and t_rx[i] == 0.0:
@@ -561,11 +597,12 @@ class Bench:
 
         sock.setsockopt(_socket.SOL_CAN_RAW, _socket.CAN_RAW_FILTER, b"")  # the recorder sees the bus
         last_in = self.codec.messages[self.profile.input_messages[-1]]
+        closing = self.codec.messages[self.profile.closing]
         try:
-            paced = run_paced(self.transport, blobs, wire, dt, self.channel, last_in.frame_id,
-                              self.codec.messages[self.profile.closing].frame_id,
+            paced = run_paced(self.transport, blobs, wire, dt, self.channel, last_in.frame_id, closing.frame_id,
                               grace=grace, out_step_bits=self.profile.closing_step_bits,
-                              in_step_bits=last_in.signals["STEP"].length)
+                              in_step_bits=last_in.signals["STEP"].length, in_step_start=last_in.signals["STEP"].start,
+                              out_step_start=closing.signals["STEP"].start, wide=self.wide)
         finally:
             self.transport.set_filter(self.codec.from_estimator_ids)
         est = np.isin(paced.frames["id"], self.codec.from_estimator_ids)
@@ -594,11 +631,12 @@ class Bench:
         out = Decoded(cols, np.zeros(n, dtype=bool), status, carried=carried)
         if not rec.chunks or n == 0:
             return out
-        recs = records_array(b"".join(rec.chunks))
+        recs = self.records(b"".join(rec.chunks))
         out.frames = len(recs)
         ids = recs["id"].astype(np.int64)
         data = recs["data"]
-        ok_dlc = recs["dlc"] == 8
+        length = np.array([self.codec.by_id[i].length if i in self.codec.by_id else -1 for i in ids.tolist()])
+        ok_dlc = recs["dlc"] == length
         out.bad_dlc = int(np.sum(~ok_dlc & np.isin(ids, self.codec.from_estimator_ids)))
         first_wire = int(inputs.wire_steps[rec.start])
         messages = sorted({s.message for s in prof.results.values()}, key=lambda m: m != prof.closing)
@@ -609,13 +647,16 @@ class Bench:
             sel = (ids == info.frame_id) & ok_dlc
             if not sel.any():
                 continue
-            d = data[sel]
-            good = e2e.e2e_crc_np(np.asarray(info.data_id), d) == d[:, 0]
+            d = data[sel][:, :info.length]
+            if info.is_fd:
+                good = e2e.e2e_crc16_np(info.data_id, d) == (d[:, 0] | (d[:, 1].astype(np.int64) << 8))
+            else:
+                good = e2e.e2e_crc_np(np.asarray(info.data_id), d) == d[:, 0]
             out.bad_crc += int(np.sum(~good))
             d = d[good]
             if not len(d):
                 continue
-            dup, jump, lost = e2e.counter_errors_np(d[:, 1] & 15)
+            dup, jump, lost = e2e.counter_errors_np(d[:, 2 if info.is_fd else 1] & 15)
             out.counter_duplicates += dup
             out.counter_jumps += jump
             out.counter_lost += lost

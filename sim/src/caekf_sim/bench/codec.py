@@ -27,6 +27,12 @@ PathLike = Union[str, Path]
 
 RECORD = struct.Struct("<IB3x8s")  # struct can_frame (classic CAN)
 RECORD_SIZE = RECORD.size  # 16
+# struct canfd_frame: the fd profile's bench moves every frame in this 72-byte record (a classic frame with
+# flags 0 and len <= 8, whose first 16 bytes are its struct can_frame; a CAN FD frame with FDF | BRS)
+RECORD_FD = struct.Struct("<IBB2x64s")
+RECORD_FD_SIZE = RECORD_FD.size  # 72
+CANFD_BRS = 0x01
+CANFD_FDF = 0x04
 CAN_SFF_MAX = 0x7FF  # largest 11-bit ID
 E2E_SIGNALS = ("E2E_CRC", "E2E_COUNTER")
 
@@ -158,11 +164,19 @@ class Codec:
         assert isinstance(decoded, dict)  # a plain message, not a container frame
         return cast(Dict[str, float], dict(decoded))  # numbers only: decode_choices=False
 
-    def record(self, name_or_id: Union[str, int], data: bytes, dlc: Optional[int] = None) -> bytes:
-        """A 16-byte struct can_frame; dlc other than len(data) makes a deliberately wrong frame."""
+    def record(self, name_or_id: Union[str, int], data: bytes, dlc: Optional[int] = None, wide: bool = False,
+               fd: Optional[bool] = None) -> bytes:
+        """A 16-byte struct can_frame; dlc other than len(data) makes a deliberately wrong frame. wide: a
+        72-byte struct canfd_frame record instead (the fd profile's bench), a CAN FD frame (FDF | BRS) when
+        `fd` or, by default, when the message is a CAN FD one or the data is longer than 8 bytes."""
         fid = self.messages[name_or_id].frame_id if isinstance(name_or_id, str) else int(name_or_id)
         data = bytes(data)
-        return RECORD.pack(fid, len(data) if dlc is None else dlc, data.ljust(8, b"\0")[:8])
+        n = len(data) if dlc is None else dlc
+        if not wide:
+            return RECORD.pack(fid, n, data.ljust(8, b"\0")[:8])
+        if fd is None:
+            fd = (isinstance(name_or_id, str) and self.messages[name_or_id].is_fd) or len(data) > 8
+        return RECORD_FD.pack(fid, n, (CANFD_FDF | CANFD_BRS) if fd else 0, data.ljust(64, b"\0")[:64])
 
     # --- whole columns, through numpy ---------------------------------------------------------
 
@@ -257,10 +271,19 @@ class Codec:
                                      f"{got.hex()} != {want.hex()}")
 
 
-def records_array(blob: Union[bytes, bytearray, memoryview]) -> np.ndarray:
-    """View a blob of 16-byte records as a structured array (id, dlc, data)."""
-    dt = np.dtype([("id", "<u4"), ("dlc", "u1"), ("pad", "u1", (3,)), ("data", "u1", (8,))])
-    return np.frombuffer(bytes(blob), dtype=dt)
+_RECORD_DTYPE = np.dtype([("id", "<u4"), ("dlc", "u1"), ("pad", "u1", (3,)), ("data", "u1", (8,))])
+_RECORD_FD_DTYPE = np.dtype([("id", "<u4"), ("dlc", "u1"), ("flags", "u1"), ("pad", "u1", (2,)),
+                             ("data", "u1", (64,))])
+
+
+def records_array(blob: Union[bytes, bytearray, memoryview], wide: bool = False) -> np.ndarray:
+    """View a blob of 16-byte records (wide: 72-byte struct canfd_frame records) as a structured array
+    (id, dlc, data; wide: flags too, dlc is the payload length)."""
+    return np.frombuffer(bytes(blob), dtype=_RECORD_FD_DTYPE if wide else _RECORD_DTYPE)
+
+
+def record_size(wide: bool) -> int:
+    return RECORD_FD_SIZE if wide else RECORD_SIZE
 
 
 def make_records(frame_ids: np.ndarray, payloads: np.ndarray) -> np.ndarray:

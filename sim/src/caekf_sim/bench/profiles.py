@@ -101,7 +101,7 @@ def production(page_period: int = DEFAULT_PAGE_PERIOD, rate_hz: float = 1000.0) 
 PRODUCTION = production()
 
 # CAN FD (1 Mbit/s arbitration, 5 Mbit/s data): BENCH_FD in, EST_FD out, every value every step at the
-# diagnostics profile's resolution (the bench side is caekf_sim.bench.fd)
+# diagnostics profile's resolution (the bench moves CAN FD records: Bench.open(profile="fd"))
 FD = Profile(
     name="fd",
     inputs=(("BENCH_FD", (("U", "u"), ("Y1", "y1"), ("Y4", "y4"))),),

@@ -30,10 +30,10 @@ from typing import Dict, List, Optional, Union
 
 import numpy as np
 
-from .busload import frame_bits_worst
-from .codec import RECORD_SIZE, records_array
-from .transport import (MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVTIMEO, _IOVec, _MMsgHdr,  # declared once
-                        set_rcvbuf)
+from .busload import fd_time_worst, frame_bits_worst
+from .codec import CANFD_FDF, record_size, records_array
+from .transport import (CAN_RAW_FD_FRAMES, MSG_DONTWAIT, MSG_WAITFORONE, SO_RCVTIMEO, _IOVec,  # declared once
+                        _MMsgHdr, set_rcvbuf)
 
 CLOCK_REALTIME = 0
 TIMER_ABSTIME = 1
@@ -58,24 +58,29 @@ def _libc():
 
 
 class BusRecorder:
-    """A CAN_RAW socket that receives every frame on the interface with its kernel timestamp."""
+    """A CAN_RAW socket that receives every frame on the interface with its kernel timestamp (wide: CAN FD
+    frames too, every frame as a 72-byte struct canfd_frame record)."""
 
-    def __init__(self, channel: str, batch: int = 512, rcvbuf: int = 32 << 20) -> None:
+    def __init__(self, channel: str, batch: int = 512, rcvbuf: int = 32 << 20, wide: bool = False) -> None:
         self.sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
         set_rcvbuf(self.sock, rcvbuf)
         self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+        self.wide = wide
+        self.size = size = record_size(wide)
+        if wide:
+            self.sock.setsockopt(socket.SOL_CAN_RAW, CAN_RAW_FD_FRAMES, 1)
         self.sock.bind((channel,))
         self.fd = self.sock.fileno()
         self.libc = _libc()
         self.n = batch
-        self.buf = ctypes.create_string_buffer(batch * RECORD_SIZE)
+        self.buf = ctypes.create_string_buffer(batch * size)
         self.ctrl = ctypes.create_string_buffer(batch * CTRL_SIZE)
         self.iov = (_IOVec * batch)()
         self.hdr = (_MMsgHdr * batch)()
         base, cbase = ctypes.addressof(self.buf), ctypes.addressof(self.ctrl)
         for i in range(batch):
-            self.iov[i].iov_base = base + i * RECORD_SIZE
-            self.iov[i].iov_len = RECORD_SIZE
+            self.iov[i].iov_base = base + i * size
+            self.iov[i].iov_len = size
             self.hdr[i].msg_hdr.msg_iov = ctypes.pointer(self.iov[i])
             self.hdr[i].msg_hdr.msg_iovlen = 1
             self.hdr[i].msg_hdr.msg_control = cbase + i * CTRL_SIZE
@@ -102,6 +107,8 @@ class BusRecorder:
         hdr = self.hdr
         for i in range(self._used):
             hdr[i].msg_hdr.msg_controllen = CTRL_SIZE
+        if self.wide and self._used:  # a classic frame fills 16 bytes of its slot: no stale bytes after it
+            ctypes.memset(self.buf, 0, self._used * self.size)
         self._used = 0
         if timeout > 0:
             self._set_timeout(timeout)
@@ -119,7 +126,7 @@ class BusRecorder:
         # cmsghdr: len (8), level (4), type (4); then struct timespec
         c = self._ctrl_np[:k]
         self.stamps.append(c[:, 2] * 1_000_000_000 + c[:, 3])
-        self.records.append(ctypes.string_at(self._base, k * RECORD_SIZE))
+        self.records.append(ctypes.string_at(self._base, k * self.size))
         return k
 
     def drain(self, quiet: float) -> None:
@@ -130,18 +137,21 @@ class BusRecorder:
     def frames(self):
         """(timestamps in ns, record array) of everything recorded."""
         if not self.records:
-            return np.zeros(0, np.int64), records_array(b"")
-        return np.concatenate(self.stamps), records_array(b"".join(self.records))
+            return np.zeros(0, np.int64), records_array(b"", self.wide)
+        return np.concatenate(self.stamps), records_array(b"".join(self.records), self.wide)
 
     def close(self) -> None:
         self.sock.close()
 
 
 def write_candump(path: PathLike, channel: str, t_ns: np.ndarray, recs) -> int:
-    """candump -L lines: (SEC.USEC) CHANNEL ID#DATA."""
+    """candump -L lines: (SEC.USEC) CHANNEL ID#DATA, or ID##<flags nibble>DATA for a CAN FD frame."""
+    flags = recs["flags"].tolist() if "flags" in (recs.dtype.names or ()) else [0] * len(recs)
     with open(path, "w", encoding="ascii") as f:
-        for t, fid, dlc, data in zip(t_ns.tolist(), recs["id"].tolist(), recs["dlc"].tolist(), recs["data"]):
-            f.write(f"({t // 1_000_000_000}.{(t // 1000) % 1_000_000:06d}) {channel} {fid:03X}#"
+        for t, fid, dlc, fl, data in zip(t_ns.tolist(), recs["id"].tolist(), recs["dlc"].tolist(), flags,
+                                         recs["data"]):
+            sep = f"##{fl & 0xF:X}" if fl & CANFD_FDF else "#"
+            f.write(f"({t // 1_000_000_000}.{(t // 1000) % 1_000_000:06d}) {channel} {fid:03X}{sep}"
                     f"{bytes(data[:dlc]).hex().upper()}\n")
     return len(t_ns)
 
@@ -161,10 +171,12 @@ class PacedRun:
 
 def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel: str, in_id: int, out_id: int,
               grace: float = 0.5, start_delay: float = 0.05, out_step_bits: int = 16,
-              in_step_bits: int = 16) -> PacedRun:
-    """Send blobs[k] at T0 + k*dt (absolute, CLOCK_REALTIME); record the bus; match by STEP."""
+              in_step_bits: int = 16, in_step_start: int = 12, out_step_start: int = 12,
+              wide: bool = False) -> PacedRun:
+    """Send blobs[k] at T0 + k*dt (absolute, CLOCK_REALTIME); record the bus; match by STEP (its start bit
+    and width in the input and output messages; wide: CAN FD records, as the transport's)."""
     libc = _libc()
-    rec = BusRecorder(channel)
+    rec = BusRecorder(channel, wide=wide)
     send = transport.send
     poll = rec.poll
     n = len(blobs)
@@ -187,8 +199,8 @@ def run_paced(transport, blobs: List[bytes], wire: List[int], dt: float, channel
         rec.close()
     t_ns, frames = rec.frames()
     deadlines = t0 + dt_ns * np.arange(n, dtype=np.int64)
-    t_in = _first_by_step(t_ns, frames, in_id, wire, in_step_bits)
-    t_out = _first_by_step(t_ns, frames, out_id, wire, out_step_bits)
+    t_in = _first_by_step(t_ns, frames, in_id, wire, in_step_bits, in_step_start)
+    t_out = _first_by_step(t_ns, frames, out_id, wire, out_step_bits, out_step_start)
     return PacedRun(n, dt, deadlines, t_in, t_out, t_ns, frames)
 
 
@@ -198,16 +210,21 @@ def _realtime_ns() -> int:
     return time.clock_gettime_ns(time.CLOCK_REALTIME)
 
 
-def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int], step_bits: int = 16) -> np.ndarray:
-    """Per row: the timestamp of the first frame `fid` whose STEP (bits 12.., step_bits wide: 16, or 8 for
-    the production profile's BENCH_YP and EST_PROD, unwrapped in bus order) is that row's."""
+def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int], step_bits: int = 16,
+                   step_start: int = 12) -> np.ndarray:
+    """Per row: the timestamp of the first frame `fid` whose STEP (bits step_start.., step_bits wide: 16, or 8
+    for the production profile's BENCH_YP and EST_PROD, unwrapped in bus order) is that row's."""
     n = len(wire)
     out = np.full(n, -1, dtype=np.int64)
     if n == 0 or len(frames) == 0:
         return out
     sel = frames["id"] == fid
     d = frames["data"][sel]
-    st = (d[:, 1].astype(np.int64) >> 4) | (d[:, 2].astype(np.int64) << 4) | ((d[:, 3].astype(np.int64) & 15) << 12)
+    first = step_start // 8
+    st = np.zeros(len(d), dtype=np.int64)
+    for k in range((step_start % 8 + step_bits + 7) // 8):
+        st |= d[:, first + k].astype(np.int64) << (8 * k)
+    st >>= step_start % 8
     mod = 1 << step_bits
     st &= mod - 1
     if step_bits >= 16:
@@ -224,11 +241,25 @@ def _first_by_step(t_ns: np.ndarray, frames, fid: int, wire: List[int], step_bit
     return out
 
 
-def paced_stats(run: PacedRun, bitrate: float, window_s: float = 60.0, est_ids=None) -> List[Dict[str, float]]:
+def frame_times_worst(frames, bitrate: float, data_bitrate: float = 5e6) -> np.ndarray:
+    """Worst-case bus time of each recorded frame, in bit times at `bitrate` (CAN FD frames with bit-rate
+    switch to `data_bitrate`, busload.fd_time_worst)."""
+    if not len(frames):
+        return np.zeros(0)
+    bits = frame_bits_worst(frames["dlc"]).astype(float)
+    if "flags" in (frames.dtype.names or ()):
+        fd = (frames["flags"] & CANFD_FDF) != 0
+        bits[fd] = [fd_time_worst(int(n), bitrate, data_bitrate) * bitrate for n in frames["dlc"][fd]]
+    return bits
+
+
+def paced_stats(run: PacedRun, bitrate: float, window_s: float = 60.0, est_ids=None,
+                data_bitrate: float = 5e6) -> List[Dict[str, float]]:
     """Per window of `window_s` seconds of steps (and 'all'): deadline misses, latency p50/p99/max,
-    send lateness p99, bus load seen (worst-case frame lengths of the recorded frames)."""
+    send lateness p99, bus load seen (worst-case frame lengths of the recorded frames; CAN FD frames with
+    their data phase at data_bitrate)."""
     per = max(1, int(round(window_s / run.dt)))
-    bits = frame_bits_worst(run.frames["dlc"]) if len(run.frames) else np.zeros(0)
+    bits = frame_times_worst(run.frames, bitrate, data_bitrate)
     out = []
     bounds = [(a, min(run.n, a + per)) for a in range(0, run.n, per)]
     if len(bounds) > 1:
@@ -257,8 +288,9 @@ def paced_stats(run: PacedRun, bitrate: float, window_s: float = 60.0, est_ids=N
 
 
 def format_paced(name: str, rows: List[Dict[str, float]], dt: float, bitrate: float) -> str:
-    lines = [f"{name}: deadline = inputs due + dt ({1e3 * dt:g} ms); latency = last input frame -> EST_STEP, "
-             f"both kernel-timestamped on the bus; bus load = worst-case bits at {bitrate / 1e6:g} Mbit/s"]
+    lines = [f"{name}: deadline = inputs due + dt ({1e3 * dt:g} ms); latency = last input frame -> the frame that "
+             f"closes the step (EST_STEP, EST_PROD, EST_FD), both kernel-timestamped on the bus; bus load = worst-case "
+             f"bits at {bitrate / 1e6:g} Mbit/s (CAN FD frames: data phase at 5 Mbit/s)"]
     lines.append(f"  {'window':>14}  {'steps':>7}  {'answered':>8}  {'misses':>7}  {'p50 us':>7}  {'p99 us':>7}  "
                  f"{'max us':>8}  {'send late p99 us':>16}  {'bus load':>8}")
     for r in rows:

@@ -24,13 +24,14 @@ import struct
 import time
 from typing import Iterable, List, Optional
 
-from .codec import RECORD, RECORD_SIZE
+from .codec import CANFD_FDF, RECORD, RECORD_FD, RECORD_FD_SIZE, RECORD_SIZE
 
 MSG_WAITFORONE = 0x10000
 MSG_DONTWAIT = socket.MSG_DONTWAIT if hasattr(socket, "MSG_DONTWAIT") else 0x40
 SO_RCVBUFFORCE = 33
 SO_SNDBUFFORCE = 32
 SO_RCVTIMEO = 20
+CAN_RAW_FD_FRAMES = 5
 
 
 def open_bus(interface: str = "socketcan", channel: str = "vcan0", **kwargs):
@@ -101,6 +102,7 @@ class Transport:
     """Interface of a record transport; see the module docstring."""
 
     name = "?"
+    size = RECORD_SIZE  # bytes per record: 16, or 72 (struct canfd_frame) for a CAN FD bench
 
     def send(self, blob: bytes) -> None:  # blob: k records
         raise NotImplementedError
@@ -117,7 +119,7 @@ class Transport:
             blob = self.recv(max(0.0, end - time.monotonic()) if settle else 0.0)
             if not blob:
                 return n
-            n += len(blob) // RECORD_SIZE
+            n += len(blob) // self.size
 
     def close(self) -> None:
         pass
@@ -129,23 +131,31 @@ class SocketcanTransport(Transport):
     name = "socketcan (CAN_RAW, mmsg)"
 
     def __init__(self, bus, rx_ids: Iterable[int], batch: int = 256, use_mmsg: bool = True,
-                 rcvbuf: int = 8 << 20) -> None:
+                 rcvbuf: int = 8 << 20, wide: bool = False) -> None:
+        """wide: CAN FD (CAN_RAW_FD_FRAMES) with 72-byte struct canfd_frame records: a record with CANFD_FDF
+        in its flags goes out as a CAN FD frame, any other as a classic one; a classic frame received is
+        returned as a record of 72 bytes too (zero-padded)."""
         self.bus = bus
         self.sock: socket.socket = bus.socket
         self.fd = self.sock.fileno()
+        self.wide = wide
+        self.size = RECORD_FD_SIZE if wide else RECORD_SIZE
+        if wide:
+            self.sock.setsockopt(socket.SOL_CAN_RAW, CAN_RAW_FD_FRAMES, 1)
         self.set_filter(rx_ids)
         set_rcvbuf(self.sock, rcvbuf)
         self.sock.setblocking(True)
         self._timeout: Optional[float] = None  # current SO_RCVTIMEO
         self.libc = _libc() if use_mmsg else None
+        self._rx_used = 0
         if self.libc is not None:
-            self.name = "socketcan (CAN_RAW, sendmmsg/recvmmsg)"
-            self.rx = _MMsgBatch(batch)
-            self.tx = _MMsgBatch(batch)
+            self.name = "socketcan (CAN_RAW, sendmmsg/recvmmsg)" + (", CAN FD" if wide else "")
+            self.rx = _MMsgBatch(batch, self.size)
+            self.tx = _MMsgBatch(batch, self.size)
             self._rx_mv = memoryview(self.rx.buf).cast("B")
         else:
-            self.name = "socketcan (CAN_RAW, send/recv)"
-            self._buf = bytearray(RECORD_SIZE)
+            self.name = "socketcan (CAN_RAW, send/recv)" + (", CAN FD" if wide else "")
+            self._buf = bytearray(self.size)
 
     def set_filter(self, rx_ids: Iterable[int]) -> None:
         """Kernel acceptance filter: exactly these standard data frames."""
@@ -162,16 +172,24 @@ class SocketcanTransport(Transport):
         self.sock.setsockopt(socket.SOL_SOCKET, SO_RCVTIMEO, struct.pack("@ll", sec, usec))
         self._timeout = timeout
 
+    def _wire(self, rec: bytes) -> bytes:
+        """What goes to the socket for one record: a classic frame of a wide record as its first 16 bytes."""
+        return rec if not self.wide or rec[5] & CANFD_FDF else rec[:RECORD_SIZE]
+
     def send(self, blob: bytes) -> None:
-        n = len(blob) // RECORD_SIZE
+        size = self.size
+        n = len(blob) // size
         if self.libc is None or n == 1:
-            for i in range(0, len(blob), RECORD_SIZE):
-                self._send_one(blob[i:i + RECORD_SIZE])
+            for i in range(0, len(blob), size):
+                self._send_one(self._wire(blob[i:i + size]))
             return
         done = 0
         while done < n:
             k = min(n - done, self.tx.n)
-            ctypes.memmove(self.tx.buf, blob[done * RECORD_SIZE:(done + k) * RECORD_SIZE], k * RECORD_SIZE)
+            ctypes.memmove(self.tx.buf, blob[done * size:(done + k) * size], k * size)
+            if self.wide:  # each frame's own length: 72 bytes for CAN FD, 16 for classic
+                for i in range(k):
+                    self.tx.iov[i].iov_len = size if blob[(done + i) * size + 5] & CANFD_FDF else RECORD_SIZE
             r = self.libc.sendmmsg(self.fd, self.tx.hdr, k, 0)
             if r < 0:
                 e = ctypes.get_errno()
@@ -206,13 +224,17 @@ class SocketcanTransport(Transport):
     def _recvmmsg(self, flags: int) -> bytes:
         """One recvmmsg() batch as concatenated records; b"" when nothing came (timeout, EINTR)."""
         assert self.libc is not None  # only with use_mmsg
+        if self.wide and self._rx_used:  # a classic frame fills 16 bytes of its slot: no stale bytes after it
+            ctypes.memset(self.rx.buf, 0, self._rx_used * self.size)
+            self._rx_used = 0
         n = self.libc.recvmmsg(self.fd, self.rx.hdr, self.rx.n, flags, None)
         if n < 0:
             e = ctypes.get_errno()
             if e in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
                 return b""
             raise OSError(e, os.strerror(e))
-        return self._rx_mv[: n * RECORD_SIZE].tobytes()
+        self._rx_used = n
+        return self._rx_mv[: n * self.size].tobytes()
 
     def wait_readable(self, timeout: float) -> bool:
         r, _, _ = select.select([self.sock], [], [], max(0.0, timeout))
@@ -224,28 +246,38 @@ class SocketcanTransport(Transport):
         out = []
         for _ in range(256):
             try:
-                n = self.sock.recv_into(self._buf, RECORD_SIZE, MSG_DONTWAIT)
+                n = self.sock.recv_into(self._buf, self.size, MSG_DONTWAIT)
             except (BlockingIOError, InterruptedError):
                 break
-            if n == RECORD_SIZE:
+            if n == self.size:
                 out.append(bytes(self._buf))
+            elif n == RECORD_SIZE:  # a classic frame on a CAN FD socket
+                out.append(bytes(self._buf[:RECORD_SIZE]).ljust(self.size, b"\0"))
         return b"".join(out)
 
 
 class PythonCanTransport(Transport):
     """Any python-can bus (a real adapter, `virtual`, ...): one Message per frame."""
 
-    def __init__(self, bus, rx_ids: Iterable[int], batch: int = 256) -> None:
+    def __init__(self, bus, rx_ids: Iterable[int], batch: int = 256, wide: bool = False) -> None:
         import can
 
         self.can = can
         self.bus = bus
         self.batch = batch
+        self.wide = wide
+        self.size = RECORD_FD_SIZE if wide else RECORD_SIZE
         self.name = f"python-can ({type(bus).__name__})"
         bus.set_filters([{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in rx_ids])
 
     def send(self, blob: bytes) -> None:
-        for i in range(0, len(blob), RECORD_SIZE):
+        for i in range(0, len(blob), self.size):
+            if self.wide:
+                fid, dlc, flags, data = RECORD_FD.unpack_from(blob, i)
+                fd = bool(flags & CANFD_FDF)
+                self.bus.send(self.can.Message(arbitration_id=fid, is_extended_id=False, dlc=dlc, is_fd=fd,
+                                               bitrate_switch=fd, data=data[: min(dlc, 64 if fd else 8)]))
+                continue
             fid, dlc, data = RECORD.unpack_from(blob, i)
             self.bus.send(self.can.Message(arbitration_id=fid, is_extended_id=False, dlc=dlc,
                                            data=data[: min(dlc, 8)]))
@@ -255,7 +287,12 @@ class PythonCanTransport(Transport):
         msg = self.bus.recv(timeout if timeout > 0 else 0.0)
         while msg is not None:
             if not (msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id):
-                out.append(RECORD.pack(msg.arbitration_id, msg.dlc, bytes(msg.data).ljust(8, b"\0")))
+                data = bytes(msg.data)
+                if self.wide:
+                    out.append(RECORD_FD.pack(msg.arbitration_id, len(data), 5 if msg.is_fd else 0,
+                                              data.ljust(64, b"\0")))
+                else:
+                    out.append(RECORD.pack(msg.arbitration_id, msg.dlc, data.ljust(8, b"\0")))
             if len(out) >= self.batch:
                 break
             msg = self.bus.recv(0.0)
@@ -266,9 +303,9 @@ class PythonCanTransport(Transport):
         return True
 
 
-def make_transport(bus, rx_ids: Iterable[int], fast: bool = True) -> Transport:
-    """The fast path for a SocketCAN bus (unless fast=False), python-can otherwise."""
+def make_transport(bus, rx_ids: Iterable[int], fast: bool = True, wide: bool = False) -> Transport:
+    """The fast path for a SocketCAN bus (unless fast=False), python-can otherwise; wide: CAN FD records."""
     rx_ids = list(rx_ids)
     if fast and hasattr(bus, "socket") and type(bus).__name__ == "SocketcanBus":
-        return SocketcanTransport(bus, rx_ids)
-    return PythonCanTransport(bus, rx_ids)
+        return SocketcanTransport(bus, rx_ids, wide=wide)
+    return PythonCanTransport(bus, rx_ids, wide=wide)

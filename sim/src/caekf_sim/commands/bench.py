@@ -41,8 +41,9 @@ def _bus_args(p: argparse.ArgumentParser) -> None:
                    help="python-can interface (default socketcan; e.g. pcan, kvaser, virtual)")
     p.add_argument("--slow-path", action="store_true",
                    help="use python-can Messages even on SocketCAN (no CAN_RAW/mmsg fast path)")
-    p.add_argument("--profile", choices=["diagnostics", "production"], default="diagnostics",
-                   help="protocol profile, as the estimator's (caekf-host --profile; default diagnostics)")
+    p.add_argument("--profile", choices=["diagnostics", "production", "fd"], default="diagnostics",
+                   help="protocol profile, as the estimator's (caekf-host --profile; default diagnostics; fd: CAN "
+                        "FD frames, the interface must carry them: vcan MTU 72, or a controller with fd on)")
     p.add_argument("--id-offset", type=_id_offset, default=0, metavar="N",
                    help="runtime CAN ID base: every message at its DBC ID + N (decimal or 0x hex, may be "
                         "negative), as the estimator's (caekf-host --id-offset; default 0)")
@@ -100,6 +101,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="also run caekf-replay on the inputs the estimator saw and compare (default BIN: "
                         "build/host-double/host/caekf-replay)")
     p.add_argument("--no-figures", action="store_true")
+    p.add_argument("--start-host", nargs="?", const=str(DEFAULT_HOST_BIN), default=None, metavar="BIN",
+                   help="start caekf-host (default BIN: build/host-double/host/caekf_host/caekf-host) on the interface "
+                        "with this --profile and --id-offset for the run and stop it afterwards (its log: "
+                        "OUTDIR/caekf-host.log); without it an estimator must already be on the bus")
+    p.add_argument("--host-args", default="", metavar="ARGS",
+                   help="with --start-host: more caekf-host options, one string "
+                        "(e.g. --host-args='--step-timeout-ms 1000')")
+    p.add_argument("--then-echo-probe", action="store_true",
+                   help="with --realtime --start-host: afterwards the same paced run against caekf-host --echo (the "
+                        "estimator replaced by an echo; OUTDIR/realtime-echo.txt, --log's name with -echo)")
     p.add_argument("--defer-outputs", action="store_true",
                    help="only save OUTDIR/runs.npz and print the table; `hil report` writes the rest (use it where "
                         "the bus machine is slow, e.g. the TCG VM)")
@@ -112,7 +123,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--truth", type=Path, default=None, help="truth CSV, for the figures")
     p.add_argument("--compare-replay", nargs="?", const=str(DEFAULT_REPLAY_BIN), default=None, metavar="BIN")
     p.add_argument("--no-figures", action="store_true")
-    p.add_argument("--profile", choices=["diagnostics", "production"], default="diagnostics",
+    p.add_argument("--profile", choices=["diagnostics", "production", "fd"], default="diagnostics",
                    help="the profile the saved run used (default diagnostics)")
     p.set_defaults(func=cmd_hil_report)
 
@@ -218,14 +229,45 @@ def _realtime_report(runs, args, dt: float) -> str:
     return "\n".join(blocks)
 
 
+def _with_host(args, func, echo: bool = False, append: bool = False) -> int:
+    """func() with caekf-host started for it when --start-host asks (its non-zero counters printed after)."""
+    if args.start_host is None:
+        return func()
+    import shlex
+
+    from ..bench.hostproc import HostError, counters, running_host
+
+    args.outdir.mkdir(parents=True, exist_ok=True)
+    log = args.outdir / "caekf-host.log"
+    extra = shlex.split(args.host_args) + (["--echo"] if echo else [])
+    try:
+        with running_host(args.start_host, args.iface, log, args.profile, args.id_offset, extra, append=append):
+            rc = func()
+    except HostError as e:
+        raise SystemExit(f"caekf-sim hil run: {e}") from None
+    print(f"== caekf-host{' --echo' if echo else ''} (stopped):\n{counters(log)}", flush=True)
+    return rc
+
+
 def cmd_hil_run(args: argparse.Namespace) -> int:
+    if args.mode != "realtime" and (args.echo_probe or args.then_echo_probe):
+        raise SystemExit("caekf-sim hil run: --echo-probe and --then-echo-probe need --realtime")
+    if args.then_echo_probe and args.start_host is None:
+        raise SystemExit("caekf-sim hil run: --then-echo-probe needs --start-host (it restarts caekf-host with --echo)")
+    if args.echo_probe:
+        return _with_host(args, lambda: cmd_hil_echo_probe(args), echo=True)
+    rc = _with_host(args, lambda: _hil_run(args))
+    if args.then_echo_probe:
+        echo = argparse.Namespace(**vars(args))
+        echo.log = args.log.with_name(f"{args.log.stem}-echo{args.log.suffix}") if args.log else None
+        rc_echo = _with_host(echo, lambda: cmd_hil_echo_probe(echo), echo=True, append=True)
+        rc = rc or rc_echo
+    return rc
+
+
+def _hil_run(args: argparse.Namespace) -> int:
     from ..bench.results import RUNS_FILE, format_summary, save_runs
     from ..bench.runner import load_truth, run_experiments
-
-    if args.echo_probe:
-        if args.mode != "realtime":
-            raise SystemExit("caekf-sim hil run: --echo-probe needs --realtime")
-        return cmd_hil_echo_probe(args)
 
     sc = scenario_from_args(args)
     scenario_path = args.scenario or _default_scenario()
