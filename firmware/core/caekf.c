@@ -219,10 +219,11 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
     const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
     caekf_scalar_t *z = est->x_pred;
-    int i, j;
+    int i;
     if (substepped) { /* scaled: S^-1 F S */
         est->fv_const = 0;
         for (i = 0; i < nq; ++i) {
+            int j;
             for (j = 0; j < n; ++j) {
                 est->fq[i][j] *= s[j] / s_q;
                 est->fv[i][j] *= s[j] / s_v;

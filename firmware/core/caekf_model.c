@@ -242,7 +242,6 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
-    caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
     int i;
     contacts_at(m, xk, ct);
     for (i = 0; i < nq; ++i) {
@@ -251,6 +250,7 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
     }
     momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
     if (m->trap) {
+        caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
         step_start_force(m, xprev, u_prev, g0, mag0);
         for (i = 0; i < nq; ++i) {
             g[nq + i] += g0[i];
