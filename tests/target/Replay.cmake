@@ -48,45 +48,58 @@ add_custom_command(
 set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS "${_gen}/replay_inputs.bin")
 # The settings: the reference scenario's values and the presets (the generated fixture, CAEKF_FIXTURE_DIR).
 
-caekf_target_image(target_replay
-    SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S"
-    LIBS caekf_core_names caekf_core
-    INCLUDES "${_gen}" "${CAEKF_FIXTURE_DIR}"
-    DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"")
-add_dependencies(target_replay caekf_fixture_generated)
-
-if(TARGET caekf_host_tools OR (EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}"))
-    set(_ref "${CMAKE_CURRENT_BINARY_DIR}/replay_host_reference.csv")
-    add_custom_command(OUTPUT "${_ref}"
-        COMMAND "${CAEKF_HOST_REPLAY}" --scenario "${CAEKF_SCENARIO}" --in "${CAEKF_REPLAY_TRUTH_CSV}"
-                --experiment switched-highq-constrained --out "${_ref}"
-        DEPENDS "${CAEKF_HOST_REPLAY}" "${CAEKF_REPLAY_TRUTH_CSV}" "${CAEKF_SCENARIO}"
-        COMMENT "Host reference trajectory for target_replay (caekf-replay, double)"
-        VERBATIM)
-    add_custom_target(target_replay_reference ALL DEPENDS "${_ref}")
-    if(CAEKF_SCALAR STREQUAL "double")
-        set(_mode double)
+# Two images: target_replay runs the switched-highq-constrained preset (the paper's heaviest step: contact
+# + constraint), target_replay_default the recommended default estimator (no preset).
+foreach(_variant IN ITEMS constrained default)
+    if(_variant STREQUAL "constrained")
+        set(_image target_replay)
+        set(_preset_def "")
+        set(_replay_args --experiment switched-highq-constrained)
     else()
-        set(_mode float)
+        set(_image target_replay_default)
+        set(_preset_def "REPLAY_PRESET=-1")
+        set(_replay_args)
     endif()
-    add_test(NAME target_replay
-        COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --mode ${_mode}
-                --reference "${_ref}" --output "${CMAKE_CURRENT_BINARY_DIR}/target_replay.out"
-                -- ${CAEKF_QEMU_RUN} --timeout 600 $<TARGET_FILE:target_replay>)
-    set_tests_properties(target_replay PROPERTIES LABELS "target;replay" TIMEOUT 700
-        FIXTURES_SETUP target_replay_output)
-    add_test(NAME target_replay.stack
-        COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --stack-only
-                --from "${CMAKE_CURRENT_BINARY_DIR}/target_replay.out" --stack-budget ${CAEKF_STACK_BUDGET})
-    set_tests_properties(target_replay.stack PROPERTIES LABELS "target;replay;stack;budget" TIMEOUT 30
-        FIXTURES_REQUIRED target_replay_output)
-else()
-    message(WARNING "tests/target: no host caekf-replay/CSV in ${CAEKF_HOST_BUILD_DIR}: "
-                    "target_replay runs without the comparison to the host")
-    add_test(NAME target_replay COMMAND target_replay)
-    set_tests_properties(target_replay PROPERTIES LABELS "target;replay" TIMEOUT 700
-        PASS_REGULAR_EXPRESSION "replay: done")
-endif()
+    caekf_target_image(${_image}
+        SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S"
+        LIBS caekf_core_names caekf_core
+        INCLUDES "${_gen}" "${CAEKF_FIXTURE_DIR}"
+        DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"" ${_preset_def})
+    add_dependencies(${_image} caekf_fixture_generated)
+
+    if(TARGET caekf_host_tools OR (EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}"))
+        set(_ref "${CMAKE_CURRENT_BINARY_DIR}/${_image}_host_reference.csv")
+        add_custom_command(OUTPUT "${_ref}"
+            COMMAND "${CAEKF_HOST_REPLAY}" --scenario "${CAEKF_SCENARIO}" --in "${CAEKF_REPLAY_TRUTH_CSV}"
+                    ${_replay_args} --out "${_ref}"
+            DEPENDS "${CAEKF_HOST_REPLAY}" "${CAEKF_REPLAY_TRUTH_CSV}" "${CAEKF_SCENARIO}"
+            COMMENT "Host reference trajectory for ${_image} (caekf-replay, double)"
+            VERBATIM)
+        add_custom_target(${_image}_reference ALL DEPENDS "${_ref}")
+        if(CAEKF_SCALAR STREQUAL "double")
+            set(_mode double)
+        else()
+            set(_mode float)
+        endif()
+        add_test(NAME ${_image}
+            COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --mode ${_mode}
+                    --reference "${_ref}" --output "${CMAKE_CURRENT_BINARY_DIR}/${_image}.out"
+                    -- ${CAEKF_QEMU_RUN} --timeout 600 $<TARGET_FILE:${_image}>)
+        set_tests_properties(${_image} PROPERTIES LABELS "target;replay" TIMEOUT 700
+            FIXTURES_SETUP ${_image}_output)
+        add_test(NAME ${_image}.stack
+            COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --stack-only
+                    --from "${CMAKE_CURRENT_BINARY_DIR}/${_image}.out" --stack-budget ${CAEKF_STACK_BUDGET})
+        set_tests_properties(${_image}.stack PROPERTIES LABELS "target;replay;stack;budget" TIMEOUT 30
+            FIXTURES_REQUIRED ${_image}_output)
+    else()
+        message(WARNING "tests/target: no host caekf-replay/CSV in ${CAEKF_HOST_BUILD_DIR}: "
+                        "${_image} runs without the comparison to the host")
+        add_test(NAME ${_image} COMMAND ${_image})
+        set_tests_properties(${_image} PROPERTIES LABELS "target;replay" TIMEOUT 700
+            PASS_REGULAR_EXPRESSION "replay: done")
+    endif()
+endforeach()
 
 if(CAEKF_MCU STREQUAL "cortex-m4f" AND TARGET qemu_icount_plugin)
     add_test(NAME target_replay.icount

@@ -1,5 +1,6 @@
 /*
- * replay.c - the reference scenario on the MCU with the switched-highq-constrained preset.
+ * replay.c - the reference scenario on the MCU with the switched-highq-constrained preset (target_replay),
+ * or with no preset: the recommended default estimator (target_replay_default, REPLAY_PRESET -1).
  *
  * Inputs: u, y1, y4 of every step (from caekf-truth, generated on the host), embedded as const data
  * in flash by replay_inputs.S (.incbin of a file written by gen_replay_data.py), in the build's
@@ -35,7 +36,9 @@
 #define REPLAY_EVERY 100u
 #endif
 
+#ifndef REPLAY_PRESET
 #define REPLAY_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
+#endif
 extern const caekf_scalar_t caekf_replay_inputs[];     /* u, y1, y4 per step */
 extern const caekf_scalar_t caekf_replay_inputs_end[];
 
@@ -68,15 +71,17 @@ static caekf_scalar_t snap_P[CAEKF_N][CAEKF_N];
 /* The schema's defaults, the scenario's values, then the preset's. */
 static void replay_settings(caekf_settings_t *s)
 {
-    const caekf_fixture_preset_t *p = &caekf_fixture_presets[REPLAY_PRESET];
     unsigned i;
     (void)caekf_settings_default(s);
     for (i = 0u; i < CAEKF_N_PAPER_PARAMS; ++i) {
         (void)caekf_settings_set(s, caekf_paper_params[i].id, caekf_paper_params[i].value, NULL);
     }
-    for (i = 0u; i < p->n; ++i) {
-        (void)caekf_settings_set(s, p->id[i], p->value[i], NULL);
+#if REPLAY_PRESET >= 0
+    for (i = 0u; i < caekf_fixture_presets[REPLAY_PRESET].n; ++i) {
+        (void)caekf_settings_set(s, caekf_fixture_presets[REPLAY_PRESET].id[i],
+                                 caekf_fixture_presets[REPLAY_PRESET].value[i], NULL);
     }
+#endif
 }
 
 static void take_snapshot(snapshot_t *s, uint32_t k, const caekf_report_t *rep)
@@ -112,7 +117,11 @@ int main(void)
     caekf_console_puts("replay: mcu=" CAEKF_REPLAY_MCU " scalar=" CAEKF_SCALAR_NAME " steps=");
     caekf_console_put_u32(steps);
     caekf_console_puts(" preset=");
+#if REPLAY_PRESET >= 0
     caekf_console_puts(caekf_fixture_presets[REPLAY_PRESET].name);
+#else
+    caekf_console_puts("default");
+#endif
     caekf_console_putc('\n');
     if (steps > MAX_STEPS) {
         caekf_console_puts("replay: too many steps for the snapshot buffers\n");
