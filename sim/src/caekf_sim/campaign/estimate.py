@@ -4,7 +4,8 @@
 of every step. By default it runs the shipped C estimator in process through the binding
 (`caekf_sim.run`, double); backend="replay" runs the same C code through `caekf-replay` (CSV over
 pipes: an independent path, kept for cross-checks) and backend="numpy" the numpy reference (no NIS;
-a preset without the innovation gate, "default" with the scenario's settings: gate and discretisation).
+a preset without the innovation gate, "default" with the scenario's settings: gate, discretisation and
+contact_substeps).
 `experiment` is a preset of the settings schema, or "default" for none.
 """
 from __future__ import annotations
@@ -68,7 +69,7 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
         from ..experiments import experiment_config, scenario_config
         from ..estimator import run_estimator
 
-        # "default": the scenario's own settings, as the binding runs them (discretisation included)
+        # "default": the scenario's own settings, as the binding runs them (discretisation, contact_substeps)
         cfg = scenario_config(sc) if preset is None else experiment_config(preset)
         ref = run_estimator(sc, cfg, t, u, y, keep_P=False)
         return Estimate(gamma=ref.gamma.copy(), p_gg=ref.p_gg.copy(), nis=np.full(len(t), np.nan),
