@@ -214,14 +214,17 @@ def test_in_process_backends_equal_the_c_programs():
 
 
 def test_numpy_backend_runs_the_default_as_the_binding():
-    """estimate(..., "default", backend="numpy"): the scenario's own settings (the trapezoidal rule, the
-    gate) on the numpy reference, the same gammas and flags as the binding's (the paper's mechanism)."""
+    """estimate(..., "default", backend="numpy"): the scenario's own settings (the trapezoidal rule with
+    its contact substeps, the gate) on the numpy reference, the same gammas and flags as the binding's (the
+    paper's mechanism)."""
     from caekf_sim.campaign.estimate import estimate
     from caekf_sim.campaign.runner import truth_arrays
+    from caekf_sim.experiments import scenario_config
 
     fam = load_spec(SPEC, runs=2)
     for r in fam.runs:
         sc = r.scenario.replace(t_end=8.0)  # the first contacts begin after ~5 s
+        assert scenario_config(sc).contact_substeps > 1
         a = truth_arrays(sc, "binding")
         x, y = estimate(sc, "default", a.t, a.u, a.y), estimate(sc, "default", a.t, a.u, a.y, backend="numpy")
         assert np.count_nonzero(x.flags & fl.CONTACT_ACTIVE) > 100

@@ -1,5 +1,6 @@
 """The numpy reference's two step maps (the setting `discretisation`): the trapezoidal rule's order, its F
-against finite differences, the inputs at the step's start, and where the setting comes from.
+against finite differences, the inputs at the step's start, the contact substeps (`contact_substeps`: the
+rule, when they apply, their F), and where the settings come from.
 
 Expectations come from the equations (the exact solution of a linear system by the matrix exponential,
 central differences of the step map), never from a stored run; the C core is compared in
@@ -177,3 +178,76 @@ def test_the_setting_comes_from_the_schema():
         EstimatorConfig(discretisation="rk4")
     with pytest.raises(ValueError, match="unknown discretisation"):
         StepSolver(Mechanism.from_scenario(TWO), 1e-3, scheme="euler")
+
+
+@pytest.mark.parametrize("scheme", [BACKWARD_EULER, TRAPEZOIDAL])
+@pytest.mark.parametrize("v3, closed_at_end", [(1e-3, (True, True)), (-1.2e-2, (False, True))])
+def test_substeps_follow_the_rule_and_their_f_matches_finite_differences(scheme, v3, closed_at_end):
+    """contact_substeps = 4 with both contacts closed at x_{k-1}: x_k^- is four steps of dt/4 with the
+    inputs linear from u_{k-1} to u_k (a loop over StepSolver written here), the iterations are the
+    one-step solve's plus the substeps', and F (the product of the substep maps) is d x_k^- / d x_{k-1}."""
+    five = Sc(FIVE)
+    ekf = AugmentedEKF(five, EstimatorConfig(discretisation=scheme, contact_substeps=4))
+    q0 = np.array([1e-4, 2e-4, 2e-4 + 3e-6, -(1e-4 + 2e-5), -5e-5])
+    v0 = np.array([1e-3, -2e-3, v3, 3e-3, -1e-3])
+    assert np.all(ekf.plant.penetrations(q0) > 0)
+    x0 = np.r_[q0, v0, contact_values(five, "gamma", 2)]
+    u, u_prev = np.array([0.3, 0.1]), np.array([0.25, 0.2])
+    ekf.x, ekf.u_prev = x0.copy(), u_prev
+    xp, F, iters, ok = ekf.predict(u)
+    assert ok and tuple(ekf.plant.penetrations(xp[:5]) > 0) == closed_at_end
+
+    sub = StepSolver(ekf.plant, FIVE["dt"] / 4, scheme=scheme)
+    q, v, its = q0, v0, ekf.solver.solve(q0, v0, u, x0[10:], u_prev)[2]
+    for j in range(4):
+        q, v, it, conv = sub.solve(q, v, u_prev + (u - u_prev) * (j + 1) / 4, x0[10:],
+                                   u_prev + (u - u_prev) * j / 4)
+        assert conv
+        its += it
+    np.testing.assert_allclose(xp[:10], np.r_[q, v], rtol=1e-13, atol=1e-18)
+    assert iters == its and not np.array_equal(xp[:10], np.r_[ekf.solver.solve(q0, v0, u, x0[10:], u_prev)[:2]])
+
+    step = np.r_[np.full(5, 1e-10), np.full(5, 1e-8), 1e-1, 1e5]
+    Fd = np.empty_like(F)
+    for j in range(ekf.n):
+        cols = []
+        for s in (+1, -1):
+            ekf.x = x0.copy()
+            ekf.x[j] += s * step[j]
+            cols.append(ekf.predict(u)[0])
+        Fd[:, j] = (cols[0] - cols[1]) / (2 * step[j])
+    assert np.all(np.abs(F - Fd) <= 1e-6 * np.abs(F).max(axis=1, keepdims=True))
+    # contact 1 opening: backward Euler's substeps see it at their ends only, and it opens in the first
+    assert np.any(F[:10, 10] != 0) == (scheme == TRAPEZOIDAL or closed_at_end[0]) and np.any(F[:10, 11] != 0)
+
+
+def test_substeps_only_while_a_contact_is_closed():
+    """contact_substeps > 1 changes nothing while every contact is open at both ends of the step; a contact
+    closed at x_{k-1} alone (opening during the step) already calls for the substeps."""
+    five = Sc(FIVE)
+    one, four = (AugmentedEKF(five, EstimatorConfig(discretisation=TRAPEZOIDAL, contact_substeps=s)) for s in (1, 4))
+    u, u_prev = [0.3, 0.1], [0.25, 0.2]
+    for ekf in (one, four):
+        ekf.u_prev = u_prev
+    a, b = one.predict(u), four.predict(u)  # the initial state: both contacts open
+    assert not any(d > 0 for d in one.plant.penetrations(a[0][:5]))
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
+    q0 = np.array([0.0, 0.0, 2e-4 + 1e-7, 0.0, 0.0])  # contact 1 just closed, body 3 leaving fast
+    v0 = np.array([0.0, 0.0, -1e-1, 0.0, 0.0])
+    for ekf in (one, four):
+        ekf.x[:10] = np.r_[q0, v0]
+    a, b = one.predict(u), four.predict(u)
+    assert one.plant.penetrations(q0)[0] > 0 and not any(d > 0 for d in one.plant.penetrations(a[0][:5]))
+    assert not np.array_equal(a[0], b[0]) and b[2] > a[2]
+
+
+def test_contact_substeps_setting_from_the_schema():
+    """The scenario's contact_substeps (schema default 4) reaches scenario_config; the paper's presets run 1."""
+    sc = load_scenario(default_scenario_path())
+    assert scenario_config(sc).contact_substeps == sc.contact_substeps == 4
+    assert scenario_config(sc.replace(contact_substeps=2)).contact_substeps == 2
+    assert scenario_config(sc, "switched").contact_substeps == 1
+    assert all(cfg.contact_substeps == 1 for cfg in EXPERIMENTS.values())
+    assert experiment_config("switched", contact_substeps=3).contact_substeps == 3
+    with pytest.raises(ValueError, match="contact_substeps"):
+        EstimatorConfig(contact_substeps=0)

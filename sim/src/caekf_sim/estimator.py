@@ -8,6 +8,10 @@ mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). O
                its start-of-step force G(x_{k-1}, u_{k-1}) puts K, C and the contact tangents at
                x_{k-1} into dg/dx_{k-1}. u_{k-1} is the previous step's input; the first step holds
                its own u_k over the interval unless `correct` gave the inputs at t0, as the C core.)
+               (`contact_substeps` S > 1: when a contact is closed at x_{k-1} or at that one-step
+               x_k^-, the step is redone from x_{k-1} in S steps of the same rule at dt/S, inputs
+               linear from u_{k-1} to u_k, and F = F_S ... F_1, the product of their eq. (10) maps;
+               the discarded one-step solve's iterations still count, its convergence does not.)
                P_k^- = F P F^T + Q                          (eq. 12)
   correction   G = P H^T (H P H^T + R)^-1, x += G (y - H x), P = (I - G H) P   (eqs. 13-15)
   modes        canonical: Table 1 every step, every gamma live.
@@ -40,7 +44,7 @@ import numpy as np
 
 from . import flags as fl
 from .mechanism import Mechanism, body_values, contact_values, scenario_value
-from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_gammas, contact_law
+from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_gammas, as_inputs, contact_law
 from .scenario import Scenario
 
 # The paper's layout (4 bodies, one contact); a general mechanism has N = 2 nq + nc (AugmentedEKF.n).
@@ -68,8 +72,14 @@ class EstimatorConfig:
     # The step map (the setting `discretisation`): BACKWARD_EULER (eq. 19) | TRAPEZOIDAL. Backward Euler
     # here (the numpy reference's own default); experiments.scenario_config takes the scenario's.
     discretisation: str = BACKWARD_EULER
+    # The setting `contact_substeps`: steps of dt / contact_substeps while a contact is closed at either end
+    # of the step (1: never). 1 here (the numpy reference's own default); scenario_config takes the scenario's.
+    contact_substeps: int = 1
 
     def __post_init__(self) -> None:
+        if isinstance(self.contact_substeps, bool) or not isinstance(self.contact_substeps, int) \
+                or self.contact_substeps < 1:
+            raise ValueError(f"contact_substeps = {self.contact_substeps!r}: must be an integer >= 1")
         if self.discretisation not in DISCRETISATIONS:
             raise ValueError(f"unknown discretisation {self.discretisation!r}")
         if self.mode not in (CANONICAL, SWITCHED):
@@ -134,12 +144,24 @@ class AugmentedEKF:
         self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq), contact_values(sc, "gamma0", nc)]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
                                contact_values(sc, "sigma_gamma0", nc) ** 2])
-        # dg/dx_{k-1} of eq. (19): constant.
-        m_dt = p.m / self.dt
-        self.Jprev = -np.diag(np.r_[np.full(nq, 1.0 / self.dt), m_dt, np.ones(nc)])
-        # dg/dx_k without the contact terms; contact c adds its law's derivatives along b_c b_c^T.
+        self.I = np.eye(n)
+        # eq. (10)'s constant Jacobians and contact-free F at dt, and at dt / contact_substeps for the substeps
+        self.Jk0, self.Jprev0, self.F0 = self._constant_jacobians(self.dt)
+        self.sub_solver: Optional[StepSolver] = None
+        self.sub_maps: Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]] = None
+        if cfg.contact_substeps > 1:
+            h = self.dt / cfg.contact_substeps
+            self.sub_solver = StepSolver(p, h, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
+            self.sub_maps = self._constant_jacobians(h)
+
+    def _constant_jacobians(self, dt: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """dg/dx_k without the contact terms, dg/dx_{k-1} without them (backward Euler: constant) and the
+        contact-free F of a step dt; contact c adds its law's derivatives along b_c b_c^T (_add_contacts)."""
+        p, nq, nc, n = self.plant, self.nq, self.nc, self.n
+        m_dt = p.m / dt
+        Jprev = -np.diag(np.r_[np.full(nq, 1.0 / dt), m_dt, np.ones(nc)])
         Jk = np.zeros((n, n))
-        Jk[:nq, :nq] = np.eye(nq) / self.dt
+        Jk[:nq, :nq] = np.eye(nq) / dt
         Jk[:nq, nq : self.nx] = -np.eye(nq)
         Jk[nq : self.nx, :nq] = p.K
         Jk[nq : self.nx, nq : self.nx] = np.diag(m_dt) + p.C
@@ -150,18 +172,16 @@ class AugmentedEKF:
             Jk[:nq, nq : self.nx] = -0.5 * np.eye(nq)
             Jk[nq : self.nx, :nq] = 0.5 * p.K
             Jk[nq : self.nx, nq : self.nx] = np.diag(m_dt) + 0.5 * p.C
-            self.Jprev[:nq, nq : self.nx] = -0.5 * np.eye(nq)
-            self.Jprev[nq : self.nx, :nq] = 0.5 * p.K
-            self.Jprev[nq : self.nx, nq : self.nx] += 0.5 * p.C
-        self.Jk0 = Jk
-        self.Jprev0 = self.Jprev
-        self.F0 = self._transition(Jk)  # F while every contact is open: constant, computed once
-        self.I = np.eye(n)
+            Jprev[:nq, nq : self.nx] = -0.5 * np.eye(nq)
+            Jprev[nq : self.nx, :nq] = 0.5 * p.K
+            Jprev[nq : self.nx, nq : self.nx] += 0.5 * p.C
+        return Jk, Jprev, self._transition(Jk, Jprev)
 
     # ---- prediction -------------------------------------------------------------------
-    def _transition(self, Jk: np.ndarray, Jprev: Optional[np.ndarray] = None) -> np.ndarray:
+    @staticmethod
+    def _transition(Jk: np.ndarray, Jprev: np.ndarray) -> np.ndarray:
         """Eq. (10): F = -(dg/dx_k)^-1 dg/dx_{k-1}."""
-        return -np.linalg.solve(Jk, self.Jprev if Jprev is None else Jprev)
+        return -np.linalg.solve(Jk, Jprev)
 
     def _add_contacts(self, J: Optional[np.ndarray], J0: np.ndarray, weight: float, q: np.ndarray, gamma: Any,
                       v: Optional[np.ndarray]) -> Optional[np.ndarray]:
@@ -184,33 +204,69 @@ class AugmentedEKF:
         return J
 
     def transition_matrix(self, q: np.ndarray, gamma: Any, v: Optional[np.ndarray] = None,
-                          x_prev: Optional[np.ndarray] = None) -> np.ndarray:
+                          x_prev: Optional[np.ndarray] = None, substep: bool = False) -> np.ndarray:
         """F_k at the predicted state (eq. 10 with the full Jacobians of the step); v for Hunt-Crossley.
-        Trapezoidal: x_prev = x_{k-1} (the start-of-step tangents; None: no contact there)."""
+        Trapezoidal: x_prev = x_{k-1} (the start-of-step tangents; None: no contact there).
+        substep: the map of one substep (dt / contact_substeps) instead of the step's."""
+        if substep:
+            if self.sub_maps is None:
+                raise ValueError("no substeps: contact_substeps is 1")
+            Jk0, Jprev0, F0 = self.sub_maps
+        else:
+            Jk0, Jprev0, F0 = self.Jk0, self.Jprev0, self.F0
         if not self.trapezoidal:
-            Jk = self._add_contacts(None, self.Jk0, 1.0, q, gamma, v)
-            return self.F0 if Jk is None else self._transition(Jk)
-        Jk = self._add_contacts(None, self.Jk0, 0.5, q, gamma, v)
+            Jk = self._add_contacts(None, Jk0, 1.0, q, gamma, v)
+            return F0 if Jk is None else self._transition(Jk, Jprev0)
+        Jk = self._add_contacts(None, Jk0, 0.5, q, gamma, v)
         Jprev = None
         if x_prev is not None:
             nq, nx = self.nq, self.nx
-            Jprev = self._add_contacts(None, self.Jprev0, 0.5, x_prev[:nq], x_prev[nx:], x_prev[nq:nx])
+            Jprev = self._add_contacts(None, Jprev0, 0.5, x_prev[:nq], x_prev[nx:], x_prev[nq:nx])
         if Jk is None and Jprev is None:
-            return self.F0
-        return self._transition(self.Jk0 if Jk is None else Jk, Jprev)
+            return F0
+        return self._transition(Jk0 if Jk is None else Jk, Jprev0 if Jprev is None else Jprev)
 
     def predict(self, u: Any) -> Tuple[np.ndarray, np.ndarray, int, bool]:
         """Newton solve of the step: returns (x_k^-, F_k, iterations, converged). The trapezoidal rule
-        starts from the inputs of the last step or `correct` (self.u_prev; none yet: u)."""
+        starts from the inputs of the last step or `correct` (self.u_prev; none yet: u), and so do the
+        substeps' inputs (`contact_substeps`), which the one-step solution calls for when it or x_{k-1}
+        has a contact closed."""
         x, nq, nx = self.x, self.nq, self.nx
         gammas = x[nx:]
         u_prev = u if self.u_prev is None else self.u_prev
         q, v, iters, ok = self.solver.solve(x[:nq], x[nq:nx], u, gammas, u_prev)
+        if self.sub_solver is not None and (any(d > 0.0 for d in self.solver.penetrations(q)) or
+                                            any(d > 0.0 for d in self.solver.penetrations(x[:nq]))):
+            xp, F, sub_iters, ok = self.substep_predict(u_prev, u)
+            return xp, F, iters + sub_iters, ok
         xp = np.empty(self.n)
         xp[:nq] = q
         xp[nq:nx] = v
         xp[nx:] = gammas  # random walk: gamma_k^- = gamma_{k-1}^+ (eq. 19, last rows)
         return xp, self.transition_matrix(q, gammas, v, x), iters, ok
+
+    def substep_predict(self, u0: Any, u: Any) -> Tuple[np.ndarray, np.ndarray, int, bool]:
+        """x_{k-1} -> x_k^- in contact_substeps steps of dt / contact_substeps, the inputs linear from u0 (at
+        x_{k-1}) to u (at x_k^-), each solved from the last one's end: (x_k^-, F_S ... F_1, the substeps'
+        iterations, all converged)."""
+        if self.sub_solver is None:
+            raise ValueError("no substeps: contact_substeps is 1")
+        steps, nq, nx = self.cfg.contact_substeps, self.nq, self.nx
+        a = np.asarray(as_inputs(u0))
+        b = np.asarray(as_inputs(u))
+        xa = self.x.copy()
+        gammas = xa[nx:]
+        F = self.I
+        iters, ok = 0, True
+        ub = a
+        for j in range(1, steps + 1):
+            ua, ub = ub, (b if j == steps else a + (b - a) * j / steps)
+            q, v, it, conv = self.sub_solver.solve(xa[:nq], xa[nq:nx], ub, gammas, ua)
+            iters += it
+            ok = ok and conv
+            F = self.transition_matrix(q, gammas, v, xa, substep=True) @ F
+            xa = np.r_[q, v, gammas]
+        return xa, F, iters, ok
 
     # ---- correction -------------------------------------------------------------------
     def _index(self, live: Sequence[int]) -> Index:
@@ -331,8 +387,9 @@ class AugmentedEKF:
                     Pm[L, g] = col
                     Pm[g, L] = col
         else:
-            # The trapezoidal step's start: a contact closed at x_{k-1} and open at x_k^- still moved the
-            # states through its gamma (F_Lg != 0) although its gamma is frozen: the live rows of F in full.
+            # The trapezoidal step's start or a substep: a contact closed at x_{k-1} (or within the step) and
+            # open at x_k^- still moved the states through its gamma (F_Lg != 0) although its gamma is
+            # frozen: the live rows of F in full.
             FL = _block(F, L, slice(0, self.n))
             Pm = P.copy()
             _set_block(Pm, L, L, FL @ P @ FL.T + _block(self.Q, L, L))

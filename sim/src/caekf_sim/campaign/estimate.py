@@ -5,7 +5,7 @@ and the health flags of every step, for any mechanism (docs/mechanism.md). By de
 shipped C estimator in process through the binding (`caekf_sim.run`, double); backend="replay" runs
 the same C code through `caekf-replay` (CSV over pipes: an independent path, kept for cross-checks)
 and backend="numpy" the numpy reference (no NIS; a preset without the innovation gate, "default" with
-the scenario's settings: gate and discretisation). `experiment` is a preset of the settings schema, or
+the scenario's settings: gate, discretisation and contact substeps). `experiment` is a preset of the settings schema, or
 "default" for none.
 """
 from __future__ import annotations
@@ -92,7 +92,7 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
         from ..experiments import experiment_config, scenario_config
         from ..estimator import run_estimator
 
-        # "default": the scenario's own settings, as the binding runs them (discretisation included)
+        # "default": the scenario's own settings, as the binding runs them (discretisation, contact_substeps)
         cfg = scenario_config(sc) if preset is None else experiment_config(preset)
         ref = run_estimator(sc, cfg, t, u, y, keep_P=False)
         assert ref.p_ggs is not None  # run_estimator fills it

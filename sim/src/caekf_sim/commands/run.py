@@ -53,6 +53,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--joseph", action="store_true", help="Joseph-form covariance updates")
     p.add_argument("--discretisation", choices=DISCRETISATIONS, default=None,
                    help="the filter's step map (default: the preset's, backward Euler for the paper's experiments)")
+    p.add_argument("--contact-substeps", type=int, choices=range(1, 9), default=None, metavar="S",
+                   help="model substeps per step while a contact is closed, 1..8 (default: the preset's, 1 for the "
+                        "paper's experiments)")
     p.add_argument("--out", type=Path, required=True, help="estimate CSV (caekf-replay's columns)")
     add_progress_arg(p)
     p.set_defaults(func=cmd_estimate)
@@ -106,6 +109,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
         overrides.update({"joseph": True} if args.engine == "numpy" else {"cov_update": "joseph"})
     if args.discretisation:
         overrides["discretisation"] = args.discretisation  # the same name in both engines
+    if args.contact_substeps is not None:
+        overrides["contact_substeps"] = args.contact_substeps  # likewise
     progress = want_progress(args)
     if args.engine == "numpy":
         res = _estimate_numpy(sc, meas, args.experiment, overrides, progress)
