@@ -5,8 +5,8 @@ and the health flags of every step, for any mechanism (docs/mechanism.md). By de
 shipped C estimator in process through the binding (`caekf_sim.run`, double); backend="replay" runs
 the same C code through `caekf-replay` (CSV over pipes: an independent path, kept for cross-checks)
 and backend="numpy" the numpy reference (no NIS; a preset without the innovation gate, "default" with
-the scenario's settings: gate, discretisation and contact substeps). `experiment` is a preset of the settings schema, or
-"default" for none.
+the scenario's settings: gate, discretisation and contact substeps). `experiment` is a preset of the
+settings schema, or "default" for none.
 """
 from __future__ import annotations
 
