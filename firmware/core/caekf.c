@@ -190,12 +190,19 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
             return -1;
         }
         for (i = 0; i < nq; ++i) { /* F_j's v-rows times the product so far (gamma rows: identity) */
+            caekf_scalar_t *row = vnew[i];
             for (j = 0; j < n; ++j) {
-                caekf_scalar_t acc = j >= 2 * nq ? fj[i][j] : 0;
-                for (k = 0; k < nq; ++k) {
-                    acc += fj[i][k] * est->fq[k][j] + fj[i][nq + k] * est->fv[k][j];
+                row[j] = j >= 2 * nq ? fj[i][j] : 0;
+            }
+            for (k = 0; k < 2 * nq; ++k) { /* row combination, skipping F_j's structural zeros */
+                const caekf_scalar_t f = fj[i][k];
+                const caekf_scalar_t *src = k < nq ? est->fq[k] : est->fv[k - nq];
+                if (f == 0) {
+                    continue;
                 }
-                vnew[i][j] = acc;
+                for (j = 0; j < n; ++j) {
+                    row[j] += f * src[j];
+                }
             }
         }
         for (i = 0; i < nq; ++i) { /* q-rows: [I, c2 I, 0] + hs * v-rows, times the product */
@@ -312,10 +319,13 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
     } else {
         const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
-        int r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
+        const int closed_before = est->cfg.contact_substeps > 1 && caekf_model_any_contact(&est->model, xprev);
+        int r = 0;
+        if (!closed_before) { /* a step from an open contact: one step unless it closes one */
+            r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
                                    est->x_pred, &iters, est->scratch.m);
-        if (est->cfg.contact_substeps > 1 && (caekf_model_any_contact(&est->model, est->x_pred) ||
-                                              caekf_model_any_contact(&est->model, xprev))) {
+        }
+        if (closed_before || (est->cfg.contact_substeps > 1 && caekf_model_any_contact(&est->model, est->x_pred))) {
             substepped = 1; /* the one-step solution only decided that substeps are needed */
             r = substep_predict(est, u0, u, &iters);
             if (r < 0) {

@@ -288,8 +288,8 @@ def test_c_estimator_equals_the_numpy_reference_on_an_example(name, preset):
     assert res.gammas.shape == ref.gammas.shape and res.gammas.shape[1] == sc.contacts
     contact = (res.flags & fl.CONTACT_ACTIVE) != 0
     assert np.count_nonzero(contact) > 500
-    if substeps > 1:  # the C core substepped every contact step: the one-step solve plus S substeps
-        assert res.newton_iters[contact].min() >= 1 + substeps
+    if substeps > 1:  # the C core substepped every contact step: at least one iteration per substep
+        assert res.newton_iters[contact].min() >= substeps
     np.testing.assert_allclose(res.gammas, ref.gammas, rtol=1e-8, atol=0)
     np.testing.assert_array_equal(res.flags, ref.flags)
     differ = np.count_nonzero(res.newton_iters != ref.newton_iters)

@@ -8,10 +8,11 @@ mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). O
                its start-of-step force G(x_{k-1}, u_{k-1}) puts K, C and the contact tangents at
                x_{k-1} into dg/dx_{k-1}. u_{k-1} is the previous step's input; the first step holds
                its own u_k over the interval unless `correct` gave the inputs at t0, as the C core.)
-               (`contact_substeps` S > 1: when a contact is closed at x_{k-1} or at that one-step
-               x_k^-, the step is redone from x_{k-1} in S steps of the same rule at dt/S, inputs
-               linear from u_{k-1} to u_k, and F = F_S ... F_1, the product of their eq. (10) maps;
-               the discarded one-step solve's iterations still count, its convergence does not.)
+               (`contact_substeps` S > 1: when a contact is closed at x_{k-1}, or at the one-step
+               x_k^- from an open x_{k-1}, the step is made from x_{k-1} in S steps of the same rule at
+               dt/S, inputs linear from u_{k-1} to u_k, and F = F_S ... F_1, the product of their
+               eq. (10) maps. A contact closed at x_{k-1} skips the one-step solve; a discarded one-step
+               solve's iterations still count, its convergence does not.)
                P_k^- = F P F^T + Q                          (eq. 12)
   correction   G = P H^T (H P H^T + R)^-1, x += G (y - H x), P = (I - G H) P   (eqs. 13-15)
   modes        canonical: Table 1 every step, every gamma live.
@@ -234,9 +235,10 @@ class AugmentedEKF:
         x, nq, nx = self.x, self.nq, self.nx
         gammas = x[nx:]
         u_prev = u if self.u_prev is None else self.u_prev
+        if self.sub_solver is not None and any(d > 0.0 for d in self.solver.penetrations(x[:nq])):
+            return self.substep_predict(u_prev, u)  # closed at the start: no one-step solve needed
         q, v, iters, ok = self.solver.solve(x[:nq], x[nq:nx], u, gammas, u_prev)
-        if self.sub_solver is not None and (any(d > 0.0 for d in self.solver.penetrations(q)) or
-                                            any(d > 0.0 for d in self.solver.penetrations(x[:nq]))):
+        if self.sub_solver is not None and any(d > 0.0 for d in self.solver.penetrations(q)):
             xp, F, sub_iters, ok = self.substep_predict(u_prev, u)
             return xp, F, iters + sub_iters, ok
         xp = np.empty(self.n)
