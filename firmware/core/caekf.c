@@ -189,20 +189,13 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
         if (caekf_model_transition_v(m, est->x_pred, xa, fj) != 0) {
             return -1;
         }
-        for (i = 0; i < nq; ++i) { /* F_j's v-rows times the product so far (gamma rows: identity) */
-            caekf_scalar_t *row = vnew[i];
+        for (i = 0; i < nq; ++i) { /* F_j's v-rows (dense in contact) times the product so far */
             for (j = 0; j < n; ++j) {
-                row[j] = j >= 2 * nq ? fj[i][j] : 0;
-            }
-            for (k = 0; k < 2 * nq; ++k) { /* row combination, skipping F_j's structural zeros */
-                const caekf_scalar_t f = fj[i][k];
-                const caekf_scalar_t *src = k < nq ? est->fq[k] : est->fv[k - nq];
-                if (f == 0) {
-                    continue;
+                caekf_scalar_t acc = j >= 2 * nq ? fj[i][j] : 0; /* the product's gamma rows: identity */
+                for (k = 0; k < nq; ++k) {
+                    acc += fj[i][k] * est->fq[k][j] + fj[i][nq + k] * est->fv[k][j];
                 }
-                for (j = 0; j < n; ++j) {
-                    row[j] += f * src[j];
-                }
+                vnew[i][j] = acc;
             }
         }
         for (i = 0; i < nq; ++i) { /* q-rows: [I, c2 I, 0] + hs * v-rows, times the product */
