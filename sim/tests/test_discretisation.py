@@ -16,7 +16,7 @@ from caekf_sim.experiments import EXPERIMENTS, experiment_config, scenario_confi
 from caekf_sim.mechanism import Mechanism, contact_values
 from caekf_sim.model import BACKWARD_EULER, TRAPEZOIDAL, StepSolver
 from caekf_sim.scenario import default_scenario_path, load_scenario
-from mechanism_support import Sc
+from mechanism_support import FIVE, Sc, assert_matches_finite_differences
 
 # Two bodies on a line, body 1 tied to the ground, lightly damped (modes at 5 and 17 rad/s: omega dt small at
 # the steps below, so the errors are in their asymptotic range); one input on body 1; no contact.
@@ -84,27 +84,7 @@ def test_trapezoidal_step_with_the_inputs_held_is_first_order():
     assert errs[0] / errs[1] == pytest.approx(2.0, rel=0.15)
 
 
-# The 5-body mechanism of test_mechanism.py, cut to what the step needs: a Hunt-Crossley n = 1 contact
-# between body 3 and the ground, and an n = 2.3 contact between the ground and body 4.
-FIVE = {
-    "dt": 1e-3, "t_end": 1.0, "bodies": 5, "m1": 1.0, "m2": 2.0, "m3": 0.5, "m4": 1.5, "m5": 1.0,
-    "springs": 5, "spring1_a": 1, "spring1_b": 0, "spring1_k": 3e3, "spring1_c": 4.0,
-    "spring2_a": 2, "spring2_b": 1, "spring2_k": 1e4, "spring2_c": 1.0,
-    "spring3_a": 3, "spring3_b": 2, "spring3_k": 5e3, "spring3_c": 0.0,
-    "spring4_a": 4, "spring4_b": 5, "spring4_k": 8e3, "spring4_c": 2.0,
-    "spring5_a": 0, "spring5_b": 5, "spring5_k": 2e3, "spring5_c": 3.0,
-    "inputs": 2, "input1_body": 1, "input1_amp": 1.0, "input1_freq": 1.0, "input1_phase": 0.0,
-    "input2_body": 4, "input2_amp": 2.0, "input2_freq": 0.5, "input2_phase": 1.0,
-    "sensors": 3, "sensor1_body": 1, "sensor1_kind": "position", "sensor2_body": 4, "sensor2_kind": "velocity",
-    "sensor3_body": 5, "sensor3_kind": 0,
-    "contacts": 2, "contact1_a": 3, "contact1_b": 0, "contact1_gap": 2e-4, "contact1_n": 1.0,
-    "contact1_lambda": 30.0, "contact1_gamma": 3e5, "contact2_a": 0, "contact2_b": 4, "contact2_gap": 1e-4,
-    "contact2_n": 2.3, "contact2_lambda": 0.0, "contact2_gamma": 1e12,
-    "contact1_gamma0": 2e5, "contact1_sigma_gamma0": 1e5, "contact1_sigma_q_gamma": 1e3, "contact1_gamma_min": 1e3,
-    "contact2_gamma0": 8e11, "contact2_sigma_gamma0": 3e11, "contact2_sigma_q_gamma": 1e9,
-    "contact2_gamma_min": 1e9, "sigma_q0": 1e-6, "sigma_v0": 1e-5, "sigma_qx_q": 1e-9, "sigma_qx_v": 1e-7,
-    "sigma_r": 1e-7, "sigma_rv": 1e-5, "noise_std": 0.0, "noise_std_v": 0.0, "seed": 1, "truth_substeps": 2,
-}
+
 
 
 @pytest.mark.parametrize("v3, closed_at_end", [(1e-3, (True, True)), (-1.2e-2, (False, True))])
@@ -121,16 +101,7 @@ def test_trapezoidal_transition_matrix_matches_finite_differences(v3, closed_at_
     ekf.x, ekf.u_prev = x0.copy(), u_prev
     xp, F, _, ok = ekf.predict(u)
     assert ok and tuple(ekf.plant.penetrations(xp[:5]) > 0) == closed_at_end
-    step = np.r_[np.full(5, 1e-10), np.full(5, 1e-8), 1e-1, 1e5]
-    Fd = np.empty_like(F)
-    for j in range(ekf.n):
-        cols = []
-        for s in (+1, -1):
-            ekf.x = x0.copy()
-            ekf.x[j] += s * step[j]
-            cols.append(ekf.predict(u)[0])
-        Fd[:, j] = (cols[0] - cols[1]) / (2 * step[j])
-    assert np.all(np.abs(F - Fd) <= 1e-6 * np.abs(F).max(axis=1, keepdims=True))
+    assert_matches_finite_differences(ekf, x0, u, F)
     assert np.any(F[:10, 10] != 0) and np.any(F[:10, 11] != 0)
 
 
@@ -208,16 +179,7 @@ def test_substeps_follow_the_rule_and_their_f_matches_finite_differences(scheme,
     np.testing.assert_allclose(xp[:10], np.r_[q, v], rtol=1e-13, atol=1e-18)
     assert iters == its and not np.array_equal(xp[:10], np.r_[ekf.solver.solve(q0, v0, u, x0[10:], u_prev)[:2]])
 
-    step = np.r_[np.full(5, 1e-10), np.full(5, 1e-8), 1e-1, 1e5]
-    Fd = np.empty_like(F)
-    for j in range(ekf.n):
-        cols = []
-        for s in (+1, -1):
-            ekf.x = x0.copy()
-            ekf.x[j] += s * step[j]
-            cols.append(ekf.predict(u)[0])
-        Fd[:, j] = (cols[0] - cols[1]) / (2 * step[j])
-    assert np.all(np.abs(F - Fd) <= 1e-6 * np.abs(F).max(axis=1, keepdims=True))
+    assert_matches_finite_differences(ekf, x0, u, F)
     # contact 1 opening: backward Euler's substeps see it at their ends only, and it opens in the first
     assert np.any(F[:10, 10] != 0) == (scheme == TRAPEZOIDAL or closed_at_end[0]) and np.any(F[:10, 11] != 0)
 
