@@ -11,7 +11,9 @@
 
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
-CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N, scratch_holds_the_substep_work);
+CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEKF_N >= 4 * CAEKF_NQ,
+                    scratch_holds_the_newton_and_substep_work);
+CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
@@ -158,7 +160,9 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
     const caekf_model_t *m = &est->sub_model;
     const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = est->cfg.contact_substeps;
     const caekf_scalar_t hs = m->hs, c2 = m->p.dt - m->hs;
-    caekf_scalar_t xa[CAEKF_N], ua[CAEKF_MAX_INPUTS], ub[CAEKF_MAX_INPUTS];
+    /* P_work is free until the covariance prediction: it holds each substep's start and inputs, off the
+     * stack (the substeps' Newton solve is the deepest call of a step) */
+    caekf_scalar_t *xa = est->P_work, *ua = est->P_work + CAEKF_N, *ub = ua + CAEKF_MAX_INPUTS;
     /* scratch: the Newton work, then F_j's v-rows (fj) and the new v-rows of the product (vnew) */
     caekf_scalar_t(*fj)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])est->scratch.m;
     caekf_scalar_t(*vnew)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])(est->scratch.m + CAEKF_NQ * CAEKF_N);

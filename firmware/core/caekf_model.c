@@ -230,9 +230,9 @@ int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x)
 /* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
  * the residual with no inertia (v_{k-1} against itself). */
 NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev,
-                                      const caekf_scalar_t *u_prev, caekf_scalar_t *g0, caekf_scalar_t *mag0)
+                                      const caekf_scalar_t *u_prev, caekf_contact_t *ct0, caekf_scalar_t *g0,
+                                      caekf_scalar_t *mag0)
 {
-    caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
     contacts_at(m, xprev, ct0);
     momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
 }
@@ -251,7 +251,7 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
     momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
     if (m->trap) {
         caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
-        step_start_force(m, xprev, u_prev, g0, mag0);
+        step_start_force(m, xprev, u_prev, ct, g0, mag0); /* ct (at x_k) is no longer needed */
         for (i = 0; i < nq; ++i) {
             g[nq + i] += g0[i];
         }
@@ -360,7 +360,7 @@ static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar
 
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
                        const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
-                       caekf_scalar_t work[2 * CAEKF_NQ])
+                       caekf_scalar_t work[4 * CAEKF_NQ])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
@@ -369,13 +369,15 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     caekf_scalar_t *v = xk + nq;
     const caekf_scalar_t dt = m->p.dt, hs = m->hs;
     caekf_scalar_t *const g0 = work, *const mag0 = work + CAEKF_NQ; /* trapezoidal: the step's start */
+    caekf_scalar_t *const r = work + 2 * CAEKF_NQ, *const mag = work + 3 * CAEKF_NQ; /* each iterate's */
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
     int it, i;
     int result = 1;
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
     if (m->trap) {
-        step_start_force(m, xprev, u_prev, g0, mag0);
+        step_start_force(m, xprev, u_prev, ct, g0, mag0);
     }
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
@@ -385,8 +387,6 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         xk[2 * nq + i] = xprev[2 * nq + i];
     }
     for (it = 0; it <= max_iter; ++it) {
-        caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
-        caekf_scalar_t r[CAEKF_NQ], mag[CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */

@@ -388,7 +388,7 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, const caekf_trut
     caekf_model_params_t mp;
     caekf_model_t model;
     plant_t pl;
-    double x[CAEKF_N] = {0}, xn[CAEKF_N], u[CAEKF_MAX_INPUTS + 1] = {0}, work[2 * CAEKF_NQ];
+    double x[CAEKF_N] = {0}, xn[CAEKF_N], u[CAEKF_MAX_INPUTS + 1] = {0}, work[4 * CAEKF_NQ];
     long steps = caekf_scenario_steps(sc);
     int sub = (int)sc->truth_substeps;
     double h = sc->dt / sub;

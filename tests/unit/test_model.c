@@ -208,7 +208,7 @@ static void test_structured_transition_equals_eq10(void)
 static void test_newton_converges_over_the_reference_scenario(void)
 {
     truth_rec_t r;
-    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], work[2 * CAEKF_NQ], u_last = 0;
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], work[4 * CAEKF_NQ], u_last = 0;
     long n = 0, contact = 0, iters = 0;
     int max_it = 0, rc, i;
     TEST_ASSERT_EQUAL_INT(0, truth_open());
@@ -245,7 +245,7 @@ static void test_newton_converges_over_the_reference_scenario(void)
 
 static void test_forced_newton_failure_is_reported(void)
 {
-    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], work[2 * CAEKF_NQ];
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], work[4 * CAEKF_NQ];
     int it = 0;
     make_state(xp, 2e-6);
     /* One iteration cannot meet an absurd tolerance in contact: status 1, the iterate is kept. */

@@ -121,11 +121,11 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
  * momentum-row residual is <= rtol times the largest row's sum of term magnitudes (a norm-wise backward
  * error). At most max_iter iterations (clamped to CAEKF_NEWTON_MAX_ITER). Returns 0 when converged, 1
  * when the bound was hit, 2 on a singular Jacobian (x_k holds the last iterate in both cases).
- * *iters = linear solves done. work: the trapezoidal rule's constant start-of-step terms (caller-owned,
- * off the stack; unused by backward Euler). */
+ * *iters = linear solves done. work: the residual, its terms' sizes and the trapezoidal rule's constant
+ * start-of-step terms (caller-owned, off the stack). */
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
                        const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
-                       caekf_scalar_t work[2 * CAEKF_NQ]);
+                       caekf_scalar_t work[4 * CAEKF_NQ]);
 
 #ifdef __cplusplus
 }
