@@ -12,7 +12,9 @@ A contact's force is continuous at delta = 0, so the sensitivities do not jump a
 
   * rank test: the Fisher information J = sum_k S_k^T R^-1 S_k (R from sigma_r / sigma_rv), its columns
     equilibrated (unit diagonal, a zero column stays zero), is rank deficient along its null space;
-    parameter i is observable iff e_i has no component in that null space (RANK_RTOL, NULL_TOL);
+    parameter i is observable iff e_i has no component in that null space (RANK_RTOL, NULL_TOL) and its
+    bound is below MAX_REL_CRB times its scale (a sensitivity that is only the decayed rest of a
+    transient is not information);
   * Cramer-Rao bound of an observable parameter: sqrt([J^+]_ii) (x0 as a nuisance); the posterior bound
     adds the prior P0^-1 (contact{i}_sigma_gamma0, sigma_q0, sigma_v0, optional priors for n, lambda, gap);
   * both cumulatively along the run (J over the samples up to t), so a user sees when the bound falls
@@ -37,6 +39,7 @@ PARAMS = ("gamma", "n", "lambda", "gap")  # the law's parameters: the schema's c
 SENS_RTOL = 1e-9  # the sensitivity integration's rtol (atol: the truth's, on the scaled columns)
 RANK_RTOL = 1e-6  # singular value of the equilibrated, whitened S below RANK_RTOL * the largest: null
 NULL_TOL = 1e-3  # a parameter with a larger component in the null space is not observable
+MAX_REL_CRB = 1e6  # nor is one whose bound exceeds a million times its scale: its sensitivity is numerical dust
 REL_TARGET = 0.01  # the relative bound the report times ("when does the CRB fall below 1 %")
 
 
@@ -207,6 +210,7 @@ class RankResult:
     sv_rel: np.ndarray  # singular values of the equilibrated whitened S, / the largest, descending
     observable: np.ndarray  # (m,) bool
     null_directions: List[np.ndarray]  # unit vectors in the equilibrated coordinates
+    dinv: np.ndarray  # (m,) the equilibration: 1 / sqrt(J_ii) of the scaled unknowns (0: no sensitivity)
 
 
 def _equilibrated(J: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
@@ -216,8 +220,9 @@ def _equilibrated(J: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def bounds(J: np.ndarray, rtol: float = RANK_RTOL, null_tol: float = NULL_TOL) -> Tuple[np.ndarray, np.ndarray]:
-    """(crb (..., m), observable (..., m)) of information matrices J (..., m, m): sqrt([J^+]_ii) for
-    an observable unknown (e_i in J's numerical range), inf otherwise. Vectorised over leading axes."""
+    """(crb (..., m), observable (..., m)) of information matrices J (..., m, m) of scaled unknowns:
+    sqrt([J^+]_ii) for an observable unknown (e_i in J's numerical range and a bound below
+    MAX_REL_CRB), inf otherwise. Vectorised over leading axes."""
     Jn, dinv = _equilibrated(J)
     w, V = np.linalg.eigh(Jn)
     keep = w > (rtol ** 2) * np.clip(w[..., -1:], 0.0, None)
@@ -226,9 +231,9 @@ def bounds(J: np.ndarray, rtol: float = RANK_RTOL, null_tol: float = NULL_TOL) -
     null_part = np.sqrt(np.sum(np.where(keep[..., None, :], 0.0, V2), axis=-1))
     observable = (null_part < null_tol) & (dinv > 0.0)
     inv_w = np.divide(1.0, w, out=np.zeros_like(w), where=keep)
-    var = np.sum(V2 * inv_w[..., None, :], axis=-1)
-    crb = np.where(observable, np.sqrt(var) * dinv, np.inf)
-    return crb, observable
+    crb = np.sqrt(np.sum(V2 * inv_w[..., None, :], axis=-1)) * dinv
+    observable &= crb < MAX_REL_CRB
+    return np.where(observable, crb, np.inf), observable
 
 
 def rank_test(J: np.ndarray, rtol: float = RANK_RTOL, null_tol: float = NULL_TOL) -> RankResult:
@@ -241,7 +246,7 @@ def rank_test(J: np.ndarray, rtol: float = RANK_RTOL, null_tol: float = NULL_TOL
     keep = w > (rtol ** 2) * wmax if wmax > 0.0 else np.zeros(len(w), dtype=bool)
     null = [V[:, j] for j in np.flatnonzero(~keep)]
     _, observable = bounds(J, rtol, null_tol)
-    return RankResult(int(np.sum(keep)), sv_rel, observable, null)
+    return RankResult(int(np.sum(keep)), sv_rel, observable, null, dinv)
 
 
 @dataclass(frozen=True)
@@ -272,14 +277,37 @@ class Analysis:
         first = np.argmax(below, axis=0)
         return np.where(below.any(axis=0), self.t[first], np.nan)
 
+    def insensitive(self) -> List[str]:
+        """The chosen parameters the run's measurements do not depend on at all (a zero column)."""
+        return [p.label for p, d in zip(self.params, self.rank.dinv[self.sel]) if d == 0.0]
+
+    def weak(self) -> List[str]:
+        """Chosen parameters outside the null space whose bound still exceeds MAX_REL_CRB times their scale."""
+        if self.rank.null_directions:
+            null_part = np.linalg.norm(np.column_stack(self.rank.null_directions)[self.sel], axis=1)
+        else:
+            null_part = np.zeros(len(self.sel))
+        return [p.label for p, d, ok, z in zip(self.params, self.rank.dinv[self.sel], self.observable, null_part)
+                if d > 0.0 and not ok and z < NULL_TOL]
+
     def null_directions(self) -> List[Dict[str, float]]:
-        """Null directions that involve a chosen parameter: {label: component} (components > NULL_TOL)."""
-        labels = [p.label for p in self.sens.params]
+        """Invisible directions of the other chosen parameters, in relative changes (d theta_i / scale_i,
+        largest component 1): moving the parameters (and the initial state) along one leaves y unchanged.
+        A basis of the null space's projection onto the parameters, components > NULL_TOL."""
+        if not self.rank.null_directions:
+            return []
+        dinv = self.rank.dinv[self.sel]
+        live = dinv > 0.0
+        N = np.column_stack(self.rank.null_directions)[self.sel][live]
+        if N.size == 0:
+            return []
+        U, s, _ = np.linalg.svd(N, full_matrices=False)
+        labels = [p.label for p, ok in zip(self.params, live) if ok]
         out = []
-        for vec in self.rank.null_directions:
-            if np.max(np.abs(vec[self.sel])) <= NULL_TOL:
-                continue
-            out.append({labels[j]: float(vec[j]) for j in np.flatnonzero(np.abs(vec) > NULL_TOL)})
+        for u in U[:, s > NULL_TOL].T:
+            c = u * dinv[live]
+            c = c / c[np.argmax(np.abs(c))]
+            out.append({lab: float(x) for lab, x in zip(labels, c) if abs(x) > NULL_TOL})
         return out
 
 
@@ -352,8 +380,13 @@ def format_table(an: Analysis, target: float = REL_TARGET) -> str:
     lines.append(f"rank {r.rank} of {len(r.sv_rel)} unknowns ({len(an.sel)} parameters"
                  f"{f', {n_x0} initial-state entries' if n_x0 else ''}); "
                  f"smallest singular value / largest {r.sv_rel[-1]:.2e} (null below {RANK_RTOL:g})")
+    if an.insensitive():
+        lines.append("  no sensitivity at all (zero column): " + ", ".join(an.insensitive()))
+    if an.weak():
+        lines.append(f"  bound above {MAX_REL_CRB:g} x the scale (a decayed transient, no information): "
+                     + ", ".join(an.weak()))
     for d in an.null_directions():
-        lines.append("  not separately observable: " + " ".join(f"{v:+.3f} {k}" for k, v in d.items()))
+        lines.append("  invisible direction (relative changes): " + " ".join(f"{v:+.4g} {k}" for k, v in d.items()))
     return "\n".join(lines)
 
 
