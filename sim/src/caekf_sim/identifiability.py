@@ -69,6 +69,10 @@ class Param:
 def law_params(sc: Any, params: Sequence[str], contacts: Sequence[int]) -> List[Param]:
     """The chosen law parameters of the chosen contacts (1-based), values from the scenario."""
     mech = Mechanism.from_scenario(sc)
+    for what, items in (("parameter", params), ("contact", contacts)):
+        dup = [x for i, x in enumerate(items) if x in items[:i]]
+        if dup:
+            raise IdentifiabilityError(f"{what} {dup[0]!r} chosen twice")
     out = []
     for c in contacts:
         if not 1 <= c <= mech.n_contacts:
