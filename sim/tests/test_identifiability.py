@@ -47,6 +47,21 @@ def test_sensitivities_are_the_truths_central_differences():
         assert np.max(np.abs(fd - dy)) < 2e-3 * np.max(np.abs(dy)), p.key
 
 
+def test_initial_state_sensitivities_are_the_free_chains_transition_matrix(sc):
+    from scipy.linalg import expm
+
+    quiet = sc.replace(u_amp=0.2, t_end=0.3)  # the contact stays open: x' = A0 x + B u
+    sens = sensitivities(quiet, law_params(quiet, ["gamma"], [1]))
+    mech = Mechanism.from_scenario(quiet)
+    nq = mech.nq
+    A0 = np.block([[np.zeros((nq, nq)), np.eye(nq)], [-mech.K / mech.m[:, None], -mech.C / mech.m[:, None]]])
+    scales = np.array([p.scale for p in sens.params[:2 * nq]])
+    for k in (0, 99, len(sens.t) - 1):
+        want = mech.H @ expm(A0 * sens.t[k]) * scales[None, :]
+        np.testing.assert_allclose(sens.dy[k, :, :2 * nq], want, rtol=0, atol=1e-7 * np.max(np.abs(want)))
+    assert np.all(sens.dy[:, :, -1] == 0.0)  # gamma: nothing while open
+
+
 def test_bounds_of_known_information():
     crb, ok = bounds(np.diag([4.0, 0.0]))
     np.testing.assert_allclose(crb, [0.5, np.inf])
