@@ -186,6 +186,7 @@ def test_cli_table_csv_and_png(tmp_path, capsys):
     (["--params", "stiffness"], 3, "choose from gamma, n, lambda, gap"),
     (["--params", "gamma", "--contact", "2"], 3, "contacts 1..1"),
     (["--params", "gamma,gamma"], 3, "chosen twice"),
+    (["--crb", "--t-from", "1"], 2, "--t-from"),
     (["--params", "gamma", "--contact", "x"], 2, "--contact"),
     (["--params", "gamma", "--prior", "mu=1"], 2, "--prior"),
     (["--params", "gamma", "--prior", "n=-1"], 2, "> 0"),

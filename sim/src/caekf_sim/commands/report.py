@@ -167,6 +167,8 @@ def _observability_run(args: argparse.Namespace, sc: Any) -> int:
         if not std > 0.0 or not np.isfinite(std):
             raise UsageError(f"--prior {item!r}: STD must be > 0 and finite")
         priors.update({(c, name): std for c in contacts})
+    if not 0.0 <= args.t_from < sc.t_end:
+        raise UsageError(f"--t-from {args.t_from:g}: must be in [0, t_end = {sc.t_end:g}) s")
     if not 0.0 < args.target < 1.0:
         raise UsageError(f"--target {args.target:g}: must be in (0, 1)")
     for out in (args.csv, args.png):
