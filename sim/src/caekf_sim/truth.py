@@ -222,10 +222,8 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
 
     One solve_ivp per contact-mode segment (a mode: which contacts are closed), each ended by the
     first terminal event delta_c = 0 crossed in the direction that leaves contact c's mode; the next
-    segment restarts at the located event with that contact's mode switched.
+    segment restarts at the located event with that contact's mode switched (`integrate_modes`).
     """
-    from scipy.integrate import solve_ivp  # scipy only for this method
-
     mech = mech if mech is not None else Mechanism.from_scenario(sc)
     nq, nc = mech.nq, mech.n_contacts
     minv = 1.0 / mech.m
@@ -264,6 +262,25 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
             return np.concatenate([x[nq:], a * minv])
         return f
 
+    out, events, nfev = integrate_modes(rhs, np.zeros(2 * nq), mech, ts, integrator, rtol, atol)
+    return out[:, :nq], out[:, nq:], TruthStats(0, 0, 0, events=events, rhs_evals=nfev)
+
+
+def integrate_modes(rhs: Callable[[Tuple[bool, ...]], Callable[[float, np.ndarray], np.ndarray]], y0: np.ndarray,
+                    mech: Mechanism, ts: np.ndarray, integrator: str, rtol: float, atol: Any
+                    ) -> Tuple[np.ndarray, int, int]:
+    """(states at ts (len(ts), len(y0)), events located, rhs evaluations) of x' = rhs(closed)(t, x) from
+    y0 at t = 0, the state's first 2 nq entries being [q; v]: one solve_ivp per contact-mode segment,
+    each ended by the first terminal event delta_c = 0 crossed in the direction that leaves contact c's
+    mode; the next segment restarts at the located event with that contact's mode switched. Entries
+    beyond [q; v] (e.g. sensitivities) ride along.
+    """
+    from scipy.integrate import solve_ivp  # scipy only for this method
+
+    nc = mech.n_contacts
+    contacts = mech.contacts
+    n = len(ts)
+
     def penetration(c: int) -> Callable[[np.ndarray], float]:
         ia, ib, gap = contacts[c][:3]
         return lambda x: (x[ia] if ia >= 0 else 0.0) - (x[ib] if ib >= 0 else 0.0) - gap
@@ -277,8 +294,8 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
         return event
 
     events_fn = [event_of(c) for c in range(nc)]
-    out = np.empty((n, 2 * nq))
-    t, y, i, events, nfev = 0.0, np.zeros(2 * nq), 0, 0, 0
+    out = np.empty((n, len(y0)))
+    t, y, i, events, nfev = 0.0, np.asarray(y0, dtype=float), 0, 0, 0
     closed = [False] * nc
     # The restart state is taken just past the located event, on the far side (a few ulps later at
     # most), so the new mode's event cannot fire again at once. A touch with no far side within
@@ -312,7 +329,7 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
         if switch:
             closed[c] = not closed[c]
         events += 1
-    return out[:, :nq], out[:, nq:], TruthStats(0, 0, 0, events=events, rhs_evals=nfev)
+    return out, events, nfev
 
 
 def write_truth_csv(truth: Truth, path: PathLike) -> None:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any, Dict, List, Tuple
 
 import numpy as np
 
@@ -31,9 +32,29 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="truth CSV (caekf-truth, caekf-sim truth): contact bands, position errors (optional)")
     p.set_defaults(func=cmd_plot)
 
-    p = sub.add_parser("observability", help="PBH test (eq. 20), contact active and inactive")
-    add_scenario_arg(p)
-    p.add_argument("--penetration", type=float, default=2e-6, help="delta while active [m]")
+    p = sub.add_parser("observability",
+                       help="PBH test (eq. 20); with --params/--crb: which law parameters the run observes, "
+                            "their Cramer-Rao bounds along it")
+    add_scenario_arg(p, t_end=True)
+    p.add_argument("--penetration", type=float, default=2e-6, help="PBH test: delta while active [m]")
+    p.add_argument("--params", default=None, metavar="LIST",
+                   help="rank test along the truth run of these law parameters, comma-separated from "
+                        "gamma,n,lambda,gap (default with --crb: gamma)")
+    p.add_argument("--contact", default=None, metavar="LIST",
+                   help="contacts whose parameters are tested, comma-separated numbers (default: all)")
+    p.add_argument("--crb", action="store_true",
+                   help="also the Fisher information's Cramer-Rao bound and the posterior bound along the run")
+    p.add_argument("--prior", action="append", default=[], metavar="NAME=STD",
+                   help="prior std of a parameter for the posterior bound (n=0.1, lambda=100, gap=1e-5; "
+                        "gamma's default: contact{i}_sigma_gamma0); applies to every chosen contact")
+    p.add_argument("--known-initial-state", action="store_true",
+                   help="the initial state is known (default: an unknown, with sigma_q0/sigma_v0 as its prior)")
+    p.add_argument("--t-from", type=float, default=0.0,
+                   help="use only the samples at t >= T [s] (e.g. steady-state data only)")
+    p.add_argument("--target", type=float, default=0.01,
+                   help="relative bound whose first crossing is timed (default 0.01 = 1 %%)")
+    p.add_argument("--csv", type=Path, default=None, help="write the bounds along the run to this CSV")
+    p.add_argument("--png", type=Path, default=None, help="plot the relative bounds along the run")
     p.set_defaults(func=cmd_observability)
 
     p = sub.add_parser("filterpy-check", help="canonical AEKF vs FilterPy's EKF")
@@ -92,6 +113,10 @@ def cmd_observability(args: argparse.Namespace) -> int:
     from ..observability import analyse, format_report
 
     sc = scenario_from_args(args)
+    if args.params is not None or args.crb:
+        return _observability_run(args, sc)
+    if args.csv is not None or args.png is not None or args.prior or args.contact is not None:
+        raise UsageError("--contact, --prior, --csv and --png go with --params or --crb")
     res = analyse(sc, penetration=args.penetration)
     print(format_report(res))
     both = ("q1", "q4")
@@ -103,6 +128,65 @@ def cmd_observability(args: argparse.Namespace) -> int:
     print(f"paper claim 2 (contact inactive: unobservable, gamma's mode at lambda = 0): "
           f"{'confirmed' if not inactive.observable and gamma_mode else 'NOT confirmed'}")
     return 0 if active_ok and not inactive.observable else 1
+
+
+def _names(text: str, what: str) -> List[str]:
+    items = [x.strip() for x in text.split(",")]
+    if not all(items):
+        raise UsageError(f"{what} {text!r}: a comma-separated list without empty items")
+    return items
+
+
+def _observability_run(args: argparse.Namespace, sc: Any) -> int:
+    """Rank test and Cramer-Rao bounds of chosen law parameters along the scenario's truth run."""
+    from ..identifiability import (PARAMS, IdentifiabilityError, analyse_run, format_table, law_params, plot,
+                                   sensor_sigmas, write_csv)
+    from ..mechanism import Mechanism
+
+    params = _names(args.params, "--params") if args.params is not None else ["gamma"]
+    nc = Mechanism.from_scenario(sc).n_contacts
+    if nc == 0:
+        raise IdentifiabilityError(f"{args.scenario or 'the scenario'}: no contacts, no law parameters to test")
+    if args.contact is None:
+        contacts = list(range(1, nc + 1))
+    else:
+        try:
+            contacts = [int(c) for c in _names(args.contact, "--contact")]
+        except ValueError:
+            raise UsageError(f"--contact {args.contact!r}: contact numbers, e.g. 1 or 1,2") from None
+    priors: Dict[Tuple[int, str], float] = {}
+    for item in args.prior:
+        name, sep, val = item.partition("=")
+        name = name.strip()
+        if not sep or name not in PARAMS:
+            raise UsageError(f"--prior {item!r}: NAME=STD with NAME one of {', '.join(PARAMS)}")
+        try:
+            std = float(val)
+        except ValueError:
+            raise UsageError(f"--prior {item!r}: STD must be a number") from None
+        if not std > 0.0 or not np.isfinite(std):
+            raise UsageError(f"--prior {item!r}: STD must be > 0 and finite")
+        priors.update({(c, name): std for c in contacts})
+    if not 0.0 <= args.t_from < sc.t_end:
+        raise UsageError(f"--t-from {args.t_from:g}: must be in [0, t_end = {sc.t_end:g}) s")
+    if not 0.0 < args.target < 1.0:
+        raise UsageError(f"--target {args.target:g}: must be in (0, 1)")
+    for out in (args.csv, args.png):
+        if out is not None:
+            check_output_file(out)
+    chosen = law_params(sc, params, contacts)
+    an = analyse_run(sc, chosen, priors=priors, initial_state=not args.known_initial_state, t_from=args.t_from)
+    print(f"{sc.t_end:g} s run, {an.sens.events} contact events, samples t >= {args.t_from:g} s, "
+          f"R = diag({', '.join(f'{s:g}^2' for s in sensor_sigmas(sc, Mechanism.from_scenario(sc)))}), "
+          f"initial state {'known' if args.known_initial_state else 'unknown (nuisance)'}")
+    print(format_table(an, target=args.target))
+    if args.csv is not None:
+        write_csv(an, args.csv)
+        print(f"wrote {args.csv}")
+    if args.png is not None:
+        plot(an, args.png, target=args.target)
+        print(f"wrote {args.png}")
+    return 0
 
 
 def cmd_filterpy(args: argparse.Namespace) -> int:
