@@ -55,7 +55,19 @@ def test_mechanism_over_can_equals_replay(mechanism_bench, binaries, out_dir, na
     seen = write_seen_inputs(out_dir / f"inputs-seen-{name}.csv", inputs)
     ref = run_c_replay(binaries["replay"], scenario, seen, None, out_dir / f"replay-{name}.csv")
 
+    # every state of the mechanism and every contact's gamma and P_gamma,gamma came over CAN
+    states = [f"q{i}" for i in range(1, mech.nq + 1)] + [f"v{i}" for i in range(1, mech.nq + 1)]
+    states += ["gamma", "gamma2"][:mech.n_contacts]
+    assert len(states) == 2 * mech.nq + mech.n_contacts
+    want = set(states) | {"p_norm", "p_gg"} | ({"p_gg2"} if mech.n_contacts > 1 else set())
+    assert want <= set(prof.results), sorted(want - set(prof.results))
+
     dec = run.decoded
+    agr = compare_with_replay(dec, ref, bench.codec, prof)
+    report(f"[mechanism {name}] {rows} steps ({mech.nq} bodies, {mech.n_inputs} inputs, {mech.n_sensors} sensors, "
+           f"{mech.n_contacts} contacts) in {run.record.elapsed:.1f} s: CAN vs caekf-replay: {agr.text()}")
+    assert agr.ok, agr.text()
+    assert set(agr.carried) == want and all(agr.carried[c] == rows for c in want), agr.carried
     assert run.record.timeouts == 0
     assert dec.complete.all(), f"{int((~dec.complete).sum())} steps incomplete"
     assert (dec.bad_crc, dec.bad_dlc, dec.counter_duplicates, dec.counter_jumps) == (0, 0, 0, 0)
@@ -66,17 +78,5 @@ def test_mechanism_over_can_equals_replay(mechanism_bench, binaries, out_dir, na
                     "TX_SATURATED"):
         assert h[counter] == 0, (counter, h[counter])
 
-    # every state of the mechanism and every contact's gamma and P_gamma,gamma came over CAN
-    states = [f"q{i}" for i in range(1, mech.nq + 1)] + [f"v{i}" for i in range(1, mech.nq + 1)]
-    states += ["gamma", "gamma2"][:mech.n_contacts]
-    assert len(states) == 2 * mech.nq + mech.n_contacts
-    want = set(states) | {"p_norm", "p_gg"} | ({"p_gg2"} if mech.n_contacts > 1 else set())
-    assert want <= set(prof.results), sorted(want - set(prof.results))
-
-    agr = compare_with_replay(dec, ref, bench.codec, prof)
-    report(f"[mechanism {name}] {rows} steps ({mech.nq} bodies, {mech.n_inputs} inputs, {mech.n_sensors} sensors, "
-           f"{mech.n_contacts} contacts) in {run.record.elapsed:.1f} s: CAN vs caekf-replay: {agr.text()}")
-    assert agr.ok, agr.text()
-    assert set(agr.carried) == want and all(agr.carried[c] == rows for c in want), agr.carried
     # the window reaches a contact: gamma is compared while it is being estimated
     assert np.any(dec.columns["flags"].astype(np.int64) & CONTACT_ACTIVE), "no contact in the window"
