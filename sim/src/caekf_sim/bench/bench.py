@@ -172,6 +172,21 @@ class Bench:
         self.names = tuple(mech.input_names()) + tuple(mech.sensor_names())
         return self.profile
 
+    def match_scenario(self, sc) -> Profile:
+        """The profile for a scenario's mechanism: diagnostics -> use_mechanism; production and fd carry the
+        paper's inputs only (input 1, sensors 1 and 2 as positions): another mechanism is refused there, rather
+        than its sensors sent on frames of another kind."""
+        from ..mechanism import POSITION, Mechanism
+
+        if self.profile.name == "diagnostics":
+            return self.use_mechanism(sc)
+        mech = Mechanism.from_scenario(sc)
+        if mech.n_inputs != 1 or mech.sensor_kind.tolist() != [POSITION, POSITION]:
+            raise BenchError(f"profile {self.profile.name} carries one input and two position sensors; this mechanism "
+                             f"has {mech.n_inputs} input(s) and sensors {', '.join(mech.sensor_names())}: run it in "
+                             "the diagnostics profile")
+        return self.profile
+
     @classmethod
     def open(cls, interface: str = "socketcan", channel: str = "vcan0", fast: bool = True,
              record_log: bool = False, codec: Optional[Codec] = None, profile: str = "diagnostics",
@@ -318,7 +333,7 @@ class Bench:
         """Every CTRL_PARAM setting of the scenario (its values over the schema's defaults) with the
         named preset's values over them, in PARAM_ID order: a complete configuration, so nothing of an
         earlier one carries over. The estimator knows no presets: they travel as ordinary settings."""
-        params = schema.wire_values(sc.values(), preset)
+        params = schema.wire_values(sc.values(), preset, complete=True)
         unknown = [k for k, _ in params if k not in self.codec.param_ids]
         if unknown:
             raise BenchError(f"the DBC has no PARAM_ID for {unknown[0]!r} (is it stale? run codegen.py dbc)")
