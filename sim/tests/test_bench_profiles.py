@@ -94,3 +94,56 @@ def test_paced_matcher_unwraps_the_8_bit_step(codec):
 def test_unknown_profile_is_refused():
     with pytest.raises(ValueError, match="unknown profile"):
         get_profile("can-xl")
+
+
+# --- a mechanism's diagnostics frames (Bench.use_mechanism) -------------------------------------------------
+
+def _scenario(name):
+    from pathlib import Path
+
+    from caekf_sim.scenario import load_scenario
+
+    return load_scenario(Path(__file__).resolve().parents[2] / "sim" / "scenarios" / f"{name}.toml")
+
+
+def test_the_paper_mechanism_keeps_the_paper_frames(codec):
+    from caekf_sim.bench.profiles import DIAGNOSTICS, diagnostics_for
+
+    assert diagnostics_for(1, [0, 0], 4, 1) is DIAGNOSTICS
+    b = Bench(NullTransport(), codec)
+    assert b.use_mechanism(_scenario("paper")) is DIAGNOSTICS and b.names == ("u", "y1", "y4")
+
+
+def test_shuttle_sends_its_inputs_and_sensors_by_kind_and_reads_every_body_and_contact(codec):
+    b = Bench(NullTransport(), codec)
+    prof = b.use_mechanism(_scenario("shuttle"))  # 2 inputs; sensors: q1, v1, q4, q5; 6 bodies, 2 contacts
+    assert prof.input_messages == ("BENCH_U", "BENCH_U2", "BENCH_Y1", "BENCH_S2_VEL", "BENCH_S3_POS", "BENCH_S4_POS")
+    assert b.names == ("u1", "u2", "y1", "yv1", "y4", "y5")
+    want = {f"q{i}" for i in range(1, 7)} | {f"v{i}" for i in range(1, 7)} | {"gamma", "gamma2", "p_norm", "p_gg",
+                                                                                  "p_gg2"}
+    assert want <= set(prof.results) and not {"q7", "v7"} & set(prof.results)
+    for col, src in prof.results.items():  # every frame and signal is in the DBC
+        assert src.signal in codec.messages[src.message].signals, col
+    n = 5
+    u = np.column_stack([np.linspace(-2.6, 2.6, n), np.full(n, 0.05)])
+    y = np.column_stack([np.full(n, 1e-3), np.linspace(-0.4, 0.4, n), np.full(n, -2e-4), np.full(n, 3e-4)])
+    inp = b.prepare(np.arange(1, n + 1) * 1e-3, u, y)
+    assert inp.u_seen.shape == (n, 2) and inp.y_seen.shape == (n, 4)
+    np.testing.assert_array_equal(inp.u_seen, u.astype(np.float32).astype(float))
+    assert np.max(np.abs(inp.y_seen[:, 1] - y[:, 1])) <= 0.5e-10  # velocity: LSB 1e-10 m/s
+    assert np.max(np.abs(inp.y_seen[:, [0, 2, 3]] - y[:, [0, 2, 3]])) <= 0.5e-12  # positions: LSB 1e-12 m
+
+
+def test_production_refuses_a_mechanism_it_cannot_carry(codec):
+    from caekf_sim.bench.bench import BenchError
+
+    b = Bench(NullTransport(), codec, profile="production")
+    assert b.match_scenario(_scenario("paper")) is PRODUCTION
+    with pytest.raises(BenchError, match="diagnostics"):
+        b.match_scenario(_scenario("valve"))
+
+
+def test_a_complete_configuration_resets_enumerated_settings(codec):
+    sent = dict(Bench(NullTransport(), codec).params_from_scenario(_scenario("paper")))
+    # the defaults travel too: a valve's velocity sensor 2 or the canonical preset's mode cannot carry over
+    assert sent["sensor2_kind"] == 0.0 and sent["mode"] == 1.0 and "discretisation" in sent

@@ -56,10 +56,14 @@ enum {
 static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
                                                      0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
                                                      0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B,
-                                                     0x103, 0x190, 0x191, 0x104, 0x192};
+                                                     0x103, 0x190, 0x191, 0x104, 0x192,
+                                                     0x105, 0x106, 0x107, 0x108, 0x109, 0x10A, 0x10B,
+                                                     0x193, 0x194, 0x195, 0x196, 0x197, 0x198, 0x199,
+                                                     0x19A, 0x19B, 0x19C};
 static int is_bench_msg(unsigned m)
 {
-    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP || m == (unsigned)CAEKF_MSG_BENCH_FD;
+    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP || m == (unsigned)CAEKF_MSG_BENCH_FD ||
+           (m >= (unsigned)CAEKF_MSG_BENCH_U2 && m <= (unsigned)CAEKF_MSG_BENCH_S4_VEL);
 }
 static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
 
@@ -299,10 +303,10 @@ typedef struct {
     unsigned have;
     uint16_t step;
     uint32_t opened_us;
-    double u, y1, y4;
+    double u[CAEKF_MAX_INPUTS], y[CAEKF_MAX_SENSORS]; /* the mechanism's inputs and sensors */
     int have_closed, have_run;
     uint16_t last_closed, last_run;
-    double last_u; /* held over a gap's prediction-only steps */
+    double last_u[CAEKF_MAX_INPUTS]; /* held over a gap's prediction-only steps */
     caekf_t est; /* shadow estimator */
     uint32_t last_status_us;
     /* transmit expectations of the current poll */
@@ -370,7 +374,11 @@ static void check_estimate_sane(const caekf_t *e)
 
 static void model_run_step(void)
 {
-    caekf_scalar_t y[CAEKF_MAX_SENSORS];
+    static const uint8_t q_msgs[8] = {CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3, CAEKF_MSG_EST_Q4,
+                                      CAEKF_MSG_EST_Q5, CAEKF_MSG_EST_Q6, CAEKF_MSG_EST_Q7, CAEKF_MSG_EST_Q8};
+    static const uint8_t v_msgs[8] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3, CAEKF_MSG_EST_V4,
+                                      CAEKF_MSG_EST_V5, CAEKF_MSG_EST_V6, CAEKF_MSG_EST_V7, CAEKF_MSG_EST_V8};
+    caekf_scalar_t y[CAEKF_MAX_SENSORS], u[CAEKF_MAX_INPUTS];
     caekf_report_t rep;
     caekf_status_t st;
     expect_t e;
@@ -382,15 +390,22 @@ static void model_run_step(void)
         uint16_t k;
         gap = (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
         M.cnt[CAEKF_CNT_STEPS_SKIPPED] += missing;
+        for (i = 0; i < (unsigned)CAEKF_MAX_INPUTS; ++i) {
+            u[i] = (caekf_scalar_t)M.last_u[i];
+        }
         for (k = 0; k < missing && k < (uint16_t)CAEKF_APP_MAX_GAP_PREDICT; ++k) {
-            (void)caekf_predict(&M.est, (const caekf_scalar_t[]){(caekf_scalar_t)M.last_u}, NULL); /* the app bridges gaps */
+            (void)caekf_predict(&M.est, u, NULL); /* the app bridges gaps */
         }
     }
-    y[0] = (caekf_scalar_t)M.y1;
-    y[1] = (caekf_scalar_t)M.y4;
+    for (i = 0; i < (unsigned)CAEKF_MAX_SENSORS; ++i) {
+        y[i] = (caekf_scalar_t)M.y[i];
+    }
+    for (i = 0; i < (unsigned)CAEKF_MAX_INPUTS; ++i) {
+        u[i] = (caekf_scalar_t)M.u[i];
+    }
     memcpy(zb, M.est.z, sizeof zb);
     memcpy(Pb, M.est.P, sizeof Pb);
-    st = caekf_step(&M.est, (const caekf_scalar_t[]){(caekf_scalar_t)M.u}, y, &rep);
+    st = caekf_step(&M.est, u, y, &rep);
     M.cnt[CAEKF_CNT_STEPS_DONE]++;
     if (st != CAEKF_OK) {
         M.cnt[CAEKF_CNT_STEPS_FAILED]++;
@@ -402,12 +417,29 @@ static void model_run_step(void)
     }
     model_close_slot();
     M.last_run = M.step;
-    M.last_u = M.u;
+    memcpy(M.last_u, M.u, sizeof M.last_u);
     M.have_run = 1;
     memset(&e, 0, sizeof e);
     e.step = M.step;
-    for (i = (unsigned)CAEKF_MSG_EST_GAMMA; i <= (unsigned)CAEKF_MSG_EST_P_GG; ++i) {
-        e.msg = (uint8_t)i;
+    /* diagnostics: gamma, every body's q and v, P norm, P_gg, contact 2's gamma and P_gg, EST_STEP */
+    e.msg = (uint8_t)CAEKF_MSG_EST_GAMMA;
+    expect_push(&e);
+    for (i = 0; i < (unsigned)M.est.model.nq && i < 8u; ++i) {
+        e.msg = q_msgs[i];
+        expect_push(&e);
+    }
+    for (i = 0; i < (unsigned)M.est.model.nq && i < 8u; ++i) {
+        e.msg = v_msgs[i];
+        expect_push(&e);
+    }
+    e.msg = (uint8_t)CAEKF_MSG_EST_P_NORM;
+    expect_push(&e);
+    e.msg = (uint8_t)CAEKF_MSG_EST_P_GG;
+    expect_push(&e);
+    if (M.est.model.nc > 1) {
+        e.msg = (uint8_t)CAEKF_MSG_EST_GAMMA2;
+        expect_push(&e);
+        e.msg = (uint8_t)CAEKF_MSG_EST_P_GG2;
         expect_push(&e);
     }
     e.msg = (uint8_t)CAEKF_MSG_EST_STEP;
@@ -417,13 +449,34 @@ static void model_run_step(void)
     expect_push(&e);
 }
 
+/* The slot bit of sensor s carried as `kind` (own reading of the app's rule: 0 when the configured mechanism has
+ * no such sensor); inputs take bits 0..CAEKF_MAX_INPUTS-1, sensors the bits above. */
+static unsigned model_sensor_bit(int s, int kind)
+{
+    const caekf_model_params_t *mp = &M.est.model.p;
+    return (s < mp->sensors && mp->sensor_kind[s] == kind) ? 1u << (CAEKF_MAX_INPUTS + s) : 0u;
+}
+
 static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
 {
     uint16_t step = (uint16_t)get_bits(d, 12, 16);
-    const unsigned bit = (msg == CAEKF_MSG_BENCH_U) ? 1u : (msg == CAEKF_MSG_BENCH_Y1) ? 2u
-                         : (msg == CAEKF_MSG_BENCH_Y4) ? 4u : 6u; /* BENCH_YP carries y1 and y4 */
+    unsigned bit = 0u, bit2 = 0u, need = 0u, i;
+    int input = -1, sensor = -1, kind = CAEKF_SENSOR_POSITION;
     double v = 0.0;
     double yp1 = 0.0, yp4 = 0.0;
+    switch (msg) {
+    case CAEKF_MSG_BENCH_U: input = 0; break;
+    case CAEKF_MSG_BENCH_U2: input = 1; break;
+    case CAEKF_MSG_BENCH_Y1: sensor = 0; break;
+    case CAEKF_MSG_BENCH_Y4: sensor = 1; break;
+    case CAEKF_MSG_BENCH_S3_POS: sensor = 2; break;
+    case CAEKF_MSG_BENCH_S4_POS: sensor = 3; break;
+    case CAEKF_MSG_BENCH_S1_VEL: sensor = 0; kind = CAEKF_SENSOR_VELOCITY; break;
+    case CAEKF_MSG_BENCH_S2_VEL: sensor = 1; kind = CAEKF_SENSOR_VELOCITY; break;
+    case CAEKF_MSG_BENCH_S3_VEL: sensor = 2; kind = CAEKF_SENSOR_VELOCITY; break;
+    case CAEKF_MSG_BENCH_S4_VEL: sensor = 3; kind = CAEKF_SENSOR_VELOCITY; break;
+    default: break;
+    }
     if (msg == CAEKF_MSG_BENCH_YP) {
         /* STEP mod 2^8: the 16-bit step within -128..+127 of the open step (or the one after the last
          * closed step) with these low bits */
@@ -432,7 +485,7 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
         step = (uint16_t)(ref + (unsigned)((int)(((s8 - ref) & 0xFFu) ^ 0x80u) - 0x80));
         yp1 = (double)get_sbits(d, 20, 22) * 1e-9; /* LSB 1e-9 m, as cantools: raw * scale */
         yp4 = (double)get_sbits(d, 42, 22) * 1e-9;
-    } else if (msg == CAEKF_MSG_BENCH_U) {
+    } else if (input >= 0) {
         const uint32_t fb = (uint32_t)get_bits(d, 32, 32);
         if (((fb >> 23) & 0xFFu) == 0xFFu) { /* NaN or infinity: refused */
             M.cnt[CAEKF_CNT_RX_BAD_VALUE]++;
@@ -440,12 +493,24 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
         }
         v = fz_bits_to_float(fb);
     } else {
-        v = (double)get_sbits(d, 28, 36) * 1e-12; /* LSB 1e-12 m, as cantools: raw * scale */
+        /* LSB 1e-12 m or 1e-10 m/s, as cantools: raw * scale */
+        v = (double)get_sbits(d, 28, 36) * (kind == CAEKF_SENSOR_VELOCITY ? 1e-10 : 1e-12);
     }
     M.cnt[CAEKF_CNT_RX_OK]++;
     if (!M.configured) {
         M.cnt[CAEKF_CNT_RX_UNCONFIGURED]++;
         return;
+    }
+    if (msg == CAEKF_MSG_BENCH_YP) {
+        bit = model_sensor_bit(0, CAEKF_SENSOR_POSITION);
+        bit2 = model_sensor_bit(1, CAEKF_SENSOR_POSITION);
+    } else if (input >= 0) {
+        bit = (input < M.est.model.p.inputs) ? 1u << input : 0u;
+    } else if (sensor >= 0) {
+        bit = model_sensor_bit(sensor, kind);
+    }
+    if ((bit | bit2) == 0u) {
+        return; /* a value this mechanism does not have: ignored */
     }
     /* A frame of the open step joins it; an older one is late; a newer one drops the open step. */
     if (!(M.open && step == M.step)) {
@@ -465,22 +530,30 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
         M.step = step;
         M.opened_us = now;
     }
-    if (M.have & bit) {
+    if (M.have & (bit | bit2)) {
         M.cnt[CAEKF_CNT_RX_REPEATED]++; /* the first value stays */
         return;
     }
-    M.have |= bit;
-    if (bit == 1u) {
-        M.u = v;
-    } else if (bit == 2u) {
-        M.y1 = v;
-    } else if (bit == 4u) {
-        M.y4 = v;
+    M.have |= bit | bit2;
+    if (msg == CAEKF_MSG_BENCH_YP) {
+        if (bit != 0u) {
+            M.y[0] = yp1;
+        }
+        if (bit2 != 0u) {
+            M.y[1] = yp4;
+        }
+    } else if (input >= 0) {
+        M.u[input] = v;
     } else {
-        M.y1 = yp1;
-        M.y4 = yp4;
+        M.y[sensor] = v;
     }
-    if (M.have == 7u) {
+    for (i = 0; i < (unsigned)M.est.model.p.inputs; ++i) {
+        need |= 1u << i;
+    }
+    for (i = 0; i < (unsigned)M.est.model.p.sensors; ++i) {
+        need |= 1u << (CAEKF_MAX_INPUTS + i);
+    }
+    if ((M.have & need) == need) {
         model_run_step();
     }
 }

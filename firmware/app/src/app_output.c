@@ -1,5 +1,9 @@
-/* The estimate frames of one step, by profile. DIAGNOSTICS: 12 frames, EST_STEP last (it tells the bench
- * the step is complete). PRODUCTION: EST_PROD (closes the step), then at most one EST_PAGE. FD: EST_FD. */
+/* The estimate frames of one step, by profile. DIAGNOSTICS: EST_GAMMA, EST_Q and EST_V of every body of the
+ * mechanism (up to 8), EST_P_NORM, EST_P_GG, EST_GAMMA2 and EST_P_GG2 (two contacts), EST_STEP last (it tells
+ * the bench the step is complete); the paper's mechanism: 12 frames. PRODUCTION: EST_PROD (closes the step),
+ * then at most one EST_PAGE. FD: EST_FD. PRODUCTION and FD carry bodies 1..4 and contact 1 only (the paper's
+ * chain; values a smaller mechanism lacks are NaN): a mechanism's other bodies and its contact 2 are sent in
+ * the diagnostics profile only. */
 #include <math.h>
 #include <stddef.h>
 
@@ -18,8 +22,10 @@ static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double 
     caekf_app_send(app, msg, &f);
 }
 
-/* The frames carry bodies 1..4 (the paper's chain); a larger mechanism's other bodies are not sent. */
+/* The production and FD frames carry bodies 1..4 and contact 1 (the paper's chain); a larger mechanism's
+ * other bodies and contact 2 are not sent there (the diagnostics profile sends them). */
 #define WIRE_BODIES 4u
+#define DIAG_BODIES 8u
 
 /* State index of wire value k: q1..q4 (k < 4), v1..v4, gamma (k = 8), for a mechanism of nq bodies;
  * -1 when it has no such state. */
@@ -157,15 +163,19 @@ static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, cons
 void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t status, const caekf_report_t *report,
                              uint16_t app_flags)
 {
-    static const caekf_msg_t q_msgs[WIRE_BODIES] = {CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3,
-                                                 CAEKF_MSG_EST_Q4};
-    static const caekf_msg_t v_msgs[WIRE_BODIES] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3,
-                                                 CAEKF_MSG_EST_V4};
+    static const caekf_msg_t q_msgs[DIAG_BODIES] = {CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3,
+                                                    CAEKF_MSG_EST_Q4, CAEKF_MSG_EST_Q5, CAEKF_MSG_EST_Q6,
+                                                    CAEKF_MSG_EST_Q7, CAEKF_MSG_EST_Q8};
+    static const caekf_msg_t v_msgs[DIAG_BODIES] = {CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3,
+                                                    CAEKF_MSG_EST_V4, CAEKF_MSG_EST_V5, CAEKF_MSG_EST_V6,
+                                                    CAEKF_MSG_EST_V7, CAEKF_MSG_EST_V8};
     caekf_scalar_t x[CAEKF_N];
     double p_norm_out;
     caekf_msg_step_t sm;
     caekf_can_frame_t f;
     unsigned i;
+    const unsigned nq = (unsigned)app->est.model.nq;
+    const unsigned nc = (unsigned)app->est.model.nc;
 
     if (app->cfg.profile == (uint8_t)CAEKF_PROFILE_PRODUCTION) {
         send_production(app, step, status, report, app_flags);
@@ -175,16 +185,22 @@ void caekf_app_send_estimate(caekf_app_t *app, uint16_t step, caekf_status_t sta
         send_fd(app, step, status, report, app_flags);
         return;
     }
+    /* DIAGNOSTICS: every body and contact of the mechanism, nothing it lacks (EST_GAMMA and EST_P_GG aside:
+     * NaN without a contact) */
     p_norm_out = full_estimate(app, x, &app_flags);
     send_value(app, CAEKF_MSG_EST_GAMMA, step, wire_value(app, x, 2u * WIRE_BODIES), &app_flags);
-    for (i = 0; i < WIRE_BODIES; i++) {
-        send_value(app, q_msgs[i], step, wire_value(app, x, i), &app_flags);
+    for (i = 0; i < DIAG_BODIES && i < nq; i++) {
+        send_value(app, q_msgs[i], step, (double)x[i], &app_flags);
     }
-    for (i = 0; i < WIRE_BODIES; i++) {
-        send_value(app, v_msgs[i], step, wire_value(app, x, WIRE_BODIES + i), &app_flags);
+    for (i = 0; i < DIAG_BODIES && i < nq; i++) {
+        send_value(app, v_msgs[i], step, (double)x[nq + i], &app_flags);
     }
     send_value(app, CAEKF_MSG_EST_P_NORM, step, p_norm_out, &app_flags);
     send_value(app, CAEKF_MSG_EST_P_GG, step, wire_p_gg(app), &app_flags);
+    if (nc > 1u) {
+        send_value(app, CAEKF_MSG_EST_GAMMA2, step, (double)x[2u * nq + 1u], &app_flags);
+        send_value(app, CAEKF_MSG_EST_P_GG2, step, (double)app->cov_scratch[2u * nq + 1u][2u * nq + 1u], &app_flags);
+    }
 
     sm = step_info(step, status, report, app_flags);
     (void)caekf_proto_encode_step(&sm, f.data);

@@ -4093,3 +4093,1886 @@ bool caekf_can_est_step_step_status_is_in_phys_range(double value)
 {
     return ((value >= -128.0) && (value <= 127.0));
 }
+
+int caekf_can_bench_u2_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_u2_t *src_p,
+    size_t size)
+{
+    uint32_t u2;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    memcpy(&u2, &src_p->u2, sizeof(u2));
+    dst_p[4] |= pack_left_shift_u32(u2, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(u2, 8u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(u2, 16u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(u2, 24u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_u2_unpack(
+    struct caekf_can_bench_u2_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t u2;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    u2 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+    u2 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+    u2 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+    u2 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+    memcpy(&dst_p->u2, &u2, sizeof(dst_p->u2));
+
+    return (0);
+}
+
+int caekf_can_bench_u2_init(struct caekf_can_bench_u2_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_u2_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_u2_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_u2_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_u2_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_u2_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_u2_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_u2_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_u2_u2_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_bench_u2_u2_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+int caekf_can_bench_s3_pos_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s3_pos_t *src_p,
+    size_t size)
+{
+    uint64_t s3_pos;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    s3_pos = (uint64_t)src_p->s3_pos;
+    dst_p[3] |= pack_left_shift_u64(s3_pos, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(s3_pos, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(s3_pos, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(s3_pos, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(s3_pos, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_s3_pos_unpack(
+    struct caekf_can_bench_s3_pos_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t s3_pos;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    s3_pos = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    s3_pos |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    s3_pos |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    s3_pos |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    s3_pos |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((s3_pos & (1ull << 35)) != 0ull) {
+        s3_pos |= 0xfffffff000000000ull;
+    }
+
+    dst_p->s3_pos = (int64_t)s3_pos;
+
+    return (0);
+}
+
+int caekf_can_bench_s3_pos_init(struct caekf_can_bench_s3_pos_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_s3_pos_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_s3_pos_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s3_pos_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_s3_pos_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_s3_pos_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_s3_pos_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s3_pos_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_s3_pos_s3_pos_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_s3_pos_s3_pos_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_bench_s4_pos_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s4_pos_t *src_p,
+    size_t size)
+{
+    uint64_t s4_pos;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    s4_pos = (uint64_t)src_p->s4_pos;
+    dst_p[3] |= pack_left_shift_u64(s4_pos, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(s4_pos, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(s4_pos, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(s4_pos, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(s4_pos, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_s4_pos_unpack(
+    struct caekf_can_bench_s4_pos_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t s4_pos;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    s4_pos = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    s4_pos |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    s4_pos |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    s4_pos |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    s4_pos |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((s4_pos & (1ull << 35)) != 0ull) {
+        s4_pos |= 0xfffffff000000000ull;
+    }
+
+    dst_p->s4_pos = (int64_t)s4_pos;
+
+    return (0);
+}
+
+int caekf_can_bench_s4_pos_init(struct caekf_can_bench_s4_pos_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_s4_pos_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_s4_pos_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s4_pos_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_s4_pos_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_s4_pos_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_s4_pos_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s4_pos_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_s4_pos_s4_pos_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_s4_pos_s4_pos_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_bench_s1_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s1_vel_t *src_p,
+    size_t size)
+{
+    uint64_t s1_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    s1_vel = (uint64_t)src_p->s1_vel;
+    dst_p[3] |= pack_left_shift_u64(s1_vel, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(s1_vel, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(s1_vel, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(s1_vel, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(s1_vel, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_s1_vel_unpack(
+    struct caekf_can_bench_s1_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t s1_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    s1_vel = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    s1_vel |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    s1_vel |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    s1_vel |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    s1_vel |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((s1_vel & (1ull << 35)) != 0ull) {
+        s1_vel |= 0xfffffff000000000ull;
+    }
+
+    dst_p->s1_vel = (int64_t)s1_vel;
+
+    return (0);
+}
+
+int caekf_can_bench_s1_vel_init(struct caekf_can_bench_s1_vel_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_s1_vel_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_s1_vel_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s1_vel_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_s1_vel_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_s1_vel_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_s1_vel_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s1_vel_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_s1_vel_s1_vel_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_s1_vel_s1_vel_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_bench_s2_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s2_vel_t *src_p,
+    size_t size)
+{
+    uint64_t s2_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    s2_vel = (uint64_t)src_p->s2_vel;
+    dst_p[3] |= pack_left_shift_u64(s2_vel, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(s2_vel, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(s2_vel, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(s2_vel, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(s2_vel, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_s2_vel_unpack(
+    struct caekf_can_bench_s2_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t s2_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    s2_vel = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    s2_vel |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    s2_vel |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    s2_vel |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    s2_vel |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((s2_vel & (1ull << 35)) != 0ull) {
+        s2_vel |= 0xfffffff000000000ull;
+    }
+
+    dst_p->s2_vel = (int64_t)s2_vel;
+
+    return (0);
+}
+
+int caekf_can_bench_s2_vel_init(struct caekf_can_bench_s2_vel_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_s2_vel_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_s2_vel_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s2_vel_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_s2_vel_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_s2_vel_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_s2_vel_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s2_vel_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_s2_vel_s2_vel_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_s2_vel_s2_vel_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_bench_s3_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s3_vel_t *src_p,
+    size_t size)
+{
+    uint64_t s3_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    s3_vel = (uint64_t)src_p->s3_vel;
+    dst_p[3] |= pack_left_shift_u64(s3_vel, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(s3_vel, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(s3_vel, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(s3_vel, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(s3_vel, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_s3_vel_unpack(
+    struct caekf_can_bench_s3_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t s3_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    s3_vel = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    s3_vel |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    s3_vel |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    s3_vel |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    s3_vel |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((s3_vel & (1ull << 35)) != 0ull) {
+        s3_vel |= 0xfffffff000000000ull;
+    }
+
+    dst_p->s3_vel = (int64_t)s3_vel;
+
+    return (0);
+}
+
+int caekf_can_bench_s3_vel_init(struct caekf_can_bench_s3_vel_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_s3_vel_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_s3_vel_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s3_vel_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_s3_vel_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_s3_vel_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_s3_vel_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s3_vel_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_s3_vel_s3_vel_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_s3_vel_s3_vel_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_bench_s4_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s4_vel_t *src_p,
+    size_t size)
+{
+    uint64_t s4_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    s4_vel = (uint64_t)src_p->s4_vel;
+    dst_p[3] |= pack_left_shift_u64(s4_vel, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(s4_vel, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(s4_vel, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(s4_vel, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(s4_vel, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_bench_s4_vel_unpack(
+    struct caekf_can_bench_s4_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t s4_vel;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    s4_vel = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    s4_vel |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    s4_vel |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    s4_vel |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    s4_vel |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((s4_vel & (1ull << 35)) != 0ull) {
+        s4_vel |= 0xfffffff000000000ull;
+    }
+
+    dst_p->s4_vel = (int64_t)s4_vel;
+
+    return (0);
+}
+
+int caekf_can_bench_s4_vel_init(struct caekf_can_bench_s4_vel_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_bench_s4_vel_t));
+
+    return 0;
+}
+
+bool caekf_can_bench_s4_vel_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s4_vel_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_bench_s4_vel_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_bench_s4_vel_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_bench_s4_vel_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_bench_s4_vel_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_bench_s4_vel_s4_vel_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_bench_s4_vel_s4_vel_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_est_q5_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q5_t *src_p,
+    size_t size)
+{
+    uint64_t q5;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    q5 = (uint64_t)src_p->q5;
+    dst_p[3] |= pack_left_shift_u64(q5, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(q5, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(q5, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(q5, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(q5, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_q5_unpack(
+    struct caekf_can_est_q5_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t q5;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    q5 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    q5 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    q5 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    q5 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    q5 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((q5 & (1ull << 35)) != 0ull) {
+        q5 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q5 = (int64_t)q5;
+
+    return (0);
+}
+
+int caekf_can_est_q5_init(struct caekf_can_est_q5_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_q5_t));
+
+    return 0;
+}
+
+bool caekf_can_est_q5_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q5_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_q5_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_q5_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_q5_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q5_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_q5_q5_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_q5_q5_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_est_q6_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q6_t *src_p,
+    size_t size)
+{
+    uint64_t q6;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    q6 = (uint64_t)src_p->q6;
+    dst_p[3] |= pack_left_shift_u64(q6, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(q6, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(q6, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(q6, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(q6, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_q6_unpack(
+    struct caekf_can_est_q6_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t q6;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    q6 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    q6 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    q6 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    q6 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    q6 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((q6 & (1ull << 35)) != 0ull) {
+        q6 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q6 = (int64_t)q6;
+
+    return (0);
+}
+
+int caekf_can_est_q6_init(struct caekf_can_est_q6_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_q6_t));
+
+    return 0;
+}
+
+bool caekf_can_est_q6_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q6_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_q6_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_q6_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_q6_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q6_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_q6_q6_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_q6_q6_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_est_q7_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q7_t *src_p,
+    size_t size)
+{
+    uint64_t q7;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    q7 = (uint64_t)src_p->q7;
+    dst_p[3] |= pack_left_shift_u64(q7, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(q7, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(q7, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(q7, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(q7, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_q7_unpack(
+    struct caekf_can_est_q7_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t q7;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    q7 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    q7 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    q7 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    q7 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    q7 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((q7 & (1ull << 35)) != 0ull) {
+        q7 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q7 = (int64_t)q7;
+
+    return (0);
+}
+
+int caekf_can_est_q7_init(struct caekf_can_est_q7_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_q7_t));
+
+    return 0;
+}
+
+bool caekf_can_est_q7_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q7_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_q7_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_q7_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_q7_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q7_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_q7_q7_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_q7_q7_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_est_q8_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q8_t *src_p,
+    size_t size)
+{
+    uint64_t q8;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    q8 = (uint64_t)src_p->q8;
+    dst_p[3] |= pack_left_shift_u64(q8, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(q8, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(q8, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(q8, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(q8, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_q8_unpack(
+    struct caekf_can_est_q8_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t q8;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    q8 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    q8 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    q8 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    q8 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    q8 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((q8 & (1ull << 35)) != 0ull) {
+        q8 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->q8 = (int64_t)q8;
+
+    return (0);
+}
+
+int caekf_can_est_q8_init(struct caekf_can_est_q8_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_q8_t));
+
+    return 0;
+}
+
+bool caekf_can_est_q8_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q8_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_q8_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_q8_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_q8_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_q8_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_q8_q8_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_q8_q8_is_in_phys_range(double value)
+{
+    return ((value >= -0.034359738368) && (value <= 0.034359738367));
+}
+
+int caekf_can_est_v5_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v5_t *src_p,
+    size_t size)
+{
+    uint64_t v5;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    v5 = (uint64_t)src_p->v5;
+    dst_p[3] |= pack_left_shift_u64(v5, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(v5, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(v5, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(v5, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(v5, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_v5_unpack(
+    struct caekf_can_est_v5_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t v5;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    v5 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    v5 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    v5 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    v5 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    v5 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((v5 & (1ull << 35)) != 0ull) {
+        v5 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v5 = (int64_t)v5;
+
+    return (0);
+}
+
+int caekf_can_est_v5_init(struct caekf_can_est_v5_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_v5_t));
+
+    return 0;
+}
+
+bool caekf_can_est_v5_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v5_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_v5_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_v5_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_v5_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v5_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_v5_v5_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_v5_v5_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_est_v6_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v6_t *src_p,
+    size_t size)
+{
+    uint64_t v6;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    v6 = (uint64_t)src_p->v6;
+    dst_p[3] |= pack_left_shift_u64(v6, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(v6, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(v6, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(v6, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(v6, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_v6_unpack(
+    struct caekf_can_est_v6_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t v6;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    v6 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    v6 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    v6 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    v6 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    v6 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((v6 & (1ull << 35)) != 0ull) {
+        v6 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v6 = (int64_t)v6;
+
+    return (0);
+}
+
+int caekf_can_est_v6_init(struct caekf_can_est_v6_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_v6_t));
+
+    return 0;
+}
+
+bool caekf_can_est_v6_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v6_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_v6_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_v6_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_v6_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v6_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_v6_v6_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_v6_v6_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_est_v7_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v7_t *src_p,
+    size_t size)
+{
+    uint64_t v7;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    v7 = (uint64_t)src_p->v7;
+    dst_p[3] |= pack_left_shift_u64(v7, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(v7, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(v7, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(v7, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(v7, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_v7_unpack(
+    struct caekf_can_est_v7_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t v7;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    v7 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    v7 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    v7 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    v7 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    v7 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((v7 & (1ull << 35)) != 0ull) {
+        v7 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v7 = (int64_t)v7;
+
+    return (0);
+}
+
+int caekf_can_est_v7_init(struct caekf_can_est_v7_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_v7_t));
+
+    return 0;
+}
+
+bool caekf_can_est_v7_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v7_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_v7_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_v7_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_v7_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v7_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_v7_v7_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_v7_v7_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_est_v8_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v8_t *src_p,
+    size_t size)
+{
+    uint64_t v8;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    v8 = (uint64_t)src_p->v8;
+    dst_p[3] |= pack_left_shift_u64(v8, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u64(v8, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u64(v8, 12u, 0xffu);
+    dst_p[6] |= pack_right_shift_u64(v8, 20u, 0xffu);
+    dst_p[7] |= pack_right_shift_u64(v8, 28u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_v8_unpack(
+    struct caekf_can_est_v8_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint64_t v8;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    v8 = unpack_right_shift_u64(src_p[3], 4u, 0xf0u);
+    v8 |= unpack_left_shift_u64(src_p[4], 4u, 0xffu);
+    v8 |= unpack_left_shift_u64(src_p[5], 12u, 0xffu);
+    v8 |= unpack_left_shift_u64(src_p[6], 20u, 0xffu);
+    v8 |= unpack_left_shift_u64(src_p[7], 28u, 0xffu);
+
+    if ((v8 & (1ull << 35)) != 0ull) {
+        v8 |= 0xfffffff000000000ull;
+    }
+
+    dst_p->v8 = (int64_t)v8;
+
+    return (0);
+}
+
+int caekf_can_est_v8_init(struct caekf_can_est_v8_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_v8_t));
+
+    return 0;
+}
+
+bool caekf_can_est_v8_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v8_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_v8_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_v8_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_v8_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_v8_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_v8_v8_is_in_range(int64_t value)
+{
+    return ((value >= -34359738368ll) && (value <= 34359738367ll));
+}
+
+bool caekf_can_est_v8_v8_is_in_phys_range(double value)
+{
+    return ((value >= -3.4359738368) && (value <= 3.4359738367));
+}
+
+int caekf_can_est_gamma2_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_gamma2_t *src_p,
+    size_t size)
+{
+    uint32_t gamma2;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    memcpy(&gamma2, &src_p->gamma2, sizeof(gamma2));
+    dst_p[4] |= pack_left_shift_u32(gamma2, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(gamma2, 8u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(gamma2, 16u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(gamma2, 24u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_gamma2_unpack(
+    struct caekf_can_est_gamma2_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t gamma2;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    gamma2 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+    gamma2 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+    gamma2 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+    gamma2 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+    memcpy(&dst_p->gamma2, &gamma2, sizeof(dst_p->gamma2));
+
+    return (0);
+}
+
+int caekf_can_est_gamma2_init(struct caekf_can_est_gamma2_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_gamma2_t));
+
+    return 0;
+}
+
+bool caekf_can_est_gamma2_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_gamma2_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_gamma2_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_gamma2_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_gamma2_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_gamma2_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_gamma2_gamma2_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_gamma2_gamma2_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}
+
+int caekf_can_est_p_gg2_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_p_gg2_t *src_p,
+    size_t size)
+{
+    uint32_t p_gamma2_gamma2;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->e2_e_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->e2_e_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u16(src_p->step, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u16(src_p->step, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(src_p->step, 12u, 0x0fu);
+    memcpy(&p_gamma2_gamma2, &src_p->p_gamma2_gamma2, sizeof(p_gamma2_gamma2));
+    dst_p[4] |= pack_left_shift_u32(p_gamma2_gamma2, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(p_gamma2_gamma2, 8u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(p_gamma2_gamma2, 16u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(p_gamma2_gamma2, 24u, 0xffu);
+
+    return (8);
+}
+
+int caekf_can_est_p_gg2_unpack(
+    struct caekf_can_est_p_gg2_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t p_gamma2_gamma2;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->e2_e_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->e2_e_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->step = unpack_right_shift_u16(src_p[1], 4u, 0xf0u);
+    dst_p->step |= unpack_left_shift_u16(src_p[2], 4u, 0xffu);
+    dst_p->step |= unpack_left_shift_u16(src_p[3], 12u, 0x0fu);
+    p_gamma2_gamma2 = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+    p_gamma2_gamma2 |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+    p_gamma2_gamma2 |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+    p_gamma2_gamma2 |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+    memcpy(&dst_p->p_gamma2_gamma2, &p_gamma2_gamma2, sizeof(dst_p->p_gamma2_gamma2));
+
+    return (0);
+}
+
+int caekf_can_est_p_gg2_init(struct caekf_can_est_p_gg2_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct caekf_can_est_p_gg2_t));
+
+    return 0;
+}
+
+bool caekf_can_est_p_gg2_e2_e_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_p_gg2_e2_e_crc_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 255.0));
+}
+
+bool caekf_can_est_p_gg2_e2_e_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool caekf_can_est_p_gg2_e2_e_counter_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 15.0));
+}
+
+bool caekf_can_est_p_gg2_step_is_in_range(uint16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool caekf_can_est_p_gg2_step_is_in_phys_range(double value)
+{
+    return ((value >= 0.0) && (value <= 65535.0));
+}
+
+bool caekf_can_est_p_gg2_p_gamma2_gamma2_is_in_range(float value)
+{
+    return ((value >= -3.40282347e+38f) && (value <= 3.40282347e+38f));
+}
+
+bool caekf_can_est_p_gg2_p_gamma2_gamma2_is_in_phys_range(double value)
+{
+    return ((value >= -3.40282347e+38) && (value <= 3.40282347e+38));
+}

@@ -70,6 +70,23 @@ extern "C" {
 #define CAEKF_CAN_EST_P_NORM_FRAME_ID (0x189u)
 #define CAEKF_CAN_EST_P_GG_FRAME_ID (0x18au)
 #define CAEKF_CAN_EST_STEP_FRAME_ID (0x18bu)
+#define CAEKF_CAN_BENCH_U2_FRAME_ID (0x105u)
+#define CAEKF_CAN_BENCH_S3_POS_FRAME_ID (0x106u)
+#define CAEKF_CAN_BENCH_S4_POS_FRAME_ID (0x107u)
+#define CAEKF_CAN_BENCH_S1_VEL_FRAME_ID (0x108u)
+#define CAEKF_CAN_BENCH_S2_VEL_FRAME_ID (0x109u)
+#define CAEKF_CAN_BENCH_S3_VEL_FRAME_ID (0x10au)
+#define CAEKF_CAN_BENCH_S4_VEL_FRAME_ID (0x10bu)
+#define CAEKF_CAN_EST_Q5_FRAME_ID (0x193u)
+#define CAEKF_CAN_EST_Q6_FRAME_ID (0x194u)
+#define CAEKF_CAN_EST_Q7_FRAME_ID (0x195u)
+#define CAEKF_CAN_EST_Q8_FRAME_ID (0x196u)
+#define CAEKF_CAN_EST_V5_FRAME_ID (0x197u)
+#define CAEKF_CAN_EST_V6_FRAME_ID (0x198u)
+#define CAEKF_CAN_EST_V7_FRAME_ID (0x199u)
+#define CAEKF_CAN_EST_V8_FRAME_ID (0x19au)
+#define CAEKF_CAN_EST_GAMMA2_FRAME_ID (0x19bu)
+#define CAEKF_CAN_EST_P_GG2_FRAME_ID (0x19cu)
 
 /* Frame lengths in bytes. */
 #define CAEKF_CAN_CTRL_RESET_LENGTH (8u)
@@ -97,6 +114,23 @@ extern "C" {
 #define CAEKF_CAN_EST_P_NORM_LENGTH (8u)
 #define CAEKF_CAN_EST_P_GG_LENGTH (8u)
 #define CAEKF_CAN_EST_STEP_LENGTH (8u)
+#define CAEKF_CAN_BENCH_U2_LENGTH (8u)
+#define CAEKF_CAN_BENCH_S3_POS_LENGTH (8u)
+#define CAEKF_CAN_BENCH_S4_POS_LENGTH (8u)
+#define CAEKF_CAN_BENCH_S1_VEL_LENGTH (8u)
+#define CAEKF_CAN_BENCH_S2_VEL_LENGTH (8u)
+#define CAEKF_CAN_BENCH_S3_VEL_LENGTH (8u)
+#define CAEKF_CAN_BENCH_S4_VEL_LENGTH (8u)
+#define CAEKF_CAN_EST_Q5_LENGTH (8u)
+#define CAEKF_CAN_EST_Q6_LENGTH (8u)
+#define CAEKF_CAN_EST_Q7_LENGTH (8u)
+#define CAEKF_CAN_EST_Q8_LENGTH (8u)
+#define CAEKF_CAN_EST_V5_LENGTH (8u)
+#define CAEKF_CAN_EST_V6_LENGTH (8u)
+#define CAEKF_CAN_EST_V7_LENGTH (8u)
+#define CAEKF_CAN_EST_V8_LENGTH (8u)
+#define CAEKF_CAN_EST_GAMMA2_LENGTH (8u)
+#define CAEKF_CAN_EST_P_GG2_LENGTH (8u)
 
 /* Extended or standard frame types. */
 #define CAEKF_CAN_CTRL_RESET_IS_EXTENDED (0)
@@ -124,6 +158,23 @@ extern "C" {
 #define CAEKF_CAN_EST_P_NORM_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_P_GG_IS_EXTENDED (0)
 #define CAEKF_CAN_EST_STEP_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_U2_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_S3_POS_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_S4_POS_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_S1_VEL_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_S2_VEL_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_S3_VEL_IS_EXTENDED (0)
+#define CAEKF_CAN_BENCH_S4_VEL_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_Q5_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_Q6_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_Q7_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_Q8_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_V5_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_V6_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_V7_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_V8_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_GAMMA2_IS_EXTENDED (0)
+#define CAEKF_CAN_EST_P_GG2_IS_EXTENDED (0)
 
 /* Frame cycle times in milliseconds. */
 
@@ -304,6 +355,23 @@ extern "C" {
 #define CAEKF_CAN_EST_P_NORM_NAME "EST_P_NORM"
 #define CAEKF_CAN_EST_P_GG_NAME "EST_P_GG"
 #define CAEKF_CAN_EST_STEP_NAME "EST_STEP"
+#define CAEKF_CAN_BENCH_U2_NAME "BENCH_U2"
+#define CAEKF_CAN_BENCH_S3_POS_NAME "BENCH_S3_POS"
+#define CAEKF_CAN_BENCH_S4_POS_NAME "BENCH_S4_POS"
+#define CAEKF_CAN_BENCH_S1_VEL_NAME "BENCH_S1_VEL"
+#define CAEKF_CAN_BENCH_S2_VEL_NAME "BENCH_S2_VEL"
+#define CAEKF_CAN_BENCH_S3_VEL_NAME "BENCH_S3_VEL"
+#define CAEKF_CAN_BENCH_S4_VEL_NAME "BENCH_S4_VEL"
+#define CAEKF_CAN_EST_Q5_NAME "EST_Q5"
+#define CAEKF_CAN_EST_Q6_NAME "EST_Q6"
+#define CAEKF_CAN_EST_Q7_NAME "EST_Q7"
+#define CAEKF_CAN_EST_Q8_NAME "EST_Q8"
+#define CAEKF_CAN_EST_V5_NAME "EST_V5"
+#define CAEKF_CAN_EST_V6_NAME "EST_V6"
+#define CAEKF_CAN_EST_V7_NAME "EST_V7"
+#define CAEKF_CAN_EST_V8_NAME "EST_V8"
+#define CAEKF_CAN_EST_GAMMA2_NAME "EST_GAMMA2"
+#define CAEKF_CAN_EST_P_GG2_NAME "EST_P_GG2"
 
 /* Signal Names. */
 #define CAEKF_CAN_CTRL_RESET_E2_E_CRC_NAME "E2E_CRC"
@@ -464,6 +532,74 @@ extern "C" {
 #define CAEKF_CAN_EST_STEP_FLAGS_NAME "FLAGS"
 #define CAEKF_CAN_EST_STEP_NEWTON_ITERS_NAME "NEWTON_ITERS"
 #define CAEKF_CAN_EST_STEP_STEP_STATUS_NAME "STEP_STATUS"
+#define CAEKF_CAN_BENCH_U2_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_U2_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_U2_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_U2_U2_NAME "U2"
+#define CAEKF_CAN_BENCH_S3_POS_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_S3_POS_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_S3_POS_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_S3_POS_S3_POS_NAME "S3_POS"
+#define CAEKF_CAN_BENCH_S4_POS_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_S4_POS_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_S4_POS_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_S4_POS_S4_POS_NAME "S4_POS"
+#define CAEKF_CAN_BENCH_S1_VEL_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_S1_VEL_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_S1_VEL_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_S1_VEL_S1_VEL_NAME "S1_VEL"
+#define CAEKF_CAN_BENCH_S2_VEL_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_S2_VEL_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_S2_VEL_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_S2_VEL_S2_VEL_NAME "S2_VEL"
+#define CAEKF_CAN_BENCH_S3_VEL_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_S3_VEL_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_S3_VEL_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_S3_VEL_S3_VEL_NAME "S3_VEL"
+#define CAEKF_CAN_BENCH_S4_VEL_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_BENCH_S4_VEL_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_BENCH_S4_VEL_STEP_NAME "STEP"
+#define CAEKF_CAN_BENCH_S4_VEL_S4_VEL_NAME "S4_VEL"
+#define CAEKF_CAN_EST_Q5_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_Q5_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_Q5_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_Q5_Q5_NAME "Q5"
+#define CAEKF_CAN_EST_Q6_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_Q6_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_Q6_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_Q6_Q6_NAME "Q6"
+#define CAEKF_CAN_EST_Q7_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_Q7_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_Q7_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_Q7_Q7_NAME "Q7"
+#define CAEKF_CAN_EST_Q8_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_Q8_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_Q8_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_Q8_Q8_NAME "Q8"
+#define CAEKF_CAN_EST_V5_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_V5_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_V5_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_V5_V5_NAME "V5"
+#define CAEKF_CAN_EST_V6_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_V6_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_V6_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_V6_V6_NAME "V6"
+#define CAEKF_CAN_EST_V7_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_V7_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_V7_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_V7_V7_NAME "V7"
+#define CAEKF_CAN_EST_V8_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_V8_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_V8_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_V8_V8_NAME "V8"
+#define CAEKF_CAN_EST_GAMMA2_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_GAMMA2_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_GAMMA2_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_GAMMA2_GAMMA2_NAME "GAMMA2"
+#define CAEKF_CAN_EST_P_GG2_E2_E_CRC_NAME "E2E_CRC"
+#define CAEKF_CAN_EST_P_GG2_E2_E_COUNTER_NAME "E2E_COUNTER"
+#define CAEKF_CAN_EST_P_GG2_STEP_NAME "STEP"
+#define CAEKF_CAN_EST_P_GG2_P_GAMMA2_GAMMA2_NAME "P_GAMMA2_GAMMA2"
 
 /**
  * Signals in message CTRL_RESET.
@@ -2110,6 +2246,771 @@ struct caekf_can_est_step_t {
      * Offset: 0
      */
     int8_t step_status;
+};
+
+/**
+ * Signals in message BENCH_U2.
+ *
+ * Step data: input force u2 (a mechanism's input 2; sent only when the mechanism has two inputs).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_u2_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Input force u2 (the mechanism's input 2). IEEE-754 float32 (bits 28..31 unused); the estimator refuses NaN and infinities.
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 N)
+     * Scale: 1
+     * Offset: 0
+     */
+    float u2;
+};
+
+/**
+ * Signals in message BENCH_S3_POS.
+ *
+ * Step data: sensor 3 of the mechanism when it is a position sensor (sent only then).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_s3_pos_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measured position of sensor 3. int36, LSB 1e-12 m, range +/-0.0343597 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t s3_pos;
+};
+
+/**
+ * Signals in message BENCH_S4_POS.
+ *
+ * Step data: sensor 4 of the mechanism when it is a position sensor (sent only then).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_s4_pos_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measured position of sensor 4. int36, LSB 1e-12 m, range +/-0.0343597 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t s4_pos;
+};
+
+/**
+ * Signals in message BENCH_S1_VEL.
+ *
+ * Step data: sensor 1 of the mechanism when it is a velocity sensor (sent only then).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_s1_vel_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measured velocity of sensor 1. int36, LSB 1e-10 m/s, range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t s1_vel;
+};
+
+/**
+ * Signals in message BENCH_S2_VEL.
+ *
+ * Step data: sensor 2 of the mechanism when it is a velocity sensor (sent only then).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_s2_vel_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measured velocity of sensor 2. int36, LSB 1e-10 m/s, range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t s2_vel;
+};
+
+/**
+ * Signals in message BENCH_S3_VEL.
+ *
+ * Step data: sensor 3 of the mechanism when it is a velocity sensor (sent only then).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_s3_vel_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measured velocity of sensor 3. int36, LSB 1e-10 m/s, range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t s3_vel;
+};
+
+/**
+ * Signals in message BENCH_S4_VEL.
+ *
+ * Step data: sensor 4 of the mechanism when it is a velocity sensor (sent only then).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_bench_s4_vel_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Measured velocity of sensor 4. int36, LSB 1e-10 m/s, range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t s4_vel;
+};
+
+/**
+ * Signals in message EST_Q5.
+ *
+ * Step data (diagnostics, mechanisms with 5 or more bodies): Estimated position q5.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_q5_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated position q5. int36, LSB 1e-12 m (quantisation <= 5e-13 m), range +/-0.0343597 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q5;
+};
+
+/**
+ * Signals in message EST_Q6.
+ *
+ * Step data (diagnostics, mechanisms with 6 or more bodies): Estimated position q6.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_q6_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated position q6. int36, LSB 1e-12 m (quantisation <= 5e-13 m), range +/-0.0343597 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q6;
+};
+
+/**
+ * Signals in message EST_Q7.
+ *
+ * Step data (diagnostics, mechanisms with 7 or more bodies): Estimated position q7.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_q7_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated position q7. int36, LSB 1e-12 m (quantisation <= 5e-13 m), range +/-0.0343597 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q7;
+};
+
+/**
+ * Signals in message EST_Q8.
+ *
+ * Step data (diagnostics, mechanisms with 8 or more bodies): Estimated position q8.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_q8_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated position q8. int36, LSB 1e-12 m (quantisation <= 5e-13 m), range +/-0.0343597 m; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-0.03436..0.03436 m)
+     * Scale: 1e-12
+     * Offset: 0
+     */
+    int64_t q8;
+};
+
+/**
+ * Signals in message EST_V5.
+ *
+ * Step data (diagnostics, mechanisms with 5 or more bodies): Estimated velocity v5.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_v5_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated velocity v5. int36, LSB 1e-10 m/s (quantisation <= 5e-11 m/s), range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v5;
+};
+
+/**
+ * Signals in message EST_V6.
+ *
+ * Step data (diagnostics, mechanisms with 6 or more bodies): Estimated velocity v6.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_v6_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated velocity v6. int36, LSB 1e-10 m/s (quantisation <= 5e-11 m/s), range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v6;
+};
+
+/**
+ * Signals in message EST_V7.
+ *
+ * Step data (diagnostics, mechanisms with 7 or more bodies): Estimated velocity v7.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_v7_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated velocity v7. int36, LSB 1e-10 m/s (quantisation <= 5e-11 m/s), range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v7;
+};
+
+/**
+ * Signals in message EST_V8.
+ *
+ * Step data (diagnostics, mechanisms with 8 or more bodies): Estimated velocity v8.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_v8_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated velocity v8. int36, LSB 1e-10 m/s (quantisation <= 5e-11 m/s), range +/-3.43597 m/s; saturates at the range ends.
+     *
+     * Range: -34359738368..34359738367 (-3.43597..3.43597 m/s)
+     * Scale: 1e-10
+     * Offset: 0
+     */
+    int64_t v8;
+};
+
+/**
+ * Signals in message EST_GAMMA2.
+ *
+ * Step data (diagnostics, mechanisms with two contacts): Estimated stiffness gamma2 of contact 2.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_gamma2_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Estimated stiffness gamma2 of contact 2. IEEE-754 float32 (relative resolution 6e-8, bits 28..31 unused).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 N/m^n)
+     * Scale: 1
+     * Offset: 0
+     */
+    float gamma2;
+};
+
+/**
+ * Signals in message EST_P_GG2.
+ *
+ * Step data (diagnostics, mechanisms with two contacts): Covariance entry P_gamma2,gamma2.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct caekf_can_est_p_gg2_t {
+    /**
+     * CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF) over E2E_DataID low byte, E2E_DataID high byte, payload bytes 1..7.
+     *
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_crc;
+
+    /**
+     * Alive counter: +1 per frame of this message, wraps 15 -> 0.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t e2_e_counter;
+
+    /**
+     * Bench step index k modulo 2^16; ties the frames of one step together.
+     *
+     * Range: 0..65535 (0..65535 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t step;
+
+    /**
+     * Covariance entry P_gamma2,gamma2. IEEE-754 float32 (relative resolution 6e-8, bits 28..31 unused).
+     *
+     * Range: -3.40282347e+38..3.40282347e+38 (-3.40282347e+38..3.40282347e+38 (N/m^n)^2)
+     * Scale: 1
+     * Offset: 0
+     */
+    float p_gamma2_gamma2;
 };
 
 /**
@@ -6512,6 +7413,2131 @@ bool caekf_can_est_step_step_status_is_in_range(int8_t value);
  * @return true if in range, false otherwise.
  */
 bool caekf_can_est_step_step_status_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_U2.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_u2_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_u2_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_U2.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_u2_unpack(
+    struct caekf_can_bench_u2_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_U2.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_u2_init(struct caekf_can_bench_u2_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_u2_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_u2_u2_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_S3_POS.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_s3_pos_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s3_pos_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_S3_POS.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_s3_pos_unpack(
+    struct caekf_can_bench_s3_pos_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_S3_POS.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_s3_pos_init(struct caekf_can_bench_s3_pos_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_s3_pos_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_pos_s3_pos_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_S4_POS.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_s4_pos_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s4_pos_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_S4_POS.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_s4_pos_unpack(
+    struct caekf_can_bench_s4_pos_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_S4_POS.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_s4_pos_init(struct caekf_can_bench_s4_pos_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_s4_pos_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_pos_s4_pos_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_S1_VEL.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_s1_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s1_vel_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_S1_VEL.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_s1_vel_unpack(
+    struct caekf_can_bench_s1_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_S1_VEL.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_s1_vel_init(struct caekf_can_bench_s1_vel_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_s1_vel_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s1_vel_s1_vel_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_S2_VEL.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_s2_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s2_vel_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_S2_VEL.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_s2_vel_unpack(
+    struct caekf_can_bench_s2_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_S2_VEL.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_s2_vel_init(struct caekf_can_bench_s2_vel_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_s2_vel_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s2_vel_s2_vel_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_S3_VEL.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_s3_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s3_vel_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_S3_VEL.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_s3_vel_unpack(
+    struct caekf_can_bench_s3_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_S3_VEL.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_s3_vel_init(struct caekf_can_bench_s3_vel_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_s3_vel_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s3_vel_s3_vel_is_in_phys_range(double value);
+
+/**
+ * Pack message BENCH_S4_VEL.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_bench_s4_vel_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_bench_s4_vel_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message BENCH_S4_VEL.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_bench_s4_vel_unpack(
+    struct caekf_can_bench_s4_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from BENCH_S4_VEL.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_bench_s4_vel_init(struct caekf_can_bench_s4_vel_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_s4_vel_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_bench_s4_vel_s4_vel_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_Q5.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_q5_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q5_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_Q5.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_q5_unpack(
+    struct caekf_can_est_q5_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_Q5.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_q5_init(struct caekf_can_est_q5_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_q5_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q5_q5_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_Q6.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_q6_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q6_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_Q6.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_q6_unpack(
+    struct caekf_can_est_q6_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_Q6.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_q6_init(struct caekf_can_est_q6_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_q6_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q6_q6_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_Q7.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_q7_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q7_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_Q7.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_q7_unpack(
+    struct caekf_can_est_q7_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_Q7.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_q7_init(struct caekf_can_est_q7_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_q7_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q7_q7_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_Q8.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_q8_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_q8_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_Q8.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_q8_unpack(
+    struct caekf_can_est_q8_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_Q8.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_q8_init(struct caekf_can_est_q8_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_q8_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_q8_q8_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_V5.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_v5_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v5_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_V5.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_v5_unpack(
+    struct caekf_can_est_v5_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_V5.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_v5_init(struct caekf_can_est_v5_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_v5_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v5_v5_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_V6.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_v6_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v6_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_V6.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_v6_unpack(
+    struct caekf_can_est_v6_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_V6.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_v6_init(struct caekf_can_est_v6_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_v6_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v6_v6_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_V7.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_v7_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v7_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_V7.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_v7_unpack(
+    struct caekf_can_est_v7_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_V7.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_v7_init(struct caekf_can_est_v7_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_v7_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v7_v7_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_V8.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_v8_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_v8_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_V8.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_v8_unpack(
+    struct caekf_can_est_v8_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_V8.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_v8_init(struct caekf_can_est_v8_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_v8_is_in_range(int64_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_v8_v8_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_GAMMA2.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_gamma2_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_gamma2_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_GAMMA2.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_gamma2_unpack(
+    struct caekf_can_est_gamma2_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_GAMMA2.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_gamma2_init(struct caekf_can_est_gamma2_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_gamma2_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_gamma2_gamma2_is_in_phys_range(double value);
+
+/**
+ * Pack message EST_P_GG2.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int caekf_can_est_p_gg2_pack(
+    uint8_t *dst_p,
+    const struct caekf_can_est_p_gg2_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message EST_P_GG2.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int caekf_can_est_p_gg2_unpack(
+    struct caekf_can_est_p_gg2_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from EST_P_GG2.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int caekf_can_est_p_gg2_init(struct caekf_can_est_p_gg2_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_e2_e_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_e2_e_crc_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_e2_e_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_e2_e_counter_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_step_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_step_is_in_phys_range(double value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_p_gamma2_gamma2_is_in_range(float value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool caekf_can_est_p_gg2_p_gamma2_gamma2_is_in_phys_range(double value);
 
 
 #ifdef __cplusplus

@@ -1,4 +1,4 @@
-/* Codec of the per-step frames (BENCH_U/Y1/Y4, EST_* value frames, EST_STEP) on the C pack/unpack that
+/* Codec of the per-step frames (BENCH_U/U2/Y1/Y4/S*_POS/S*_VEL, EST_* value frames, EST_STEP) on the C pack/unpack that
  * cantools generates from caekf.dbc (firmware/protocol/gen, `caekf-sim gen-c`): the bit layout comes
  * from the DBC only. Here: cantools' scaling (round half to even of value / LSB, float32 bit patterns),
  * range clipping, and the refusal of non-finite inputs; the E2E layer seals the frames afterwards. */
@@ -36,7 +36,24 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
     X(CAEKF_MSG_EST_V3, est_v3, v3, int)                       \
     X(CAEKF_MSG_EST_V4, est_v4, v4, int)                       \
     X(CAEKF_MSG_EST_P_NORM, est_p_norm, p_norm, float)         \
-    X(CAEKF_MSG_EST_P_GG, est_p_gg, p_gamma_gamma, float)
+    X(CAEKF_MSG_EST_P_GG, est_p_gg, p_gamma_gamma, float)         \
+    X(CAEKF_MSG_BENCH_U2, bench_u2, u2, float)                     \
+    X(CAEKF_MSG_BENCH_S3_POS, bench_s3_pos, s3_pos, int)           \
+    X(CAEKF_MSG_BENCH_S4_POS, bench_s4_pos, s4_pos, int)           \
+    X(CAEKF_MSG_BENCH_S1_VEL, bench_s1_vel, s1_vel, int)           \
+    X(CAEKF_MSG_BENCH_S2_VEL, bench_s2_vel, s2_vel, int)           \
+    X(CAEKF_MSG_BENCH_S3_VEL, bench_s3_vel, s3_vel, int)           \
+    X(CAEKF_MSG_BENCH_S4_VEL, bench_s4_vel, s4_vel, int)           \
+    X(CAEKF_MSG_EST_Q5, est_q5, q5, int)                           \
+    X(CAEKF_MSG_EST_Q6, est_q6, q6, int)                           \
+    X(CAEKF_MSG_EST_Q7, est_q7, q7, int)                           \
+    X(CAEKF_MSG_EST_Q8, est_q8, q8, int)                           \
+    X(CAEKF_MSG_EST_V5, est_v5, v5, int)                           \
+    X(CAEKF_MSG_EST_V6, est_v6, v6, int)                           \
+    X(CAEKF_MSG_EST_V7, est_v7, v7, int)                           \
+    X(CAEKF_MSG_EST_V8, est_v8, v8, int)                           \
+    X(CAEKF_MSG_EST_GAMMA2, est_gamma2, gamma2, float)             \
+    X(CAEKF_MSG_EST_P_GG2, est_p_gg2, p_gamma2_gamma2, float)
 
 /* A value as the generated struct holds it: int64 raw for the scaled signals, the float32 itself
  * (bit pattern copied, so no conversion can alter it) for the float signals. */
@@ -45,7 +62,7 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
 #define GET_int(src, raw, bits) ((raw) = (src))
 #define GET_float(src, raw, bits) memcpy(&(bits), &(src), sizeof(uint32_t))
 
-/* One object for whichever message a call handles: the stack holds the largest struct, not all 14. */
+/* One object for whichever message a call handles: the stack holds the largest struct, not all 31. */
 #define UNION_MEMBER(id, name, field, kind) struct caekf_can_##name##_t name;
 typedef union {
     VALUE_MESSAGES(UNION_MEMBER)

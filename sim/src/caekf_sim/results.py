@@ -65,6 +65,10 @@ def read_result_csv(path: PathLike) -> EstimateResult:
                                f"{p}: {data.shape[1]} columns, the header has {len(header)}")
     col = {name: data[:, header.index(name)] for name in want}
     x = np.column_stack([col[c] for c in want[1 : 1 + 2 * nq + nc]])
+    # caekf-replay's P_gamma,gamma of every contact: p_gg, p_gg2.. (other writers: p_gg alone)
+    pgg_names = ["p_gg"] + [f"p_gg{i}" for i in range(2, nc + 1)]
+    p_ggs = (np.column_stack([data[:, header.index(c)] for c in pgg_names])
+             if nc > 1 and all(c in header for c in pgg_names) else None)
     return EstimateResult(
         t=col["t"],
         x=x,
@@ -73,4 +77,5 @@ def read_result_csv(path: PathLike) -> EstimateResult:
         flags=col["flags"].astype(np.int64),
         newton_iters=col["newton_iters"].astype(np.int64),
         n_contacts=nc,
+        p_ggs=p_ggs,
     )

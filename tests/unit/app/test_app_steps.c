@@ -392,12 +392,12 @@ static void test_id_offset_moves_every_frame_and_the_dbc_ids_become_foreign(void
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_config_default(&cfg));
     TEST_ASSERT_EQUAL_INT(0, cfg.id_offset);
     cfg.status_period_us = 0;
-    cfg.id_offset = (int16_t)(0x7FF - 0x192 + 1); /* EST_FD (0x192) would leave the 11-bit range */
+    cfg.id_offset = (int16_t)(0x7FF - 0x19C + 1); /* EST_P_GG2 (0x19C, the highest ID) would leave the 11-bit range */
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_CONFIG, caekf_app_init(&app, &hal, &cfg));
     cfg.id_offset = -0x0C1; /* CTRL_RESET (0x0C0) would go below 0 */
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_CONFIG, caekf_app_init(&app, &hal, &cfg));
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_bus_id(CAEKF_MSG_EST_FD, cfg.id_offset, &id));
-    cfg.id_offset = 0x7FF - 0x192; /* the last valid offset: EST_FD at 0x7FF */
+    cfg.id_offset = 0x7FF - 0x19C; /* the last valid offset: EST_P_GG2 at 0x7FF */
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_init(&app, &hal, &cfg));
     cfg.id_offset = 0x500;
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_init(&app, &hal, &cfg));

@@ -155,9 +155,10 @@ static int check_init(caekf_mcu_selftest_t *t)
           "init: MCR options", r->MCR);
     (void)caekf_bxcan_timing_btr(&expect, &btr);
     CHECK(t, r->BTR == btr, "init: BTR is not 1 Mbit/s at 42 MHz (BRP 3, TS1 11, TS2 2, SJW 1)", r->BTR);
-    CHECK(t, t->fw.filter_banks == 2u && (r->FA1R & 3u) == 3u && (r->FM1R & 3u) == 3u && (r->FS1R & 3u) == 0u &&
-                 (r->FFA1R & 3u) == 0u && (r->FMR & CAEKF_BXCAN_FMR_FINIT) == 0u,
-          "init: filter banks 0..1 not active 16-bit lists for FIFO 0", r->FA1R);
+    /* 15 input IDs (the profiles' and a mechanism's), 4 per 16-bit list bank */
+    CHECK(t, t->fw.filter_banks == 4u && (r->FA1R & 0xFu) == 0xFu && (r->FM1R & 0xFu) == 0xFu && (r->FS1R & 0xFu) == 0u &&
+                 (r->FFA1R & 0xFu) == 0u && (r->FMR & CAEKF_BXCAN_FMR_FINIT) == 0u,
+          "init: filter banks 0..3 not active 16-bit lists for FIFO 0", r->FA1R);
     return 0;
 }
 

@@ -72,28 +72,30 @@ static void accept_all(void)
 static void test_rx_ids_are_the_protocol_inputs(void)
 {
     uint16_t ids[CAEKF_MSG_COUNT];
-    const uint16_t expect[8] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u, 0x104u};
+    /* the paper's and the production and fd profiles' inputs, then a mechanism's (BENCH_U2, BENCH_S*_POS/VEL) */
+    const uint16_t expect[15] = {0x0C0u, 0x0C1u, 0x0C2u, 0x100u, 0x101u, 0x102u, 0x103u, 0x104u,
+                                 0x105u, 0x106u, 0x107u, 0x108u, 0x109u, 0x10Au, 0x10Bu};
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0, ids, (unsigned)CAEKF_MSG_COUNT));
-    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 8);
+    TEST_ASSERT_EQUAL_UINT(15u, caekf_mcu_hal_rx_ids(0, ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_HEX16_ARRAY(expect, ids, 15);
     memset(ids, 0, sizeof ids);
-    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0, ids, 2u)); /* count, but only 2 written */
+    TEST_ASSERT_EQUAL_UINT(15u, caekf_mcu_hal_rx_ids(0, ids, 2u)); /* count, but only 2 written */
     TEST_ASSERT_EQUAL_HEX16(0x0C1u, ids[1]);
     TEST_ASSERT_EQUAL_HEX16(0u, ids[2]);
     /* the runtime ID base moves them all; an offset leaving 0..0x7FF gives none */
-    TEST_ASSERT_EQUAL_UINT(8u, caekf_mcu_hal_rx_ids(0x500, ids, (unsigned)CAEKF_MSG_COUNT));
+    TEST_ASSERT_EQUAL_UINT(15u, caekf_mcu_hal_rx_ids(0x500, ids, (unsigned)CAEKF_MSG_COUNT));
     TEST_ASSERT_EQUAL_HEX16(0x5C0u, ids[0]);
     TEST_ASSERT_EQUAL_HEX16(0x603u, ids[6]);
     TEST_ASSERT_EQUAL_UINT(0u, caekf_mcu_hal_rx_ids(0x700, ids, (unsigned)CAEKF_MSG_COUNT));
 }
 
-static void test_program_filters_uses_two_list_banks(void)
+static void test_program_filters_uses_four_list_banks(void)
 {
     unsigned banks = 0;
     TEST_ASSERT_EQUAL_INT(CAEKF_BXCAN_OK, caekf_mcu_hal_program_filters(&fake.regs, 4u, 0, &banks));
-    TEST_ASSERT_EQUAL_UINT(2u, banks);
-    TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FA1R);
-    TEST_ASSERT_EQUAL_HEX32(0x30u, fake.regs.FM1R);
+    TEST_ASSERT_EQUAL_UINT(4u, banks); /* 15 IDs, 4 per bank */
+    TEST_ASSERT_EQUAL_HEX32(0xF0u, fake.regs.FA1R);
+    TEST_ASSERT_EQUAL_HEX32(0xF0u, fake.regs.FM1R);
     TEST_ASSERT_EQUAL_HEX32(0x18201800u, fake.regs.filter[4].FR1);
     TEST_ASSERT_EQUAL_HEX32(0x20802060u, fake.regs.filter[5].FR2); /* 0x103, 0x104 (BENCH_FD) */
 }
@@ -343,7 +345,7 @@ int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_rx_ids_are_the_protocol_inputs);
-    RUN_TEST(test_program_filters_uses_two_list_banks);
+    RUN_TEST(test_program_filters_uses_four_list_banks);
     RUN_TEST(test_receive_maps_frames);
     RUN_TEST(test_receive_reports_driver_errors);
     RUN_TEST(test_transmit_queues_in_order);

@@ -80,10 +80,11 @@ typedef struct {
 /* The step being assembled from the bench's frames. */
 typedef struct {
     uint8_t open;        /* 1 while a step is partially received */
-    uint8_t have;        /* bit per input: 1 U, 2 Y1, 4 Y4 */
+    uint8_t have;        /* bit per value: 1 << i input i (BENCH_U, BENCH_U2), 1 << (CAEKF_MAX_INPUTS + s) sensor s */
     uint16_t step;       /* STEP of the frames */
     uint32_t opened_us;  /* time of its first frame */
-    double u, y1, y4;
+    double u[CAEKF_MAX_INPUTS];  /* the mechanism's inputs */
+    double y[CAEKF_MAX_SENSORS]; /* its sensors, in sensor order */
 } caekf_app_slot_t;
 
 typedef struct {
@@ -104,7 +105,7 @@ typedef struct {
     caekf_app_slot_t slot;
     uint16_t last_closed_step;   /* last step estimated or dropped: frames up to it are late */
     uint16_t last_run_step;      /* last step estimated: a jump in STEP is a step gap */
-    double last_u;               /* input of that step, held over a gap's prediction-only steps */
+    double last_u[CAEKF_MAX_INPUTS]; /* inputs of that step, held over a gap's prediction-only steps */
     uint8_t have_closed, have_run;
 
     caekf_e2e_rx_t rx[CAEKF_MSG_COUNT];         /* receive side, used for bench messages */

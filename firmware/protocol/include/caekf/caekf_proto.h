@@ -65,6 +65,26 @@ typedef enum {
     CAEKF_MSG_EST_PAGE,   /* production profile: multiplexed pages of the full estimate */
     CAEKF_MSG_BENCH_FD,   /* CAN FD profile: u, y1, y4 in one 20-byte frame */
     CAEKF_MSG_EST_FD,     /* CAN FD profile: the whole estimate in one 64-byte frame */
+    /* Diagnostics profile, a mechanism's inputs and sensors beyond the paper's u, y1, y4 (sent only when
+     * the mechanism has them): input 2, sensors 3 and 4 as positions, sensors 1..4 as velocities. */
+    CAEKF_MSG_BENCH_U2,
+    CAEKF_MSG_BENCH_S3_POS,
+    CAEKF_MSG_BENCH_S4_POS,
+    CAEKF_MSG_BENCH_S1_VEL,
+    CAEKF_MSG_BENCH_S2_VEL,
+    CAEKF_MSG_BENCH_S3_VEL,
+    CAEKF_MSG_BENCH_S4_VEL,
+    /* Diagnostics profile, a mechanism's bodies 5..8 and contact 2 (sent only when it has them). */
+    CAEKF_MSG_EST_Q5,
+    CAEKF_MSG_EST_Q6,
+    CAEKF_MSG_EST_Q7,
+    CAEKF_MSG_EST_Q8,
+    CAEKF_MSG_EST_V5,
+    CAEKF_MSG_EST_V6,
+    CAEKF_MSG_EST_V7,
+    CAEKF_MSG_EST_V8,
+    CAEKF_MSG_EST_GAMMA2,
+    CAEKF_MSG_EST_P_GG2,
     CAEKF_MSG_COUNT
 } caekf_msg_t;
 
@@ -88,7 +108,9 @@ typedef enum {
 /* Protocol profiles: which frames carry a step. The app sends the estimate frames of its profile;
  * it accepts the input frames of every profile. */
 typedef enum {
-    CAEKF_PROFILE_DIAGNOSTICS = 0, /* BENCH_U/Y1/Y4 in, 12 EST_* out per step (vcan, the HIL reference) */
+    CAEKF_PROFILE_DIAGNOSTICS = 0, /* the mechanism's input frames in (the paper: BENCH_U/Y1/Y4), EST_GAMMA, EST_Q/V
+                                      of every body, EST_P_NORM, EST_P_GG (+ EST_GAMMA2, EST_P_GG2), EST_STEP out
+                                      per step (vcan, the HIL reference; the paper: 12 frames) */
     CAEKF_PROFILE_PRODUCTION = 1,  /* BENCH_U + BENCH_YP in, EST_PROD out per step, EST_PAGE pages */
     CAEKF_PROFILE_FD = 2,          /* CAN FD: BENCH_FD in, EST_FD out per step (E2E with CRC-16) */
     CAEKF_PROFILE_COUNT
@@ -125,7 +147,8 @@ caekf_proto_status_t caekf_proto_msg_from_bus_id(uint32_t can_id, int32_t id_off
 /* Sets ID and DLC (the message's length), writes the alive counter and the CRC (CRC-16 for CAN FD frames). */
 caekf_proto_status_t caekf_proto_seal(caekf_msg_t msg, uint8_t counter, caekf_can_frame_t *frame);
 
-/* Step value frames (INT36 and FLOAT32 layouts: BENCH_U/Y1/Y4, EST_GAMMA/Q/V/P_NORM/P_GG).
+/* Step value frames (INT36 and FLOAT32 layouts: BENCH_U/U2/Y1/Y4/S*_POS/S*_VEL, EST_GAMMA/GAMMA2/Q/V/P_NORM/
+ * P_GG/P_GG2).
  * Encode: out-of-range values are clipped and CAEKF_PROTO_SATURATED returned (NaN in an INT36 signal
  * becomes 0, saturated); float signals carry NaN and infinities unchanged.
  * Decode: CAEKF_PROTO_ERR_VALUE for a non-finite float; outputs are written only on success. */

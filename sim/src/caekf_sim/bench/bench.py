@@ -33,7 +33,7 @@ import numpy as np
 from .. import schema
 from . import e2e
 from .codec import RECORD, RECORD_FD, Codec, record_size, records_array
-from .profiles import Profile, get_profile
+from .profiles import INPUT_KEYS, SENSOR_KEYS, Profile, get_profile, mechanism_profile
 from .transport import Transport, make_transport, open_bus
 
 STEP_MOD = 1 << 16
@@ -70,8 +70,9 @@ class StepInputs:
     y: np.ndarray
     wire_steps: np.ndarray  # STEP field per row: sample number k = row + 1, modulo 2^16
     payloads: Dict[str, np.ndarray]  # input message of the profile -> (n, 8) uint8, E2E fields zero
-    u_seen: np.ndarray
-    y_seen: np.ndarray
+    u_seen: np.ndarray  # (n,) for one input, (n, inputs) for more
+    y_seen: np.ndarray  # (n, sensors)
+    names: Tuple[str, ...] = ("u", "y1", "y4")  # measurement CSV columns after t: the inputs, then the sensors
 
     def __len__(self) -> int:
         return len(self.t)
@@ -155,6 +156,36 @@ class Bench:
         self._step_mask = self.profile.step_mask
         self._ack_id = self.codec.messages["EST_ACK"].frame_id
         self._health_id = self.codec.messages["EST_HEALTH"].frame_id
+        self.names: Tuple[str, ...] = ("u", "y1", "y4")  # the paper's measurement columns (use_mechanism)
+
+    def use_mechanism(self, sc) -> Profile:
+        """Drive a scenario's mechanism (diagnostics profile only): its inputs and sensors in, every body's and
+        contact's estimate out (profiles.mechanism_profile; the paper's mechanism keeps the paper's frames).
+        `prepare` then takes its truth's u and y and names the seen inputs' columns as caekf-replay reads them."""
+        from ..mechanism import Mechanism
+
+        if self.profile.name != "diagnostics":
+            raise BenchError(f"profile {self.profile.name} carries the paper's frames only (input 1, sensors 1 and "
+                             "2 as positions, bodies 1..4, contact 1): run a mechanism in the diagnostics profile")
+        mech = Mechanism.from_scenario(sc)
+        self.profile = mechanism_profile(mech)
+        self.names = tuple(mech.input_names()) + tuple(mech.sensor_names())
+        return self.profile
+
+    def match_scenario(self, sc) -> Profile:
+        """The profile for a scenario's mechanism: diagnostics -> use_mechanism; production and fd carry the
+        paper's inputs only (input 1, sensors 1 and 2 as positions): another mechanism is refused there, rather
+        than its sensors sent on frames of another kind."""
+        from ..mechanism import POSITION, Mechanism
+
+        if self.profile.name == "diagnostics":
+            return self.use_mechanism(sc)
+        mech = Mechanism.from_scenario(sc)
+        if mech.n_inputs != 1 or mech.sensor_kind.tolist() != [POSITION, POSITION]:
+            raise BenchError(f"profile {self.profile.name} carries one input and two position sensors; this mechanism "
+                             f"has {mech.n_inputs} input(s) and sensors {', '.join(mech.sensor_names())}: run it in "
+                             "the diagnostics profile")
+        return self.profile
 
     @classmethod
     def open(cls, interface: str = "socketcan", channel: str = "vcan0", fast: bool = True,
@@ -302,7 +333,7 @@ class Bench:
         """Every CTRL_PARAM setting of the scenario (its values over the schema's defaults) with the
         named preset's values over them, in PARAM_ID order: a complete configuration, so nothing of an
         earlier one carries over. The estimator knows no presets: they travel as ordinary settings."""
-        params = schema.wire_values(sc.values(), preset)
+        params = schema.wire_values(sc.values(), preset, complete=True)
         unknown = [k for k, _ in params if k not in self.codec.param_ids]
         if unknown:
             raise BenchError(f"the DBC has no PARAM_ID for {unknown[0]!r} (is it stale? run codegen.py dbc)")
@@ -340,13 +371,19 @@ class Bench:
     # --- inputs ---------------------------------------------------------------------------
 
     def prepare(self, t, u, y, check: bool = True) -> StepInputs:
-        """Encode every step's input frames once (numpy, from the DBC); checked against cantools."""
+        """Encode every step's input frames once (numpy, from the DBC); checked against cantools. u: (n,) or
+        (n, inputs), y: (n, sensors) in the mechanism's order (use_mechanism; the paper: y1, y4)."""
         t = np.asarray(t, dtype=float)
-        u = np.asarray(u, dtype=float)
-        y = np.asarray(y, dtype=float).reshape(-1, 2)
         n = len(t)
+        u2 = np.asarray(u, dtype=float).reshape(n, -1)
+        y2 = np.asarray(y, dtype=float).reshape(n, -1)
         steps = (np.arange(1, n + 1) % STEP_MOD).astype(np.int64)
-        values = {"u": u, "y1": y[:, 0], "y4": y[:, 1]}
+        values = {**{INPUT_KEYS[i]: u2[:, i] for i in range(min(u2.shape[1], len(INPUT_KEYS)))},
+                  **{SENSOR_KEYS[s]: y2[:, s] for s in range(min(y2.shape[1], len(SENSOR_KEYS)))}}
+        missing = [col for _, sigs in self.profile.inputs for _, col in sigs if col not in values]
+        if missing:
+            raise BenchError(f"profile {self.profile.name} sends {', '.join(missing)}: the inputs have "
+                             f"{u2.shape[1]} input(s) and {y2.shape[1]} sensor(s)")
         payloads = {}
         seen = {}
         for name, sigs in self.profile.inputs:
@@ -360,7 +397,11 @@ class Bench:
             rows = sorted({0, n // 2, n - 1})
             self.codec.self_check([(name, {"STEP": int(steps[r]), **{sig: float(values[col][r]) for sig, col in sigs}})
                                    for r in rows for name, sigs in self.profile.inputs])
-        return StepInputs(t, u, y, steps, payloads, seen["u"], np.column_stack([seen["y1"], seen["y4"]]))
+        u_keys = [k for k in INPUT_KEYS if k in seen]
+        y_keys = [k for k in SENSOR_KEYS if k in seen]
+        u_seen = seen[u_keys[0]] if len(u_keys) == 1 else np.column_stack([seen[k] for k in u_keys])
+        y_seen = np.column_stack([seen[k] for k in y_keys])
+        return StepInputs(t, u2[:, 0] if u2.shape[1] == 1 else u2, y2, steps, payloads, u_seen, y_seen, self.names)
 
     def seal_steps(self, inputs: StepInputs, start: int, stop: int, order: Optional[Sequence[str]] = None,
                    extra: bytes = b"") -> List[bytes]:

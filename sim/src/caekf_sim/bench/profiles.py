@@ -5,7 +5,9 @@ estimator's profile is a runtime choice (`caekf-host --profile`), the bench's to
 (`caekf-sim hil run --profile`); both sides must agree.
 
 - diagnostics: BENCH_U, BENCH_Y1, BENCH_Y4 in; EST_GAMMA, EST_Q1..4, EST_V1..4, EST_P_NORM, EST_P_GG,
-  EST_STEP out, every step (vcan; the HIL's reference for the equality with caekf-replay).
+  EST_STEP out, every step (vcan; the HIL's reference for the equality with caekf-replay). Any mechanism
+  within the DBC's sizes: `diagnostics_for` / `mechanism_profile` (its inputs and sensors in, every body's
+  q and v and every contact's gamma and P_gamma,gamma out).
 - production: BENCH_U, BENCH_YP in; EST_PROD out every step (gamma, the estimator's flags, STEP mod
   2^8); the rest of the estimate as EST_PAGE pages 0..10, one page per step at the first 11 steps of
   every page period (default 20 steps), for a real 1 Mbit/s classic bus.
@@ -113,6 +115,63 @@ FD = Profile(
 DATA_BITRATE = 5e6  # CAN FD data phase of the fd profile's bus load
 
 PROFILES: Dict[str, Profile] = {p.name: p for p in (DIAGNOSTICS, PRODUCTION, FD)}
+
+# A mechanism's step values in the diagnostics profile (firmware/app/src/app_assembly.c): input i and sensor s
+# by their index; StepInputs keys them as below (the paper's names for input 1 and sensors 1, 2).
+INPUT_KEYS = ("u", "u2")
+SENSOR_KEYS = ("y1", "y4", "y3s", "y4s")
+INPUT_FRAMES = (("BENCH_U", "U"), ("BENCH_U2", "U2"))
+POSITION_FRAMES = (("BENCH_Y1", "Y1"), ("BENCH_Y4", "Y4"), ("BENCH_S3_POS", "S3_POS"), ("BENCH_S4_POS", "S4_POS"))
+VELOCITY_FRAMES = tuple((f"BENCH_S{s}_VEL", f"S{s}_VEL") for s in range(1, 5))
+MAX_DIAG_BODIES = 8
+MAX_DIAG_CONTACTS = 2
+
+
+def diagnostics_for(n_inputs: int, sensor_kinds, n_bodies: int, n_contacts: int) -> Profile:
+    """The diagnostics profile of a mechanism (sizes within the DBC's: 2 inputs, 4 sensors, 8 bodies, 2
+    contacts): input i on BENCH_U / BENCH_U2, sensor s on its kind's frame (position: BENCH_Y1, BENCH_Y4,
+    BENCH_S3_POS, BENCH_S4_POS; velocity: BENCH_S<s>_VEL), and back EST_Q/EST_V of every body, EST_GAMMA,
+    EST_P_NORM, EST_P_GG, EST_GAMMA2 and EST_P_GG2 with two contacts, EST_STEP. The paper's mechanism (1 input,
+    2 position sensors, 4 bodies, 1 contact) gives DIAGNOSTICS itself."""
+    kinds = [int(k) for k in sensor_kinds]
+    if not (0 <= n_inputs <= len(INPUT_FRAMES) and len(kinds) <= len(SENSOR_KEYS)
+            and 1 <= n_bodies <= MAX_DIAG_BODIES and 0 <= n_contacts <= MAX_DIAG_CONTACTS):
+        raise ValueError(f"a mechanism of {n_bodies} bodies, {n_inputs} inputs, {len(kinds)} sensors, {n_contacts} "
+                         f"contacts is beyond the diagnostics frames ({MAX_DIAG_BODIES} bodies, {len(INPUT_FRAMES)} "
+                         f"inputs, {len(SENSOR_KEYS)} sensors, {MAX_DIAG_CONTACTS} contacts)")
+    inputs = [(m, ((sig, INPUT_KEYS[i]),)) for i, (m, sig) in enumerate(INPUT_FRAMES[:n_inputs])]
+    for s, kind in enumerate(kinds):
+        m, sig = (VELOCITY_FRAMES if kind else POSITION_FRAMES)[s]
+        inputs.append((m, ((sig, SENSOR_KEYS[s]),)))
+    results = {"gamma": Signal("EST_GAMMA", "GAMMA")}
+    for i in range(1, n_bodies + 1):
+        results[f"q{i}"] = Signal(f"EST_Q{i}", f"Q{i}")
+    for i in range(1, n_bodies + 1):
+        results[f"v{i}"] = Signal(f"EST_V{i}", f"V{i}")
+    results["p_norm"] = Signal("EST_P_NORM", "P_NORM")
+    results["p_gg"] = Signal("EST_P_GG", "P_GAMMA_GAMMA")
+    if n_contacts > 1:
+        results["gamma2"] = Signal("EST_GAMMA2", "GAMMA2")
+        results["p_gg2"] = Signal("EST_P_GG2", "P_GAMMA2_GAMMA2")
+    for col in ("flags", "newton_iters", "step_status"):
+        results[col] = _DIAG_RESULTS[col]
+    out = tuple(dict.fromkeys(s.message for s in results.values()))
+    out = tuple(m for m in out if m != "EST_STEP") + ("EST_STEP",)
+    prof = Profile(
+        name="diagnostics",
+        inputs=tuple(inputs),
+        closing="EST_STEP",
+        closing_step_bits=16,
+        results=results,
+        per_step={**{m: 1.0 for m, _ in inputs}, **{m: 1.0 for m in out},
+                  "EST_HEALTH": HEALTH_PAGES_PER_SECOND / 1000.0},
+    )
+    return DIAGNOSTICS if (prof.inputs == DIAGNOSTICS.inputs and prof.results == DIAGNOSTICS.results) else prof
+
+
+def mechanism_profile(mech) -> Profile:
+    """diagnostics_for a caekf_sim.mechanism.Mechanism."""
+    return diagnostics_for(mech.n_inputs, mech.sensor_kind.tolist(), mech.nq, mech.n_contacts)
 
 
 def get_profile(name: str) -> Profile:

@@ -31,11 +31,15 @@ def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")
     m = dec.complete
     c = dec.columns
     it = c["newton_iters"][m]
-    x = np.column_stack([c[k][m] for k in ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma")])
+    nq = sum(1 for k in c if k[:1] == "q" and k[1:].isdigit())
+    gammas = ["gamma"] + [k for k in ("gamma2",) if k in c]
+    x = np.column_stack([c[k][m] for k in (*[f"q{i}" for i in range(1, nq + 1)],
+                                           *[f"v{i}" for i in range(1, nq + 1)], *gammas)])
+    p_ggs = np.column_stack([c["p_gg"][m], c["p_gg2"][m]]) if "p_gg2" in c else None
     return EstimateResult(t=np.asarray(t, dtype=float)[m], x=x, p_norm=c["p_norm"][m], p_gg=c["p_gg"][m],
                           flags=c["flags"][m].astype(np.int64),
                           newton_iters=np.where(np.isnan(it), -1, it).astype(np.int64),
-                          wall_time=wall_time)
+                          wall_time=wall_time, n_contacts=len(gammas), p_ggs=p_ggs)
 
 
 def health_delta(before: Dict[str, int], after: Dict[str, int]) -> Dict[str, int]:
@@ -176,20 +180,23 @@ def write_outputs(runs: Sequence[HilRun], outdir: PathLike, gamma_true: float, g
 # --- comparison with caekf-replay ------------------------------------------------------------
 
 def write_seen_inputs(path: PathLike, inputs: StepInputs, start: int = 0, stop: Optional[int] = None) -> Path:
-    """t,u,y1,y4 exactly as the estimator decoded them from the frames (float32 u, y on the LSB)."""
+    """t,u,y1,y4 (a mechanism's: t, its inputs, its sensors; StepInputs.names) exactly as the estimator decoded
+    them from the frames (float32 u, y on the LSB)."""
     stop = len(inputs) if stop is None else stop
     arr = np.column_stack([inputs.t[start:stop], inputs.u_seen[start:stop], inputs.y_seen[start:stop]])
-    np.savetxt(path, arr, fmt="%.17g", delimiter=",", header="t,u,y1,y4", comments="")
+    np.savetxt(path, arr, fmt="%.17g", delimiter=",", header=",".join(("t", *inputs.names)), comments="")
     return Path(path)
 
 
-def run_c_replay(replay_bin: PathLike, scenario: PathLike, in_csv: PathLike, experiment: str,
+def run_c_replay(replay_bin: PathLike, scenario: PathLike, in_csv: PathLike, experiment: Optional[str],
                  out_csv: PathLike, missing_y_predict: bool = False) -> EstimateResult:
-    """caekf-replay on in_csv; missing_y_predict: rows with empty y1,y4 are prediction-only steps."""
+    """caekf-replay on in_csv (experiment None: the schema's defaults over the scenario); missing_y_predict:
+    rows with empty y1,y4 are prediction-only steps."""
     from ..results import read_result_csv
 
-    cmd = [str(replay_bin), "--scenario", str(scenario), "--in", str(in_csv), "--out", str(out_csv),
-           "--experiment", experiment]
+    cmd = [str(replay_bin), "--scenario", str(scenario), "--in", str(in_csv), "--out", str(out_csv)]
+    if experiment is not None:
+        cmd += ["--experiment", experiment]
     if missing_y_predict:
         cmd.append("--missing-y-predict")
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
@@ -371,9 +378,19 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
     n = len(ref.t)
     cols = dec.columns
     rows = min(n, len(dec.complete))
-    ref_cols = {"q1": ref.x[:, 0], "q2": ref.x[:, 1], "q3": ref.x[:, 2], "q4": ref.x[:, 3], "v1": ref.x[:, 4],
-                "v2": ref.x[:, 5], "v3": ref.x[:, 6], "v4": ref.x[:, 7], "gamma": ref.x[:, 8],
-                "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    nc = ref.n_contacts
+    nq = (ref.x.shape[1] - nc) // 2
+    ref_all = {**{f"q{i + 1}": ref.x[:, i] for i in range(nq)}, **{f"v{i + 1}": ref.x[:, nq + i] for i in range(nq)},
+               "gamma": ref.x[:, 2 * nq], "p_norm": ref.p_norm, "p_gg": ref.p_gg}
+    if nc > 1:
+        ref_all["gamma2"] = ref.x[:, 2 * nq + 1]
+        if ref.p_ggs is not None:
+            ref_all["p_gg2"] = ref.p_ggs[:, 1]
+    # every value the profile carries: the paper's q1..q4, v1..v4, gamma, p_norm, p_gg; a mechanism's every body
+    # and contact (a column the replay lacks fails below as missing)
+    ref_cols = {c: ref_all.get(c, np.full(n, np.nan)) for c in profile.results
+                if c not in ("flags", "newton_iters", "step_status")}
+    lacking = [c for c in ref_cols if c not in ref_all]
     have = dec.complete[:rows]
     worst, mism, carried_rows = {}, {}, {}
     for col, r in value_ratios(dec, ref_cols, codec, profile).items():
@@ -391,6 +408,8 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
     fl_ref = ref.flags[:rows][fsel] & CORE_FLAG_MASK
     it_can = cols["newton_iters"][:rows][isel].astype(np.int64)
     it_ref = np.clip(ref.newton_iters[:rows][isel], 0, 255)
+    for c in lacking:  # the replay has no such column: every CAN row of it counts as a mismatch
+        mism[c] = max(mism.get(c, 0), carried_rows.get(c, 0), 1)
     return Agreement(rows, worst, mism, int(np.sum(fl_can != fl_ref)), int(np.sum(it_can != it_ref)),
                      int(rows - have.sum()) + (n - rows), carried_rows)
 

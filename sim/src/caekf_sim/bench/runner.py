@@ -56,6 +56,7 @@ def run_experiments(bench: Bench, sc, truth, experiments: Sequence[str] = EXPERI
                     mode: str = "lockstep", window: int = 1, timeout: float = 1.0,
                     progress: Optional[bool] = None, log: Callable[[str], None] = print) -> List[HilRun]:
     t0 = time.perf_counter()
+    bench.match_scenario(sc)  # the mechanism's frames (diagnostics), or the paper's I/O checked
     inputs = bench.prepare(truth.t, truth.u, truth.y)
     log(f"hil: {len(inputs)} steps encoded and sealed-ready in {time.perf_counter() - t0:.2f} s "
         f"(numpy, checked against cantools); transport {bench.transport.name}")

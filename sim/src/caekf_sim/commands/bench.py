@@ -196,6 +196,7 @@ def cmd_hil_echo_probe(args: argparse.Namespace) -> int:
     sc = scenario_from_args(args)
     with _open_bench(args) as bench:
         truth = load_truth(sc, args.truth)
+        bench.match_scenario(sc)
         inputs = bench.prepare(truth.t, truth.u, truth.y)
         rows = rows_for(sc, len(inputs), args.duration)
         rec = bench.run_paced(inputs, sc.dt, 0, rows, echo=True)

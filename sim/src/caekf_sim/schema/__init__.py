@@ -47,9 +47,13 @@ def preset(name: str) -> Preset:
     raise KeyError(f"unknown preset {name!r}; choose from {', '.join(preset_names())}")
 
 
-def wire_values(values: Dict[str, float], preset_name: Optional[str] = None) -> List[Tuple[str, float]]:
+def wire_values(values: Dict[str, float], preset_name: Optional[str] = None,
+                complete: bool = False) -> List[Tuple[str, float]]:
     """The CTRL_PARAM settings of a scenario (wire keys only) with a preset's values over them, in id
-    order: exactly what the estimator needs to be configured over the bus."""
+    order: exactly what the estimator needs to be configured over the bus. Enumerated settings at their
+    default (mode, sensor kinds, ...) are left out unless `complete`: the bus configures from the running
+    settings, so the bench sends them too, or a sensor kind or mode of an earlier configuration (another
+    mechanism, another preset) would carry over."""
     ids = param_ids()
     out: Dict[str, float] = {}
     canonical = {**values, **{k: values[a] for a, k in SCHEMA.aliases() if a in values}}
@@ -58,7 +62,8 @@ def wire_values(values: Dict[str, float], preset_name: Optional[str] = None) -> 
             continue
         # A default relative to the build's epsilon (newton_rtol) is the estimator's own business: it is
         # sent only when the scenario chose a value.
-        if isinstance(setting.default, str) and float(canonical[key]) == setting.default_value():
+        if (isinstance(setting.default, str) and not (complete and setting.type == "enum")
+                and float(canonical[key]) == setting.default_value()):
             continue
         out[key] = float(canonical[key])
     if preset_name is not None:
