@@ -5,7 +5,8 @@
 # build/fuzz, a CMake build of its own (the presets are not touched), runs each harness for N seconds
 # (default 300) starting from its committed seeds, and prints a table:
 #   harness, seconds, executions, exec/s, cov and ft (libFuzzer's final coverage and features),
-#   corpus (units/bytes at the end), findings (crash/leak/timeout/oom files).
+#   corpus (units/bytes at the end), findings (how many files libFuzzer wrote, by kind: crash, leak, timeout,
+#   oom, slow-unit). The table is also written to build/fuzz/report.txt.
 # Exit status: 0 with no findings, 1 with findings (each is listed with its first report lines and the
 # command that reproduces it), 2 on a usage or build error.
 #
@@ -84,7 +85,10 @@ done
 wait
 
 FINDINGS=0
-printf '\n%-20s %7s %12s %8s %6s %7s %14s %9s\n' harness seconds executions exec/s cov ft corpus findings
+REPORT="$BUILD/report.txt"
+{
+echo "# tools/fuzz.sh --seconds $SECONDS_PER --jobs $JOBS ${SELECTED[*]} ($(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores)"
+printf '%-20s %7s %12s %8s %6s %7s %14s  %s\n' harness seconds executions exec/s cov ft corpus findings
 for h in "${SELECTED[@]}"; do
     logf="$BUILD/work/$h/log"
     execs=$(awk '/^stat::number_of_executed_units:/ {print $NF}' "$logf" | tail -1)
@@ -99,8 +103,15 @@ for h in "${SELECTED[@]}"; do
         echo "crashed before reporting; see $logf" >"$BUILD/findings/$h/no-report"
     fi
     FINDINGS=$((FINDINGS + n))
-    printf '%-20s %7s %12s %8s %6s %7s %14s %9s\n' "$h" "$SECONDS_PER" "${execs:--}" "${rate:--}" "$cov" "$ft" "$corp" "$n"
+    # by kind: libFuzzer names its artifacts crash-*, leak-*, timeout-*, oom-*, slow-unit-*
+    kinds=$(find "$BUILD/findings/$h" -type f -printf '%f\n' | sed -E 's/-[0-9a-f]+$//' | sort | uniq -c \
+        | awk '{ printf "%s%s %s", (NR > 1 ? ", " : ""), $2, $1 }')
+    printf '%-20s %7s %12s %8s %6s %7s %14s  %s\n' "$h" "$SECONDS_PER" "${execs:--}" "${rate:--}" "$cov" "$ft" "$corp" \
+        "$n${kinds:+ ($kinds)}"
 done
+} >"$REPORT"
+echo
+cat "$REPORT"
 echo
 
 if [ "$FINDINGS" -gt 0 ]; then

@@ -1049,8 +1049,10 @@ static void run_ops(fz_reader_t *r)
             const uint8_t sel = fz_u8(r);
             uint8_t dl;
             if (sel < 200u) {
+                // clang-format off
                 static const uint32_t extra[] = {0x000, 0x7FF, 0x0C3, 0x104, 0x0BF, 0x1C0,
                                                  0x0C0u | CAEKF_CAN_ID_EXT_FLAG, 0x100u | CAEKF_CAN_ID_EXT_FLAG};
+                // clang-format on
                 const unsigned k = sel % (NMSG + (unsigned)(sizeof extra / sizeof extra[0]));
                 f.id = (k < NMSG) ? k_can_id[k] : extra[k - NMSG];
             } else {

@@ -84,10 +84,12 @@ static inline double fz_bits_to_float(uint32_t bits)
 /* Values that break things: signed zeros, infinities, NaN, the ends of both formats, subnormals. */
 static inline double fz_special(uint8_t i)
 {
+    // clang-format off
     static const double table[] = {0.0,     -0.0,     1.0,      -1.0,    HUGE_VAL, -HUGE_VAL, 0.0 /* NaN */,
                                    DBL_MAX, -DBL_MAX, DBL_MIN,  4.9e-324, (double)FLT_MAX, -(double)FLT_MAX, (double)FLT_MIN,
                                    1.4e-45, 1e-300,   1e300,    1e-30,   1e30,     3.4e39,   1e-39,
                                    0.5,     2.0,      1e-12,    1e12,    -1e-12,   1e-7,     1e7};
+    // clang-format on
     const unsigned n = (unsigned)(sizeof table / sizeof table[0]);
     if (i % n == 6u) {
         return NAN;

@@ -52,6 +52,7 @@
 static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned i, double *typical)
 {
     caekf_model_params_t *m = &s->model;
+    // clang-format off
     caekf_scalar_t *const f[N_REAL_FIELDS] = {
         &m->m[0],    &m->m[1],        &m->m[2],        &m->m[3],       &m->spring_k[0], &m->spring_k[1],
         &m->spring_k[2], &m->spring_k[3], &m->spring_c[0], &m->spring_c[1], &m->spring_c[2], &m->spring_c[3],
@@ -60,6 +61,7 @@ static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned i, double *typic
         &s->sigma_v0, &s->sigma_gamma0[0], &s->sigma_qx_q, &s->sigma_qx_v, &s->sigma_q_gamma[0], &s->q_gamma_scale,
         &s->sigma_r, &s->gamma_min[0], &s->newton_rtol,
         &s->gamma_gate_nis, &s->gamma0[0], &s->gamma_min[0]}; /* the contact and constraint fields twice: more often */
+    // clang-format on
     /* Typical magnitudes for fields whose current value may be 0. */
     static const double typ[N_REAL_FIELDS] = {1, 1, 1, 1, 2e3, 1e4, 1e4, 1e4, 5, 5, 5, 5, 1e-3, 1e-3,
                                               1e-3, 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2, 1e-2, 7.5e7, 1e-6,

@@ -35,6 +35,7 @@ typedef struct {
 } caekf_vector_table_t;
 
 #define FE fault_entry
+// clang-format off
 __attribute__((section(".isr_vector"), used)) static const caekf_vector_table_t caekf_vectors = {
     __StackTop,
     {
@@ -54,6 +55,7 @@ __attribute__((section(".isr_vector"), used)) static const caekf_vector_table_t 
         FE, FE, FE, FE, FE, FE, FE, FE, FE, FE, FE, FE, FE, FE, FE, FE,
     }
 };
+// clang-format on
 #undef FE
 
 void caekf_port_c_start(void)
