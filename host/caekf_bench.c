@@ -112,8 +112,8 @@ int main(int argc, char **argv)
             (void)sink;
             if (dt > 0 && (double)n / dt > best) best = (double)n / dt;
         }
-        printf("%-28s %-6s %10ld %14.0f %12.1f\n", caekf_presets[e].name, CAEKF_SCALAR_NAME, n,
-               best, best > 0 ? 1e9 / best : 0.0);
+        printf("%-28s %-6s %10ld %14.0f %12.1f\n", caekf_presets[e].name, CAEKF_SCALAR_NAME, n, best,
+               best > 0 ? 1e9 / best : 0.0);
     }
     free(rows);
     return CAEKF_EXIT_OK;

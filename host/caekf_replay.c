@@ -44,31 +44,32 @@ static void write_header(FILE *f, int nq, int nc)
 static void usage(FILE *f)
 {
     unsigned b;
-    fputs("usage: caekf-replay --scenario FILE [--in CSV|-] [--out CSV|-] [--experiment PRESET]\n"
-          "         [--version] [--help]\n"
-          "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
-          "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
-          "         [--gate NIS] [--missing-y-predict] [--no-t-check] [--summary]\n"
-          "Reads a CSV whose header starts with the mechanism's measurement columns: t, the inputs (u, or\n"
-          "u1..u<inputs>), one column per sensor (y<body> position, yv<body> velocity, in sensor order);\n"
-          "the paper's t,u,y1,y4 (extra columns ignored; stdin by default; t strictly increasing by the\n"
-          "scenario's dt within 1 %; at most 2,000,000 rows). The scenario's q0, v0 are the state at t = 0:\n"
-          "a first row at t = 0 is a correction only, any other first row is one dt after the start.\n"
-          "Writes t,q1..q<bodies>,v1..v<bodies>, gamma\n"
-          "(contact 1) and gamma2.. (further contacts), p_norm, p_gg (contact 1) and p_gg2.., flags,\n"
-          "newton_iters, nis (stdout by default; the paper:\n"
-          "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis).\n"
-          "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
-          "preset named by --experiment, then the explicit flags. Presets:\n"
-          "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
-          "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
-          "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
-          "refusing the input. --missing-y-predict: a row whose sensor fields are all empty is a step without\n"
-          "measurement (caekf_predict, the firmware's bridge over lost steps). --no-t-check: t must increase\n"
-          "but its steps are not checked against dt (rows deliberately not evenly spaced). --summary prints one line of\n"
-          "statistics to stderr. The whole input is checked before anything is written; the output file\n"
-          "appears (renamed from a temporary file beside it) only when the run succeeded.\n",
-          f);
+    fputs(
+        "usage: caekf-replay --scenario FILE [--in CSV|-] [--out CSV|-] [--experiment PRESET]\n"
+        "         [--version] [--help]\n"
+        "         [--mode canonical|switched] [--constraint on|off] [--q-gamma-scale X]\n"
+        "         [--switchoff consistent|paper] [--joseph] [--no-repair] [--allow-nonfinite]\n"
+        "         [--gate NIS] [--missing-y-predict] [--no-t-check] [--summary]\n"
+        "Reads a CSV whose header starts with the mechanism's measurement columns: t, the inputs (u, or\n"
+        "u1..u<inputs>), one column per sensor (y<body> position, yv<body> velocity, in sensor order);\n"
+        "the paper's t,u,y1,y4 (extra columns ignored; stdin by default; t strictly increasing by the\n"
+        "scenario's dt within 1 %; at most 2,000,000 rows). The scenario's q0, v0 are the state at t = 0:\n"
+        "a first row at t = 0 is a correction only, any other first row is one dt after the start.\n"
+        "Writes t,q1..q<bodies>,v1..v<bodies>, gamma\n"
+        "(contact 1) and gamma2.. (further contacts), p_norm, p_gg (contact 1) and p_gg2.., flags,\n"
+        "newton_iters, nis (stdout by default; the paper:\n"
+        "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis).\n"
+        "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
+        "preset named by --experiment, then the explicit flags. Presets:\n"
+        "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
+        "innovation squared of the step's correction. --gate sets gamma_gate_nis (0: off).\n"
+        "--allow-nonfinite passes NaN/Inf fields to the estimator (which rejects them) instead of\n"
+        "refusing the input. --missing-y-predict: a row whose sensor fields are all empty is a step without\n"
+        "measurement (caekf_predict, the firmware's bridge over lost steps). --no-t-check: t must increase\n"
+        "but its steps are not checked against dt (rows deliberately not evenly spaced). --summary prints one line of\n"
+        "statistics to stderr. The whole input is checked before anything is written; the output file\n"
+        "appears (renamed from a temporary file beside it) only when the run succeeded.\n",
+        f);
     for (b = 0; b < CAEKF_PRESET_COUNT; ++b) {
         fprintf(f, "  %-28s %s\n", caekf_presets[b].name, caekf_presets[b].doc);
     }

@@ -42,8 +42,7 @@ static void usage(FILE *f)
           "backward-euler: eq. (19) at dt/truth_substeps, Newton-solved (the truth of earlier versions).\n"
           "A summary (contact episodes, max penetration, steps or Newton iterations) goes to stderr.\n"
           "Exit status 5 when the integration failed (DOP853) or a Newton solve did not converge; outputs are\n"
-          "written to temporary files renamed at the end, so a failed run leaves none.\n"
-          CAEKF_EXIT_TABLE,
+          "written to temporary files renamed at the end, so a failed run leaves none.\n" CAEKF_EXIT_TABLE,
           f);
 }
 
@@ -171,7 +170,8 @@ int main(int argc, char **argv)
                 return CAEKF_EXIT_USAGE;
             }
         } else if ((strcmp(argv[i], "--rtol") == 0 || strcmp(argv[i], "--atol-q") == 0 ||
-                    strcmp(argv[i], "--atol-v") == 0) && i + 1 < argc) {
+                    strcmp(argv[i], "--atol-v") == 0) &&
+                   i + 1 < argc) {
             char *end;
             double v = strtod(argv[i + 1], &end);
             if (*end != '\0' || !(v > 0)) {

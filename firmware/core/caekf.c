@@ -11,9 +11,9 @@
 
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
-CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEKF_N >= 4 * CAEKF_NQ,
+CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEKF_N >= 4 * CAEKF_NQ,
                     scratch_holds_the_newton_and_substep_work);
-CAEKF_STATIC_ASSERT(CAEKF_N * CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
+CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
@@ -260,8 +260,8 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
  * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
  * caller error. */
-static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured,
-                              int predict, caekf_report_t *report)
+static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured, int predict,
+                              caekf_report_t *report)
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
@@ -513,7 +513,7 @@ caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2)
     /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
     physical_covariance(est, est->P_work, est->model.n);
     return caekf_sym_norm2(est->P_work, est->model.n, est->scratch.m, norm2) == CAEKF_LA_OK ? CAEKF_OK
-                                                                                        : CAEKF_ERR_NUMERIC;
+                                                                                            : CAEKF_ERR_NUMERIC;
 }
 
 const char *caekf_status_str(caekf_status_t st)
@@ -533,8 +533,8 @@ const char *caekf_status_str(caekf_status_t st)
 const char *caekf_flag_name(unsigned bit_index)
 {
     static const char *const names[CAEKF_FLAG_COUNT] = {
-        "newton_not_converged", "input_rejected",       "constraint_applied", "contact_active",
-        "cov_repaired",         "singular_innovation",  "constraint_clamped", "numeric_rollback",
-        "gamma_frozen",         "cov_indefinite",       "no_measurement",     "gamma_gated"};
+        "newton_not_converged", "input_rejected",      "constraint_applied", "contact_active",
+        "cov_repaired",         "singular_innovation", "constraint_clamped", "numeric_rollback",
+        "gamma_frozen",         "cov_indefinite",      "no_measurement",     "gamma_gated"};
     return bit_index < CAEKF_FLAG_COUNT ? names[bit_index] : "unknown";
 }

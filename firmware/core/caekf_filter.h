@@ -15,11 +15,10 @@
 
 /* How a gamma is handled in this step. */
 typedef enum {
-    CAEKF_GAMMA_LIVE = 0,         /* canonical, or switched with its contact active */
-    CAEKF_GAMMA_FROZEN_SCHMIDT,   /* switched, contact inactive, consistent variant */
-    CAEKF_GAMMA_FROZEN_PAPER      /* switched, contact inactive, eqs. 23-27 literally */
+    CAEKF_GAMMA_LIVE = 0,       /* canonical, or switched with its contact active */
+    CAEKF_GAMMA_FROZEN_SCHMIDT, /* switched, contact inactive, consistent variant */
+    CAEKF_GAMMA_FROZEN_PAPER    /* switched, contact inactive, eqs. 23-27 literally */
 } caekf_gamma_policy_t;
-
 
 /* Compacts fv's rows in place to their nonzeros (fv[i][k] is column pat->nz[i][k]): the products skip
  * the exact zeros, as adding a zero product changes no sum. */

@@ -100,8 +100,7 @@ caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scal
     return CAEKF_LA_OK;
 }
 
-caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
-                                 int nrhs, int ldb)
+caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
 {
     int i, j, c;
     if (!size_ok(n) || nrhs < 1 || ldb < nrhs) {

@@ -13,7 +13,7 @@
 
 typedef enum {
     CAEKF_LA_OK = 0,
-    CAEKF_LA_SINGULAR = 1,   /* a pivot fell below the refusal threshold (cf. ARM_MATH_SINGULAR) */
+    CAEKF_LA_SINGULAR = 1, /* a pivot fell below the refusal threshold (cf. ARM_MATH_SINGULAR) */
     CAEKF_LA_BAD_SIZE = 2,
     CAEKF_LA_NOT_PSD = 3
 } caekf_la_status_t;
@@ -23,8 +23,8 @@ typedef enum {
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol);
 
 /* Solves A X = B for nrhs right-hand sides stored as the columns of b (n x nrhs, leading dim ldb). */
-caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b,
-                                 int nrhs, int ldb);
+caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs,
+                                 int ldb);
 
 /* caekf_lu_factor with the refusal threshold given (tol = rel_tol * max|a_ij|, from a caller who knows the
  * largest entry already): bit for bit the same. */

@@ -46,10 +46,10 @@ int caekf_model_params_check(const caekf_model_params_t *p)
         }
     }
     for (i = 0; i < p->contacts; ++i) {
-        if (p->contact_a[i] < 0 || p->contact_a[i] > p->bodies || p->contact_b[i] < 0 ||
-            p->contact_b[i] > p->bodies || p->contact_a[i] == p->contact_b[i] ||
-            !CAEKF_ISFINITE(p->contact_gap[i]) || !(p->contact_gap[i] >= 0) || !CAEKF_ISFINITE(p->contact_n[i]) ||
-            !(p->contact_n[i] >= 1) || !CAEKF_ISFINITE(p->contact_lambda[i]) || !(p->contact_lambda[i] >= 0)) {
+        if (p->contact_a[i] < 0 || p->contact_a[i] > p->bodies || p->contact_b[i] < 0 || p->contact_b[i] > p->bodies ||
+            p->contact_a[i] == p->contact_b[i] || !CAEKF_ISFINITE(p->contact_gap[i]) || !(p->contact_gap[i] >= 0) ||
+            !CAEKF_ISFINITE(p->contact_n[i]) || !(p->contact_n[i] >= 1) || !CAEKF_ISFINITE(p->contact_lambda[i]) ||
+            !(p->contact_lambda[i] >= 0)) {
             return 1;
         }
     }
@@ -155,8 +155,8 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
             const caekf_scalar_t kq1 = Ki[j1] * q[j1], cv1 = Ci[j1] * v[j1];
             r[i] = s + (kq0 + cv0) + (kq1 + cv1);
             if (mag != 0) {
-                mag[i] = CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) +
-                         (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+                mag[i] =
+                    CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) + (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
             }
             continue;
         }
@@ -229,9 +229,8 @@ int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x)
 
 /* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
  * the residual with no inertia (v_{k-1} against itself). */
-NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev,
-                                      const caekf_scalar_t *u_prev, caekf_contact_t *ct0, caekf_scalar_t *g0,
-                                      caekf_scalar_t *mag0)
+NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev, const caekf_scalar_t *u_prev,
+                                      caekf_contact_t *ct0, caekf_scalar_t *g0, caekf_scalar_t *mag0)
 {
     contacts_at(m, xprev, ct0);
     momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
@@ -345,8 +344,9 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
 /* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
-    return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK ? 0
-                                                                                                             : -1;
+    return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK
+               ? 0
+               : -1;
 }
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
@@ -359,8 +359,8 @@ static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar
 }
 
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
-                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
-                       caekf_scalar_t work[4 * CAEKF_NQ])
+                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
+                       int *iters, caekf_scalar_t work[4 * CAEKF_NQ])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
@@ -368,7 +368,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     caekf_scalar_t *q = xk;
     caekf_scalar_t *v = xk + nq;
     const caekf_scalar_t dt = m->p.dt, hs = m->hs;
-    caekf_scalar_t *const g0 = work, *const mag0 = work + CAEKF_NQ; /* trapezoidal: the step's start */
+    caekf_scalar_t *const g0 = work, *const mag0 = work + CAEKF_NQ;                  /* trapezoidal: the step's start */
     caekf_scalar_t *const r = work + 2 * CAEKF_NQ, *const mag = work + 3 * CAEKF_NQ; /* each iterate's */
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
     int it, i;

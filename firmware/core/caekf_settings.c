@@ -117,18 +117,12 @@ int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
         return 0;
     }
     switch (rule) {
-    case CAEKF_RULE_POS:
-        return v > 0;
-    case CAEKF_RULE_NONNEG:
-        return v >= 0;
-    case CAEKF_RULE_OPEN01:
-        return v > 0 && v < 1;
-    case CAEKF_RULE_GE1:
-        return v >= 1;
-    case CAEKF_RULE_INT:
-        return v >= lo && v <= hi && v == (double)(long)v;
-    default:
-        return 1;
+    case CAEKF_RULE_POS: return v > 0;
+    case CAEKF_RULE_NONNEG: return v >= 0;
+    case CAEKF_RULE_OPEN01: return v > 0 && v < 1;
+    case CAEKF_RULE_GE1: return v >= 1;
+    case CAEKF_RULE_INT: return v >= lo && v <= hi && v == (double)(long)v;
+    default: return 1;
     }
 }
 

@@ -30,33 +30,23 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
         snprintf(value, sizeof value, " = %.17g", v);
     }
     switch (err->reason) {
-    case CAEKF_SETTING_OK:
-        snprintf(buf, len, "settings valid");
-        return CAEKF_OK;
-    case CAEKF_SETTING_BELOW_GAMMA_MIN:
-        why = "must be >= gamma_min while constraint_enabled";
-        break;
+    case CAEKF_SETTING_OK: snprintf(buf, len, "settings valid"); return CAEKF_OK;
+    case CAEKF_SETTING_BELOW_GAMMA_MIN: why = "must be >= gamma_min while constraint_enabled"; break;
     case CAEKF_SETTING_NOT_SCALABLE:
         why = "a value the estimator derives from it is not finite in " CAEKF_SCALAR_NAME;
         break;
     case CAEKF_SETTING_OVER_CAPACITY:
         why = "exceeds the build's capacity (CAEKF_MAX_* and CAEKF_NEWTON_MAX_ITER, caekf_config.h)";
         break;
-    case CAEKF_SETTING_NOT_INTEGER:
-        why = "must be an integer";
-        break;
-    case CAEKF_SETTING_NEEDED:
-        why = "must be > 0: the mechanism uses it (a velocity sensor)";
-        break;
+    case CAEKF_SETTING_NOT_INTEGER: why = "must be an integer"; break;
+    case CAEKF_SETTING_NEEDED: why = "must be > 0: the mechanism uses it (a velocity sensor)"; break;
     case CAEKF_SETTING_BAD_BODY:
         why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
         break;
     case CAEKF_SETTING_UNSUPPORTED:
         why = "this build is sized for another mechanism (CAEKF_SIZED: the counts must equal its capacity)";
         break;
-    default:
-        why = caekf_setting_rule_text(err->setting);
-        break;
+    default: why = caekf_setting_rule_text(err->setting); break;
     }
     snprintf(buf, len, "%s%s: %s", element, value, why != 0 ? why : "refused");
     return CAEKF_OK;

@@ -24,10 +24,7 @@
 
 static volatile sig_atomic_t stop_signal = 0; /* host program: the one global, written by the handler */
 
-static void on_signal(int sig)
-{
-    stop_signal = sig;
-}
+static void on_signal(int sig) { stop_signal = sig; }
 
 typedef struct {
     const char *iface;
@@ -36,9 +33,9 @@ typedef struct {
     long step_timeout_ms;
     long status_period_ms;
     long max_delta;
-    int profile;          /* caekf_profile_t */
-    long page_period;     /* steps, PRODUCTION */
-    long id_offset;       /* runtime CAN ID base: DBC ID + this on the bus */
+    int profile;      /* caekf_profile_t */
+    long page_period; /* steps, PRODUCTION */
+    long id_offset;   /* runtime CAN ID base: DBC ID + this on the bus */
     long poll_ms;
     double run_for_s; /* 0: until a signal */
     int quiet;
@@ -48,35 +45,35 @@ typedef struct {
 
 static void usage(FILE *out)
 {
-    fprintf(out,
-            "usage: caekf-host [--iface NAME] [--scenario FILE [--preset NAME]] [options]\n"
-            "  --iface NAME            SocketCAN interface (default vcan0; a real can0 works the same)\n"
-            "  --scenario FILE         configure the estimator from a scenario file at start-up\n"
-            "                          (otherwise it waits for CTRL_PARAM/CTRL_RESET from the bench)\n"
-            "  --preset NAME           with --scenario: apply a named preset of the settings schema\n"
-            "                          (the paper's canonical, switched, switched-highq,\n"
-            "                          switched-highq-constrained); --experiment is a synonym\n"
-            "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
-            "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
-            "  --profile NAME          estimate frames: diagnostics (12 per step, default) or production\n"
-            "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus) or fd\n"
-            "                          (BENCH_FD in, EST_FD out: one 20- and one 64-byte CAN FD frame per\n"
-            "                          step; vcan0 needs `ip link set vcan0 mtu 72`)\n"
-            "  --page-period N         production: the 11 EST_PAGE pages at the first 11 steps of every N\n"
-            "                          (0 = only after a status request, else >= 11; default 20)\n"
-            "  --id-offset N           move every CAN ID by N (decimal or 0x hex, may be negative), for a\n"
-            "                          bus that already uses the DBC's IDs; all must stay within\n"
-            "                          0..0x7FF. The bench takes the same (caekf-sim hil run --id-offset)\n"
-            "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
-            "  --poll-ms N             longest wait for a frame before the app checks timeouts (default 5)\n"
-            "  --run-for SECONDS       exit by itself after this long (default: run until SIGINT/SIGTERM)\n"
-            "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
-            "                          buses; they are then not counted). Default: every frame reaches\n"
-            "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
-            "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP, fd: BENCH_FD; a step's last input frame)\n"
-            "                          is sent straight back with EST_STEP's ID and its own bytes, so the\n"
-            "                          bench measures the bus and the machine without the estimator\n"
-            "  --quiet                 print only errors and the final counters\n");
+    fprintf(out, "usage: caekf-host [--iface NAME] [--scenario FILE [--preset NAME]] [options]\n"
+                 "  --iface NAME            SocketCAN interface (default vcan0; a real can0 works the same)\n"
+                 "  --scenario FILE         configure the estimator from a scenario file at start-up\n"
+                 "                          (otherwise it waits for CTRL_PARAM/CTRL_RESET from the bench)\n"
+                 "  --preset NAME           with --scenario: apply a named preset of the settings schema\n"
+                 "                          (the paper's canonical, switched, switched-highq,\n"
+                 "                          switched-highq-constrained); --experiment is a synonym\n"
+                 "  --step-timeout-ms N     drop a partially received step after N ms (default 20)\n"
+                 "  --status-period-ms N    send EST_HEALTH every N ms, 0 = only on request (default 1000)\n"
+                 "  --profile NAME          estimate frames: diagnostics (12 per step, default) or production\n"
+                 "                          (EST_PROD per step + EST_PAGE pages, for a real 1 Mbit/s bus) or fd\n"
+                 "                          (BENCH_FD in, EST_FD out: one 20- and one 64-byte CAN FD frame per\n"
+                 "                          step; vcan0 needs `ip link set vcan0 mtu 72`)\n"
+                 "  --page-period N         production: the 11 EST_PAGE pages at the first 11 steps of every N\n"
+                 "                          (0 = only after a status request, else >= 11; default 20)\n"
+                 "  --id-offset N           move every CAN ID by N (decimal or 0x hex, may be negative), for a\n"
+                 "                          bus that already uses the DBC's IDs; all must stay within\n"
+                 "                          0..0x7FF. The bench takes the same (caekf-sim hil run --id-offset)\n"
+                 "  --max-delta N           largest accepted E2E alive-counter step, 1..15 (default 1)\n"
+                 "  --poll-ms N             longest wait for a frame before the app checks timeouts (default 5)\n"
+                 "  --run-for SECONDS       exit by itself after this long (default: run until SIGINT/SIGTERM)\n"
+                 "  --kernel-filter         let the kernel drop frames the estimator does not receive (busy\n"
+                 "                          buses; they are then not counted). Default: every frame reaches\n"
+                 "                          the app and each foreign one is counted in RX_UNKNOWN_ID\n"
+                 "  --echo                  timing probe: no estimator; every BENCH_Y4 (production: BENCH_YP, fd: "
+                 "BENCH_FD; a step's last input frame)\n"
+                 "                          is sent straight back with EST_STEP's ID and its own bytes, so the\n"
+                 "                          bench measures the bus and the machine without the estimator\n"
+                 "  --quiet                 print only errors and the final counters\n");
 }
 
 static int parse_long_base(const char *text, int base, long lo, long hi, long *out)
@@ -92,10 +89,7 @@ static int parse_long_base(const char *text, int base, long lo, long hi, long *o
     return 0;
 }
 
-static int parse_long(const char *text, long lo, long hi, long *out)
-{
-    return parse_long_base(text, 10, lo, hi, out);
-}
+static int parse_long(const char *text, long lo, long hi, long *out) { return parse_long_base(text, 10, lo, hi, out); }
 
 /* Returns 0 to run, 1 to exit 0 (help), 2 on a usage error. */
 static int parse_args(int argc, char **argv, options_t *o)
@@ -155,7 +149,8 @@ static int parse_args(int argc, char **argv, options_t *o)
                 bad = 1;
             }
         } else if (strcmp(a, "--page-period") == 0) {
-            bad = parse_long(v, 0, 65535, &o->page_period) || (o->page_period != 0 && o->page_period < (long)CAEKF_PAGE_COUNT);
+            bad = parse_long(v, 0, 65535, &o->page_period) ||
+                  (o->page_period != 0 && o->page_period < (long)CAEKF_PAGE_COUNT);
         } else if (strcmp(a, "--id-offset") == 0) {
             bad = parse_long_base(v, 0, -(long)CAEKF_CAN_SFF_MAX, (long)CAEKF_CAN_SFF_MAX, &o->id_offset) ||
                   caekf_proto_id_offset_check((int32_t)o->id_offset) != CAEKF_PROTO_OK;
@@ -270,8 +265,8 @@ int main(int argc, char **argv)
     uint32_t seen_accepted = 0, seen_refused = 0;
     uint32_t echo_in = 0, echo_out = 0;
     static const caekf_msg_t echo_msgs[CAEKF_PROFILE_COUNT][2] = {{CAEKF_MSG_BENCH_Y4, CAEKF_MSG_EST_STEP},
-                                                                 {CAEKF_MSG_BENCH_YP, CAEKF_MSG_EST_PROD},
-                                                                 {CAEKF_MSG_BENCH_FD, CAEKF_MSG_EST_FD}};
+                                                                  {CAEKF_MSG_BENCH_YP, CAEKF_MSG_EST_PROD},
+                                                                  {CAEKF_MSG_BENCH_FD, CAEKF_MSG_EST_FD}};
     unsigned long echoed = 0;
     int rc = parse_args(argc, argv, &o);
     if (rc != 0) {
@@ -311,7 +306,8 @@ int main(int argc, char **argv)
         printf("caekf-host: ready on %s (ifindex %u), scalar %s, %s\n", o.iface, can.ifindex, CAEKF_SCALAR_NAME,
                o.scenario ? "configured from the scenario" : "waiting for CTRL_PARAM/CTRL_RESET");
         if (o.id_offset != 0) {
-            printf("caekf-host: CAN IDs moved by %+ld (0x%03lX..)\n", o.id_offset, 0x0C0ul + (unsigned long)o.id_offset);
+            printf("caekf-host: CAN IDs moved by %+ld (0x%03lX..)\n", o.id_offset,
+                   0x0C0ul + (unsigned long)o.id_offset);
         }
         if (o.scenario) {
             printf("caekf-host: preset %s\n", o.preset != NULL ? o.preset : "none (scenario and defaults)");

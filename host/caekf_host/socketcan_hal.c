@@ -45,8 +45,7 @@ static int set_filters(int fd, int32_t id_offset)
     return setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, (socklen_t)(n * sizeof filters[0]));
 }
 
-int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, int32_t id_offset, char *err,
-                   unsigned err_len)
+int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, int32_t id_offset, char *err, unsigned err_len)
 {
     struct sockaddr_can addr;
     struct ifreq ifr;
@@ -67,11 +66,12 @@ int socketcan_open(socketcan_t *s, const char *iface, int kernel_filter, int32_t
     if (s->fd < 0) {
         const int e = errno;
         if (e == EAFNOSUPPORT) {
-            return fail(err, err_len,
-                        "this kernel has no SocketCAN support: socket(PF_CAN, SOCK_RAW, CAN_RAW) failed with EAFNOSUPPORT "
-                        "(%s). Load the modules (sudo modprobe can can_raw vcan) or use a kernel built with CONFIG_CAN, "
-                        "CONFIG_CAN_RAW and CONFIG_CAN_VCAN (tools/with-vcan.sh runs it in user-mode Linux)%s",
-                        strerror(e), "");
+            return fail(
+                err, err_len,
+                "this kernel has no SocketCAN support: socket(PF_CAN, SOCK_RAW, CAN_RAW) failed with EAFNOSUPPORT "
+                "(%s). Load the modules (sudo modprobe can can_raw vcan) or use a kernel built with CONFIG_CAN, "
+                "CONFIG_CAN_RAW and CONFIG_CAN_VCAN (tools/with-vcan.sh runs it in user-mode Linux)%s",
+                strerror(e), "");
         }
         if (e == EPROTONOSUPPORT) {
             return fail(err, err_len, "CAN is there but not CAN_RAW (%s): sudo modprobe can_raw%s", strerror(e), "");

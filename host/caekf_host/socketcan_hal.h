@@ -14,15 +14,15 @@
 typedef struct {
     int fd;
     unsigned ifindex;
-    int warned_down;         /* ENETDOWN reported once */
-    unsigned long rx_dropped_foreign; /* reads that were not one CAN or CAN FD frame */
-    unsigned long rx_rtr;             /* remote frames refused (reported to the app as HAL errors) */
-    unsigned long tx_dropped;         /* frames the interface refused (counted by the app as TX errors) */
+    int warned_down;                        /* ENETDOWN reported once */
+    unsigned long rx_dropped_foreign;       /* reads that were not one CAN or CAN FD frame */
+    unsigned long rx_rtr;                   /* remote frames refused (reported to the app as HAL errors) */
+    unsigned long tx_dropped;               /* frames the interface refused (counted by the app as TX errors) */
     unsigned long syscalls_rx, syscalls_tx; /* recvmmsg / sendmmsg calls (statistics) */
-    int timeout_ms;                   /* SO_RCVTIMEO currently set (-1: none yet) */
-    uint32_t now_us;                  /* CLOCK_MONOTONIC when the current receive batch was taken */
-    unsigned rx_n, rx_i, tx_n;        /* frames in rx[], next to hand out, queued in tx[] */
-    int fd_frames;                    /* CAN_RAW_FD_FRAMES on: CAN FD frames are read and can be sent */
+    int timeout_ms;                         /* SO_RCVTIMEO currently set (-1: none yet) */
+    uint32_t now_us;                        /* CLOCK_MONOTONIC when the current receive batch was taken */
+    unsigned rx_n, rx_i, tx_n;              /* frames in rx[], next to hand out, queued in tx[] */
+    int fd_frames;                          /* CAN_RAW_FD_FRAMES on: CAN FD frames are read and can be sent */
     struct canfd_frame rx[SOCKETCAN_BATCH]; /* a classic frame fills the first CAN_MTU bytes (same layout) */
     struct canfd_frame tx[SOCKETCAN_BATCH]; /* sent as CAN_MTU (classic) or CANFD_MTU (len > 8, bit-rate switch) */
     struct iovec rx_iov[SOCKETCAN_BATCH], tx_iov[SOCKETCAN_BATCH];

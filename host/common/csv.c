@@ -134,8 +134,7 @@ int caekf_csv_open(caekf_csv_t *r, FILE *f, const char *name, int allow_nonfinit
         }
         if (col < want->count && strcmp(tok, want->name[col]) != 0) {
             char msg[128];
-            snprintf(msg, sizeof msg, "bad header: column %d is '%.40s', expected '%s'", col + 1, tok,
-                     want->name[col]);
+            snprintf(msg, sizeof msg, "bad header: column %d is '%.40s', expected '%s'", col + 1, tok, want->name[col]);
             return fail(r, msg);
         }
         col++;
@@ -164,8 +163,8 @@ static int fail_partial(caekf_csv_t *r)
         used += (size_t)n;
     }
     if (used < sizeof msg) {
-        snprintf(msg + used, sizeof msg - used, ns == 2 ? " must both be present or both be empty"
-                                                       : " must all be present or all be empty");
+        snprintf(msg + used, sizeof msg - used,
+                 ns == 2 ? " must both be present or both be empty" : " must all be present or all be empty");
     }
     return fail(r, msg);
 }
@@ -239,8 +238,9 @@ int caekf_csv_next(caekf_csv_t *r, caekf_meas_t *m)
             return fail(r, msg);
         }
         if (r->dt > 0 && fabs(d - r->dt) > CAEKF_CSV_DT_TOL * r->dt) {
-            snprintf(msg, sizeof msg, "t steps by %.9g from the previous row, the scenario's dt is %.9g (tolerance %g %%)",
-                     d, r->dt, 100.0 * CAEKF_CSV_DT_TOL);
+            snprintf(msg, sizeof msg,
+                     "t steps by %.9g from the previous row, the scenario's dt is %.9g (tolerance %g %%)", d, r->dt,
+                     100.0 * CAEKF_CSV_DT_TOL);
             return fail(r, msg);
         }
     }
@@ -282,8 +282,8 @@ long caekf_csv_read(const char *path, const caekf_csv_columns_t *want, double dt
         csv.dt = dt;
         while ((rc = caekf_csv_next(&csv, &m)) == 1) {
             if (n == CAEKF_CSV_MAX_ROWS) {
-                snprintf(csv.err, sizeof csv.err, "%s:%lu: more than %ld data rows: the size limit is %ld rows",
-                         name, csv.line, CAEKF_CSV_MAX_ROWS, CAEKF_CSV_MAX_ROWS);
+                snprintf(csv.err, sizeof csv.err, "%s:%lu: more than %ld data rows: the size limit is %ld rows", name,
+                         csv.line, CAEKF_CSV_MAX_ROWS, CAEKF_CSV_MAX_ROWS);
                 rc = -1;
                 break;
             }

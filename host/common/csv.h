@@ -42,9 +42,9 @@ typedef struct {
     unsigned long line;
     int columns;
     int allow_nonfinite;
-    int allow_missing_y;    /* all sensor fields empty: a step without measurement */
+    int allow_missing_y;      /* all sensor fields empty: a step without measurement */
     caekf_csv_columns_t want; /* the expected leading columns */
-    double dt;              /* > 0: t must step by dt (relative tolerance CAEKF_CSV_DT_TOL); 0: only increase */
+    double dt;                /* > 0: t must step by dt (relative tolerance CAEKF_CSV_DT_TOL); 0: only increase */
     double prev_t;
     int have_prev;
     char err[512];
@@ -54,7 +54,7 @@ typedef struct {
     double t;
     double u[CAEKF_MAX_INPUTS];  /* want.inputs in use */
     double y[CAEKF_MAX_SENSORS]; /* want.sensors in use */
-    int has_y; /* 0 only for rows whose sensor fields are all empty, when allow_missing_y */
+    int has_y;                   /* 0 only for rows whose sensor fields are all empty, when allow_missing_y */
 } caekf_meas_t;
 
 /* Reads and checks the header against want. Returns 0 or -1 (message in r->err). */

@@ -54,10 +54,9 @@ static int in_use(const caekf_scenario_t *sc, unsigned k)
 {
     const caekf_scenario_key_t *key = &caekf_scenario_keys[k];
     return key->in_use_key < 0 ||
-           (double)key->index < *(const double *)(const void *)((const char *)sc +
-                                                                caekf_scenario_keys[key->in_use_key].offset);
+           (double)key->index <
+               *(const double *)(const void *)((const char *)sc + caekf_scenario_keys[key->in_use_key].offset);
 }
-
 
 static int fail(FILE *f, char *err, unsigned err_len, const char *fmt, const char *path, unsigned lineno,
                 const char *what)
@@ -125,8 +124,9 @@ int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsig
             v = (double)enum_index(caekf_scenario_keys[i].enum_names, val);
             end = val + strlen(val);
         }
-        if (*val == '\0' || *end != '\0' || errno == ERANGE || !caekf_setting_rule_ok((unsigned)caekf_scenario_keys[i].rule_code, caekf_scenario_keys[i].lo,
-                                                                        caekf_scenario_keys[i].hi, v)) {
+        if (*val == '\0' || *end != '\0' || errno == ERANGE ||
+            !caekf_setting_rule_ok((unsigned)caekf_scenario_keys[i].rule_code, caekf_scenario_keys[i].lo,
+                                   caekf_scenario_keys[i].hi, v)) {
             char what[160];
             snprintf(what, sizeof what, "%s = %s: %s", key, val, caekf_scenario_keys[i].rule);
             return fail(f, err, err_len, "%s:%u: %s", path, lineno, what);

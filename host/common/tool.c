@@ -37,10 +37,7 @@ static void watch_signals(const char *tmp)
     }
 }
 
-void caekf_tool_version(const char *tool, const char *scalar)
-{
-    printf("%s %s (%s)\n", tool, CAEKF_VERSION, scalar);
-}
+void caekf_tool_version(const char *tool, const char *scalar) { printf("%s %s (%s)\n", tool, CAEKF_VERSION, scalar); }
 
 int caekf_tool_check_input(const char *path, int allow_stdin, char *err, unsigned err_len)
 {

@@ -9,10 +9,10 @@
 /* One exit-code table for all tools (docs: README "Host tools"). */
 enum {
     CAEKF_EXIT_OK = 0,
-    CAEKF_EXIT_USAGE = 2,   /* bad command line */
-    CAEKF_EXIT_INPUT = 3,   /* bad input: scenario, settings, measurement file */
-    CAEKF_EXIT_IO = 4,      /* a file cannot be read or written (missing, a directory, disk full) */
-    CAEKF_EXIT_NUMERIC = 5  /* the computation failed (estimator refused to start, non-finite result) */
+    CAEKF_EXIT_USAGE = 2,  /* bad command line */
+    CAEKF_EXIT_INPUT = 3,  /* bad input: scenario, settings, measurement file */
+    CAEKF_EXIT_IO = 4,     /* a file cannot be read or written (missing, a directory, disk full) */
+    CAEKF_EXIT_NUMERIC = 5 /* the computation failed (estimator refused to start, non-finite result) */
 };
 
 /* The CMake project version, passed as a compile definition (one place: project(caekf VERSION ...)). */
@@ -31,9 +31,9 @@ int caekf_tool_check_input(const char *path, int allow_stdin, char *err, unsigne
 
 typedef struct {
     FILE *f;
-    const char *dest;  /* final path, or NULL for stdout and special files */
-    char tmp[4096];    /* temporary file beside dest */
-    int direct;        /* f is dest itself (a device or a pipe such as /dev/null): closed, never renamed */
+    const char *dest; /* final path, or NULL for stdout and special files */
+    char tmp[4096];   /* temporary file beside dest */
+    int direct;       /* f is dest itself (a device or a pipe such as /dev/null): closed, never renamed */
 } caekf_output_t;
 
 /* Opens the output: "-" is stdout; an existing file that is not a regular file (/dev/null, a FIFO) is

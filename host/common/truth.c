@@ -16,8 +16,8 @@
 #define TRUTH_N (2 * CAEKF_MAX_BODIES) /* capacity of the integrated state [q; v] */
 #define TRUTH_LINE 4096
 #define TRUTH_SERIES_MAX_ROWS 2000000L /* as the measurement CSVs (CAEKF_CSV_MAX_ROWS) */
-#define TRUTH_MAX_STEPS 100000000L /* whole run */
-#define TRUTH_MIN_STEP 1e-14       /* [s] */
+#define TRUTH_MAX_STEPS 100000000L     /* whole run */
+#define TRUTH_MIN_STEP 1e-14           /* [s] */
 #define TRUTH_ROOT_MAX_ITER 200
 
 /* splitmix64 (public-domain constants), uniform in (0, 1] from its top 53 bits. */
@@ -46,7 +46,6 @@ void caekf_truth_options_default(caekf_truth_options_t *opt)
     opt->atol_v = 1e-13;
     opt->series = NULL;
 }
-
 
 /* ---------------------------------------------------------------- input time series */
 
@@ -261,10 +260,10 @@ typedef struct {
     const caekf_input_series_t *series;
     int nq, nc, ni, ns, n;
     double amp[CAEKF_MAX_INPUTS], freq[CAEKF_MAX_INPUTS], phase[CAEKF_MAX_INPUTS];
-    int input_body[CAEKF_MAX_INPUTS];                    /* 0-based */
+    int input_body[CAEKF_MAX_INPUTS]; /* 0-based */
     int sensor_body[CAEKF_MAX_SENSORS], sensor_vel[CAEKF_MAX_SENSORS];
-    double noise[CAEKF_MAX_SENSORS];                     /* std of each sensor's noise */
-    int ca[CAEKF_MAX_CONTACTS], cb[CAEKF_MAX_CONTACTS];  /* 0-based ends, -1 = ground */
+    double noise[CAEKF_MAX_SENSORS];                    /* std of each sensor's noise */
+    int ca[CAEKF_MAX_CONTACTS], cb[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     double gap[CAEKF_MAX_CONTACTS], cn[CAEKF_MAX_CONTACTS], lam[CAEKF_MAX_CONTACTS], gamma[CAEKF_MAX_CONTACTS];
     double minv[CAEKF_MAX_BODIES];
     double K[CAEKF_MAX_BODIES][CAEKF_MAX_BODIES], C[CAEKF_MAX_BODIES][CAEKF_MAX_BODIES];
@@ -345,7 +344,10 @@ static void inputs_at(const plant_t *p, double t, double *u)
 /* Component i of x (q or v by offset), 0 for the ground (i = -1). */
 static double side(const double *x, int i) { return i >= 0 ? x[i] : 0.0; }
 
-static double delta_of(const plant_t *p, int c, const double *x) { return side(x, p->ca[c]) - side(x, p->cb[c]) - p->gap[c]; }
+static double delta_of(const plant_t *p, int c, const double *x)
+{
+    return side(x, p->ca[c]) - side(x, p->cb[c]) - p->gap[c];
+}
 
 static double rate_of(const plant_t *p, int c, const double *x)
 {
@@ -629,8 +631,8 @@ static double event_locate(const plant_t *p, int c, double t, const double *y, c
 
 /* The earliest contact event in the accepted step [t, t + hh] (ending at ynew): its contact (or -1),
  * the step to it in *s and the state there in ys. */
-static int event_first(const plant_t *p, double t, const double *y, const double *k0, double hh,
-                       const double *ynew, double *s, double *ys)
+static int event_first(const plant_t *p, double t, const double *y, const double *k0, double hh, const double *ynew,
+                       double *s, double *ys)
 {
     double s_hi[CAEKF_MAX_CONTACTS], tmp[TRUTH_N];
     int c, first = -1, i;

@@ -43,24 +43,24 @@ void caekf_input_series_free(caekf_input_series_t *s);
 typedef struct {
     caekf_truth_method_t method;
     const caekf_input_series_t *series; /* NULL: the scenario's sines; else its inputs must match */
-    double rtol;      /* DOP853: relative tolerance per step (default 1e-13) */
-    double atol_q;    /* absolute tolerance on positions [m] (default 1e-15) */
-    double atol_v;    /* absolute tolerance on velocities [m/s] (default 1e-13) */
+    double rtol;                        /* DOP853: relative tolerance per step (default 1e-13) */
+    double atol_q;                      /* absolute tolerance on positions [m] (default 1e-15) */
+    double atol_v;                      /* absolute tolerance on velocities [m/s] (default 1e-13) */
 } caekf_truth_options_t;
 
 typedef struct {
     double t;
-    int inputs, sensors, bodies, contacts;  /* the sizes in use */
-    double u[CAEKF_MAX_INPUTS];             /* the inputs at t */
-    double y[CAEKF_MAX_SENSORS];            /* sensor readings (q or v of the sensor's body) plus noise */
+    int inputs, sensors, bodies, contacts; /* the sizes in use */
+    double u[CAEKF_MAX_INPUTS];            /* the inputs at t */
+    double y[CAEKF_MAX_SENSORS];           /* sensor readings (q or v of the sensor's body) plus noise */
     double q[CAEKF_MAX_BODIES], v[CAEKF_MAX_BODIES];
-    double delta[CAEKF_MAX_CONTACTS];       /* penetration of each contact */
-    int newton_iters;  /* backward Euler: sum over the substeps of this sample */
-    int newton_failed; /* backward Euler: substeps whose Newton did not converge */
-    int steps;         /* DOP853: accepted steps in this sample interval (event restarts included) */
-    int rejected;      /* DOP853: rejected steps */
-    int events;        /* DOP853: contact events (closing or opening) located in this interval */
-    int failed;        /* DOP853: step size underflow or step budget exhausted (the run stops) */
+    double delta[CAEKF_MAX_CONTACTS]; /* penetration of each contact */
+    int newton_iters;                 /* backward Euler: sum over the substeps of this sample */
+    int newton_failed;                /* backward Euler: substeps whose Newton did not converge */
+    int steps;                        /* DOP853: accepted steps in this sample interval (event restarts included) */
+    int rejected;                     /* DOP853: rejected steps */
+    int events;                       /* DOP853: contact events (closing or opening) located in this interval */
+    int failed;                       /* DOP853: step size underflow or step budget exhausted (the run stops) */
 } caekf_truth_sample_t;
 
 /* Defaults above. */

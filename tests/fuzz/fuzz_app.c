@@ -37,32 +37,30 @@
 #define PRESET_NONE (-1)
 
 enum {
-    OP_RAW = 0,       /* [id sel] ([id u32]) [dlc] [8 bytes]: a frame as it comes */
-    OP_SEALED,        /* [msg] [counter mode] [7 payload bytes]: valid CRC over arbitrary payload */
-    OP_STEP,          /* [flags] [step u16] [u u32] [y1 5 bytes] [y4 5 bytes]: a bench step */
-    OP_PARAM,         /* [id] [exp10] [mantissa 5 bytes] */
-    OP_RESET,         /* [unused bits 16..23] [n mode] [token] */
-    OP_STATUS_REQ,    /* [token] */
-    OP_TIME,          /* [u16]: advance the clock, poll */
-    OP_HAL_FAULT,     /* [b]: receive errors pending, transmit failure toggle; poll */
-    OP_LOCAL_CONFIG,  /* [preset] [n] n x ([param id] [value]): caekf_app_configure */
-    OP_BURST,         /* toggles burst mode: frames queue up, then polls drain the queue */
-    OP_PAPER_CONFIG,  /* [preset] [token]: the paper settings and a preset's as CTRL_PARAMs + CTRL_RESET */
-    OP_REPEAT_STEPS,  /* [n]: n more steps with the last inputs and consecutive STEP numbers */
+    OP_RAW = 0,      /* [id sel] ([id u32]) [dlc] [8 bytes]: a frame as it comes */
+    OP_SEALED,       /* [msg] [counter mode] [7 payload bytes]: valid CRC over arbitrary payload */
+    OP_STEP,         /* [flags] [step u16] [u u32] [y1 5 bytes] [y4 5 bytes]: a bench step */
+    OP_PARAM,        /* [id] [exp10] [mantissa 5 bytes] */
+    OP_RESET,        /* [unused bits 16..23] [n mode] [token] */
+    OP_STATUS_REQ,   /* [token] */
+    OP_TIME,         /* [u16]: advance the clock, poll */
+    OP_HAL_FAULT,    /* [b]: receive errors pending, transmit failure toggle; poll */
+    OP_LOCAL_CONFIG, /* [preset] [n] n x ([param id] [value]): caekf_app_configure */
+    OP_BURST,        /* toggles burst mode: frames queue up, then polls drain the queue */
+    OP_PAPER_CONFIG, /* [preset] [token]: the paper settings and a preset's as CTRL_PARAMs + CTRL_RESET */
+    OP_REPEAT_STEPS, /* [n]: n more steps with the last inputs and consecutive STEP numbers */
     OP_COUNT
 };
 
 /* caekf.dbc, independently of the codec's table (cross-checked once). */
-static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8,
-                                                     0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
-                                                     0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B,
-                                                     0x103, 0x190, 0x191, 0x104, 0x192,
-                                                     0x105, 0x106, 0x107, 0x108, 0x109, 0x10A, 0x10B,
-                                                     0x193, 0x194, 0x195, 0x196, 0x197, 0x198, 0x199,
-                                                     0x19A, 0x19B, 0x19C};
+static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {
+    0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8, 0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
+    0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B, 0x103, 0x190, 0x191, 0x104, 0x192, 0x105, 0x106, 0x107,
+    0x108, 0x109, 0x10A, 0x10B, 0x193, 0x194, 0x195, 0x196, 0x197, 0x198, 0x199, 0x19A, 0x19B, 0x19C};
 static int is_bench_msg(unsigned m)
 {
-    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP || m == (unsigned)CAEKF_MSG_BENCH_FD ||
+    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP ||
+           m == (unsigned)CAEKF_MSG_BENCH_FD ||
            (m >= (unsigned)CAEKF_MSG_BENCH_U2 && m <= (unsigned)CAEKF_MSG_BENCH_S4_VEL);
 }
 static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
@@ -127,10 +125,10 @@ static uint8_t crc8_j1850(uint16_t data_id, const uint8_t d[8])
 static int settings_equal(const caekf_settings_t *a, const caekf_settings_t *b)
 {
     return SAME(a->model, b->model) && SAME(a->q0, b->q0) && SAME(a->v0, b->v0) && SAME(a->gamma0, b->gamma0) &&
-           SAME(a->sigma_q0, b->sigma_q0) && SAME(a->sigma_v0, b->sigma_v0) &&
-           SAME(a->sigma_gamma0, b->sigma_gamma0) && SAME(a->sigma_qx_q, b->sigma_qx_q) &&
-           SAME(a->sigma_qx_v, b->sigma_qx_v) && SAME(a->sigma_q_gamma, b->sigma_q_gamma) &&
-           SAME(a->q_gamma_scale, b->q_gamma_scale) && SAME(a->sigma_r, b->sigma_r) && SAME(a->sigma_rv, b->sigma_rv) && a->mode == b->mode &&
+           SAME(a->sigma_q0, b->sigma_q0) && SAME(a->sigma_v0, b->sigma_v0) && SAME(a->sigma_gamma0, b->sigma_gamma0) &&
+           SAME(a->sigma_qx_q, b->sigma_qx_q) && SAME(a->sigma_qx_v, b->sigma_qx_v) &&
+           SAME(a->sigma_q_gamma, b->sigma_q_gamma) && SAME(a->q_gamma_scale, b->q_gamma_scale) &&
+           SAME(a->sigma_r, b->sigma_r) && SAME(a->sigma_rv, b->sigma_rv) && a->mode == b->mode &&
            a->switchoff == b->switchoff && a->cov_update == b->cov_update &&
            a->constraint_enabled == b->constraint_enabled && SAME(a->gamma_min, b->gamma_min) &&
            a->cov_repair_enabled == b->cov_repair_enabled && a->psd_check_period == b->psd_check_period &&
@@ -274,9 +272,9 @@ static void wire_decimal(double value, int *exp10, int64_t *mantissa)
 
 typedef struct {
     uint8_t msg;
-    uint16_t step;      /* value frames and EST_STEP */
-    int8_t status;      /* EST_STEP: step status; EST_ACK: ack status */
-    uint16_t flags;     /* EST_STEP: flags without bits 12 and 14 (saturation, P norm) */
+    uint16_t step;  /* value frames and EST_STEP */
+    int8_t status;  /* EST_STEP: step status; EST_ACK: ack status */
+    uint16_t flags; /* EST_STEP: flags without bits 12 and 14 (saturation, P norm) */
     uint8_t iters;
     uint8_t token, n_rx, state;
     uint16_t bad_param; /* EST_ACK: expected BAD_PARAM */
@@ -307,7 +305,7 @@ typedef struct {
     int have_closed, have_run;
     uint16_t last_closed, last_run;
     double last_u[CAEKF_MAX_INPUTS]; /* held over a gap's prediction-only steps */
-    caekf_t est; /* shadow estimator */
+    caekf_t est;                     /* shadow estimator */
     uint32_t last_status_us;
     /* transmit expectations of the current poll */
     expect_t exp[TXCAP];
@@ -471,10 +469,22 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
     case CAEKF_MSG_BENCH_Y4: sensor = 1; break;
     case CAEKF_MSG_BENCH_S3_POS: sensor = 2; break;
     case CAEKF_MSG_BENCH_S4_POS: sensor = 3; break;
-    case CAEKF_MSG_BENCH_S1_VEL: sensor = 0; kind = CAEKF_SENSOR_VELOCITY; break;
-    case CAEKF_MSG_BENCH_S2_VEL: sensor = 1; kind = CAEKF_SENSOR_VELOCITY; break;
-    case CAEKF_MSG_BENCH_S3_VEL: sensor = 2; kind = CAEKF_SENSOR_VELOCITY; break;
-    case CAEKF_MSG_BENCH_S4_VEL: sensor = 3; kind = CAEKF_SENSOR_VELOCITY; break;
+    case CAEKF_MSG_BENCH_S1_VEL:
+        sensor = 0;
+        kind = CAEKF_SENSOR_VELOCITY;
+        break;
+    case CAEKF_MSG_BENCH_S2_VEL:
+        sensor = 1;
+        kind = CAEKF_SENSOR_VELOCITY;
+        break;
+    case CAEKF_MSG_BENCH_S3_VEL:
+        sensor = 2;
+        kind = CAEKF_SENSOR_VELOCITY;
+        break;
+    case CAEKF_MSG_BENCH_S4_VEL:
+        sensor = 3;
+        kind = CAEKF_SENSOR_VELOCITY;
+        break;
     default: break;
     }
     if (msg == CAEKF_MSG_BENCH_YP) {
@@ -1078,9 +1088,7 @@ static void run_ops(fz_reader_t *r)
             send_sealed(msg, d, (mode < 0xC0u) ? -1 : (int)(mode & 0x0Fu));
             break;
         }
-        case OP_STEP:
-            op_step(r);
-            break;
+        case OP_STEP: op_step(r); break;
         case OP_PARAM: {
             const unsigned id = fz_u8(r);
             const int exp10 = (int)(int8_t)fz_u8(r);
@@ -1116,18 +1124,14 @@ static void run_ops(fz_reader_t *r)
             poll_once();
             break;
         }
-        case OP_LOCAL_CONFIG:
-            op_local_config(r);
-            break;
+        case OP_LOCAL_CONFIG: op_local_config(r); break;
         case OP_BURST:
             burst = !burst;
             if (!burst) {
                 drain();
             }
             break;
-        case OP_PAPER_CONFIG:
-            op_paper_config(r);
-            break;
+        case OP_PAPER_CONFIG: op_paper_config(r); break;
         default: { /* OP_REPEAT_STEPS */
             unsigned n = 1u + fz_u8(r) % 64u;
             while (n-- > 0u && frames_sent < MAX_FRAMES) {

@@ -24,13 +24,12 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 /* A violated invariant is a finding: report where and abort, which libFuzzer records as a crash. */
-#define FZ_CHECK(cond, what)                                                                           \
-    do {                                                                                               \
-        if (!(cond)) {                                                                                 \
-            fprintf(stderr, "FUZZ INVARIANT VIOLATED %s:%d: %s [%s]\n", __FILE__, __LINE__, (what),     \
-                    #cond);                                                                            \
-            abort();                                                                                   \
-        }                                                                                              \
+#define FZ_CHECK(cond, what)                                                                                \
+    do {                                                                                                    \
+        if (!(cond)) {                                                                                      \
+            fprintf(stderr, "FUZZ INVARIANT VIOLATED %s:%d: %s [%s]\n", __FILE__, __LINE__, (what), #cond); \
+            abort();                                                                                        \
+        }                                                                                                   \
     } while (0)
 
 typedef struct {
@@ -103,12 +102,9 @@ static inline double fz_scalar(fz_reader_t *r, double nominal)
 {
     const uint8_t c = fz_u8(r);
     switch (c & 7u) {
-    case 0:
-        return fz_special(fz_u8(r));
-    case 1:
-        return fz_bits_to_double(fz_u64(r));
-    case 2:
-        return fz_bits_to_float(fz_u32(r));
+    case 0: return fz_special(fz_u8(r));
+    case 1: return fz_bits_to_double(fz_u64(r));
+    case 2: return fz_bits_to_float(fz_u32(r));
     case 3: { /* nominal * 10^(e/4), e in -128..127: 1e-32 .. 1e32 times nominal */
         const int e = (int)(int8_t)fz_u8(r);
         const double v = nominal * pow(10.0, (double)e / 4.0);
@@ -166,8 +162,9 @@ static inline const caekf_t *fz_snapshot(unsigned p, unsigned k)
                 const double t = (double)(step + 1) * CAEKF_PAPER_DT;
                 caekf_scalar_t x[CAEKF_N], y[CAEKF_MAX_SENSORS];
                 caekf_report_t rep;
-                const caekf_scalar_t u = (caekf_scalar_t)(CAEKF_PAPER_U_AMP *
-                    sin(2.0 * 3.14159265358979323846 * CAEKF_PAPER_U_FREQ * t + CAEKF_PAPER_U_PHASE));
+                const caekf_scalar_t u =
+                    (caekf_scalar_t)(CAEKF_PAPER_U_AMP *
+                                     sin(2.0 * 3.14159265358979323846 * CAEKF_PAPER_U_FREQ * t + CAEKF_PAPER_U_PHASE));
                 (void)caekf_get_state(&e, x);
                 y[0] = x[0] + (caekf_scalar_t)CAEKF_PAPER_DT * x[e.model.nq];
                 y[1] = x[3] + (caekf_scalar_t)CAEKF_PAPER_DT * x[e.model.nq + 3];

@@ -63,10 +63,9 @@ static caekf_scalar_t *real_field(caekf_settings_t *s, unsigned i, double *typic
         &s->gamma_gate_nis, &s->gamma0[0], &s->gamma_min[0]}; /* the contact and constraint fields twice: more often */
     // clang-format on
     /* Typical magnitudes for fields whose current value may be 0. */
-    static const double typ[N_REAL_FIELDS] = {1, 1, 1, 1, 2e3, 1e4, 1e4, 1e4, 5, 5, 5, 5, 1e-3, 1e-3,
-                                              1e-3, 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2, 1e-2, 7.5e7, 1e-6,
-                                              1e-5, 2.5e7, 1e-9, 1e-7, 1e6, 1e3, 1e-7, 1e6, 1e-13, 25,
-                                              1e8, 1e8};
+    static const double typ[N_REAL_FIELDS] = {1,    1,     1,    1,    2e3,  1e4,  1e4,  1e4,  5,     5,    5,     5,
+                                              1e-3, 1e-3,  1e-3, 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2,  1e-2, 7.5e7, 1e-6,
+                                              1e-5, 2.5e7, 1e-9, 1e-7, 1e6,  1e3,  1e-7, 1e6,  1e-13, 25,   1e8,   1e8};
     i %= N_REAL_FIELDS;
     *typical = (*f[i] != (caekf_scalar_t)0 && fz_is_finite_scalar(*f[i])) ? (double)*f[i] : typ[i];
     return f[i];
@@ -110,7 +109,7 @@ static void apply_overrides(fz_reader_t *r, caekf_settings_t *s)
 
 /* ---- checks ----------------------------------------------------------------------------------- */
 
-static caekf_t est;      /* the instance under test */
+static caekf_t est; /* the instance under test */
 static struct {
     long ok, failed, rejected;
     uint32_t flags;
@@ -135,7 +134,7 @@ static void check_P_finite_symmetric(const caekf_t *e)
     FZ_CHECK(all_finite(&e->P[(0) * N + (0)], N * N), "P finite");
     for (i = 0; i < N; ++i) {
         for (j = 0; j < i; ++j) {
-            FZ_CHECK(e->P[(i) * N + (j)] == e->P[(j) * N + (i)], "P exactly symmetric");
+            FZ_CHECK(e->P[(i)*N + (j)] == e->P[(j)*N + (i)], "P exactly symmetric");
         }
     }
 }
@@ -149,15 +148,15 @@ static void dump_settings(const caekf_settings_t *s)
             "  q0 %g %g %g %g v0 %g %g %g %g gamma0 %g sigma0 %g %g %g\n"
             "  sigma_qx %g %g sigma_q_gamma %g q_gamma_scale %g sigma_r %g gamma_min %g rtol %g gate %g\n"
             "  mode %d switchoff %d cov_update %d constraint %d repair %d psd_period %d newton_max %d\n",
-            (double)m->m[0], (double)m->m[1], (double)m->m[2], (double)m->m[3], (double)m->spring_k[0], (double)m->spring_k[1],
-            (double)m->spring_k[2], (double)m->spring_k[3], (double)m->spring_c[0], (double)m->spring_c[1], (double)m->spring_c[2], (double)m->spring_c[3],
-            (double)m->contact_gap[0], (double)m->dt, (double)s->q0[0], (double)s->q0[1], (double)s->q0[2],
-            (double)s->q0[3], (double)s->v0[0], (double)s->v0[1], (double)s->v0[2], (double)s->v0[3],
-            (double)s->gamma0[0], (double)s->sigma_q0, (double)s->sigma_v0, (double)s->sigma_gamma0[0],
-            (double)s->sigma_qx_q, (double)s->sigma_qx_v, (double)s->sigma_q_gamma[0], (double)s->q_gamma_scale,
-            (double)s->sigma_r, (double)s->gamma_min[0], (double)s->newton_rtol, (double)s->gamma_gate_nis, (int)s->mode, (int)s->switchoff,
-            (int)s->cov_update, s->constraint_enabled, s->cov_repair_enabled, s->psd_check_period,
-            s->newton_max_iter);
+            (double)m->m[0], (double)m->m[1], (double)m->m[2], (double)m->m[3], (double)m->spring_k[0],
+            (double)m->spring_k[1], (double)m->spring_k[2], (double)m->spring_k[3], (double)m->spring_c[0],
+            (double)m->spring_c[1], (double)m->spring_c[2], (double)m->spring_c[3], (double)m->contact_gap[0],
+            (double)m->dt, (double)s->q0[0], (double)s->q0[1], (double)s->q0[2], (double)s->q0[3], (double)s->v0[0],
+            (double)s->v0[1], (double)s->v0[2], (double)s->v0[3], (double)s->gamma0[0], (double)s->sigma_q0,
+            (double)s->sigma_v0, (double)s->sigma_gamma0[0], (double)s->sigma_qx_q, (double)s->sigma_qx_v,
+            (double)s->sigma_q_gamma[0], (double)s->q_gamma_scale, (double)s->sigma_r, (double)s->gamma_min[0],
+            (double)s->newton_rtol, (double)s->gamma_gate_nis, (int)s->mode, (int)s->switchoff, (int)s->cov_update,
+            s->constraint_enabled, s->cov_repair_enabled, s->psd_check_period, s->newton_max_iter);
 }
 
 static int try_init(const caekf_settings_t *s)
@@ -188,7 +187,7 @@ static int try_init(const caekf_settings_t *s)
     }
     for (i = 0; i < N; ++i) {
         for (j = 0; j < N; ++j) {
-            FZ_CHECK(est.P[(i) * N + (j)] == (caekf_scalar_t)(i == j ? 1 : 0), "P0 = I (scaled)");
+            FZ_CHECK(est.P[(i)*N + (j)] == (caekf_scalar_t)(i == j ? 1 : 0), "P0 = I (scaled)");
         }
     }
     FZ_CHECK(all_finite(est.scale, N), "accepted init: finite scale");
@@ -219,8 +218,7 @@ static void check_flags(const caekf_t *e, const caekf_report_t *rep)
     FZ_CHECK(!(f & CAEKF_FLAG_CONSTRAINT_CLAMPED) || (f & CAEKF_FLAG_CONSTRAINT_APPLIED), "clamped implies applied");
     FZ_CHECK(!(f & CAEKF_FLAG_CONSTRAINT_APPLIED) || c->constraint_enabled, "constraint only when enabled");
     FZ_CHECK(!!(f & CAEKF_FLAG_CONTACT_ACTIVE) == (rep->delta > (caekf_scalar_t)0), "contact flag == delta > 0");
-    FZ_CHECK(!!(f & CAEKF_FLAG_GAMMA_FROZEN) ==
-                 (c->mode == CAEKF_MODE_SWITCHED && !(f & CAEKF_FLAG_CONTACT_ACTIVE)),
+    FZ_CHECK(!!(f & CAEKF_FLAG_GAMMA_FROZEN) == (c->mode == CAEKF_MODE_SWITCHED && !(f & CAEKF_FLAG_CONTACT_ACTIVE)),
              "gamma frozen iff switched and contact inactive");
     FZ_CHECK(rep->newton_iters >= 0 && rep->newton_iters <= c->newton_max_iter &&
                  rep->newton_iters <= CAEKF_NEWTON_MAX_ITER,
@@ -272,7 +270,7 @@ static void one_step(caekf_scalar_t u, const caekf_scalar_t y[CAEKF_MAX_SENSORS]
         if ((rep.flags & CAEKF_FLAG_GAMMA_FROZEN) && est.cfg.switchoff == CAEKF_SWITCHOFF_PAPER &&
             !(rep.flags & (CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED))) {
             for (i = 0; i < N; ++i) {
-                FZ_CHECK(est.P[(i) * N + (IG)] == snapshot.P[(i) * N + (IG)], "paper switch-off: P's gamma column frozen");
+                FZ_CHECK(est.P[(i)*N + (IG)] == snapshot.P[(i)*N + (IG)], "paper switch-off: P's gamma column frozen");
             }
         }
     } else {
@@ -357,7 +355,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             (void)try_init(&s2);
             continue;
         }
-        u = fz_input(&r, 1e-4, 2e-9);  /* +-3.3 N, or +-4.3 N in 2 nN steps */
+        u = fz_input(&r, 1e-4, 2e-9);     /* +-3.3 N, or +-4.3 N in 2 nN steps */
         y[0] = fz_input(&r, 1e-7, 1e-12); /* +-3.3 mm, or +-2.1 mm in pm steps */
         y[1] = fz_input(&r, 1e-7, 1e-12);
         reps = (ctrl & 0x80u) ? 1L + 8L * (long)(ctrl & 0x3Fu) : 1L;
@@ -367,7 +365,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (getenv("CAEKF_FUZZ_TRACE") != NULL) { /* what an input reached, for writing seeds */
         unsigned b;
-        fprintf(stderr, "init %s, steps ok %ld failed %ld rejected %ld, flags:", trace.init_accepted ? "accepted" : "refused",
+        fprintf(stderr,
+                "init %s, steps ok %ld failed %ld rejected %ld, flags:", trace.init_accepted ? "accepted" : "refused",
                 trace.ok, trace.failed, trace.rejected);
         for (b = 0; b < CAEKF_FLAG_COUNT; ++b) {
             if (trace.flags & (1u << b)) {

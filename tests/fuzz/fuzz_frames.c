@@ -23,22 +23,22 @@
 
 /* decode -> encode -> decode of one fixed layout: the same fields, bit for bit (structs zeroed first, so
  * padding compares equal). */
-#define ROUND_TRIP(type, dec, enc, payload)                                                            \
-    do {                                                                                               \
-        type a_, b_;                                                                                   \
-        uint8_t q_[DLC];                                                                               \
-        caekf_proto_status_t s_;                                                                       \
-        memset(&a_, 0, sizeof a_);                                                                     \
-        memset(&b_, 0, sizeof b_);                                                                     \
-        s_ = dec((payload), &a_);                                                                      \
-        FZ_CHECK(s_ == CAEKF_PROTO_OK || s_ == CAEKF_PROTO_ERR_VALUE, #dec ": OK or ERR_VALUE");       \
-        if (s_ == CAEKF_PROTO_OK) {                                                                    \
-            memset(q_, 0, sizeof q_);                                                                  \
-            s_ = enc(&a_, q_);                                                                         \
+#define ROUND_TRIP(type, dec, enc, payload)                                                              \
+    do {                                                                                                 \
+        type a_, b_;                                                                                     \
+        uint8_t q_[DLC];                                                                                 \
+        caekf_proto_status_t s_;                                                                         \
+        memset(&a_, 0, sizeof a_);                                                                       \
+        memset(&b_, 0, sizeof b_);                                                                       \
+        s_ = dec((payload), &a_);                                                                        \
+        FZ_CHECK(s_ == CAEKF_PROTO_OK || s_ == CAEKF_PROTO_ERR_VALUE, #dec ": OK or ERR_VALUE");         \
+        if (s_ == CAEKF_PROTO_OK) {                                                                      \
+            memset(q_, 0, sizeof q_);                                                                    \
+            s_ = enc(&a_, q_);                                                                           \
             FZ_CHECK(s_ == CAEKF_PROTO_OK || s_ == CAEKF_PROTO_SATURATED, #enc " of a decoded message"); \
-            FZ_CHECK(dec(q_, &b_) == CAEKF_PROTO_OK, #dec " of a re-encoded message");                 \
-            FZ_CHECK(memcmp(&a_, &b_, sizeof a_) == 0, "decode(encode(decode(p))) == decode(p)");      \
-        }                                                                                              \
+            FZ_CHECK(dec(q_, &b_) == CAEKF_PROTO_OK, #dec " of a re-encoded message");                   \
+            FZ_CHECK(memcmp(&a_, &b_, sizeof a_) == 0, "decode(encode(decode(p))) == decode(p)");        \
+        }                                                                                                \
     } while (0)
 
 static void check_value(caekf_msg_t msg, const uint8_t p[DLC])
@@ -111,18 +111,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         case CAEKF_LAYOUT_STATUS_REQ:
             ROUND_TRIP(caekf_msg_status_req_t, caekf_proto_decode_status_req, caekf_proto_encode_status_req, p);
             break;
-        case CAEKF_LAYOUT_ACK:
-            ROUND_TRIP(caekf_msg_ack_t, caekf_proto_decode_ack, caekf_proto_encode_ack, p);
-            break;
+        case CAEKF_LAYOUT_ACK: ROUND_TRIP(caekf_msg_ack_t, caekf_proto_decode_ack, caekf_proto_encode_ack, p); break;
         case CAEKF_LAYOUT_HEALTH:
             ROUND_TRIP(caekf_msg_health_t, caekf_proto_decode_health, caekf_proto_encode_health, p);
             break;
         case CAEKF_LAYOUT_STEP:
             ROUND_TRIP(caekf_msg_step_t, caekf_proto_decode_step, caekf_proto_encode_step, p);
             break;
-        case CAEKF_LAYOUT_YP:
-            ROUND_TRIP(caekf_msg_yp_t, caekf_proto_decode_yp, caekf_proto_encode_yp, p);
-            break;
+        case CAEKF_LAYOUT_YP: ROUND_TRIP(caekf_msg_yp_t, caekf_proto_decode_yp, caekf_proto_encode_yp, p); break;
         case CAEKF_LAYOUT_PROD:
             ROUND_TRIP(caekf_msg_prod_t, caekf_proto_decode_prod, caekf_proto_encode_prod, p);
             break;
@@ -130,16 +126,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             ROUND_TRIP(caekf_msg_page_t, caekf_proto_decode_page, caekf_proto_encode_page, p);
             break;
         case CAEKF_LAYOUT_INT36:
-        case CAEKF_LAYOUT_FLOAT32:
-            check_value(msg, p);
-            break;
+        case CAEKF_LAYOUT_FLOAT32: check_value(msg, p); break;
         case CAEKF_LAYOUT_FD_IN:
         case CAEKF_LAYOUT_FD_OUT:
             /* 64-byte CAN FD payloads with a CRC-16: this harness feeds classic 8-byte records (the FD
              * codec is checked against cantools in test_proto_codec and over vcan in the HIL). */
             continue;
-        default:
-            FZ_CHECK(0, "a layout this harness does not know");
+        default: FZ_CHECK(0, "a layout this harness does not know");
         }
         check_e2e(info->data_id, rec[1], p);
     }

@@ -5,14 +5,18 @@
 
 #include "caekf/caekf.h"
 
-static const struct { unsigned id; double value; } config[] = {
-    {CAEKF_PARAM_M + 0, 1.0}, {CAEKF_PARAM_M + 1, 1.0}, {CAEKF_PARAM_M + 2, 1.0}, {CAEKF_PARAM_M + 3, 1.0},
-    {CAEKF_PARAM_SPRING_K + 0, 2.0e3}, {CAEKF_PARAM_SPRING_K + 1, 1.0e4}, {CAEKF_PARAM_SPRING_K + 2, 1.0e4},
-    {CAEKF_PARAM_SPRING_K + 3, 1.0e4}, {CAEKF_PARAM_SPRING_C + 0, 5.0}, {CAEKF_PARAM_SPRING_C + 1, 5.0},
-    {CAEKF_PARAM_SPRING_C + 2, 5.0}, {CAEKF_PARAM_SPRING_C + 3, 5.0}, {CAEKF_PARAM_CONTACT_GAP, 1.0e-3}, {CAEKF_PARAM_DT, 1.0e-3}, {CAEKF_PARAM_GAMMA0, 7.5e7},
-    {CAEKF_PARAM_SIGMA_Q0, 1.0e-6}, {CAEKF_PARAM_SIGMA_V0, 1.0e-5}, {CAEKF_PARAM_SIGMA_GAMMA0, 2.5e7},
-    {CAEKF_PARAM_SIGMA_QX_Q, 1.0e-9}, {CAEKF_PARAM_SIGMA_QX_V, 1.0e-7}, {CAEKF_PARAM_SIGMA_Q_GAMMA, 1.0e6},
-    {CAEKF_PARAM_SIGMA_R, 1.0e-7}, {CAEKF_PARAM_GAMMA_MIN, 1.0e6},
+static const struct {
+    unsigned id;
+    double value;
+} config[] = {
+    {CAEKF_PARAM_M + 0, 1.0},          {CAEKF_PARAM_M + 1, 1.0},          {CAEKF_PARAM_M + 2, 1.0},
+    {CAEKF_PARAM_M + 3, 1.0},          {CAEKF_PARAM_SPRING_K + 0, 2.0e3}, {CAEKF_PARAM_SPRING_K + 1, 1.0e4},
+    {CAEKF_PARAM_SPRING_K + 2, 1.0e4}, {CAEKF_PARAM_SPRING_K + 3, 1.0e4}, {CAEKF_PARAM_SPRING_C + 0, 5.0},
+    {CAEKF_PARAM_SPRING_C + 1, 5.0},   {CAEKF_PARAM_SPRING_C + 2, 5.0},   {CAEKF_PARAM_SPRING_C + 3, 5.0},
+    {CAEKF_PARAM_CONTACT_GAP, 1.0e-3}, {CAEKF_PARAM_DT, 1.0e-3},          {CAEKF_PARAM_GAMMA0, 7.5e7},
+    {CAEKF_PARAM_SIGMA_Q0, 1.0e-6},    {CAEKF_PARAM_SIGMA_V0, 1.0e-5},    {CAEKF_PARAM_SIGMA_GAMMA0, 2.5e7},
+    {CAEKF_PARAM_SIGMA_QX_Q, 1.0e-9},  {CAEKF_PARAM_SIGMA_QX_V, 1.0e-7},  {CAEKF_PARAM_SIGMA_Q_GAMMA, 1.0e6},
+    {CAEKF_PARAM_SIGMA_R, 1.0e-7},     {CAEKF_PARAM_GAMMA_MIN, 1.0e6},
 };
 
 int main(void)

@@ -59,10 +59,7 @@ static void print_hex_n(int st, const uint8_t *d, unsigned n)
     printf("\n");
 }
 
-static void print_hex(int st, const uint8_t *d)
-{
-    print_hex_n(st, d, 8u);
-}
+static void print_hex(int st, const uint8_t *d) { print_hex_n(st, d, 8u); }
 
 static int msg_by_name(const char *name, caekf_msg_t *msg)
 {
@@ -89,8 +86,8 @@ static void cmd_info(void)
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         const caekf_msg_info_t *info;
         (void)caekf_proto_msg_info((caekf_msg_t)i, &info);
-        printf("%s %u %u %u %u %u %.17g\n", info->name, info->can_id, info->data_id, info->layout, info->dir,
-               info->len, info->lsb);
+        printf("%s %u %u %u %u %u %.17g\n", info->name, info->can_id, info->data_id, info->layout, info->dir, info->len,
+               info->lsb);
     }
     printf("end\n");
 }

@@ -140,8 +140,7 @@ static double psd_min_pivot(const double P[N][N], double tol)
     return min_piv;
 }
 
-static void check_step(caekf_t *est, stats_t *st, const caekf_report_t *rep, caekf_status_t status,
-                       double gamma_min)
+static void check_step(caekf_t *est, stats_t *st, const caekf_report_t *rep, caekf_status_t status, double gamma_min)
 {
     static caekf_scalar_t Ps[N][N];
     double P[N][N];

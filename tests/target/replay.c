@@ -39,7 +39,7 @@
 #ifndef REPLAY_PRESET
 #define REPLAY_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
 #endif
-extern const caekf_scalar_t caekf_replay_inputs[];     /* u, y1, y4 per step */
+extern const caekf_scalar_t caekf_replay_inputs[]; /* u, y1, y4 per step */
 extern const caekf_scalar_t caekf_replay_inputs_end[];
 
 typedef struct {

@@ -81,11 +81,11 @@ static void expect_refused(caekf_settings_t *bad, unsigned param_id, unsigned re
     TEST_ASSERT_EQUAL_UINT_MESSAGE(reason, err.reason, what);
 }
 
-#define REFUSE(field, value, param_id)                                                                            \
-    do {                                                                                                          \
-        caekf_settings_t b = good;                                                                                \
-        b.field = value;                                                                                          \
-        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value);                          \
+#define REFUSE(field, value, param_id)                                                   \
+    do {                                                                                 \
+        caekf_settings_t b = good;                                                       \
+        b.field = value;                                                                 \
+        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value); \
     } while (0)
 
 static void test_bad_settings_are_refused(void)
@@ -222,7 +222,8 @@ static void test_set_by_id_reaches_every_element(void)
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_get(&b, id, &v));
         TEST_ASSERT_TRUE(v == want);
     }
-    TEST_ASSERT_TRUE(b.model.m[3] == CAEKF_PARAM_M + 3 + 2 && b.q0[2] == CAEKF_PARAM_Q0 + 4 && b.v0[0] == CAEKF_PARAM_V0 + 2);
+    TEST_ASSERT_TRUE(b.model.m[3] == CAEKF_PARAM_M + 3 + 2 && b.q0[2] == CAEKF_PARAM_Q0 + 4 &&
+                     b.v0[0] == CAEKF_PARAM_V0 + 2);
     TEST_ASSERT_TRUE(b.gamma_gate_nis == CAEKF_PARAM_GAMMA_GATE_NIS + 2 && b.mode == CAEKF_MODE_SWITCHED);
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_set(&b, CAEKF_PARAM_COUNT, 1.0, &err));
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNKNOWN_ID, err.reason);
@@ -254,7 +255,7 @@ static void test_predict_only_moves_the_model_not_gamma(void)
     (void)caekf_get_gamma(&est, &g1);
     (void)caekf_get_state(&est, x1);
     TEST_ASSERT_TRUE(memcmp(&g0, &g1, sizeof g0) == 0);
-    TEST_ASSERT_TRUE(x1[0] != x0[0]); /* the model advanced one dt */
+    TEST_ASSERT_TRUE(x1[0] != x0[0]);                         /* the model advanced one dt */
     TEST_ASSERT_TRUE(EST_P(&est, 0, 0) > EST_P(&copy, 0, 0)); /* and its uncertainty grew by Q */
 }
 

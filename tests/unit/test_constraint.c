@@ -21,8 +21,8 @@ void setUp(void) {}
 void tearDown(void) {}
 
 /* The filter's upper-triangle steps on full symmetric matrices. */
-static int correct_full(caekf_scalar_t z[N], paper_mat_t P, const caekf_scalar_t y[2], caekf_scalar_t r,
-                        int joseph, uint32_t *flags)
+static int correct_full(caekf_scalar_t z[N], paper_mat_t P, const caekf_scalar_t y[2], caekf_scalar_t r, int joseph,
+                        uint32_t *flags)
 {
     caekf_scalar_t nis;
     caekf_filter_dims_t d;

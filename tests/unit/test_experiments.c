@@ -87,8 +87,7 @@ static void test_innovation_gate_leaves_the_undisturbed_scenario_alone(void)
      * the exact motion), but the paper's results stay those of the ungated filter: final gamma within
      * 0.05 % of it. Canonical runs without the gate (Table 1). */
     TEST_ASSERT_DOUBLE_WITHIN(5e-4, 0.0, rel_err(switched.gamma_final) - rel_err(switched_ungated.gamma_final));
-    TEST_ASSERT_DOUBLE_WITHIN(5e-4, 0.0,
-                              rel_err(constrained.gamma_final) - rel_err(constrained_ungated.gamma_final));
+    TEST_ASSERT_DOUBLE_WITHIN(5e-4, 0.0, rel_err(constrained.gamma_final) - rel_err(constrained_ungated.gamma_final));
     TEST_ASSERT_EQUAL_UINT32(0, canonical.flags_seen & CAEKF_FLAG_GAMMA_GATED);
 }
 

@@ -36,15 +36,25 @@ static void mat_inverse(double a[NX][NX], double inv[NX][NX])
         for (i = k + 1; i < NX; ++i)
             if (fabs(a[i][k]) > fabs(a[p][k])) p = i;
         for (j = 0; j < NX; ++j) {
-            double t = a[k][j]; a[k][j] = a[p][j]; a[p][j] = t;
-            t = inv[k][j]; inv[k][j] = inv[p][j]; inv[p][j] = t;
+            double t = a[k][j];
+            a[k][j] = a[p][j];
+            a[p][j] = t;
+            t = inv[k][j];
+            inv[k][j] = inv[p][j];
+            inv[p][j] = t;
         }
         piv = a[k][k];
-        for (j = 0; j < NX; ++j) { a[k][j] /= piv; inv[k][j] /= piv; }
+        for (j = 0; j < NX; ++j) {
+            a[k][j] /= piv;
+            inv[k][j] /= piv;
+        }
         for (i = 0; i < NX; ++i) {
             double f = a[i][k];
             if (i == k) continue;
-            for (j = 0; j < NX; ++j) { a[i][j] -= f * a[k][j]; inv[i][j] -= f * inv[k][j]; }
+            for (j = 0; j < NX; ++j) {
+                a[i][j] -= f * a[k][j];
+                inv[i][j] -= f * inv[k][j];
+            }
         }
     }
 }
@@ -67,10 +77,18 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
     kf->theta = th;
     kf->u_prev = 0;
     kf->u_prev_known = 0;
-    K[0][0] = (double)p->spring_k[0] + (double)p->spring_k[1]; K[0][1] = K[1][0] = -(double)p->spring_k[1]; K[1][1] = (double)p->spring_k[1];
-    K[2][2] = (double)p->spring_k[2]; K[2][3] = K[3][2] = -(double)p->spring_k[2]; K[3][3] = (double)p->spring_k[2] + (double)p->spring_k[3];
-    C[0][0] = (double)p->spring_c[0] + (double)p->spring_c[1]; C[0][1] = C[1][0] = -(double)p->spring_c[1]; C[1][1] = (double)p->spring_c[1];
-    C[2][2] = (double)p->spring_c[2]; C[2][3] = C[3][2] = -(double)p->spring_c[2]; C[3][3] = (double)p->spring_c[2] + (double)p->spring_c[3];
+    K[0][0] = (double)p->spring_k[0] + (double)p->spring_k[1];
+    K[0][1] = K[1][0] = -(double)p->spring_k[1];
+    K[1][1] = (double)p->spring_k[1];
+    K[2][2] = (double)p->spring_k[2];
+    K[2][3] = K[3][2] = -(double)p->spring_k[2];
+    K[3][3] = (double)p->spring_k[2] + (double)p->spring_k[3];
+    C[0][0] = (double)p->spring_c[0] + (double)p->spring_c[1];
+    C[0][1] = C[1][0] = -(double)p->spring_c[1];
+    C[1][1] = (double)p->spring_c[1];
+    C[2][2] = (double)p->spring_c[2];
+    C[2][3] = C[3][2] = -(double)p->spring_c[2];
+    C[3][3] = (double)p->spring_c[2] + (double)p->spring_c[3];
     for (i = 0; i < 4; ++i) {
         kf->m[i] = (double)p->m[i];
         A[i][i] = 1;
@@ -135,9 +153,15 @@ static void kf_step(linear_kf_t *kf, double u, double y1, double y4, int predict
                 Pp[i][j] = acc;
             }
     }
-    S[0][0] = Pp[0][0] + kf->r; S[0][1] = Pp[0][3]; S[1][0] = Pp[3][0]; S[1][1] = Pp[3][3] + kf->r;
+    S[0][0] = Pp[0][0] + kf->r;
+    S[0][1] = Pp[0][3];
+    S[1][0] = Pp[3][0];
+    S[1][1] = Pp[3][3] + kf->r;
     det = S[0][0] * S[1][1] - S[0][1] * S[1][0];
-    Si[0][0] = S[1][1] / det; Si[1][1] = S[0][0] / det; Si[0][1] = -S[0][1] / det; Si[1][0] = -S[1][0] / det;
+    Si[0][0] = S[1][1] / det;
+    Si[1][1] = S[0][0] / det;
+    Si[0][1] = -S[0][1] / det;
+    Si[1][0] = -S[1][0] / det;
     for (i = 0; i < NX; ++i) {
         G[i][0] = Pp[i][0] * Si[0][0] + Pp[i][3] * Si[1][0];
         G[i][1] = Pp[i][0] * Si[0][1] + Pp[i][3] * Si[1][1];
@@ -161,7 +185,7 @@ static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0
     paper_settings(&s, EXP_SWITCHED);
     s.mode = mode;
     s.model.discretisation = discretisation;
-    s.model.contact_gap[0] = 1; /* 1 m: contact is never active */
+    s.model.contact_gap[0] = 1;     /* 1 m: contact is never active */
     s.v0[0] = (caekf_scalar_t)2e-3; /* not at rest: a time shift would show */
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
     (void)caekf_get_gamma(&est, &gamma0);
@@ -175,7 +199,8 @@ static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0
         y[0] = (caekf_scalar_t)r.y1;
         y[1] = (caekf_scalar_t)r.y4;
         if (n == 0 && start_at_t0) { /* this sample is taken as the one at t0 */
-            TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_correct(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+            TEST_ASSERT_EQUAL_INT(CAEKF_OK,
+                                  caekf_correct(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
             TEST_ASSERT_EQUAL_INT(0, rep.newton_iters);
         } else {
             TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
@@ -208,7 +233,10 @@ static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0
 #define TRAP CAEKF_DISCRETISATION_TRAPEZOIDAL
 static void test_switched_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, BE, 0); }
 static void test_canonical_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_CANONICAL, BE, 0); }
-static void test_trapezoidal_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, TRAP, 0); }
+static void test_trapezoidal_without_contact_is_a_linear_kf(void)
+{
+    compare_with_linear_kf(CAEKF_MODE_SWITCHED, TRAP, 0);
+}
 static void test_a_sample_at_t0_is_a_correction_only(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, TRAP, 1); }
 static void test_a_sample_at_t0_is_a_correction_only_be(void) { compare_with_linear_kf(CAEKF_MODE_CANONICAL, BE, 1); }
 

@@ -118,7 +118,7 @@ static void test_gate_does_not_touch_a_frozen_gamma_or_flag_it(void)
 #endif
 
 typedef struct {
-    long last_off;      /* last step after the gap outside the tolerance of the undisturbed run */
+    long last_off; /* last step after the gap outside the tolerance of the undisturbed run */
     long gated_steps;
     double gamma_lowest; /* over the disturbed run */
     double final_dg;

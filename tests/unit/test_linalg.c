@@ -61,8 +61,8 @@ static void test_sym2_inverse_and_refusals(void)
     TEST_ASSERT_DOUBLE_WITHIN(TOL, -1.0 / 11.0, (double)inv[1]);
     TEST_ASSERT_DOUBLE_WITHIN(TOL, 4.0 / 11.0, (double)inv[2]);
     /* Rank one plus a negligible R: the determinant is rounding noise, so it is refused. */
-    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(1 + (caekf_scalar_t)1e-20, 1,
-                                                                1 + (caekf_scalar_t)1e-20, CAEKF_EPS * 16, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(1 + (caekf_scalar_t)1e-20, 1, 1 + (caekf_scalar_t)1e-20,
+                                                                CAEKF_EPS * 16, inv));
     TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(0, 0, 1, CAEKF_EPS * 16, inv));
     TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(-1, 0, 1, CAEKF_EPS * 16, inv));
     TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse((caekf_scalar_t)NAN, 0, 1, CAEKF_EPS * 16, inv));

@@ -133,8 +133,12 @@ static void invert(double a[N][N], double inv[N][N])
             if (fabs(a[i][k]) > fabs(a[p][k])) p = i;
         }
         for (j = 0; j < N; ++j) {
-            double t = a[k][j]; a[k][j] = a[p][j]; a[p][j] = t;
-            t = inv[k][j]; inv[k][j] = inv[p][j]; inv[p][j] = t;
+            double t = a[k][j];
+            a[k][j] = a[p][j];
+            a[p][j] = t;
+            t = inv[k][j];
+            inv[k][j] = inv[p][j];
+            inv[p][j] = t;
         }
         piv = a[k][k];
         TEST_ASSERT_TRUE(fabs(piv) > 0);
@@ -239,7 +243,7 @@ static void test_newton_converges_over_the_reference_scenario(void)
     /* Contact steps need real Newton iterations; in float the trapezoidal step usually meets 256 eps after
      * one (its start-of-step half is exact). */
     TEST_ASSERT_TRUE(max_it >= (CAEKF_USE_FLOAT && discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? 1 : 2));
-    TEST_ASSERT_TRUE(max_it <= 6);           /* far inside the bound */
+    TEST_ASSERT_TRUE(max_it <= 6); /* far inside the bound */
     TEST_ASSERT_TRUE((double)iters / (double)n < 1.5);
 }
 

@@ -89,21 +89,11 @@ static int e2e_accept(caekf_app_t *app, caekf_msg_t msg, const caekf_msg_info_t 
         app->rx_last_us[msg] = now_us;
     }
     switch (st) {
-    case CAEKF_E2E_OK:
-        caekf_app_count(app, CAEKF_CNT_RX_LOST, lost);
-        return 1;
-    case CAEKF_E2E_ERR_DLC:
-        caekf_app_count(app, CAEKF_CNT_RX_BAD_DLC, 1u);
-        break;
-    case CAEKF_E2E_ERR_CRC:
-        caekf_app_count(app, CAEKF_CNT_RX_BAD_CRC, 1u);
-        break;
-    case CAEKF_E2E_ERR_DUPLICATE:
-        caekf_app_count(app, CAEKF_CNT_RX_DUPLICATE, 1u);
-        break;
-    default:
-        caekf_app_count(app, CAEKF_CNT_RX_COUNTER_JUMP, 1u);
-        break;
+    case CAEKF_E2E_OK: caekf_app_count(app, CAEKF_CNT_RX_LOST, lost); return 1;
+    case CAEKF_E2E_ERR_DLC: caekf_app_count(app, CAEKF_CNT_RX_BAD_DLC, 1u); break;
+    case CAEKF_E2E_ERR_CRC: caekf_app_count(app, CAEKF_CNT_RX_BAD_CRC, 1u); break;
+    case CAEKF_E2E_ERR_DUPLICATE: caekf_app_count(app, CAEKF_CNT_RX_DUPLICATE, 1u); break;
+    default: caekf_app_count(app, CAEKF_CNT_RX_COUNTER_JUMP, 1u); break;
     }
     return 0;
 }
@@ -121,18 +111,10 @@ static void handle_frame(caekf_app_t *app, const caekf_can_frame_t *f, uint32_t 
         return;
     }
     switch (info->layout) {
-    case CAEKF_LAYOUT_PARAM:
-        caekf_app_handle_param(app, f->data);
-        break;
-    case CAEKF_LAYOUT_RESET:
-        caekf_app_handle_reset(app, f->data);
-        break;
-    case CAEKF_LAYOUT_STATUS_REQ:
-        caekf_app_handle_status_req(app, f->data);
-        break;
-    default:
-        caekf_app_assembly_input(app, msg, f->data, now_us);
-        break;
+    case CAEKF_LAYOUT_PARAM: caekf_app_handle_param(app, f->data); break;
+    case CAEKF_LAYOUT_RESET: caekf_app_handle_reset(app, f->data); break;
+    case CAEKF_LAYOUT_STATUS_REQ: caekf_app_handle_status_req(app, f->data); break;
+    default: caekf_app_assembly_input(app, msg, f->data, now_us); break;
     }
 }
 
@@ -184,19 +166,12 @@ caekf_app_status_t caekf_app_counter(const caekf_app_t *app, unsigned counter_id
 const char *caekf_app_status_str(caekf_app_status_t st)
 {
     switch (st) {
-    case CAEKF_APP_OK:
-        return "ok";
-    case CAEKF_APP_ERR_NULL:
-        return "null pointer";
-    case CAEKF_APP_ERR_CONFIG:
-        return "app configuration or HAL incomplete";
-    case CAEKF_APP_ERR_SETTINGS:
-        return "estimator settings refused";
-    case CAEKF_APP_ERR_PARAM:
-        return "bad parameter";
-    case CAEKF_APP_ERR_INIT:
-        return "estimator initialisation failed";
-    default:
-        return "unknown status";
+    case CAEKF_APP_OK: return "ok";
+    case CAEKF_APP_ERR_NULL: return "null pointer";
+    case CAEKF_APP_ERR_CONFIG: return "app configuration or HAL incomplete";
+    case CAEKF_APP_ERR_SETTINGS: return "estimator settings refused";
+    case CAEKF_APP_ERR_PARAM: return "bad parameter";
+    case CAEKF_APP_ERR_INIT: return "estimator initialisation failed";
+    default: return "unknown status";
     }
 }

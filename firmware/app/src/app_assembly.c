@@ -64,10 +64,22 @@ static void value_target(caekf_msg_t msg, int *input, int *sensor, int *kind)
     case CAEKF_MSG_BENCH_Y4: *sensor = 1; break;
     case CAEKF_MSG_BENCH_S3_POS: *sensor = 2; break;
     case CAEKF_MSG_BENCH_S4_POS: *sensor = 3; break;
-    case CAEKF_MSG_BENCH_S1_VEL: *sensor = 0; *kind = CAEKF_SENSOR_VELOCITY; break;
-    case CAEKF_MSG_BENCH_S2_VEL: *sensor = 1; *kind = CAEKF_SENSOR_VELOCITY; break;
-    case CAEKF_MSG_BENCH_S3_VEL: *sensor = 2; *kind = CAEKF_SENSOR_VELOCITY; break;
-    case CAEKF_MSG_BENCH_S4_VEL: *sensor = 3; *kind = CAEKF_SENSOR_VELOCITY; break;
+    case CAEKF_MSG_BENCH_S1_VEL:
+        *sensor = 0;
+        *kind = CAEKF_SENSOR_VELOCITY;
+        break;
+    case CAEKF_MSG_BENCH_S2_VEL:
+        *sensor = 1;
+        *kind = CAEKF_SENSOR_VELOCITY;
+        break;
+    case CAEKF_MSG_BENCH_S3_VEL:
+        *sensor = 2;
+        *kind = CAEKF_SENSOR_VELOCITY;
+        break;
+    case CAEKF_MSG_BENCH_S4_VEL:
+        *sensor = 3;
+        *kind = CAEKF_SENSOR_VELOCITY;
+        break;
     default: break;
     }
 }
@@ -205,7 +217,8 @@ static void put(caekf_app_t *app, unsigned bit, double value)
     }
 }
 
-void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_FD_MAX_LEN], uint32_t now_us)
+void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_FD_MAX_LEN],
+                              uint32_t now_us)
 {
     uint16_t step = 0u;
     double value = 0.0;

@@ -11,7 +11,8 @@ void caekf_app_send_ack(caekf_app_t *app, uint8_t token, int8_t status, uint8_t 
     a.status = status;
     a.bad_param = bad_param;
     a.n_params_rx = n_params_rx;
-    a.state = (uint8_t)((app->configured ? CAEKF_ACK_STATE_CONFIGURED : 0u) | (app->staging ? CAEKF_ACK_STATE_STAGED : 0u));
+    a.state =
+        (uint8_t)((app->configured ? CAEKF_ACK_STATE_CONFIGURED : 0u) | (app->staging ? CAEKF_ACK_STATE_STAGED : 0u));
     (void)caekf_proto_encode_ack(&a, f.data);
     caekf_app_send(app, CAEKF_MSG_EST_ACK, &f);
 }

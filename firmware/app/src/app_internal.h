@@ -14,7 +14,8 @@ void caekf_app_send(caekf_app_t *app, caekf_msg_t msg, caekf_can_frame_t *frame)
 
 /* Step assembly (app_assembly.c). */
 void caekf_app_assembly_reset(caekf_app_t *app);
-void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_FD_MAX_LEN], uint32_t now_us);
+void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t data[CAEKF_CAN_FD_MAX_LEN],
+                              uint32_t now_us);
 void caekf_app_assembly_timeout(caekf_app_t *app, uint32_t now_us);
 
 /* The estimate frames of one step (app_output.c). */
@@ -29,6 +30,5 @@ void caekf_app_handle_reset(caekf_app_t *app, const uint8_t data[CAEKF_CAN_DLC])
 void caekf_app_send_ack(caekf_app_t *app, uint8_t token, int8_t status, uint8_t bad_param, uint8_t n_params_rx);
 void caekf_app_handle_status_req(caekf_app_t *app, const uint8_t data[CAEKF_CAN_DLC]);
 void caekf_app_send_health(caekf_app_t *app);
-
 
 #endif /* CAEKF_APP_INTERNAL_H */

@@ -53,10 +53,7 @@ static double wire_p_gg(const caekf_app_t *app)
     return g >= 0 ? (double)app->cov_scratch[g][g] : (double)NAN;
 }
 
-static uint8_t clamp_iters(int it)
-{
-    return (uint8_t)((it < 0) ? 0 : (it > 255) ? 255 : it);
-}
+static uint8_t clamp_iters(int it) { return (uint8_t)((it < 0) ? 0 : (it > 255) ? 255 : it); }
 
 /* What a step did, as EST_STEP, production page 10 and EST_FD carry it. */
 static caekf_msg_step_t step_info(uint16_t step, caekf_status_t status, const caekf_report_t *report,

@@ -26,12 +26,12 @@ extern "C" {
 /* Status of every public call (errno-like: 0 is success, negative is an error). */
 typedef enum {
     CAEKF_OK = 0,
-    CAEKF_ERR_NULL = -1,          /* a required pointer was NULL */
-    CAEKF_ERR_SETTINGS = -2,      /* settings refused by validation; nothing was changed */
-    CAEKF_ERR_NOT_INIT = -3,      /* estimator not initialised */
-    CAEKF_ERR_INPUT = -4,         /* non-finite u or y rejected; state untouched */
-    CAEKF_ERR_NUMERIC = -5,       /* step produced a non-finite value; rolled back, state untouched */
-    CAEKF_ERR_SINGULAR = -6       /* a linear solve met a (numerically) singular matrix */
+    CAEKF_ERR_NULL = -1,     /* a required pointer was NULL */
+    CAEKF_ERR_SETTINGS = -2, /* settings refused by validation; nothing was changed */
+    CAEKF_ERR_NOT_INIT = -3, /* estimator not initialised */
+    CAEKF_ERR_INPUT = -4,    /* non-finite u or y rejected; state untouched */
+    CAEKF_ERR_NUMERIC = -5,  /* step produced a non-finite value; rolled back, state untouched */
+    CAEKF_ERR_SINGULAR = -6  /* a linear solve met a (numerically) singular matrix */
 } caekf_status_t;
 
 /* Health flags of one step (bit mask, PX4-style). Several may be set at once. */
@@ -75,19 +75,19 @@ typedef struct {
     /* Process noise std per step (Q diagonal) and measurement noise std (R diagonal). */
     caekf_scalar_t sigma_qx_q, sigma_qx_v;
     caekf_scalar_t sigma_q_gamma[CAEKF_MAX_CONTACTS]; /* Q_gamma = q_gamma_scale * sigma_q_gamma^2 */
-    caekf_scalar_t q_gamma_scale;  /* 1 for Sec. 4.1, 1000 for Sec. 4.2 */
-    caekf_scalar_t sigma_r;        /* > 0: position sensors */
-    caekf_scalar_t sigma_rv;       /* velocity sensors (> 0 when there is one) */
+    caekf_scalar_t q_gamma_scale;                     /* 1 for Sec. 4.1, 1000 for Sec. 4.2 */
+    caekf_scalar_t sigma_r;                           /* > 0: position sensors */
+    caekf_scalar_t sigma_rv;                          /* velocity sensors (> 0 when there is one) */
 
     /* Enumerated settings are stored as int (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t), so
      * the settings table addresses them the same way whatever size a compiler gives an enum. */
-    int mode;       /* caekf_mode_t */
-    int switchoff;  /* caekf_switchoff_t */
-    int cov_update; /* caekf_cov_update_t */
-    int constraint_enabled;        /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
+    int mode;               /* caekf_mode_t */
+    int switchoff;          /* caekf_switchoff_t */
+    int cov_update;         /* caekf_cov_update_t */
+    int constraint_enabled; /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
     caekf_scalar_t gamma_min[CAEKF_MAX_CONTACTS];
-    int cov_repair_enabled;        /* repair P when it loses PSD (always flagged); default on */
-    int psd_check_period;          /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
+    int cov_repair_enabled; /* repair P when it loses PSD (always flagged); default on */
+    int psd_check_period;   /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
                                     * screen runs every step and triggers the full test at once) */
 
     /* Innovation gate on the gamma correction (0: off). A step whose normalised innovation squared
@@ -101,8 +101,8 @@ typedef struct {
      * an impact lasting a few samples is then resolved. 1: one step of dt always. */
     int contact_substeps;
 
-    int newton_max_iter;           /* 1..CAEKF_NEWTON_MAX_ITER */
-    caekf_scalar_t newton_rtol;    /* residual tolerance relative to the size of the equation's terms */
+    int newton_max_iter;        /* 1..CAEKF_NEWTON_MAX_ITER */
+    caekf_scalar_t newton_rtol; /* residual tolerance relative to the size of the equation's terms */
 } caekf_settings_t;
 
 /* What one step did. */
@@ -122,28 +122,28 @@ typedef struct {
  * a failed step can be dropped without touching P. */
 typedef struct {
     caekf_settings_t cfg;
-    caekf_model_t model;                    /* derived model matrices */
-    caekf_model_t sub_model;                /* the same at dt / contact_substeps (when > 1) */
-    caekf_scalar_t scale[CAEKF_N];          /* S */
-    caekf_scalar_t z[CAEKF_N];              /* scaled state */
-    caekf_scalar_t P[CAEKF_N * CAEKF_N];    /* scaled covariance */
+    caekf_model_t model;                 /* derived model matrices */
+    caekf_model_t sub_model;             /* the same at dt / contact_substeps (when > 1) */
+    caekf_scalar_t scale[CAEKF_N];       /* S */
+    caekf_scalar_t z[CAEKF_N];           /* scaled state */
+    caekf_scalar_t P[CAEKF_N * CAEKF_N]; /* scaled covariance */
     caekf_scalar_t P_work[CAEKF_N * CAEKF_N];
     /* scratch: the PSD check's and the P norm's n x n workspace, earlier in a step the correction's */
     union {
         caekf_scalar_t m[CAEKF_N * CAEKF_N];
         caekf_correct_work_t correct;
     } scratch;
-    caekf_scalar_t x_prev[CAEKF_N];         /* step work: x_{k-1}, then x_k- and the scaled z */
+    caekf_scalar_t x_prev[CAEKF_N]; /* step work: x_{k-1}, then x_k- and the scaled z */
     caekf_scalar_t x_pred[CAEKF_N];
-    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];   /* step work: v-rows of the scaled F */
-    caekf_scalar_t fq[CAEKF_NQ][CAEKF_N];   /* step work: q-rows of F after substeps (else implied by fv) */
-    caekf_fv_pattern_t fv_pattern;          /* fv's rows, compacted to their nonzeros: their columns */
-    uint32_t fv_const;                      /* fv holds the constant contact-free F (kept across steps) */
-    caekf_scalar_t q_diag[CAEKF_N];         /* scaled Q diagonal (Q_gamma included) */
-    caekf_filter_dims_t dims;               /* sizes, sensed states, scaled R; the gamma policies */
+    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]; /* step work: v-rows of the scaled F */
+    caekf_scalar_t fq[CAEKF_NQ][CAEKF_N]; /* step work: q-rows of F after substeps (else implied by fv) */
+    caekf_fv_pattern_t fv_pattern;        /* fv's rows, compacted to their nonzeros: their columns */
+    uint32_t fv_const;                    /* fv holds the constant contact-free F (kept across steps) */
+    caekf_scalar_t q_diag[CAEKF_N];       /* scaled Q diagonal (Q_gamma included) */
+    caekf_filter_dims_t dims;             /* sizes, sensed states, scaled R; the gamma policies */
     caekf_scalar_t gamma_min_scaled[CAEKF_MAX_CONTACTS + 1];
-    caekf_scalar_t u_prev[CAEKF_MAX_INPUTS];  /* inputs at the estimate's time (the trapezoidal rule's start) */
-    uint32_t u_prev_known;                  /* 0 until a step or caekf_correct has seen the inputs */
+    caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */
+    uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;
@@ -152,16 +152,16 @@ typedef struct {
 /* Why a setting was refused (caekf_setting_error_t.reason). */
 typedef enum {
     CAEKF_SETTING_OK = 0,
-    CAEKF_SETTING_OUT_OF_RANGE = 1,     /* breaks the schema's range rule of the setting */
-    CAEKF_SETTING_BELOW_GAMMA_MIN = 2,  /* gamma0 < gamma_min while constraint_enabled */
-    CAEKF_SETTING_NOT_SCALABLE = 3,     /* finite, but a value init derives from it is not (this scalar type) */
-    CAEKF_SETTING_OVER_CAPACITY = 4,    /* above a compile-time bound (newton_max_iter > CAEKF_NEWTON_MAX_ITER) */
-    CAEKF_SETTING_UNKNOWN_ID = 5,       /* caekf_settings_set: no such parameter id */
-    CAEKF_SETTING_NOT_INTEGER = 6,      /* caekf_settings_set: an int, enum or bool setting got a fraction */
-    CAEKF_SETTING_BAD_BODY = 7,         /* names a body beyond `bodies` (or the ground where a body is needed,
+    CAEKF_SETTING_OUT_OF_RANGE = 1,    /* breaks the schema's range rule of the setting */
+    CAEKF_SETTING_BELOW_GAMMA_MIN = 2, /* gamma0 < gamma_min while constraint_enabled */
+    CAEKF_SETTING_NOT_SCALABLE = 3,    /* finite, but a value init derives from it is not (this scalar type) */
+    CAEKF_SETTING_OVER_CAPACITY = 4,   /* above a compile-time bound (newton_max_iter > CAEKF_NEWTON_MAX_ITER) */
+    CAEKF_SETTING_UNKNOWN_ID = 5,      /* caekf_settings_set: no such parameter id */
+    CAEKF_SETTING_NOT_INTEGER = 6,     /* caekf_settings_set: an int, enum or bool setting got a fraction */
+    CAEKF_SETTING_BAD_BODY = 7,        /* names a body beyond `bodies` (or the ground where a body is needed,
                                          * or both ends the same) */
-    CAEKF_SETTING_UNSUPPORTED = 8,      /* a count other than a sized build's (CAEKF_SIZED) */
-    CAEKF_SETTING_NEEDED = 9            /* 0 (its default), but the mechanism uses it: must be > 0 */
+    CAEKF_SETTING_UNSUPPORTED = 8,     /* a count other than a sized build's (CAEKF_SIZED) */
+    CAEKF_SETTING_NEEDED = 9           /* 0 (its default), but the mechanism uses it: must be > 0 */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
@@ -176,15 +176,15 @@ typedef struct {
 /* A row of the generated settings table (caekf_settings_table.c): where a setting lives in
  * caekf_settings_t and the range rule validation applies to each of its elements. */
 typedef struct {
-    uint16_t offset;  /* byte offset of element 0 in caekf_settings_t */
-    uint16_t in_use;  /* byte offset of the int giving how many elements are in use, or CAEKF_ALL_IN_USE */
-    uint8_t id;       /* CTRL_PARAM id of element 0 */
-    uint8_t count;    /* elements on the wire: ids id .. id+count-1 */
-    uint8_t stored;   /* elements this build stores (its capacity; <= count) */
-    uint8_t limit;    /* for a count of elements: the build's capacity it must not exceed, else 0 */
-    uint8_t storage;  /* CAEKF_SETTING_REAL or CAEKF_SETTING_INT */
-    uint8_t rule;     /* CAEKF_RULE_* */
-    uint16_t lo, hi;  /* integer range of CAEKF_RULE_INT */
+    uint16_t offset; /* byte offset of element 0 in caekf_settings_t */
+    uint16_t in_use; /* byte offset of the int giving how many elements are in use, or CAEKF_ALL_IN_USE */
+    uint8_t id;      /* CTRL_PARAM id of element 0 */
+    uint8_t count;   /* elements on the wire: ids id .. id+count-1 */
+    uint8_t stored;  /* elements this build stores (its capacity; <= count) */
+    uint8_t limit;   /* for a count of elements: the build's capacity it must not exceed, else 0 */
+    uint8_t storage; /* CAEKF_SETTING_REAL or CAEKF_SETTING_INT */
+    uint8_t rule;    /* CAEKF_RULE_* */
+    uint16_t lo, hi; /* integer range of CAEKF_RULE_INT */
 } caekf_setting_rule_t;
 #define CAEKF_ALL_IN_USE 0xFFFFu
 extern const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT];

@@ -30,24 +30,24 @@ typedef enum { CAEKF_DISCRETISATION_BACKWARD_EULER = 0, CAEKF_DISCRETISATION_TRA
 /* The mechanism. Plain data, so a const instance can live in flash. Body numbers are 1-based, 0 is the
  * ground; only the first `bodies`, `springs`, ... elements of each array are in use. */
 typedef struct {
-    caekf_scalar_t dt;                              /* step [s] */
+    caekf_scalar_t dt; /* step [s] */
     int bodies;
-    caekf_scalar_t m[CAEKF_MAX_BODIES];             /* masses [kg] */
+    caekf_scalar_t m[CAEKF_MAX_BODIES]; /* masses [kg] */
     int springs;
     int spring_a[CAEKF_MAX_SPRINGS], spring_b[CAEKF_MAX_SPRINGS]; /* link ends */
-    caekf_scalar_t spring_k[CAEKF_MAX_SPRINGS];     /* [N/m] */
-    caekf_scalar_t spring_c[CAEKF_MAX_SPRINGS];     /* [N s/m] */
+    caekf_scalar_t spring_k[CAEKF_MAX_SPRINGS];                   /* [N/m] */
+    caekf_scalar_t spring_c[CAEKF_MAX_SPRINGS];                   /* [N s/m] */
     int inputs;
     int input_body[CAEKF_MAX_INPUTS];
     int sensors;
     int sensor_body[CAEKF_MAX_SENSORS];
-    int sensor_kind[CAEKF_MAX_SENSORS];             /* caekf_sensor_kind_t */
+    int sensor_kind[CAEKF_MAX_SENSORS]; /* caekf_sensor_kind_t */
     int contacts;
     int contact_a[CAEKF_MAX_CONTACTS], contact_b[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS]; /* [m] */
-    caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];   /* exponent, >= 1 */
+    caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS];    /* [m] */
+    caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];      /* exponent, >= 1 */
     caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS]; /* Hunt-Crossley damping [s/m] */
-    int discretisation;                             /* caekf_discretisation_t */
+    int discretisation;                                /* caekf_discretisation_t */
 } caekf_model_params_t;
 
 /* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc states
@@ -61,8 +61,8 @@ typedef struct {
     /* The implicit stage: the momentum rows are scaled so that their v_k-derivative is
      * M/hs + C_t + hs K_t, with hs = dt (backward Euler) or dt/2 (trapezoidal, rows times 2). */
     caekf_scalar_t hs;
-    int trap;                                       /* trapezoidal: the step's start enters the rows */
-    caekf_scalar_t m_dt[CAEKF_NQ];                  /* M / hs (diagonal) */
+    int trap;                      /* trapezoidal: the step's start enters the rows */
+    caekf_scalar_t m_dt[CAEKF_NQ]; /* M / hs (diagonal) */
     /* Row i of K and C is nonzero in columns nz[i][0 .. nnz[i]-1] (ascending): the residual skips the
      * structural zeros, which change no sum. */
     unsigned char nz[CAEKF_NQ][CAEKF_NQ];
@@ -85,10 +85,10 @@ typedef struct {
 
 /* The filter's sizes and structure (set at init; the policies every step). */
 typedef struct {
-    int nq, n;                    /* bodies; states */
-    int ny;                       /* sensors */
-    int h[CAEKF_MAX_SENSORS];     /* state index each sensor measures */
-    caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
+    int nq, n;                              /* bodies; states */
+    int ny;                                 /* sensors */
+    int h[CAEKF_MAX_SENSORS];               /* state index each sensor measures */
+    caekf_scalar_t r[CAEKF_MAX_SENSORS];    /* scaled R diagonal */
     uint8_t policy[CAEKF_MAX_CONTACTS + 1]; /* how gamma c (state 2 nq + c) is handled this step */
 } caekf_filter_dims_t;
 
@@ -124,8 +124,8 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
  * *iters = linear solves done. work: the residual, its terms' sizes and the trapezoidal rule's constant
  * start-of-step terms (caller-owned, off the stack). */
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
-                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
-                       caekf_scalar_t work[4 * CAEKF_NQ]);
+                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
+                       int *iters, caekf_scalar_t work[4 * CAEKF_NQ]);
 
 #ifdef __cplusplus
 }

@@ -19,8 +19,8 @@ extern "C" {
 #endif
 
 /* Exit statuses the port itself uses (main's return value is passed through otherwise). */
-#define CAEKF_PORT_EXIT_FAULT 64   /* HardFault, MemManage, BusFault, UsageFault, NMI, stray IRQ */
-#define CAEKF_PORT_EXIT_ABORT 65   /* abort() or a failed assert() */
+#define CAEKF_PORT_EXIT_FAULT 64 /* HardFault, MemManage, BusFault, UsageFault, NMI, stray IRQ */
+#define CAEKF_PORT_EXIT_ABORT 65 /* abort() or a failed assert() */
 
 /* ---- semihosting console (buffered; flushed on '\n', when full, and at exit) ---- */
 void caekf_console_putc(int c);
@@ -50,7 +50,7 @@ int caekf_semihost_call(int op, const void *arg);
  * No interrupts are used by the images, so nothing else writes below SP. */
 uintptr_t caekf_stack_paint(void);
 size_t caekf_stack_used_since(uintptr_t top);
-size_t caekf_stack_size(void);  /* bytes reserved for the stack by the linker script */
+size_t caekf_stack_size(void); /* bytes reserved for the stack by the linker script */
 
 /* ---- markers for tools/qemu-icount (startup.S): the plugin counts instructions executed from
  * entering caekf_mark_begin to entering caekf_mark_end (begin's own 1 instruction included). */

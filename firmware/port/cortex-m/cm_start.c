@@ -82,13 +82,12 @@ void caekf_port_c_start(void)
 /* Fault entry: find the stacked exception frame (MSP or PSP per EXC_RETURN bit 2) and report. */
 __attribute__((naked)) static void fault_entry(void)
 {
-    __asm__ volatile(
-        "tst   lr, #4          \n"
-        "ite   eq              \n"
-        "mrseq r0, msp         \n"
-        "mrsne r0, psp         \n"
-        "mov   r1, lr          \n"
-        "b     caekf_fault_report\n");
+    __asm__ volatile("tst   lr, #4          \n"
+                     "ite   eq              \n"
+                     "mrseq r0, msp         \n"
+                     "mrsne r0, psp         \n"
+                     "mov   r1, lr          \n"
+                     "b     caekf_fault_report\n");
 }
 
 void caekf_fault_report(const uint32_t *frame, uint32_t exc_return)

@@ -60,8 +60,8 @@ caekf_proto_status_t caekf_proto_decode_param(const uint8_t data[CAEKF_CAN_DLC],
 caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double *value)
 {
     static const double powers_of_ten[EXP10_MAX + 1] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                                1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-                                                1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+                                                        1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                                        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
     if (m == NULL || value == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }

@@ -79,8 +79,8 @@ static caekf_e2e_status_t check_counter(caekf_e2e_rx_t *rx, uint8_t counter, uin
     return CAEKF_E2E_OK;
 }
 
-caekf_e2e_status_t caekf_e2e_check(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta,
-                                   const uint8_t *payload, uint8_t dlc, uint8_t *lost)
+caekf_e2e_status_t caekf_e2e_check(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta, const uint8_t *payload,
+                                   uint8_t dlc, uint8_t *lost)
 {
     uint8_t crc;
     if (rx == NULL || payload == NULL) {
@@ -130,8 +130,8 @@ caekf_e2e_status_t caekf_e2e_protect_fd(uint16_t data_id, uint8_t counter, uint8
     return st;
 }
 
-caekf_e2e_status_t caekf_e2e_check_fd(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta,
-                                      const uint8_t *payload, uint8_t dlc, uint8_t len, uint8_t *lost)
+caekf_e2e_status_t caekf_e2e_check_fd(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta, const uint8_t *payload,
+                                      uint8_t dlc, uint8_t len, uint8_t *lost)
 {
     uint16_t crc = 0u;
     if (rx == NULL || payload == NULL) {

@@ -5,7 +5,6 @@
 fake_hal_t fake;
 caekf_app_t app;
 
-
 void fixture_start(void)
 {
     caekf_app_hal_t hal;

@@ -31,10 +31,7 @@ static int fake_transmit(void *ctx, const caekf_can_frame_t *frame)
     return 0;
 }
 
-static uint32_t fake_now(void *ctx)
-{
-    return ((fake_hal_t *)ctx)->now_us;
-}
+static uint32_t fake_now(void *ctx) { return ((fake_hal_t *)ctx)->now_us; }
 
 void fake_hal_init(fake_hal_t *f, caekf_app_hal_t *hal)
 {
@@ -57,10 +54,7 @@ void fake_push(fake_hal_t *f, const caekf_can_frame_t *frame)
     f->rx_count++;
 }
 
-void fake_tx_clear(fake_hal_t *f)
-{
-    f->tx_count = 0;
-}
+void fake_tx_clear(fake_hal_t *f) { f->tx_count = 0; }
 
 void bench_send(fake_hal_t *f, caekf_msg_t msg, caekf_can_frame_t *frame)
 {
@@ -144,11 +138,13 @@ int fake_tx_e2e_ok(fake_hal_t *f, unsigned index)
     caekf_msg_t msg;
     const caekf_msg_info_t *info;
     const caekf_can_frame_t *fr = &f->tx[index];
-    if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
+    if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK ||
+        caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
         return 0;
     }
     if (info->len > CAEKF_CAN_DLC) {
-        return caekf_e2e_check_fd(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, info->len, NULL) == CAEKF_E2E_OK;
+        return caekf_e2e_check_fd(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, info->len, NULL) ==
+               CAEKF_E2E_OK;
     }
     return caekf_e2e_check(&f->bench_rx[msg], info->data_id, 1, fr->data, fr->dlc, NULL) == CAEKF_E2E_OK;
 }
@@ -159,7 +155,8 @@ int fake_tx_crc_ok(const fake_hal_t *f, unsigned index)
     const caekf_msg_info_t *info;
     const caekf_can_frame_t *fr = &f->tx[index];
     uint8_t crc = 0;
-    if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK || caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
+    if (caekf_proto_msg_from_bus_id(fr->id, f->id_offset, &msg) != CAEKF_PROTO_OK ||
+        caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK) {
         return 0;
     }
     (void)caekf_e2e_crc(info->data_id, fr->data, &crc);

@@ -12,11 +12,11 @@ typedef struct {
     caekf_can_frame_t tx[FAKE_QUEUE_LEN]; /* frames the app sent */
     unsigned tx_count;
     uint32_t now_us;
-    int rx_errors_pending;   /* receive() fails this many times first */
-    int tx_fail;             /* transmit() fails while set */
+    int rx_errors_pending; /* receive() fails this many times first */
+    int tx_fail;           /* transmit() fails while set */
     uint8_t bench_counter[CAEKF_MSG_COUNT];
     caekf_e2e_rx_t bench_rx[CAEKF_MSG_COUNT]; /* the bench's check of what the app sends */
-    int32_t id_offset;       /* the bench's runtime CAN ID base (caekf_app_config_t.id_offset) */
+    int32_t id_offset;                        /* the bench's runtime CAN ID base (caekf_app_config_t.id_offset) */
 } fake_hal_t;
 
 void fake_hal_init(fake_hal_t *f, caekf_app_hal_t *hal);

@@ -385,7 +385,8 @@ static void test_settings_set_writes_every_parameter_to_its_field(void)
     TEST_ASSERT_TRUE(s.est.q_gamma_scale == (caekf_scalar_t)123.0 && s.est.newton_max_iter == 7);
     TEST_ASSERT_TRUE(s.est.newton_rtol == (caekf_scalar_t)1e-9);
     TEST_ASSERT_EQUAL_INT(9, s.est.psd_check_period);
-    TEST_ASSERT_TRUE(s.est.model.dt == (caekf_scalar_t)(CAEKF_PARAM_DT % 2u) && s.est.gamma_min[0] == (caekf_scalar_t)(CAEKF_PARAM_GAMMA_MIN % 2u));
+    TEST_ASSERT_TRUE(s.est.model.dt == (caekf_scalar_t)(CAEKF_PARAM_DT % 2u) &&
+                     s.est.gamma_min[0] == (caekf_scalar_t)(CAEKF_PARAM_GAMMA_MIN % 2u));
     TEST_ASSERT_EQUAL_INT(CAEKF_PARAM_COV_REPAIR_ENABLED % 2u, s.est.cov_repair_enabled);
     TEST_ASSERT_EQUAL_INT(CAEKF_PARAM_MODE % 2u, s.est.mode);
     TEST_ASSERT_EQUAL_INT(CAEKF_PARAM_CONSTRAINT_ENABLED % 2u, s.est.constraint_enabled);
@@ -393,7 +394,7 @@ static void test_settings_set_writes_every_parameter_to_its_field(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_PARAM, caekf_app_settings_set(&s, CAEKF_PARAM_SWITCHOFF, 0.5));
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_PARAM, caekf_app_settings_set(&s, CAEKF_PARAM_MODE, 0.5));
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_PARAM, caekf_app_settings_set(&s, CAEKF_PARAM_COV_UPDATE, 1e300));
-    TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_PARAM, caekf_app_param_id("gamma", &id)); /* a truth key */
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_PARAM, caekf_app_param_id("gamma", &id));      /* a truth key */
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_ERR_PARAM, caekf_app_param_id("experiment", &id)); /* not a setting */
 }
 

@@ -40,10 +40,7 @@ static void bench_prod_step(uint16_t step, double u, double y1, double y4)
 }
 
 /* float32 of a value, as EST_PROD/EST_PAGE carry it */
-static double f32(double v)
-{
-    return (double)(float)v;
-}
+static double f32(double v) { return (double)(float)v; }
 
 static double yp_wire(double y)
 {
@@ -238,7 +235,8 @@ static void test_fd_profile_one_frame_in_one_frame_out(void)
         /* the reference estimator on the values as the frame carries them */
         y[0] = (caekf_scalar_t)in.y1;
         y[1] = (caekf_scalar_t)in.y4;
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)(float)in.u}, y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK,
+                              caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)(float)in.u}, y, &rep));
         (void)caekf_get_state(&ref, x);
         (void)caekf_get_covariance(&ref, P);
         (void)caekf_get_cov_norm2(&ref, &pn);

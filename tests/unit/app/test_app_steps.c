@@ -53,10 +53,10 @@ static void test_unconfigured_app_counts_bench_frames_and_sends_nothing(void)
 
 static void test_complete_step_sends_twelve_protected_frames_status_last(void)
 {
-    static const caekf_msg_t order[12] = {
-        CAEKF_MSG_EST_GAMMA, CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3, CAEKF_MSG_EST_Q4,
-        CAEKF_MSG_EST_V1, CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3, CAEKF_MSG_EST_V4, CAEKF_MSG_EST_P_NORM,
-        CAEKF_MSG_EST_P_GG, CAEKF_MSG_EST_STEP};
+    static const caekf_msg_t order[12] = {CAEKF_MSG_EST_GAMMA,  CAEKF_MSG_EST_Q1,   CAEKF_MSG_EST_Q2,
+                                          CAEKF_MSG_EST_Q3,     CAEKF_MSG_EST_Q4,   CAEKF_MSG_EST_V1,
+                                          CAEKF_MSG_EST_V2,     CAEKF_MSG_EST_V3,   CAEKF_MSG_EST_V4,
+                                          CAEKF_MSG_EST_P_NORM, CAEKF_MSG_EST_P_GG, CAEKF_MSG_EST_STEP};
     unsigned i;
     fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
     bench_value(&fake, CAEKF_MSG_BENCH_U, 7, 0.25);
@@ -104,11 +104,13 @@ static void test_estimates_equal_a_directly_stepped_estimator(void)
         fixture_poll_all();
         y[0] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y1, y1);
         y[1] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y4, y4);
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u)}, y, &rep));
+        TEST_ASSERT_EQUAL_INT(
+            CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u)}, y, &rep));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&ref, x));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_covariance(&ref, P));
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_cov_norm2(&ref, &pn));
-        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_GAMMA, (double)x[2 * ref.model.nq]) == tx_value(CAEKF_MSG_EST_GAMMA, 0, NULL));
+        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_GAMMA, (double)x[2 * ref.model.nq]) ==
+                         tx_value(CAEKF_MSG_EST_GAMMA, 0, NULL));
         for (i = 0; i < 4u; i++) {
             TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_Q1, (double)x[i]) ==
                              tx_value((caekf_msg_t)(CAEKF_MSG_EST_Q1 + i), 0, NULL));
@@ -116,7 +118,8 @@ static void test_estimates_equal_a_directly_stepped_estimator(void)
                              tx_value((caekf_msg_t)(CAEKF_MSG_EST_V1 + i), 0, NULL));
         }
         TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_P_NORM, (double)pn) == tx_value(CAEKF_MSG_EST_P_NORM, 0, NULL));
-        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_P_GG, (double)P[2 * ref.model.nq][2 * ref.model.nq]) == tx_value(CAEKF_MSG_EST_P_GG, 0, NULL));
+        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_P_GG, (double)P[2 * ref.model.nq][2 * ref.model.nq]) ==
+                         tx_value(CAEKF_MSG_EST_P_GG, 0, NULL));
         TEST_ASSERT_EQUAL_HEX16((uint16_t)rep.flags, tx_step(0).flags);
         TEST_ASSERT_EQUAL_UINT8((uint8_t)rep.newton_iters, tx_step(0).newton_iters);
     }
@@ -225,21 +228,27 @@ static void test_step_gap_is_bridged_by_prediction_only_steps(void)
     fixture_poll_all();
     y[0] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y1, y1);
     y[1] = (caekf_scalar_t)wire(CAEKF_MSG_BENCH_Y4, y4);
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, y, NULL));
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, y, NULL));
+    TEST_ASSERT_EQUAL_INT(
+        CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, y, NULL));
+    TEST_ASSERT_EQUAL_INT(
+        CAEKF_OK, caekf_step(&naive, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, y, NULL));
     for (k = 0; k < 5; k++) {
         caekf_report_t rep;
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, &rep));
+        TEST_ASSERT_EQUAL_INT(
+            CAEKF_OK, caekf_predict(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u1)}, &rep));
         TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_NO_MEASUREMENT);
     }
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2)}, y, NULL));
-    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&naive, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2)}, y, NULL));
+    TEST_ASSERT_EQUAL_INT(
+        CAEKF_OK, caekf_step(&ref, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2)}, y, NULL));
+    TEST_ASSERT_EQUAL_INT(
+        CAEKF_OK, caekf_step(&naive, (const caekf_scalar_t[]){(caekf_scalar_t)wire(CAEKF_MSG_BENCH_U, u2)}, y, NULL));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&ref, x));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&naive, xn));
     TEST_ASSERT_EQUAL_UINT32(5, counter(CAEKF_CNT_STEPS_SKIPPED));
     TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAG_STEP_GAP, tx_step(1).flags & CAEKF_STEP_FLAG_STEP_GAP);
     for (k = 0; k < 4; k++) {
-        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_Q1, (double)x[k]) == tx_value((caekf_msg_t)(CAEKF_MSG_EST_Q1 + k), 1, NULL));
+        TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_Q1, (double)x[k]) ==
+                         tx_value((caekf_msg_t)(CAEKF_MSG_EST_Q1 + k), 1, NULL));
     }
     /* The bridge matters: without it the velocities would differ. */
     TEST_ASSERT_FALSE(wire(CAEKF_MSG_EST_V1, (double)xn[4]) == tx_value(CAEKF_MSG_EST_V1, 1, NULL));
@@ -297,7 +306,7 @@ static void test_each_reject_class_is_counted(void)
     f.data[5] ^= 0x10u;
     fake_push(&fake, &f);
     f.data[5] ^= 0x10u;
-    fake_push(&fake, &f); /* the same frame again: duplicate counter */
+    fake_push(&fake, &f);                             /* the same frame again: duplicate counter */
     (void)caekf_proto_seal(CAEKF_MSG_BENCH_U, 5, &f); /* 0 -> 5: jump */
     fake_push(&fake, &f);
     fake.bench_counter[CAEKF_MSG_BENCH_U] = 6; /* the bench carries on from the re-synced counter */

@@ -22,7 +22,7 @@
 #ifndef CAEKF_SELFTEST_MCU
 #define CAEKF_SELFTEST_MCU "cortex-m"
 #endif
-#define SELFTEST_STEPS 8u /* per profile: diagnostics, then production */
+#define SELFTEST_STEPS 8u      /* per profile: diagnostics, then production */
 #define SEMIHOST_SYS_TIME 0x11 /* host wall clock, whole seconds (SYS_CLOCK would be QEMU's CPU time) */
 #define SEMIHOST_WAIT_LIMIT 20000000u
 

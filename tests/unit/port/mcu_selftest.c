@@ -7,27 +7,25 @@
 
 #include "caekf_fixture_settings.h" /* the reference scenario and the presets, generated from the schema */
 
-#define PUMP_LIMIT 400u   /* main-loop passes allowed for the firmware to go idle */
+#define PUMP_LIMIT 400u /* main-loop passes allowed for the firmware to go idle */
 #define SELFTEST_TOKEN 0x5Au
 #define SELFTEST_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
 #define APB1_HZ 42000000u /* STM32F4 at 168 MHz; only the BTR value depends on it */
-#define BITRATE 1000000u /* the firmware's bit rate (app_main.c) */
+#define BITRATE 1000000u  /* the firmware's bit rate (app_main.c) */
 
-#define CHECK(t, cond, what, value)    \
-    do {                               \
-        if (!(cond)) {                 \
+#define CHECK(t, cond, what, value)           \
+    do {                                      \
+        if (!(cond)) {                        \
             fail((t), (what), (long)(value)); \
-            return 1;                  \
-        }                              \
+            return 1;                         \
+        }                                     \
     } while (0)
-
-
 
 /* The estimate frames of one step, in the order the app sends them. */
 static const caekf_msg_t step_msgs[] = {
-    CAEKF_MSG_EST_GAMMA, CAEKF_MSG_EST_Q1, CAEKF_MSG_EST_Q2, CAEKF_MSG_EST_Q3,     CAEKF_MSG_EST_Q4,
-    CAEKF_MSG_EST_V1,    CAEKF_MSG_EST_V2, CAEKF_MSG_EST_V3, CAEKF_MSG_EST_V4,     CAEKF_MSG_EST_P_NORM,
-    CAEKF_MSG_EST_P_GG,  CAEKF_MSG_EST_STEP,
+    CAEKF_MSG_EST_GAMMA, CAEKF_MSG_EST_Q1,     CAEKF_MSG_EST_Q2,   CAEKF_MSG_EST_Q3,
+    CAEKF_MSG_EST_Q4,    CAEKF_MSG_EST_V1,     CAEKF_MSG_EST_V2,   CAEKF_MSG_EST_V3,
+    CAEKF_MSG_EST_V4,    CAEKF_MSG_EST_P_NORM, CAEKF_MSG_EST_P_GG, CAEKF_MSG_EST_STEP,
 };
 #define N_STEP_MSGS ((unsigned)(sizeof step_msgs / sizeof step_msgs[0]))
 
@@ -149,15 +147,18 @@ static int check_init(caekf_mcu_selftest_t *t)
     const caekf_bxcan_regs_t *r = &t->fake.regs;
     const caekf_bxcan_timing_t expect = {3u, 11u, 2u, 1u};
     uint32_t btr = 0u;
-    CHECK(t, (r->MSR & (CAEKF_BXCAN_MSR_INAK | CAEKF_BXCAN_MSR_SLAK)) == 0u, "init: controller not in normal mode", r->MSR);
-    CHECK(t, (r->MCR & (CAEKF_BXCAN_MCR_TXFP | CAEKF_BXCAN_MCR_ABOM | CAEKF_BXCAN_MCR_INRQ | CAEKF_BXCAN_MCR_SLEEP)) ==
-                 (CAEKF_BXCAN_MCR_TXFP | CAEKF_BXCAN_MCR_ABOM),
+    CHECK(t, (r->MSR & (CAEKF_BXCAN_MSR_INAK | CAEKF_BXCAN_MSR_SLAK)) == 0u, "init: controller not in normal mode",
+          r->MSR);
+    CHECK(t,
+          (r->MCR & (CAEKF_BXCAN_MCR_TXFP | CAEKF_BXCAN_MCR_ABOM | CAEKF_BXCAN_MCR_INRQ | CAEKF_BXCAN_MCR_SLEEP)) ==
+              (CAEKF_BXCAN_MCR_TXFP | CAEKF_BXCAN_MCR_ABOM),
           "init: MCR options", r->MCR);
     (void)caekf_bxcan_timing_btr(&expect, &btr);
     CHECK(t, r->BTR == btr, "init: BTR is not 1 Mbit/s at 42 MHz (BRP 3, TS1 11, TS2 2, SJW 1)", r->BTR);
     /* 15 input IDs (the profiles' and a mechanism's), 4 per 16-bit list bank */
-    CHECK(t, t->fw.filter_banks == 4u && (r->FA1R & 0xFu) == 0xFu && (r->FM1R & 0xFu) == 0xFu && (r->FS1R & 0xFu) == 0u &&
-                 (r->FFA1R & 0xFu) == 0u && (r->FMR & CAEKF_BXCAN_FMR_FINIT) == 0u,
+    CHECK(t,
+          t->fw.filter_banks == 4u && (r->FA1R & 0xFu) == 0xFu && (r->FM1R & 0xFu) == 0xFu && (r->FS1R & 0xFu) == 0u &&
+              (r->FFA1R & 0xFu) == 0u && (r->FMR & CAEKF_BXCAN_FMR_FINIT) == 0u,
           "init: filter banks 0..3 not active 16-bit lists for FIFO 0", r->FA1R);
     return 0;
 }
@@ -250,8 +251,9 @@ static int configure(caekf_mcu_selftest_t *t)
         }
         CHECK(t, caekf_proto_decode_ack(out[i].data, &ack) == CAEKF_PROTO_OK, "configure: EST_ACK does not decode", i);
         CHECK(t, ack.status == (int8_t)CAEKF_ACK_ACCEPTED, "configure: configuration refused (ACK_STATUS)", ack.status);
-        CHECK(t, ack.token == SELFTEST_TOKEN && ack.n_params_rx == n_params &&
-                     ack.bad_param == (uint8_t)CAEKF_ACK_BAD_PARAM_NONE,
+        CHECK(t,
+              ack.token == SELFTEST_TOKEN && ack.n_params_rx == n_params &&
+                  ack.bad_param == (uint8_t)CAEKF_ACK_BAD_PARAM_NONE,
               "configure: EST_ACK fields", ack.n_params_rx);
         acks++;
     }
@@ -296,12 +298,14 @@ static int run_step(caekf_mcu_selftest_t *t, uint16_t step)
         }
         CHECK(t, frame_step(out[i].data) == step, "step: estimate frame with another STEP", frame_step(out[i].data));
         if (step_msgs[k] == CAEKF_MSG_EST_GAMMA) {
-            CHECK(t, caekf_proto_decode_value(CAEKF_MSG_EST_GAMMA, out[i].data, &s, &gamma) == CAEKF_PROTO_OK &&
-                         isfinite(gamma) && gamma > 0.0,
+            CHECK(t,
+                  caekf_proto_decode_value(CAEKF_MSG_EST_GAMMA, out[i].data, &s, &gamma) == CAEKF_PROTO_OK &&
+                      isfinite(gamma) && gamma > 0.0,
                   "step: EST_GAMMA not a finite positive stiffness", step);
         }
         if (step_msgs[k] == CAEKF_MSG_EST_STEP) {
-            CHECK(t, caekf_proto_decode_step(out[i].data, &sm) == CAEKF_PROTO_OK, "step: EST_STEP does not decode", step);
+            CHECK(t, caekf_proto_decode_step(out[i].data, &sm) == CAEKF_PROTO_OK, "step: EST_STEP does not decode",
+                  step);
             CHECK(t, sm.status >= 0, "step: estimator step status negative", sm.status);
             t->est_step_status_sum += (uint32_t)sm.status;
         }
@@ -350,8 +354,9 @@ static int run_step_prod(caekf_mcu_selftest_t *t, uint16_t step)
         CHECK(t, k < want, "step: more estimate frames than a production step has", out[i].id);
         if (k == 0u) {
             CHECK(t, out[i].id == prod->can_id, "step: EST_PROD must come first", out[i].id);
-            CHECK(t, caekf_proto_decode_prod(out[i].data, &pm) == CAEKF_PROTO_OK && pm.step == (uint8_t)step &&
-                         isfinite(pm.gamma) && pm.gamma > 0.0,
+            CHECK(t,
+                  caekf_proto_decode_prod(out[i].data, &pm) == CAEKF_PROTO_OK && pm.step == (uint8_t)step &&
+                      isfinite(pm.gamma) && pm.gamma > 0.0,
                   "step: EST_PROD not this step's finite positive stiffness", step);
         } else {
             CHECK(t, out[i].id == pg->can_id, "step: the frame after EST_PROD is not EST_PAGE", out[i].id);
@@ -381,8 +386,9 @@ static int check_overrun(caekf_mcu_selftest_t *t)
         memset(d, 0, sizeof d);
         CHECK(t, caekf_proto_encode_status_req(&req, d) == CAEKF_PROTO_OK, "bench: encode CTRL_STATUS_REQ", i);
         memcpy(f.data, d, CAEKF_CAN_DLC);
-        CHECK(t, caekf_proto_seal(CAEKF_MSG_CTRL_STATUS_REQ, t->bench_counter[CAEKF_MSG_CTRL_STATUS_REQ], &f) ==
-                     CAEKF_PROTO_OK,
+        CHECK(t,
+              caekf_proto_seal(CAEKF_MSG_CTRL_STATUS_REQ, t->bench_counter[CAEKF_MSG_CTRL_STATUS_REQ], &f) ==
+                  CAEKF_PROTO_OK,
               "bench: seal", i);
         t->bench_counter[CAEKF_MSG_CTRL_STATUS_REQ] =
             (uint8_t)((t->bench_counter[CAEKF_MSG_CTRL_STATUS_REQ] + 1u) & CAEKF_E2E_COUNTER_MASK);
@@ -392,7 +398,8 @@ static int check_overrun(caekf_mcu_selftest_t *t)
         memcpy(bx.data, f.data, sizeof bx.data);
         stored[i] = caekf_bxcan_fake_deliver(&t->fake, &bx);
     }
-    CHECK(t, stored[0] == 1 && stored[1] == 1 && stored[2] == 1 && stored[3] == -1, "overrun: fake FIFO depth", stored[3]);
+    CHECK(t, stored[0] == 1 && stored[1] == 1 && stored[2] == 1 && stored[3] == -1, "overrun: fake FIFO depth",
+          stored[3]);
     CHECK(t, settle(t), "overrun: firmware did not go idle", t->fake.fifo_count);
     CHECK(t, t->fw.can.cnt.rx_overruns - overruns == 1u, "overrun: driver did not count exactly one overrun",
           t->fw.can.cnt.rx_overruns - overruns);
@@ -435,7 +442,8 @@ int caekf_mcu_selftest_run(caekf_mcu_selftest_t *t, caekf_mcu_now_fn_t now, void
         return 1;
     }
     for (k = 1u; k <= steps; k++) {
-        if (t->profile == (uint8_t)CAEKF_PROFILE_PRODUCTION ? run_step_prod(t, (uint16_t)k) : run_step(t, (uint16_t)k)) {
+        if (t->profile == (uint8_t)CAEKF_PROFILE_PRODUCTION ? run_step_prod(t, (uint16_t)k)
+                                                            : run_step(t, (uint16_t)k)) {
             return 1;
         }
     }
@@ -444,6 +452,7 @@ int caekf_mcu_selftest_run(caekf_mcu_selftest_t *t, caekf_mcu_now_fn_t now, void
     }
     CHECK(t, t->fw.hal.cnt.tx_queue_full == 0u && t->fw.hal.cnt.tx_errors == 0u, "hal: transmit errors",
           t->fw.hal.cnt.tx_errors);
-    CHECK(t, t->fw.can.cnt.tx_ok == t->frames_out, "driver: TX completions differ from frames sent", t->fw.can.cnt.tx_ok);
+    CHECK(t, t->fw.can.cnt.tx_ok == t->frames_out, "driver: TX completions differ from frames sent",
+          t->fw.can.cnt.tx_ok);
     return 0;
 }

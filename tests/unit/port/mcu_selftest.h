@@ -33,13 +33,13 @@ typedef struct {
     caekf_bxcan_fake_t fake;
     caekf_mcu_fw_t fw;
     uint8_t bench_counter[CAEKF_MSG_COUNT];
-    caekf_e2e_rx_t est_rx[CAEKF_MSG_COUNT]; /* the bench's E2E check of the firmware's frames */
+    caekf_e2e_rx_t est_rx[CAEKF_MSG_COUNT];             /* the bench's E2E check of the firmware's frames */
     caekf_bxcan_frame_t taken[CAEKF_BXCAN_FAKE_TX_LOG]; /* frames taken from the fake's TX log */
-    const char *failure;                    /* first failed check, NULL if all passed */
-    long failure_value;                     /* a number that goes with it */
+    const char *failure;                                /* first failed check, NULL if all passed */
+    long failure_value;                                 /* a number that goes with it */
     uint32_t frames_in, frames_out, steps_ok;
-    uint32_t est_step_status_sum;           /* sum of the STEP_STATUS fields seen (0 when all OK) */
-    uint8_t profile;                        /* caekf_profile_t of the firmware and the bench (prepare: DIAGNOSTICS) */
+    uint32_t est_step_status_sum; /* sum of the STEP_STATUS fields seen (0 when all OK) */
+    uint8_t profile;              /* caekf_profile_t of the firmware and the bench (prepare: DIAGNOSTICS) */
 } caekf_mcu_selftest_t;
 
 /* Resets the fake controller (acknowledges on) and the bench state. Change t->fake's knobs after

@@ -132,7 +132,7 @@ static void test_timing_common_rates(void)
     expect_timing(54000000u, 1000000u, 3u, 15u, 2u, 0x001E0002u); /* F7, 1 Mbit/s (caekf_fw on an F7) */
     expect_timing(16000000u, 500000u, 2u, 13u, 2u, 0x001C0001u);  /* HSI reset clock: 16 tq, 87.5 % */
     expect_timing(16000000u, 1000000u, 1u, 13u, 2u, 0x001C0000u);
-    expect_timing(9500000u, 500000u, 1u, 16u, 2u, 0x001F0000u);   /* 19 tq: the largest TS1 */
+    expect_timing(9500000u, 500000u, 1u, 16u, 2u, 0x001F0000u); /* 19 tq: the largest TS1 */
 }
 
 static void test_timing_refusals(void)
@@ -568,7 +568,7 @@ static void overrun_with_fake(int locked, const uint32_t expect[3])
     TEST_ASSERT_EQUAL_INT(CAEKF_BXCAN_EMPTY, caekf_bxcan_receive(&can, &f));
     TEST_ASSERT_EQUAL_UINT32(1u, can.cnt.rx_overruns); /* flag seen once, cleared with the first release */
     caekf_bxcan_fake_step(&fake);
-    TEST_ASSERT_EQUAL_HEX32(0u, fake.regs.RF0R);      /* FIFO empty, FULL and FOVR cleared */
+    TEST_ASSERT_EQUAL_HEX32(0u, fake.regs.RF0R); /* FIFO empty, FULL and FOVR cleared */
 }
 
 static void test_overrun_newest_wins(void)

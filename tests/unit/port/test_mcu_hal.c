@@ -227,7 +227,7 @@ static void test_transmit_extended_and_bus_off(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_BXCAN_ERR_BUS_OFF, caekf_mcu_hal_service(&hal));
     TEST_ASSERT_EQUAL_UINT(1u, hal.txq_count);
     TEST_ASSERT_EQUAL_UINT32(1u, hal.cnt.tx_errors);
-    fake.regs.ESR = 0u; /* recovered */
+    fake.regs.ESR = 0u;           /* recovered */
     caekf_bxcan_fake_step(&fake); /* (the fake applies the service's RQCP acknowledge) */
     TEST_ASSERT_EQUAL_INT(CAEKF_BXCAN_OK, caekf_mcu_hal_service(&hal));
     TEST_ASSERT_EQUAL_UINT(0u, hal.txq_count);
@@ -307,7 +307,7 @@ static void test_selftest_passes(void)
     TEST_ASSERT_EQUAL_UINT32(5u, st.fake.rx_filtered);
     /* EST_ACK, 8 steps of 12 frames, 2 status answers (EST_ACK + the EST_HEALTH pages each) */
     TEST_ASSERT_EQUAL_UINT32(1u + 8u * 12u + 2u * (1u + CAEKF_HEALTH_PAGES), st.frames_out);
-    TEST_ASSERT_TRUE(st.fw.hal.cnt.txq_high_water >= 9u);        /* the queue was needed */
+    TEST_ASSERT_TRUE(st.fw.hal.cnt.txq_high_water >= 9u); /* the queue was needed */
 }
 
 static void test_selftest_passes_in_the_production_profile(void)

@@ -216,8 +216,7 @@ static void test_ids_map_both_ways_and_foreign_ids_are_unknown(void)
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_info((caekf_msg_t)i, &info));
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_from_id(info->can_id, &msg));
         TEST_ASSERT_EQUAL_INT((int)i, (int)msg);
-        TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_MSG,
-                              caekf_proto_msg_from_id(info->can_id | CAEKF_CAN_ID_EXT_FLAG, &msg));
+        TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_MSG, caekf_proto_msg_from_id(info->can_id | CAEKF_CAN_ID_EXT_FLAG, &msg));
     }
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_MSG, caekf_proto_msg_from_id(0x10C, &msg));
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_MSG, caekf_proto_msg_from_id(0x7FF, &msg));

@@ -38,10 +38,7 @@ static void test_autosar_crc_library_vectors(void)
     TEST_ASSERT_EQUAL_HEX8(0x74, crc_of(v7, sizeof v7));
 }
 
-static void test_empty_input_is_init_xor_xorout(void)
-{
-    TEST_ASSERT_EQUAL_HEX8(0x00, crc_of(NULL, 0));
-}
+static void test_empty_input_is_init_xor_xorout(void) { TEST_ASSERT_EQUAL_HEX8(0x00, crc_of(NULL, 0)); }
 
 static void test_chained_update_equals_one_shot(void)
 {

@@ -11,10 +11,7 @@ int test_file_open(const char *path)
     return current == NULL ? -1 : 0;
 }
 
-long test_file_read(void *buf, unsigned long n)
-{
-    return current == NULL ? -1 : (long)fread(buf, 1, n, current);
-}
+long test_file_read(void *buf, unsigned long n) { return current == NULL ? -1 : (long)fread(buf, 1, n, current); }
 
 void test_file_close(void)
 {

@@ -88,4 +88,3 @@ void test_spd_matrix(paper_mat_t P)
             P[i][j] = (caekf_scalar_t)s;
         }
 }
-

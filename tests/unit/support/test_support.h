@@ -27,8 +27,8 @@ double paper_gamma_min(void);
 long paper_steps(void);
 
 /* The truth record produced by caekf-truth (little-endian float64, 13 per sample). */
-int truth_open(void);                /* 0 on success */
-int truth_next(truth_rec_t *r);      /* 1 sample, 0 end, -1 error */
+int truth_open(void);           /* 0 on success */
+int truth_next(truth_rec_t *r); /* 1 sample, 0 end, -1 error */
 void truth_close(void);
 
 /* Platform file access used by truth_*: stdio on the host, semihosting on the MCU targets. */
@@ -68,8 +68,8 @@ void test_spd_matrix(paper_mat_t P);
 
 /* Runs `experiment` over the whole truth, calling `each` after every step (may be NULL). Returns the
  * number of steps, or -1 when the truth cannot be read. */
-typedef void (*step_hook_t)(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st,
-                            const truth_rec_t *truth, void *ctx);
+typedef void (*step_hook_t)(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *truth,
+                            void *ctx);
 long run_paper(caekf_t *est, const caekf_settings_t *s, step_hook_t each, void *ctx);
 
 #endif

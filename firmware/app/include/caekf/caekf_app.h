@@ -31,12 +31,12 @@ extern "C" {
 
 typedef enum {
     CAEKF_APP_OK = 0,
-    CAEKF_APP_ERR_NULL = -1,       /* a required pointer was NULL */
-    CAEKF_APP_ERR_CONFIG = -2,     /* app configuration or HAL incomplete */
-    CAEKF_APP_ERR_SETTINGS = -3,   /* estimator settings refused: running configuration unchanged */
+    CAEKF_APP_ERR_NULL = -1,     /* a required pointer was NULL */
+    CAEKF_APP_ERR_CONFIG = -2,   /* app configuration or HAL incomplete */
+    CAEKF_APP_ERR_SETTINGS = -3, /* estimator settings refused: running configuration unchanged */
     /* -4 is retired */
-    CAEKF_APP_ERR_PARAM = -5,      /* unknown parameter id or a value the parameter cannot take */
-    CAEKF_APP_ERR_INIT = -6        /* caekf_init failed after validation passed */
+    CAEKF_APP_ERR_PARAM = -5, /* unknown parameter id or a value the parameter cannot take */
+    CAEKF_APP_ERR_INIT = -6   /* caekf_init failed after validation passed */
 } caekf_app_status_t;
 
 /* The app's only door to the outside. Called from caekf_app_poll only, never re-entered. */
@@ -79,10 +79,10 @@ typedef struct {
 
 /* The step being assembled from the bench's frames. */
 typedef struct {
-    uint8_t open;        /* 1 while a step is partially received */
-    uint8_t have;        /* bit per value: 1 << i input i (BENCH_U, BENCH_U2), 1 << (CAEKF_MAX_INPUTS + s) sensor s */
-    uint16_t step;       /* STEP of the frames */
-    uint32_t opened_us;  /* time of its first frame */
+    uint8_t open;       /* 1 while a step is partially received */
+    uint8_t have;       /* bit per value: 1 << i input i (BENCH_U, BENCH_U2), 1 << (CAEKF_MAX_INPUTS + s) sensor s */
+    uint16_t step;      /* STEP of the frames */
+    uint32_t opened_us; /* time of its first frame */
     double u[CAEKF_MAX_INPUTS];  /* the mechanism's inputs */
     double y[CAEKF_MAX_SENSORS]; /* its sensors, in sensor order */
 } caekf_app_slot_t;
@@ -98,23 +98,23 @@ typedef struct {
     /* CTRL_PARAM staging: starts from `active` (or defaults) at the first CTRL_PARAM after a reset. */
     caekf_app_settings_t staged;
     uint8_t staging;
-    uint8_t staged_count;        /* CTRL_PARAM frames received into `staged` (saturates at 255) */
-    int8_t staged_error;         /* caekf_ack_status_t of the first bad CTRL_PARAM, 0 if none */
+    uint8_t staged_count; /* CTRL_PARAM frames received into `staged` (saturates at 255) */
+    int8_t staged_error;  /* caekf_ack_status_t of the first bad CTRL_PARAM, 0 if none */
     uint8_t staged_bad_param;
 
     caekf_app_slot_t slot;
-    uint16_t last_closed_step;   /* last step estimated or dropped: frames up to it are late */
-    uint16_t last_run_step;      /* last step estimated: a jump in STEP is a step gap */
+    uint16_t last_closed_step;       /* last step estimated or dropped: frames up to it are late */
+    uint16_t last_run_step;          /* last step estimated: a jump in STEP is a step gap */
     double last_u[CAEKF_MAX_INPUTS]; /* inputs of that step, held over a gap's prediction-only steps */
     uint8_t have_closed, have_run;
 
-    caekf_e2e_rx_t rx[CAEKF_MSG_COUNT];         /* receive side, used for bench messages */
-    uint32_t rx_last_us[CAEKF_MSG_COUNT];       /* last CRC-valid frame, for the re-sync timeout */
-    uint8_t tx_counter[CAEKF_MSG_COUNT];        /* alive counters of the messages we send */
+    caekf_e2e_rx_t rx[CAEKF_MSG_COUNT];   /* receive side, used for bench messages */
+    uint32_t rx_last_us[CAEKF_MSG_COUNT]; /* last CRC-valid frame, for the re-sync timeout */
+    uint8_t tx_counter[CAEKF_MSG_COUNT];  /* alive counters of the messages we send */
     uint32_t last_status_us;
-    uint16_t page_phase;         /* PRODUCTION: steps since the period started; page = phase while < 11 */
+    uint16_t page_phase; /* PRODUCTION: steps since the period started; page = phase while < 11 */
 
-    uint32_t counters[CAEKF_CNT_COUNT];         /* caekf_counter_id_t; wrap modulo 2^32 */
+    uint32_t counters[CAEKF_CNT_COUNT];           /* caekf_counter_id_t; wrap modulo 2^32 */
     caekf_scalar_t cov_scratch[CAEKF_N][CAEKF_N]; /* P for EST_P_GG: here rather than on the stack */
     uint32_t init_magic;
 } caekf_app_t;

@@ -37,7 +37,8 @@ caekf_bxcan_status_t caekf_bxcan_timing_btr(const caekf_bxcan_timing_t *t, uint3
         t->sjw < 1u || t->sjw > 4u || t->sjw > t->ts2) {
         return CAEKF_BXCAN_ERR_PARAM;
     }
-    *btr = ((uint32_t)(t->sjw - 1u) << CAEKF_BXCAN_BTR_SJW_SHIFT) | ((uint32_t)(t->ts2 - 1u) << CAEKF_BXCAN_BTR_TS2_SHIFT) |
+    *btr = ((uint32_t)(t->sjw - 1u) << CAEKF_BXCAN_BTR_SJW_SHIFT) |
+           ((uint32_t)(t->ts2 - 1u) << CAEKF_BXCAN_BTR_TS2_SHIFT) |
            ((uint32_t)(t->ts1 - 1u) << CAEKF_BXCAN_BTR_TS1_SHIFT) |
            ((uint32_t)(t->prescaler - 1u) << CAEKF_BXCAN_BTR_BRP_SHIFT);
     return CAEKF_BXCAN_OK;
@@ -488,24 +489,15 @@ caekf_bxcan_status_t caekf_bxcan_error_state(const caekf_bxcan_t *can, caekf_bxc
 const char *caekf_bxcan_status_str(caekf_bxcan_status_t st)
 {
     switch (st) {
-    case CAEKF_BXCAN_OK:
-        return "ok";
-    case CAEKF_BXCAN_EMPTY:
-        return "empty";
-    case CAEKF_BXCAN_BUSY:
-        return "busy";
-    case CAEKF_BXCAN_ERR_NULL:
-        return "null pointer";
-    case CAEKF_BXCAN_ERR_PARAM:
-        return "parameter out of range";
-    case CAEKF_BXCAN_ERR_INIT_TIMEOUT:
-        return "initialisation mode not acknowledged";
-    case CAEKF_BXCAN_ERR_START_TIMEOUT:
-        return "normal mode not acknowledged (bus idle never seen)";
-    case CAEKF_BXCAN_ERR_STATE:
-        return "not started";
-    case CAEKF_BXCAN_ERR_BUS_OFF:
-        return "bus-off";
+    case CAEKF_BXCAN_OK: return "ok";
+    case CAEKF_BXCAN_EMPTY: return "empty";
+    case CAEKF_BXCAN_BUSY: return "busy";
+    case CAEKF_BXCAN_ERR_NULL: return "null pointer";
+    case CAEKF_BXCAN_ERR_PARAM: return "parameter out of range";
+    case CAEKF_BXCAN_ERR_INIT_TIMEOUT: return "initialisation mode not acknowledged";
+    case CAEKF_BXCAN_ERR_START_TIMEOUT: return "normal mode not acknowledged (bus idle never seen)";
+    case CAEKF_BXCAN_ERR_STATE: return "not started";
+    case CAEKF_BXCAN_ERR_BUS_OFF: return "bus-off";
     }
     return "unknown";
 }

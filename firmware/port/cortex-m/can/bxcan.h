@@ -66,25 +66,25 @@ typedef void (*caekf_bxcan_wait_hook_t)(void *ctx);
 
 typedef struct {
     caekf_bxcan_timing_t timing;
-    uint8_t tx_fifo_order;         /* MCR.TXFP: 1 chronological (default), 0 lowest identifier first */
-    uint8_t auto_bus_off_recovery; /* MCR.ABOM (default 1) */
-    uint8_t no_auto_retransmit;    /* MCR.NART (default 0) */
-    uint8_t rx_fifo_locked;        /* MCR.RFLM: 1 keep the old messages on overrun (default 0: newest wins) */
-    uint8_t loopback;              /* BTR.LBKM (test mode, default 0) */
-    uint8_t silent;                /* BTR.SILM (test mode, default 0) */
-    uint32_t wait_limit;           /* iterations of each bounded wait; 0: CAEKF_BXCAN_DEFAULT_WAIT_LIMIT */
+    uint8_t tx_fifo_order;             /* MCR.TXFP: 1 chronological (default), 0 lowest identifier first */
+    uint8_t auto_bus_off_recovery;     /* MCR.ABOM (default 1) */
+    uint8_t no_auto_retransmit;        /* MCR.NART (default 0) */
+    uint8_t rx_fifo_locked;            /* MCR.RFLM: 1 keep the old messages on overrun (default 0: newest wins) */
+    uint8_t loopback;                  /* BTR.LBKM (test mode, default 0) */
+    uint8_t silent;                    /* BTR.SILM (test mode, default 0) */
+    uint32_t wait_limit;               /* iterations of each bounded wait; 0: CAEKF_BXCAN_DEFAULT_WAIT_LIMIT */
     caekf_bxcan_wait_hook_t wait_hook; /* called once per wait iteration, may be NULL */
     void *wait_ctx;
 } caekf_bxcan_config_t;
 
 /* A classic CAN frame as the driver sees it. */
 typedef struct {
-    uint32_t id;       /* 11-bit (ide 0) or 29-bit (ide 1) identifier */
-    uint8_t ide;       /* 1: extended identifier */
-    uint8_t rtr;       /* 1: remote frame */
-    uint8_t dlc;       /* transmit: 0..8; receive: the raw 4-bit DLC (9..15 mean 8 bytes) */
-    uint8_t fmi;       /* receive: filter match index */
-    uint16_t time;     /* receive: time stamp (TTCM only) */
+    uint32_t id;   /* 11-bit (ide 0) or 29-bit (ide 1) identifier */
+    uint8_t ide;   /* 1: extended identifier */
+    uint8_t rtr;   /* 1: remote frame */
+    uint8_t dlc;   /* transmit: 0..8; receive: the raw 4-bit DLC (9..15 mean 8 bytes) */
+    uint8_t fmi;   /* receive: filter match index */
+    uint16_t time; /* receive: time stamp (TTCM only) */
     uint8_t data[8];
 } caekf_bxcan_frame_t;
 
@@ -109,7 +109,7 @@ typedef struct {
     uint32_t wait_limit;
     caekf_bxcan_wait_hook_t wait_hook;
     void *wait_ctx;
-    uint8_t started;   /* 1 after a successful init */
+    uint8_t started; /* 1 after a successful init */
     uint8_t in_bus_off;
     uint8_t in_error_passive;
 } caekf_bxcan_t;

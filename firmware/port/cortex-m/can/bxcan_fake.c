@@ -62,8 +62,8 @@ static void publish_rx(caekf_bxcan_fake_t *f)
             rir |= CAEKF_BXCAN_IR_RTR;
         }
         mb->RIR = rir;
-        mb->RDTR = ((uint32_t)fr->time << CAEKF_BXCAN_DTR_TIME_SHIFT) | ((uint32_t)fr->fmi << CAEKF_BXCAN_RDTR_FMI_SHIFT) |
-                   ((uint32_t)fr->dlc & CAEKF_BXCAN_DTR_DLC_MASK);
+        mb->RDTR = ((uint32_t)fr->time << CAEKF_BXCAN_DTR_TIME_SHIFT) |
+                   ((uint32_t)fr->fmi << CAEKF_BXCAN_RDTR_FMI_SHIFT) | ((uint32_t)fr->dlc & CAEKF_BXCAN_DTR_DLC_MASK);
         mb->RDLR = pack4(&fr->data[0]);
         mb->RDHR = pack4(&fr->data[4]);
     }
@@ -104,8 +104,7 @@ static void apply_writes(caekf_bxcan_fake_t *f)
     }
 }
 
-int caekf_bxcan_fake_match(const caekf_bxcan_fake_t *f, const caekf_bxcan_frame_t *frame, unsigned *fifo,
-                           unsigned *fmi)
+int caekf_bxcan_fake_match(const caekf_bxcan_fake_t *f, const caekf_bxcan_frame_t *frame, unsigned *fifo, unsigned *fmi)
 {
     const caekf_bxcan_regs_t *r;
     uint32_t w32, w16, fa, fm, fs, ffa;
@@ -124,7 +123,8 @@ int caekf_bxcan_fake_match(const caekf_bxcan_fake_t *f, const caekf_bxcan_frame_
     }
     if (frame->ide) {
         w32 = (frame->id << CAEKF_BXCAN_IR_EXID_SHIFT) | CAEKF_BXCAN_IR_IDE;
-        w16 = (((frame->id >> 18) & 0x7FFu) << CAEKF_BXCAN_F16_STID_SHIFT) | CAEKF_BXCAN_F16_IDE | ((frame->id >> 15) & 7u);
+        w16 = (((frame->id >> 18) & 0x7FFu) << CAEKF_BXCAN_F16_STID_SHIFT) | CAEKF_BXCAN_F16_IDE |
+              ((frame->id >> 15) & 7u);
     } else {
         w32 = frame->id << CAEKF_BXCAN_IR_STID_SHIFT;
         w16 = frame->id << CAEKF_BXCAN_F16_STID_SHIFT;
@@ -293,7 +293,4 @@ void caekf_bxcan_fake_step(caekf_bxcan_fake_t *f)
     publish_rx(f);
 }
 
-void caekf_bxcan_fake_hook(void *ctx)
-{
-    caekf_bxcan_fake_step((caekf_bxcan_fake_t *)ctx);
-}
+void caekf_bxcan_fake_hook(void *ctx) { caekf_bxcan_fake_step((caekf_bxcan_fake_t *)ctx); }

@@ -37,18 +37,18 @@ typedef struct {
     caekf_bxcan_frame_t fifo[CAEKF_BXCAN_RX_FIFO_DEPTH]; /* FIFO 0, oldest first */
     unsigned fifo_count;
     uint8_t full_flag, fovr_flag;
-    uint32_t tsr_state;             /* TSR as the hardware holds it */
-    uint32_t pub_rf0r, pub_tsr;     /* what the model last wrote to RF0R / TSR */
+    uint32_t tsr_state;         /* TSR as the hardware holds it */
+    uint32_t pub_rf0r, pub_tsr; /* what the model last wrote to RF0R / TSR */
 
     caekf_bxcan_frame_t tx_log[CAEKF_BXCAN_FAKE_TX_LOG]; /* transmitted frames, in order */
-    unsigned tx_count;      /* frames in tx_log */
-    uint32_t tx_total;      /* all frames transmitted (tx_log keeps the first CAEKF_BXCAN_FAKE_TX_LOG) */
-    uint32_t rx_delivered;  /* frames stored in FIFO 0 */
-    uint32_t rx_filtered;   /* frames no active filter accepted */
-    uint32_t rx_fifo1;      /* frames accepted for FIFO 1 (not modelled further) */
-    uint32_t rx_lost;       /* frames lost to an overrun */
-    uint32_t rx_offline;    /* frames arriving while the controller was in initialisation or sleep */
-    uint32_t steps;         /* calls of caekf_bxcan_fake_step */
+    unsigned tx_count;                                   /* frames in tx_log */
+    uint32_t tx_total;     /* all frames transmitted (tx_log keeps the first CAEKF_BXCAN_FAKE_TX_LOG) */
+    uint32_t rx_delivered; /* frames stored in FIFO 0 */
+    uint32_t rx_filtered;  /* frames no active filter accepted */
+    uint32_t rx_fifo1;     /* frames accepted for FIFO 1 (not modelled further) */
+    uint32_t rx_lost;      /* frames lost to an overrun */
+    uint32_t rx_offline;   /* frames arriving while the controller was in initialisation or sleep */
+    uint32_t steps;        /* calls of caekf_bxcan_fake_step */
 } caekf_bxcan_fake_t;
 
 /* Register reset values, empty FIFO and log, acknowledges on. */

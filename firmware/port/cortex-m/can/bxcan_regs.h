@@ -48,23 +48,23 @@ typedef struct {
 } caekf_bxcan_filter_bank_t;
 
 typedef struct {
-    volatile uint32_t MCR;  /* 0x000 master control */
-    volatile uint32_t MSR;  /* 0x004 master status */
-    volatile uint32_t TSR;  /* 0x008 transmit status */
-    volatile uint32_t RF0R; /* 0x00C receive FIFO 0 */
-    volatile uint32_t RF1R; /* 0x010 receive FIFO 1 */
-    volatile uint32_t IER;  /* 0x014 interrupt enable */
-    volatile uint32_t ESR;  /* 0x018 error status */
-    volatile uint32_t BTR;  /* 0x01C bit timing (writable in initialisation mode only) */
-    uint32_t reserved0[88]; /* 0x020 .. 0x17F */
+    volatile uint32_t MCR;                                 /* 0x000 master control */
+    volatile uint32_t MSR;                                 /* 0x004 master status */
+    volatile uint32_t TSR;                                 /* 0x008 transmit status */
+    volatile uint32_t RF0R;                                /* 0x00C receive FIFO 0 */
+    volatile uint32_t RF1R;                                /* 0x010 receive FIFO 1 */
+    volatile uint32_t IER;                                 /* 0x014 interrupt enable */
+    volatile uint32_t ESR;                                 /* 0x018 error status */
+    volatile uint32_t BTR;                                 /* 0x01C bit timing (writable in initialisation mode only) */
+    uint32_t reserved0[88];                                /* 0x020 .. 0x17F */
     caekf_bxcan_tx_mailbox_t tx[CAEKF_BXCAN_TX_MAILBOXES]; /* 0x180, 0x190, 0x1A0 */
     caekf_bxcan_rx_mailbox_t rx[CAEKF_BXCAN_RX_FIFOS];     /* 0x1B0 (FIFO 0), 0x1C0 (FIFO 1) */
-    uint32_t reserved1[12]; /* 0x1D0 .. 0x1FF */
-    volatile uint32_t FMR;  /* 0x200 filter master (FINIT, CAN2SB) */
-    volatile uint32_t FM1R; /* 0x204 filter mode: bit x = 1 identifier list, 0 identifier mask */
-    uint32_t reserved2;     /* 0x208 */
-    volatile uint32_t FS1R; /* 0x20C filter scale: bit x = 1 single 32-bit, 0 dual 16-bit */
-    uint32_t reserved3;     /* 0x210 */
+    uint32_t reserved1[12];                                /* 0x1D0 .. 0x1FF */
+    volatile uint32_t FMR;                                 /* 0x200 filter master (FINIT, CAN2SB) */
+    volatile uint32_t FM1R;  /* 0x204 filter mode: bit x = 1 identifier list, 0 identifier mask */
+    uint32_t reserved2;      /* 0x208 */
+    volatile uint32_t FS1R;  /* 0x20C filter scale: bit x = 1 single 32-bit, 0 dual 16-bit */
+    uint32_t reserved3;      /* 0x210 */
     volatile uint32_t FFA1R; /* 0x214 filter FIFO assignment: bit x = FIFO of bank x */
     uint32_t reserved4;      /* 0x218 */
     volatile uint32_t FA1R;  /* 0x21C filter activation: bit x = 1 active */
@@ -148,10 +148,10 @@ typedef char caekf_bxcan_size_check[(sizeof(caekf_bxcan_regs_t) == 0x320u) ? 1 :
 #define CAEKF_BXCAN_TSR_RESET_VALUE 0x1C000000u
 
 /* ---- RF0R / RF1R ---- */
-#define CAEKF_BXCAN_RFR_FMP_MASK 3u     /* messages pending, 0..3 */
-#define CAEKF_BXCAN_RFR_FULL (1u << 3)  /* FIFO full (rc_w1) */
-#define CAEKF_BXCAN_RFR_FOVR (1u << 4)  /* FIFO overrun: a message was lost (rc_w1) */
-#define CAEKF_BXCAN_RFR_RFOM (1u << 5)  /* release output mailbox (set by software, cleared by hardware) */
+#define CAEKF_BXCAN_RFR_FMP_MASK 3u    /* messages pending, 0..3 */
+#define CAEKF_BXCAN_RFR_FULL (1u << 3) /* FIFO full (rc_w1) */
+#define CAEKF_BXCAN_RFR_FOVR (1u << 4) /* FIFO overrun: a message was lost (rc_w1) */
+#define CAEKF_BXCAN_RFR_RFOM (1u << 5) /* release output mailbox (set by software, cleared by hardware) */
 
 /* ---- IER (the driver polls: it writes 0) ---- */
 #define CAEKF_BXCAN_IER_TMEIE (1u << 0)
@@ -170,10 +170,10 @@ typedef char caekf_bxcan_size_check[(sizeof(caekf_bxcan_regs_t) == 0x320u) ? 1 :
 #define CAEKF_BXCAN_ESR_REC_SHIFT 24u
 
 /* ---- BTR ---- fields hold value - 1 */
-#define CAEKF_BXCAN_BTR_BRP_SHIFT 0u  /* 10 bits: prescaler - 1 */
-#define CAEKF_BXCAN_BTR_TS1_SHIFT 16u /* 4 bits: time segment 1 - 1 */
-#define CAEKF_BXCAN_BTR_TS2_SHIFT 20u /* 3 bits: time segment 2 - 1 */
-#define CAEKF_BXCAN_BTR_SJW_SHIFT 24u /* 2 bits: resynchronisation jump width - 1 */
+#define CAEKF_BXCAN_BTR_BRP_SHIFT 0u    /* 10 bits: prescaler - 1 */
+#define CAEKF_BXCAN_BTR_TS1_SHIFT 16u   /* 4 bits: time segment 1 - 1 */
+#define CAEKF_BXCAN_BTR_TS2_SHIFT 20u   /* 3 bits: time segment 2 - 1 */
+#define CAEKF_BXCAN_BTR_SJW_SHIFT 24u   /* 2 bits: resynchronisation jump width - 1 */
 #define CAEKF_BXCAN_BTR_LBKM (1u << 30) /* loop back mode */
 #define CAEKF_BXCAN_BTR_SILM (1u << 31) /* silent mode */
 

@@ -216,16 +216,11 @@ caekf_app_status_t caekf_mcu_fw_poll(caekf_mcu_fw_t *fw)
 const char *caekf_mcu_status_str(caekf_mcu_status_t st)
 {
     switch (st) {
-    case CAEKF_MCU_OK:
-        return "ok";
-    case CAEKF_MCU_ERR_NULL:
-        return "null pointer";
-    case CAEKF_MCU_ERR_CAN:
-        return "CAN controller init failed";
-    case CAEKF_MCU_ERR_FILTER:
-        return "CAN filter programming failed";
-    case CAEKF_MCU_ERR_APP:
-        return "app init failed";
+    case CAEKF_MCU_OK: return "ok";
+    case CAEKF_MCU_ERR_NULL: return "null pointer";
+    case CAEKF_MCU_ERR_CAN: return "CAN controller init failed";
+    case CAEKF_MCU_ERR_FILTER: return "CAN filter programming failed";
+    case CAEKF_MCU_ERR_APP: return "app init failed";
     }
     return "unknown";
 }

@@ -31,12 +31,6 @@ uint32_t caekf_us_clock_advance(caekf_us_clock_t *c, uint32_t raw)
     return c->us;
 }
 
-uint32_t caekf_us_clock_now(caekf_us_clock_t *c)
-{
-    return caekf_us_clock_advance(c, c->st->CVR);
-}
+uint32_t caekf_us_clock_now(caekf_us_clock_t *c) { return caekf_us_clock_advance(c, c->st->CVR); }
 
-uint32_t caekf_us_clock_now_cb(void *ctx)
-{
-    return caekf_us_clock_now((caekf_us_clock_t *)ctx);
-}
+uint32_t caekf_us_clock_now_cb(void *ctx) { return caekf_us_clock_now((caekf_us_clock_t *)ctx); }

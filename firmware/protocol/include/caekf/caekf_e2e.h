@@ -51,16 +51,16 @@ caekf_e2e_status_t caekf_e2e_protect(uint16_t data_id, uint8_t counter, uint8_t 
  * largest accepted counter step; 1 accepts only consecutive frames. On CAEKF_E2E_OK, *lost (may be
  * NULL) receives the number of frames skipped (delta - 1). CRC and DLC errors and duplicates leave
  * the state unchanged; a jump re-syncs to the new counter so the next consecutive frame passes. */
-caekf_e2e_status_t caekf_e2e_check(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta,
-                                   const uint8_t *payload, uint8_t dlc, uint8_t *lost);
+caekf_e2e_status_t caekf_e2e_check(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta, const uint8_t *payload,
+                                   uint8_t dlc, uint8_t *lost);
 
 /* CAN FD frames of `len` bytes (3..64): CRC-16 of a payload (bytes 0..1 ignored). */
 caekf_e2e_status_t caekf_e2e_crc16(uint16_t data_id, const uint8_t *payload, uint8_t len, uint16_t *crc_out);
 /* Writes `counter` (low 4 bits) into bits 16..19, keeping bits 20..23, then the CRC-16 into bytes 0..1. */
 caekf_e2e_status_t caekf_e2e_protect_fd(uint16_t data_id, uint8_t counter, uint8_t *payload, uint8_t len);
 /* As caekf_e2e_check, for a message of `len` bytes: a frame of another length is CAEKF_E2E_ERR_DLC. */
-caekf_e2e_status_t caekf_e2e_check_fd(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta,
-                                      const uint8_t *payload, uint8_t dlc, uint8_t len, uint8_t *lost);
+caekf_e2e_status_t caekf_e2e_check_fd(caekf_e2e_rx_t *rx, uint16_t data_id, uint8_t max_delta, const uint8_t *payload,
+                                      uint8_t dlc, uint8_t len, uint8_t *lost);
 
 #ifdef __cplusplus
 }

@@ -17,25 +17,25 @@
 extern "C" {
 #endif
 
-#define CAEKF_CAN_DLC 8u          /* bytes of a classic frame: every message but the CAN FD profile's */
-#define CAEKF_CAN_FD_MAX_LEN 64u  /* bytes of the longest CAN FD frame */
-#define CAEKF_FD_IN_LEN 20u       /* BENCH_FD */
-#define CAEKF_FD_OUT_LEN 64u      /* EST_FD */
+#define CAEKF_CAN_DLC 8u                  /* bytes of a classic frame: every message but the CAN FD profile's */
+#define CAEKF_CAN_FD_MAX_LEN 64u          /* bytes of the longest CAN FD frame */
+#define CAEKF_FD_IN_LEN 20u               /* BENCH_FD */
+#define CAEKF_FD_OUT_LEN 64u              /* EST_FD */
 #define CAEKF_CAN_ID_EXT_FLAG 0x80000000u /* set by a HAL for 29-bit IDs: never a caekf message */
 
 typedef struct {
-    uint32_t id;   /* 11-bit standard ID, or 29-bit ID | CAEKF_CAN_ID_EXT_FLAG */
-    uint8_t dlc;   /* data length in bytes: 0..8 classic, up to 64 for a CAN FD frame */
+    uint32_t id; /* 11-bit standard ID, or 29-bit ID | CAEKF_CAN_ID_EXT_FLAG */
+    uint8_t dlc; /* data length in bytes: 0..8 classic, up to 64 for a CAN FD frame */
     uint8_t data[CAEKF_CAN_FD_MAX_LEN];
 } caekf_can_frame_t;
 
 typedef enum {
     CAEKF_PROTO_OK = 0,
-    CAEKF_PROTO_SATURATED = 1,   /* encoded, but a value was outside its signal range and clipped */
+    CAEKF_PROTO_SATURATED = 1, /* encoded, but a value was outside its signal range and clipped */
     CAEKF_PROTO_ERR_NULL = -1,
-    CAEKF_PROTO_ERR_MSG = -2,    /* unknown message, or the message does not have this layout */
-    CAEKF_PROTO_ERR_VALUE = -3,  /* a decoded float is not finite or a field is outside its set */
-    CAEKF_PROTO_ERR_RANGE = -4   /* a field to encode is outside its set: nothing written */
+    CAEKF_PROTO_ERR_MSG = -2,   /* unknown message, or the message does not have this layout */
+    CAEKF_PROTO_ERR_VALUE = -3, /* a decoded float is not finite or a field is outside its set */
+    CAEKF_PROTO_ERR_RANGE = -4  /* a field to encode is outside its set: nothing written */
 } caekf_proto_status_t;
 
 /* Every message of caekf.dbc. Order is the table order, not the CAN ID order. */
@@ -60,11 +60,11 @@ typedef enum {
     CAEKF_MSG_EST_P_NORM,
     CAEKF_MSG_EST_P_GG,
     CAEKF_MSG_EST_STEP,
-    CAEKF_MSG_BENCH_YP,   /* production profile: y1 and y4 in one frame */
-    CAEKF_MSG_EST_PROD,   /* production profile: the one estimate frame per step */
-    CAEKF_MSG_EST_PAGE,   /* production profile: multiplexed pages of the full estimate */
-    CAEKF_MSG_BENCH_FD,   /* CAN FD profile: u, y1, y4 in one 20-byte frame */
-    CAEKF_MSG_EST_FD,     /* CAN FD profile: the whole estimate in one 64-byte frame */
+    CAEKF_MSG_BENCH_YP, /* production profile: y1 and y4 in one frame */
+    CAEKF_MSG_EST_PROD, /* production profile: the one estimate frame per step */
+    CAEKF_MSG_EST_PAGE, /* production profile: multiplexed pages of the full estimate */
+    CAEKF_MSG_BENCH_FD, /* CAN FD profile: u, y1, y4 in one 20-byte frame */
+    CAEKF_MSG_EST_FD,   /* CAN FD profile: the whole estimate in one 64-byte frame */
     /* Diagnostics profile, a mechanism's inputs and sensors beyond the paper's u, y1, y4 (sent only when
      * the mechanism has them): input 2, sensors 3 and 4 as positions, sensors 1..4 as velocities. */
     CAEKF_MSG_BENCH_U2,
@@ -119,13 +119,13 @@ typedef enum {
 typedef enum { CAEKF_DIR_TO_ESTIMATOR = 0, CAEKF_DIR_FROM_ESTIMATOR = 1 } caekf_dir_t;
 
 typedef struct {
-    const char *name;   /* DBC message name */
+    const char *name; /* DBC message name */
     uint16_t can_id;
-    uint16_t data_id;   /* E2E data ID (DBC attribute E2E_DataID) */
-    uint8_t layout;     /* caekf_layout_t */
-    uint8_t dir;        /* caekf_dir_t */
-    uint8_t len;        /* payload bytes: CAEKF_CAN_DLC, or a CAN FD frame's length (E2E with CRC-16) */
-    double lsb;         /* value LSB of CAEKF_LAYOUT_INT36 messages, else 0 */
+    uint16_t data_id; /* E2E data ID (DBC attribute E2E_DataID) */
+    uint8_t layout;   /* caekf_layout_t */
+    uint8_t dir;      /* caekf_dir_t */
+    uint8_t len;      /* payload bytes: CAEKF_CAN_DLC, or a CAN FD frame's length (E2E with CRC-16) */
+    double lsb;       /* value LSB of CAEKF_LAYOUT_INT36 messages, else 0 */
 } caekf_msg_info_t;
 
 caekf_proto_status_t caekf_proto_msg_info(caekf_msg_t msg, const caekf_msg_info_t **info);
@@ -152,15 +152,16 @@ caekf_proto_status_t caekf_proto_seal(caekf_msg_t msg, uint8_t counter, caekf_ca
  * Encode: out-of-range values are clipped and CAEKF_PROTO_SATURATED returned (NaN in an INT36 signal
  * becomes 0, saturated); float signals carry NaN and infinities unchanged.
  * Decode: CAEKF_PROTO_ERR_VALUE for a non-finite float; outputs are written only on success. */
-caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, double value, uint8_t data[CAEKF_CAN_DLC]);
+caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, double value,
+                                              uint8_t data[CAEKF_CAN_DLC]);
 caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step,
                                               double *value);
 
 typedef struct {
     uint16_t step;
-    uint16_t flags;       /* CAEKF_FLAG_* | CAEKF_STEP_FLAG_* */
+    uint16_t flags; /* CAEKF_FLAG_* | CAEKF_STEP_FLAG_* */
     uint8_t newton_iters;
-    int8_t status;        /* caekf_status_t of the step */
+    int8_t status; /* caekf_status_t of the step */
 } caekf_msg_step_t;
 
 typedef struct {
@@ -170,9 +171,9 @@ typedef struct {
 
 /* value = mantissa * 10^exp10 (see caekf_proto_param_value). */
 typedef struct {
-    uint8_t param_id;     /* CAEKF_PARAM_* (+ element) */
-    int8_t exp10;         /* 6-bit field: -32..31 on the wire, -22..22 usable */
-    int64_t mantissa;     /* 38-bit signed field */
+    uint8_t param_id; /* CAEKF_PARAM_* (+ element) */
+    int8_t exp10;     /* 6-bit field: -32..31 on the wire, -22..22 usable */
+    int64_t mantissa; /* 38-bit signed field */
 } caekf_msg_param_t;
 
 typedef struct {
@@ -181,16 +182,16 @@ typedef struct {
 
 typedef struct {
     uint8_t token;
-    int8_t status;        /* caekf_ack_status_t */
-    uint8_t bad_param;    /* CAEKF_PARAM_* (+ element) or CAEKF_ACK_BAD_PARAM_NONE */
+    int8_t status;     /* caekf_ack_status_t */
+    uint8_t bad_param; /* CAEKF_PARAM_* (+ element) or CAEKF_ACK_BAD_PARAM_NONE */
     uint8_t n_params_rx;
-    uint8_t state;        /* CAEKF_ACK_STATE_* */
+    uint8_t state; /* CAEKF_ACK_STATE_* */
 } caekf_msg_ack_t;
 
 typedef struct {
-    uint8_t page;         /* 0 .. CAEKF_HEALTH_PAGES-1 */
-    uint32_t counter_a;   /* counter 2*page, sent modulo 2^24 */
-    uint32_t counter_b;   /* counter 2*page+1 */
+    uint8_t page;       /* 0 .. CAEKF_HEALTH_PAGES-1 */
+    uint32_t counter_a; /* counter 2*page, sent modulo 2^24 */
+    uint32_t counter_b; /* counter 2*page+1 */
 } caekf_msg_health_t;
 
 caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t data[CAEKF_CAN_DLC]);
@@ -209,27 +210,27 @@ caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint
 caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m);
 
 /* Production profile frames. */
-#define CAEKF_YP_LSB 1e-9              /* m per LSB of BENCH_YP.Y1/Y4 (22-bit signed) */
-#define CAEKF_YP_BITS 22u              /* width of BENCH_YP.Y1/Y4 */
-#define CAEKF_PROD_FLAGS_MASK 0x0FFFu  /* EST_PROD.FLAGS: the estimator's flag bits 0..11 */
-#define CAEKF_PAGE_COUNT 11u           /* EST_PAGE pages 0..10 */
-#define CAEKF_PAGE_STEP_INFO 10u       /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */
+#define CAEKF_YP_LSB 1e-9             /* m per LSB of BENCH_YP.Y1/Y4 (22-bit signed) */
+#define CAEKF_YP_BITS 22u             /* width of BENCH_YP.Y1/Y4 */
+#define CAEKF_PROD_FLAGS_MASK 0x0FFFu /* EST_PROD.FLAGS: the estimator's flag bits 0..11 */
+#define CAEKF_PAGE_COUNT 11u          /* EST_PAGE pages 0..10 */
+#define CAEKF_PAGE_STEP_INFO 10u      /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */
 
 typedef struct {
-    uint8_t step;         /* STEP modulo 2^8 (the app unwraps it against BENCH_U's 16-bit STEP) */
-    double y1, y4;        /* m */
+    uint8_t step;  /* STEP modulo 2^8 (the app unwraps it against BENCH_U's 16-bit STEP) */
+    double y1, y4; /* m */
 } caekf_msg_yp_t;
 
 typedef struct {
-    uint8_t step;         /* STEP modulo 2^8 */
-    uint16_t flags;       /* bits 0..11 sent */
-    double gamma;         /* sent as float32 */
+    uint8_t step;   /* STEP modulo 2^8 */
+    uint16_t flags; /* bits 0..11 sent */
+    double gamma;   /* sent as float32 */
 } caekf_msg_prod_t;
 
 typedef struct {
-    uint8_t page;         /* 0..3 q1..q4, 4..7 v1..v4, 8 P_NORM, 9 P_GAMMA_GAMMA, 10 step info */
+    uint8_t page; /* 0..3 q1..q4, 4..7 v1..v4, 8 P_NORM, 9 P_GAMMA_GAMMA, 10 step info */
     uint16_t step;
-    double value;         /* pages 0..9, sent as float32 */
+    double value;          /* pages 0..9, sent as float32 */
     caekf_msg_step_t info; /* page 10 (info.step is ignored: `step` is sent) */
 } caekf_msg_page_t;
 
@@ -247,14 +248,14 @@ caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], 
 /* CAN FD profile frames (20 and 64 bytes). */
 typedef struct {
     uint16_t step;
-    double u;             /* N, float32 on the wire */
-    double y1, y4;        /* m, LSB 1e-12 m */
+    double u;      /* N, float32 on the wire */
+    double y1, y4; /* m, LSB 1e-12 m */
 } caekf_msg_fd_in_t;
 
 typedef struct {
     uint16_t step;
-    double x[9];          /* q1..q4 (LSB 1e-12 m), v1..v4 (LSB 1e-10 m/s), gamma (float32) */
-    double p_norm, p_gg;  /* float32 */
+    double x[9];           /* q1..q4 (LSB 1e-12 m), v1..v4 (LSB 1e-10 m/s), gamma (float32) */
+    double p_norm, p_gg;   /* float32 */
     caekf_msg_step_t info; /* FLAGS, NEWTON_ITERS, STEP_STATUS (info.step is ignored: `step` is sent) */
 } caekf_msg_fd_out_t;
 

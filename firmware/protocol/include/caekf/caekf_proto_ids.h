@@ -5,7 +5,6 @@
 #ifndef CAEKF_PROTO_IDS_H
 #define CAEKF_PROTO_IDS_H
 
-
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -15,10 +14,10 @@ extern "C" {
 
 /* EST_ACK.ACK_STATUS. */
 typedef enum {
-    CAEKF_ACK_STATUS = 1,               /* answer to CTRL_STATUS_REQ */
-    CAEKF_ACK_ACCEPTED = 0,             /* configuration accepted, estimator re-initialised */
-    CAEKF_ACK_REFUSED_SETTINGS = -1,    /* caekf_settings_validate refused; BAD_PARAM names the field */
-    CAEKF_ACK_REFUSED_INCOMPLETE = -2,  /* N_PARAMS differs from the CTRL_PARAM frames accepted */
+    CAEKF_ACK_STATUS = 1,              /* answer to CTRL_STATUS_REQ */
+    CAEKF_ACK_ACCEPTED = 0,            /* configuration accepted, estimator re-initialised */
+    CAEKF_ACK_REFUSED_SETTINGS = -1,   /* caekf_settings_validate refused; BAD_PARAM names the field */
+    CAEKF_ACK_REFUSED_INCOMPLETE = -2, /* N_PARAMS differs from the CTRL_PARAM frames accepted */
     /* -3 is retired (a value the wire no longer carries) */
     CAEKF_ACK_REFUSED_PARAM = -4,       /* a CTRL_PARAM frame had an unknown id or an unusable value */
     CAEKF_ACK_REFUSED_NO_SETTINGS = -5, /* N_PARAMS = 0 but nothing was ever configured */
