@@ -25,40 +25,6 @@
 void setUp(void) {}
 void tearDown(void) {}
 
-static void mat_inverse(double a[NX][NX], double inv[NX][NX])
-{
-    int i, j, k;
-    for (i = 0; i < NX; ++i)
-        for (j = 0; j < NX; ++j) inv[i][j] = (i == j);
-    for (k = 0; k < NX; ++k) {
-        int p = k;
-        double piv;
-        for (i = k + 1; i < NX; ++i)
-            if (fabs(a[i][k]) > fabs(a[p][k])) p = i;
-        for (j = 0; j < NX; ++j) {
-            double t = a[k][j];
-            a[k][j] = a[p][j];
-            a[p][j] = t;
-            t = inv[k][j];
-            inv[k][j] = inv[p][j];
-            inv[p][j] = t;
-        }
-        piv = a[k][k];
-        for (j = 0; j < NX; ++j) {
-            a[k][j] /= piv;
-            inv[k][j] /= piv;
-        }
-        for (i = 0; i < NX; ++i) {
-            double f = a[i][k];
-            if (i == k) continue;
-            for (j = 0; j < NX; ++j) {
-                a[i][j] -= f * a[k][j];
-                inv[i][j] -= f * inv[k][j];
-            }
-        }
-    }
-}
-
 typedef struct {
     double F[NX][NX], Ainv[NX][NX];
     double x[NX], P[NX][NX];
@@ -102,7 +68,7 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
             B[4 + i][4 + j] = (i == j ? kf->m[i] : 0) - (1 - th) * dt * C[i][j];
         }
     }
-    mat_inverse(A, kf->Ainv);
+    TEST_ASSERT_EQUAL_INT(0, test_invert(&A[0][0], &kf->Ainv[0][0], NX));
     for (i = 0; i < NX; ++i)
         for (j = 0; j < NX; ++j) {
             double acc = 0;

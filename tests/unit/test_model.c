@@ -117,46 +117,6 @@ static void test_jacobians_match_finite_differences_out_of_contact(void)
     check_jacobians_at(-5e-6);
 }
 
-/* Gauss-Jordan inverse in double, written independently of the library's LU. */
-static void invert(double a[N][N], double inv[N][N])
-{
-    int i, j, k;
-    for (i = 0; i < N; ++i) {
-        for (j = 0; j < N; ++j) {
-            inv[i][j] = (i == j);
-        }
-    }
-    for (k = 0; k < N; ++k) {
-        int p = k;
-        double piv;
-        for (i = k + 1; i < N; ++i) {
-            if (fabs(a[i][k]) > fabs(a[p][k])) p = i;
-        }
-        for (j = 0; j < N; ++j) {
-            double t = a[k][j];
-            a[k][j] = a[p][j];
-            a[p][j] = t;
-            t = inv[k][j];
-            inv[k][j] = inv[p][j];
-            inv[p][j] = t;
-        }
-        piv = a[k][k];
-        TEST_ASSERT_TRUE(fabs(piv) > 0);
-        for (j = 0; j < N; ++j) {
-            a[k][j] /= piv;
-            inv[k][j] /= piv;
-        }
-        for (i = 0; i < N; ++i) {
-            double f = a[i][k];
-            if (i == k) continue;
-            for (j = 0; j < N; ++j) {
-                a[i][j] -= f * a[k][j];
-                inv[i][j] -= f * inv[k][j];
-            }
-        }
-    }
-}
-
 /* F at x_k with penetration delta, from x_{k-1} with penetration delta_prev. */
 static void check_transition_at(double delta, double delta_prev)
 {
@@ -173,7 +133,7 @@ static void check_transition_at(double delta, double delta_prev)
             A[i][j] = (double)Jk[i][j];
         }
     }
-    invert(A, Ai);
+    TEST_ASSERT_EQUAL_INT(0, test_invert(&A[0][0], &Ai[0][0], N));
     for (i = 0; i < N; ++i) {
         double rowmax = 0;
         double ref[N];

@@ -1,5 +1,6 @@
 #include "test_support.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "caekf_fixture_settings.h" /* generated from the schema and sim/scenarios/paper.toml */
@@ -87,4 +88,46 @@ void test_spd_matrix(paper_mat_t P)
             for (k = 0; k < PAPER_N; ++k) s += L[i][k] * L[j][k];
             P[i][j] = (caekf_scalar_t)s;
         }
+}
+
+int test_invert(double *a, double *inv, int n)
+{
+    int i, j, k;
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            inv[i * n + j] = (i == j);
+        }
+    }
+    for (k = 0; k < n; ++k) {
+        int p = k;
+        double piv;
+        for (i = k + 1; i < n; ++i) {
+            if (fabs(a[i * n + k]) > fabs(a[p * n + k])) p = i;
+        }
+        for (j = 0; j < n; ++j) {
+            double t = a[k * n + j];
+            a[k * n + j] = a[p * n + j];
+            a[p * n + j] = t;
+            t = inv[k * n + j];
+            inv[k * n + j] = inv[p * n + j];
+            inv[p * n + j] = t;
+        }
+        piv = a[k * n + k];
+        if (!(fabs(piv) > 0)) {
+            return -1;
+        }
+        for (j = 0; j < n; ++j) {
+            a[k * n + j] /= piv;
+            inv[k * n + j] /= piv;
+        }
+        for (i = 0; i < n; ++i) {
+            double f = a[i * n + k];
+            if (i == k) continue;
+            for (j = 0; j < n; ++j) {
+                a[i * n + j] -= f * a[k * n + j];
+                inv[i * n + j] -= f * inv[k * n + j];
+            }
+        }
+    }
+    return 0;
 }

@@ -66,6 +66,10 @@ static inline void paper_filter_dims(caekf_filter_dims_t *d, caekf_scalar_t r, c
 /* A deterministic SPD matrix L L^T + small diagonal, with every entry correlated (filter-level tests). */
 void test_spd_matrix(paper_mat_t P);
 
+/* Gauss-Jordan inverse with partial pivoting in double, written independently of the library's LU, for
+ * reference computations: a (n x n, row-major, destroyed) -> inv. Returns 0, or -1 on a zero pivot. */
+int test_invert(double *a, double *inv, int n);
+
 /* Runs `experiment` over the whole truth, calling `each` after every step (may be NULL). Returns the
  * number of steps, or -1 when the truth cannot be read. */
 typedef void (*step_hook_t)(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *truth,
