@@ -271,6 +271,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     uint32_t flags = 0;
     int iters = 0;
     int i, nq, nc, n, ny, nu, any_contact = 0, substepped = 0;
+    int closed_prev = 0; /* a contact closed at x_{k-1}: substeps and the trapezoidal F both ask */
     const caekf_scalar_t *s;
     caekf_scalar_t nis = 0;
 
@@ -316,8 +317,9 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
     } else {
         const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
-        const int closed_before = est->cfg.contact_substeps > 1 && caekf_model_any_contact(&est->model, xprev);
-        int r = 0;
+        int closed_before, r = 0;
+        closed_prev = (est->cfg.contact_substeps > 1 || est->model.trap) && caekf_model_any_contact(&est->model, xprev);
+        closed_before = est->cfg.contact_substeps > 1 && closed_prev;
         if (!closed_before) { /* a step from an open contact: one step unless it closes one */
             r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
                                    est->x_pred, &iters, est->scratch.m);
@@ -355,8 +357,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (est->model.trap && caekf_model_any_contact(&est->model, xprev)),
-                                  substepped) != 0) {
+    } else if (predict_covariance(est, any_contact || (est->model.trap && closed_prev), substepped) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
