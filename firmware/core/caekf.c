@@ -11,6 +11,7 @@
 
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
+CAEKF_STATIC_ASSERT(CAEKF_NP <= 32, parameter_bounds_fit_a_word);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEKF_N >= 4 * CAEKF_NQ,
                     scratch_holds_the_newton_and_substep_work);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
@@ -47,6 +48,81 @@ static void load_fv0(caekf_t *est)
     scale_fv(est->fv, est->scale, nq, n);
     caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     est->fv_const = 1;
+}
+
+/* Parameter k (state 2 nq + k) has the lower bound lo and, when hi > 0, the upper bound hi (physical). */
+static void set_bounds(caekf_t *est, int k, caekf_scalar_t lo, caekf_scalar_t hi)
+{
+    const caekf_scalar_t s = est->scale[2 * est->model.nq + k];
+    est->bound_lo |= 1u << k;
+    est->lo_scaled[k] = lo / s;
+    if (hi > 0) {
+        est->bound_hi |= 1u << k;
+        est->hi_scaled[k] = hi / s;
+    }
+}
+
+#if CAEKF_HAS_LAW_PARAMS
+/* An estimated law parameter at state g: its scale sigma0, initial value, Q and bounds. */
+static void init_param(caekf_t *est, int g, caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q,
+                       caekf_scalar_t lo, caekf_scalar_t hi)
+{
+    est->scale[g] = sigma0;
+    est->z[g] = x0 / sigma0;
+    est->q_diag[g] = sq(sigma_q / sigma0);
+    set_bounds(est, g - 2 * est->model.nq, lo, hi);
+}
+#endif
+
+/* The physical bound (the minimum, or with is_max the maximum) of parameter k, from the settings. */
+static caekf_scalar_t bound_of(const caekf_t *est, int k, int is_max)
+{
+    const caekf_settings_t *s = &est->cfg;
+    const int c = est->model.param_contact[k];
+#if CAEKF_HAS_LAW_PARAMS
+    const unsigned char *law = est->model.law_state[c];
+    const int g = 2 * est->model.nq + k;
+    if (k >= est->model.nc) {
+        if (law[CAEKF_LAW_N] == g) {
+            return is_max ? s->n_max[c] : s->n_min[c];
+        }
+        if (law[CAEKF_LAW_LAMBDA] == g) {
+            return is_max ? s->lambda_max[c] : s->lambda_min[c];
+        }
+        return is_max ? s->gap_max[c] : s->gap_min[c];
+    }
+#endif
+    return is_max ? s->gamma_max[c] : s->gamma_min[c];
+}
+
+/* Inequality constraints, eqs. (28)-(30) over the active set: every parameter outside a bound gets the
+ * perfect measurement that puts it on the bound, in order, pass after pass until none is outside. A
+ * parameter put on a bound has zero variance and covariance, so later ones cannot move it: each pass
+ * that applies one fixes one more, and np passes bound the loop. */
+static void apply_bounds(caekf_t *est, caekf_scalar_t *z, uint32_t *flags)
+{
+    const int nx = 2 * CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model), np = n - nx;
+    const caekf_scalar_t *s = est->scale;
+    int pass, k;
+    if ((est->bound_lo | est->bound_hi) == 0) {
+        return;
+    }
+    for (pass = 0; pass < np; ++pass) {
+        int applied = 0;
+        for (k = 0; k < np; ++k) {
+            if ((est->bound_lo >> k) & 1u) {
+                applied |= caekf_constrain_upper(z, est->P_work, n, nx + k, est->lo_scaled[k], 0, s[nx + k],
+                                                 bound_of(est, k, 0), flags);
+            }
+            if ((est->bound_hi >> k) & 1u) {
+                applied |= caekf_constrain_upper(z, est->P_work, n, nx + k, est->hi_scaled[k], 1, s[nx + k],
+                                                 bound_of(est, k, 1), flags);
+            }
+        }
+        if (!applied) {
+            break;
+        }
+    }
 }
 
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
@@ -93,12 +169,34 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
         est->q_diag[nq + i] = sq(s->sigma_qx_v / s->sigma_v0);
     }
+    est->bound_lo = est->bound_hi = 0;
+    for (i = 0; i <= CAEKF_NP; ++i) {
+        est->lo_scaled[i] = est->hi_scaled[i] = 0;
+    }
     for (i = 0; i < nc; ++i) {
         est->scale[2 * nq + i] = s->sigma_gamma0[i];
         est->z[2 * nq + i] = s->gamma0[i] / s->sigma_gamma0[i];
         est->q_diag[2 * nq + i] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
-        est->gamma_min_scaled[i] = s->gamma_min[i] / s->sigma_gamma0[i];
+        if (s->constraint_enabled) { /* gamma's bounds: the paper's eqs. (28)-(30) */
+            set_bounds(est, i, s->gamma_min[i], s->gamma_max[i]);
+        }
     }
+#if CAEKF_HAS_LAW_PARAMS
+    for (i = 0; i < nc; ++i) { /* the estimated law parameters: states after the gammas, always bounded */
+        const unsigned char *law = est->model.law_state[i];
+        if (law[CAEKF_LAW_N] != 0) {
+            init_param(est, law[CAEKF_LAW_N], s->n0[i], s->sigma_n0[i], s->sigma_q_n[i], s->n_min[i], s->n_max[i]);
+        }
+        if (law[CAEKF_LAW_LAMBDA] != 0) {
+            init_param(est, law[CAEKF_LAW_LAMBDA], s->lambda0[i], s->sigma_lambda0[i], s->sigma_q_lambda[i],
+                       s->lambda_min[i], s->lambda_max[i]);
+        }
+        if (law[CAEKF_LAW_GAP] != 0) {
+            init_param(est, law[CAEKF_LAW_GAP], s->gap0[i], s->sigma_gap0[i], s->sigma_q_gap[i], s->gap_min[i],
+                       s->gap_max[i]);
+        }
+    }
+#endif
     est->dims.nq = nq;
     est->dims.n = n;
     est->dims.ny = mp->sensors;
@@ -111,7 +209,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
         est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
     }
-    for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
+    for (i = 0; i <= CAEKF_NP; ++i) {
         est->dims.policy[i] = CAEKF_GAMMA_LIVE;
     }
     for (i = 0; i < CAEKF_N * CAEKF_N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
@@ -339,13 +437,16 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
         caekf_contact_t c;
-        caekf_model_contact(&est->model, i, est->x_pred, est->x_pred[2 * nq + i], &c);
+        caekf_model_contact(&est->model, i, est->x_pred, &c);
         deepest = i == 0 ? c.delta : caekf_max(deepest, c.delta);
         any_contact |= c.delta > 0;
         dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, c.delta > 0);
         if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }
+    }
+    for (i = nc; i < n - 2 * nq; ++i) { /* a law parameter follows its contact's gamma */
+        dims->policy[i] = dims->policy[est->model.param_contact[i]];
     }
     if (any_contact) {
         flags |= CAEKF_FLAG_CONTACT_ACTIVE;
@@ -370,11 +471,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
         (void)caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
                                   est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct);
-        /* Inequality constraints, eqs. (28)-(30), one gamma after the other. */
-        for (i = 0; est->cfg.constraint_enabled && i < nc; ++i) {
-            caekf_constrain_upper(z, est->P_work, n, 2 * nq + i, est->gamma_min_scaled[i], s[2 * nq + i],
-                                  est->cfg.gamma_min[i], &flags);
-        }
+        apply_bounds(est, z, &flags);
     } else {
         flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
     }
@@ -470,6 +567,50 @@ caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
     }
     g = 2 * est->model.nq;
     *gamma = est->z[g] * est->scale[g];
+    return CAEKF_OK;
+}
+
+caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *gamma, caekf_scalar_t *n,
+                                     caekf_scalar_t *lambda, caekf_scalar_t *gap)
+{
+    const caekf_model_params_t *p;
+    caekf_scalar_t law[CAEKF_LAW_COUNT];
+    int k, g;
+    if (est == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    if (c < 0 || c >= est->model.nc) {
+        return CAEKF_ERR_SETTINGS;
+    }
+    p = &est->model.p;
+    law[CAEKF_LAW_N] = p->contact_n[c];
+    law[CAEKF_LAW_LAMBDA] = p->contact_lambda[c];
+    law[CAEKF_LAW_GAP] = p->contact_gap[c];
+#if CAEKF_HAS_LAW_PARAMS
+    for (k = 0; k < CAEKF_LAW_COUNT; ++k) {
+        const int s = est->model.law_state[c][k];
+        if (s != 0) {
+            law[k] = est->z[s] * est->scale[s];
+        }
+    }
+#endif
+    g = 2 * est->model.nq + c;
+    if (gamma != 0) {
+        *gamma = est->z[g] * est->scale[g];
+    }
+    if (n != 0) {
+        *n = law[CAEKF_LAW_N];
+    }
+    if (lambda != 0) {
+        *lambda = law[CAEKF_LAW_LAMBDA];
+    }
+    if (gap != 0) {
+        *gap = law[CAEKF_LAW_GAP];
+    }
+    (void)k;
     return CAEKF_OK;
 }
 

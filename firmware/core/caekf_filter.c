@@ -11,7 +11,7 @@
  * the loop bounds then fold away), the instance's otherwise. */
 #if CAEKF_SIZED
 #define DIM_NQ(d) ((void)(d), CAEKF_SIZED_BODIES)
-#define DIM_N(d) ((void)(d), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#define DIM_N(d) ((void)(d), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS)
 #define DIM_NY(d) ((void)(d), CAEKF_SIZED_SENSORS)
 #else
 #define DIM_NQ(d) ((d)->nq)
@@ -401,17 +401,17 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     return 0;
 }
 
-void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zmin,
-                           caekf_scalar_t s_gamma, caekf_scalar_t gamma_min_phys, uint32_t *flags)
+int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zb, int is_max,
+                          caekf_scalar_t s_g, caekf_scalar_t bound_phys, uint32_t *flags)
 {
     const caekf_scalar_t s = AT(P, n, g, g);
-    const caekf_scalar_t dz = zmin - z[g];
+    const caekf_scalar_t dz = zb - z[g];
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
     int usable = s > CAEKF_EPS * CAEKF_EPS;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j, k;
-    if (!(z[g] < zmin)) {
-        return;
+    if (is_max ? !(z[g] > zb) : !(z[g] < zb)) {
+        return 0;
     }
     *flags |= CAEKF_FLAG_CONSTRAINT_APPLIED;
     for (i = 0; i < n; ++i) { /* a valid covariance has P_ig^2 <= P_ii P_gg */
@@ -445,11 +445,13 @@ void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, c
     } else {
         *flags |= CAEKF_FLAG_CONSTRAINT_CLAMPED | CAEKF_FLAG_SINGULAR_INNOVATION;
     }
-    z[g] = zmin;
-    /* Rounding of zmin * s_gamma must not land below gamma_min: step up by ulps (bounded). */
-    for (k = 0; k < 4 && z[g] * s_gamma < gamma_min_phys; ++k) {
-        z[g] += CAEKF_FABS(z[g]) * CAEKF_EPS + (caekf_scalar_t)1e-30;
+    z[g] = zb;
+    /* Rounding of zb * s_g must not land outside the bound: step inwards by ulps (bounded). */
+    for (k = 0; k < 4 && (is_max ? z[g] * s_g > bound_phys : z[g] * s_g < bound_phys); ++k) {
+        const caekf_scalar_t ulp = CAEKF_FABS(z[g]) * CAEKF_EPS + (caekf_scalar_t)1e-30;
+        z[g] += is_max ? -ulp : ulp;
     }
+    return 1;
 }
 
 /* Every valid covariance has P_ii >= 0 and P_ij^2 <= P_ii P_jj; failing either is the common way

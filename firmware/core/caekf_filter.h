@@ -1,7 +1,7 @@
 /*
  * The filter's building blocks on the scaled state z = S^-1 x and scaled covariance P (internal).
- * Matrices are n x n, row-major with leading dimension n (n = 2 nq + nc, the augmented state
- * [q; v; gamma_1..gamma_nc]), in buffers of the build's capacity. H selects one position or velocity per
+ * Matrices are n x n, row-major with leading dimension n (the augmented state [q; v; parameters]: the
+ * gammas, then the estimated law parameters), in buffers of the build's capacity. H selects one position or velocity per
  * sensor: the structure is used instead of multiplying by H. Within a step the work covariance is kept
  * as its upper triangle only (the *_upper functions read and write j >= i; caekf_mirror_upper completes
  * a full symmetric matrix).
@@ -13,7 +13,7 @@
 
 #include "caekf/caekf_model.h"
 
-/* How a gamma is handled in this step. */
+/* How a parameter (a gamma or an estimated law parameter) is handled in this step. */
 typedef enum {
     CAEKF_GAMMA_LIVE = 0,       /* canonical, or switched with its contact active */
     CAEKF_GAMMA_FROZEN_SCHMIDT, /* switched, contact inactive, consistent variant */
@@ -45,15 +45,16 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                         const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
                         caekf_correct_work_t *work);
 
-/* Eqs. (28)-(30) for the gamma at state g: if z_g < zmin, the perfect measurement D z = zmin
- * (D = e_g, R = 0). Processing it after the y-correction equals repeating the correction with [H; D]
- * and blkdiag(R, 0) (independent measurements can be processed in sequence), and keeps the refusal
- * test on one scalar: the posterior variance of gamma. If that variance is not usable (<= tiny, or P's
- * gamma column violates Cauchy-Schwarz), the documented fallback clamps gamma to zmin and leaves the
- * other states and P alone (flags CONSTRAINT_CLAMPED | SINGULAR_INNOVATION).
- * gamma_min_phys and s_gamma guarantee z_g * s_gamma >= gamma_min_phys after rounding. */
-void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zmin,
-                           caekf_scalar_t s_gamma, caekf_scalar_t gamma_min_phys, uint32_t *flags);
+/* Eqs. (28)-(30) for the parameter at state g and one of its bounds zb (scaled): if z_g < zb (or, with
+ * is_max, z_g > zb), the perfect measurement D z = zb (D = e_g, R = 0). Processing it after the
+ * y-correction equals repeating the correction with [H; D] and blkdiag(R, 0) (independent measurements
+ * can be processed in sequence), and keeps the refusal test on one scalar: the posterior variance of the
+ * parameter. If that variance is not usable (<= tiny, or P's column g violates Cauchy-Schwarz), the
+ * documented fallback clamps the parameter to zb and leaves the other states and P alone (flags
+ * CONSTRAINT_CLAMPED | SINGULAR_INNOVATION). bound_phys and s_g guarantee that z_g * s_g is within
+ * bound_phys after rounding. Returns 1 when the bound was violated (and is now enforced), else 0. */
+int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zb, int is_max,
+                          caekf_scalar_t s_g, caekf_scalar_t bound_phys, uint32_t *flags);
 
 /* Covariance health of an upper-triangle P: a cheap necessary test every step (P_ii >= 0,
  * P_ij^2 <= P_ii P_jj) and, when full_check, the complete PSD test (LDL^T of the correlation form).

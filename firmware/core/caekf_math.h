@@ -11,12 +11,14 @@
 #define CAEKF_FABS(x) fabsf(x)
 #define CAEKF_HYPOT(x, y) hypotf((x), (y))
 #define CAEKF_POW(x, y) powf((x), (y))
+#define CAEKF_LOG(x) logf(x)
 #define CAEKF_C(x) ((caekf_scalar_t)(x##f))
 #else
 #define CAEKF_SQRT(x) sqrt(x)
 #define CAEKF_FABS(x) fabs(x)
 #define CAEKF_HYPOT(x, y) hypot((x), (y))
 #define CAEKF_POW(x, y) pow((x), (y))
+#define CAEKF_LOG(x) log(x)
 #define CAEKF_C(x) ((caekf_scalar_t)(x))
 #endif
 

@@ -11,7 +11,7 @@
  * can never be derived (settings validation says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p)
 {
-    int i;
+    int i, law = 0;
     if (!(p->bodies >= 1 && p->bodies <= CAEKF_MAX_BODIES) || !(p->springs >= 0 && p->springs <= CAEKF_MAX_SPRINGS) ||
         !(p->inputs >= 0 && p->inputs <= CAEKF_MAX_INPUTS) || !(p->sensors >= 1 && p->sensors <= CAEKF_MAX_SENSORS) ||
         !(p->contacts >= 0 && p->contacts <= CAEKF_MAX_CONTACTS) || !CAEKF_ISFINITE(p->dt) || !(p->dt > 0)) {
@@ -49,9 +49,19 @@ int caekf_model_params_check(const caekf_model_params_t *p)
         if (p->contact_a[i] < 0 || p->contact_a[i] > p->bodies || p->contact_b[i] < 0 || p->contact_b[i] > p->bodies ||
             p->contact_a[i] == p->contact_b[i] || !CAEKF_ISFINITE(p->contact_gap[i]) || !(p->contact_gap[i] >= 0) ||
             !CAEKF_ISFINITE(p->contact_n[i]) || !(p->contact_n[i] >= 1) || !CAEKF_ISFINITE(p->contact_lambda[i]) ||
-            !(p->contact_lambda[i] >= 0)) {
+            !(p->contact_lambda[i] >= 0) || (p->contact_estimate_n[i] | 1) != 1 ||
+            (p->contact_estimate_lambda[i] | 1) != 1 || (p->contact_estimate_gap[i] | 1) != 1) {
             return 1;
         }
+        law += p->contact_estimate_n[i] + p->contact_estimate_lambda[i] + p->contact_estimate_gap[i];
+    }
+#if CAEKF_SIZED
+    if (law != CAEKF_SIZED_LAW_PARAMS) {
+        return 1;
+    }
+#endif
+    if (law > CAEKF_MAX_LAW_PARAMS) {
+        return 1;
     }
     if (p->discretisation != CAEKF_DISCRETISATION_BACKWARD_EULER &&
         p->discretisation != CAEKF_DISCRETISATION_TRAPEZOIDAL) {
@@ -84,13 +94,30 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
 }
 
 /* Eqs. (16)-(17) generalised: f = gamma delta^n (1 + lambda d delta/dt) while delta > 0, never pulling
- * (a Hunt-Crossley factor below 0 gives f = 0 and no derivatives). */
-void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_scalar_t gamma,
-                         caekf_contact_t *out)
+ * (a Hunt-Crossley factor below 0 gives f = 0 and no derivatives). gamma is the state's; n, lambda and
+ * the gap are the state's when estimated, else the model's. */
+void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
 {
     const int i = m->contact_i[c], j = m->contact_j[c], nq = CAEKF_DIM_NQ(m);
-    const caekf_scalar_t d = (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0) - m->p.contact_gap[c];
-    const caekf_scalar_t lambda = m->p.contact_lambda[c];
+    const caekf_scalar_t gamma = x[2 * nq + c];
+    caekf_scalar_t n = m->p.contact_n[c], lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
+    int damped = lambda != 0;
+#if CAEKF_HAS_LAW_PARAMS
+    const unsigned char *law = m->law_state[c];
+    if (law[CAEKF_LAW_N] != 0) {
+        n = x[law[CAEKF_LAW_N]];
+    }
+    if (law[CAEKF_LAW_LAMBDA] != 0) {
+        lambda = x[law[CAEKF_LAW_LAMBDA]];
+        damped = 1; /* its derivative is needed even at lambda = 0 */
+    }
+    if (law[CAEKF_LAW_GAP] != 0) {
+        gap = x[law[CAEKF_LAW_GAP]];
+    }
+    out->dfc_dn = 0;
+    out->dfc_dlambda = 0;
+#endif
+    d = (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0) - gap;
     out->delta = d;
     out->fc = 0;
     out->dfc_ddelta = 0;
@@ -98,21 +125,29 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     out->dfc_dgamma = 0;
     if (d > 0) {
         caekf_scalar_t dn, dn1;
-        power_law(d, m->p.contact_n[c], &dn, &dn1);
-        if (lambda == 0) { /* elastic: exactly eq. (17) */
+        power_law(d, n, &dn, &dn1);
+        if (!damped) { /* elastic: exactly eq. (17) */
             out->dfc_dgamma = dn;
             out->fc = gamma * dn;
-            out->dfc_ddelta = m->p.contact_n[c] * gamma * dn1;
+            out->dfc_ddelta = n * gamma * dn1;
         } else {
             const caekf_scalar_t rate = (i >= 0 ? x[nq + i] : 0) - (j >= 0 ? x[nq + j] : 0);
             const caekf_scalar_t h = 1 + lambda * rate;
             if (h > 0) {
                 out->dfc_dgamma = dn * h;
                 out->fc = gamma * out->dfc_dgamma;
-                out->dfc_ddelta = m->p.contact_n[c] * gamma * dn1 * h;
+                out->dfc_ddelta = n * gamma * dn1 * h;
                 out->dfc_drate = gamma * dn * lambda;
+#if CAEKF_HAS_LAW_PARAMS
+                out->dfc_dlambda = gamma * dn * rate;
+#endif
             }
         }
+#if CAEKF_HAS_LAW_PARAMS
+        if (law[CAEKF_LAW_N] != 0) { /* d(delta^n)/dn = delta^n ln(delta) */
+            out->dfc_dn = out->fc * CAEKF_LOG(d);
+        }
+#endif
     }
 }
 
@@ -200,13 +235,13 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     }
 }
 
-/* Every contact's law at x (its own gammas). */
+/* Every contact's law at x (its own gammas and law parameters). */
 static void contacts_at(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct)
 {
-    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
+    const int nc = CAEKF_DIM_NC(m);
     int i;
     for (i = 0; i < nc; ++i) {
-        caekf_model_contact(m, i, x, x[2 * nq + i], &ct[i]);
+        caekf_model_contact(m, i, x, &ct[i]);
     }
 }
 
@@ -240,7 +275,7 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
                           const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
     int i;
     contacts_at(m, xk, ct);
     for (i = 0; i < nq; ++i) {
@@ -255,25 +290,56 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
             g[nq + i] += g0[i];
         }
     }
-    for (i = 0; i < nc; ++i) {
-        g[2 * nq + i] = xk[2 * nq + i] - xprev[2 * nq + i];
+    for (i = 2 * nq; i < CAEKF_DIM_N(m); ++i) { /* random walks: the gammas and law parameters */
+        g[i] = xk[i] - xprev[i];
+    }
+    (void)nc;
+}
+
+/* Adds s b_c to column col of the nq rows at `rows` (leading dimension CAEKF_N): +s on body a's row,
+ * -s on body b's (ground ends drop out). */
+static void add_contact_column(caekf_scalar_t *rows, int a, int b, int col, caekf_scalar_t s)
+{
+    if (a >= 0) {
+        rows[a * CAEKF_N + col] += s;
+    }
+    if (b >= 0) {
+        rows[b * CAEKF_N + col] -= s;
     }
 }
 
-/* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): weight w on the
- * force, through delta (q columns), its rate (v columns) and gamma_c. */
+/* Adds s times contact c's force derivatives with respect to its parameter states (gamma, and n, lambda
+ * and gap when estimated) along b_c, into the parameter columns of the nq rows at `rows`. */
+static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact_t *ct, caekf_scalar_t s,
+                              caekf_scalar_t *rows)
+{
+    const int a = m->contact_i[c], b = m->contact_j[c];
+    add_contact_column(rows, a, b, 2 * CAEKF_DIM_NQ(m) + c, s * ct->dfc_dgamma);
+#if CAEKF_HAS_LAW_PARAMS
+    {
+        const unsigned char *law = m->law_state[c];
+        if (law[CAEKF_LAW_N] != 0) {
+            add_contact_column(rows, a, b, law[CAEKF_LAW_N], s * ct->dfc_dn);
+        }
+        if (law[CAEKF_LAW_LAMBDA] != 0) {
+            add_contact_column(rows, a, b, law[CAEKF_LAW_LAMBDA], s * ct->dfc_dlambda);
+        }
+        if (law[CAEKF_LAW_GAP] != 0) { /* delta = q_a - q_b - gap */
+            add_contact_column(rows, a, b, law[CAEKF_LAW_GAP], -s * ct->dfc_ddelta);
+        }
+    }
+#endif
+}
+
+/* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): the force through
+ * delta (q columns), its rate (v columns) and the contact's parameter states. */
 static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
                                  caekf_scalar_t J[CAEKF_N][CAEKF_N])
 {
-    const int nq = CAEKF_DIM_NQ(m), a = m->contact_i[c], b = m->contact_j[c], g = 2 * nq + c;
+    const int nq = CAEKF_DIM_NQ(m), a = m->contact_i[c], b = m->contact_j[c];
     add_contact_block(&J[nq][0], CAEKF_N, a, b, ct->dfc_ddelta);
     add_contact_block(&J[nq][nq], CAEKF_N, a, b, ct->dfc_drate);
-    if (a >= 0) {
-        J[nq + a][g] += ct->dfc_dgamma;
-    }
-    if (b >= 0) {
-        J[nq + b][g] -= ct->dfc_dgamma;
-    }
+    add_param_columns(m, c, ct, 1, &J[nq][0]);
 }
 
 void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
@@ -311,8 +377,10 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
         if (m->trap) {
             add_contact_tangents(m, c, &ct0[c], Jprev);
         }
-        Jk[2 * nq + c][2 * nq + c] = 1;
-        Jprev[2 * nq + c][2 * nq + c] = -1;
+    }
+    for (i = 2 * nq; i < n; ++i) {
+        Jk[i][i] = 1;
+        Jprev[i][i] = -1;
     }
 }
 
@@ -383,8 +451,8 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         v[i] = vp[i];
         q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
     }
-    for (i = 0; i < nc; ++i) { /* random walk: gamma_k = gamma_{k-1} */
-        xk[2 * nq + i] = xprev[2 * nq + i];
+    for (i = 2 * nq; i < CAEKF_DIM_N(m); ++i) { /* random walks: gamma_k = gamma_{k-1}, law parameters */
+        xk[i] = xprev[i];
     }
     for (it = 0; it <= max_iter; ++it) {
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
@@ -394,7 +462,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t rmax = 0, magmax = 0;
         for (i = 0; i < nc; ++i) {
-            caekf_model_contact(m, i, xk, xk[2 * nq + i], &ct[i]);
+            caekf_model_contact(m, i, xk, &ct[i]);
         }
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
@@ -470,22 +538,12 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
             if (ct0 != 0) {
                 add_contact_block(&fv[0][nq], CAEKF_N, a, b, -m->hs * ct[i].dfc_ddelta);
             }
-            if (a >= 0) {
-                fv[a][2 * nq + i] = -ct[i].dfc_dgamma;
-            }
-            if (b >= 0) {
-                fv[b][2 * nq + i] = ct[i].dfc_dgamma;
-            }
+            add_param_columns(m, i, &ct[i], -1, &fv[0][0]);
         }
         if (ct0 != 0 && ct0[i].delta > 0) {
             add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct0[i].dfc_ddelta);
             add_contact_block(&fv[0][nq], CAEKF_N, a, b, -ct0[i].dfc_drate);
-            if (a >= 0) {
-                fv[a][2 * nq + i] -= ct0[i].dfc_dgamma;
-            }
-            if (b >= 0) {
-                fv[b][2 * nq + i] += ct0[i].dfc_dgamma;
-            }
+            add_param_columns(m, i, &ct0[i], -1, &fv[0][0]);
         }
     }
 }
@@ -533,17 +591,35 @@ NOINLINE static void add_link(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], int a, int
 
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 {
-    const caekf_contact_t none[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
+    caekf_contact_t none[CAEKF_MAX_CONTACTS + 1]; /* every contact open: only delta = 0 is read */
     int i, j, nq;
     if (caekf_model_params_check(p) != 0) {
         return -1;
     }
+    for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
+        none[i].delta = 0;
+    }
     m->p = *p;
     m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
     m->hs = m->trap ? p->dt / 2 : p->dt;
-    m->nq = nq = p->bodies;
+    nq = p->bodies;
+    m->nq = nq;
     m->nc = p->contacts;
     m->n = 2 * p->bodies + p->contacts;
+    for (i = 0; i <= CAEKF_NP; ++i) {
+        m->param_contact[i] = (unsigned char)(i < p->contacts ? i : 0);
+    }
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) { /* the estimated law parameters, after the gammas */
+        const int *const flags[CAEKF_LAW_COUNT] = {p->contact_estimate_n, p->contact_estimate_lambda,
+                                                   p->contact_estimate_gap};
+        for (j = 0; j < CAEKF_LAW_COUNT; ++j) {
+            m->law_state[i][j] = 0;
+            if (i < p->contacts && flags[j][i]) {
+                m->param_contact[m->n - 2 * nq] = (unsigned char)i;
+                m->law_state[i][j] = (unsigned char)m->n++;
+            }
+        }
+    }
     for (i = 0; i < CAEKF_NQ; ++i) {
         for (j = 0; j < CAEKF_NQ; ++j) {
             m->K[i][j] = 0;

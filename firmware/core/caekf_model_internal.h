@@ -13,7 +13,7 @@
 #define CAEKF_DIM_NQ(m) ((void)(m), CAEKF_SIZED_BODIES)
 #define CAEKF_DIM_NC(m) ((void)(m), CAEKF_SIZED_CONTACTS)
 #define CAEKF_DIM_NU(m) ((void)(m), CAEKF_SIZED_INPUTS)
-#define CAEKF_DIM_N(m) ((void)(m), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#define CAEKF_DIM_N(m) ((void)(m), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS)
 #else
 #define CAEKF_DIM_NQ(m) ((m)->nq)
 #define CAEKF_DIM_NC(m) ((m)->nc)
@@ -35,7 +35,7 @@ int caekf_model_params_check(const caekf_model_params_t *p);
  * (backward Euler, eq. 19) or 1/2 (trapezoidal), G(x, u) = C v + K q - B_u u + sum_c b_c f_c(x, gamma_c):
  *   rows 0..nq-1:     (q_k - q_{k-1})/dt - theta v_k - (1 - theta) v_{k-1}
  *   rows nq..2nq-1:   [M (v_k - v_{k-1})/dt + theta G(x_k, u_k) + (1 - theta) G(x_{k-1}, u_{k-1})] / theta
- *   rows 2nq..n-1:    gamma_k - gamma_{k-1} */
+ *   rows 2nq..n-1:    theta_k - theta_{k-1}, the parameters' random walks (gammas, estimated n, lambda, gap) */
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
                           const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g);
 

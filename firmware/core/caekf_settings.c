@@ -160,12 +160,38 @@ static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, in
     return CAEKF_ISFINITE(r) && (!pos || r > 0);
 }
 
+/* One estimated law parameter's scaled values (x0, bounds and Q over sigma0, and sigma0 / sigma_v0 in
+ * the scaled transition): 1 with *bad set when one is not usable. */
+static int law_unscalable(caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q, caekf_scalar_t lo,
+                          caekf_scalar_t hi, caekf_scalar_t sigma_v0, int id0, int *bad)
+{
+    if (!usable(x0, sigma0, 1, 0, 0) || !usable(lo, sigma0, 1, 0, 0) || !usable(hi, sigma0, 1, 0, 0) ||
+        !usable(sigma_q, sigma0, 1, 1, 0) || !usable(sigma0, sigma_v0, 1, 0, 1)) {
+        *bad = id0;
+        return 1;
+    }
+    return 0;
+}
+
+static int first_unscalable_law(const caekf_settings_t *s, unsigned c, int *bad)
+{
+    const caekf_model_params_t *m = &s->model;
+    return (m->contact_estimate_n[c] && law_unscalable(s->n0[c], s->sigma_n0[c], s->sigma_q_n[c], s->n_min[c],
+                                                       s->n_max[c], s->sigma_v0, CAEKF_PARAM_SIGMA_N0 + (int)c, bad)) ||
+           (m->contact_estimate_lambda[c] &&
+            law_unscalable(s->lambda0[c], s->sigma_lambda0[c], s->sigma_q_lambda[c], s->lambda_min[c],
+                           s->lambda_max[c], s->sigma_v0, CAEKF_PARAM_SIGMA_LAMBDA0 + (int)c, bad)) ||
+           (m->contact_estimate_gap[c] && law_unscalable(s->gap0[c], s->sigma_gap0[c], s->sigma_q_gap[c],
+                                                         s->gap_min[c], s->gap_max[c], s->sigma_v0,
+                                                         CAEKF_PARAM_SIGMA_GAP0 + (int)c, bad));
+}
+
 /* The blamed parameter id of the first failing derived check, or -1. */
 static int first_unscalable(const caekf_settings_t *s)
 {
     const caekf_model_params_t *m = &s->model;
     const caekf_scalar_t rq = s->sigma_q0 / s->sigma_v0;
-    int i;
+    int i, bad = -1;
     for (i = 0; i < m->bodies; ++i) {
         if (!usable(s->q0[i], s->sigma_q0, 1, 0, 0)) {
             return (int)CAEKF_PARAM_Q0 + i;
@@ -191,6 +217,12 @@ static int first_unscalable(const caekf_settings_t *s)
         }
         if (!usable(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, 1, 0)) {
             return (int)CAEKF_PARAM_SIGMA_Q_GAMMA + i;
+        }
+        if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 1, 0, 0)) {
+            return (int)CAEKF_PARAM_GAMMA_MAX + i;
+        }
+        if (first_unscalable_law(s, (unsigned)i, &bad)) {
+            return bad;
         }
         /* The scaled transition multiplies by sigma_gamma0 / sigma_v0. */
         if (!usable(s->sigma_gamma0[i], s->sigma_v0, 1, 0, 1)) {
@@ -252,6 +284,51 @@ static int first_bad_body(const caekf_model_params_t *m)
     return -1;
 }
 
+/* One estimated law parameter's settings (the settings' ids of its flag, initial value, sigma0, minimum
+ * and maximum): the blamed id and reason of the first problem, or -1. */
+static int bad_law_param(const caekf_settings_t *s, unsigned c, int flag_id, caekf_scalar_t x0, int x0_id,
+                         caekf_scalar_t sigma0, int sigma0_id, caekf_scalar_t lo, caekf_scalar_t hi, int hi_id,
+                         unsigned *reason)
+{
+    int estimated;
+    double flag = 0;
+    (void)caekf_settings_get(s, (unsigned)flag_id + c, &flag);
+    estimated = flag != 0;
+    if (!estimated) {
+        return -1;
+    }
+    if (!(sigma0 > 0)) {
+        *reason = CAEKF_SETTING_NEEDED;
+        return sigma0_id + (int)c;
+    }
+    *reason = CAEKF_SETTING_OUTSIDE_BOUNDS;
+    if (hi > 0 && hi < lo) {
+        return hi_id + (int)c;
+    }
+    return x0 < lo || (hi > 0 && x0 > hi) ? x0_id + (int)c : -1;
+}
+
+/* The estimated law parameters of every contact: sigma0 given, initial value within its bounds. */
+static int first_bad_law_param(const caekf_settings_t *s, unsigned *reason)
+{
+    unsigned c;
+    int bad = -1;
+    for (c = 0; c < (unsigned)s->model.contacts && bad < 0; ++c) {
+        bad = bad_law_param(s, c, CAEKF_PARAM_ESTIMATE_N, s->n0[c], CAEKF_PARAM_N0, s->sigma_n0[c],
+                            CAEKF_PARAM_SIGMA_N0, s->n_min[c], s->n_max[c], CAEKF_PARAM_N_MAX, reason);
+        if (bad < 0) {
+            bad = bad_law_param(s, c, CAEKF_PARAM_ESTIMATE_LAMBDA, s->lambda0[c], CAEKF_PARAM_LAMBDA0,
+                                s->sigma_lambda0[c], CAEKF_PARAM_SIGMA_LAMBDA0, s->lambda_min[c], s->lambda_max[c],
+                                CAEKF_PARAM_LAMBDA_MAX, reason);
+        }
+        if (bad < 0) {
+            bad = bad_law_param(s, c, CAEKF_PARAM_ESTIMATE_GAP, s->gap0[c], CAEKF_PARAM_GAP0, s->sigma_gap0[c],
+                                CAEKF_PARAM_SIGMA_GAP0, s->gap_min[c], s->gap_max[c], CAEKF_PARAM_GAP_MAX, reason);
+        }
+    }
+    return bad;
+}
+
 /* A build sized for one mechanism (CAEKF_SIZED) runs exactly its counts: the first count that differs. */
 static int first_unsized(const caekf_model_params_t *m)
 {
@@ -278,6 +355,7 @@ static int first_unsized(const caekf_model_params_t *m)
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
 {
     unsigned k, i;
+    unsigned law_count = 0;
     int bad;
     if (s == 0) {
         return CAEKF_ERR_NULL;
@@ -313,9 +391,25 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);
     }
     for (i = 0; i < (unsigned)s->model.contacts; ++i) {
-        if (s->constraint_enabled && s->gamma0[i] < s->gamma_min[i]) {
+        law_count += (unsigned)(s->model.contact_estimate_n[i] + s->model.contact_estimate_lambda[i] +
+                                s->model.contact_estimate_gap[i]);
+        if (law_count > (unsigned)CAEKF_MAX_LAW_PARAMS) { /* the state has no room for it */
+            return refuse(err, CAEKF_SIZED ? CAEKF_SETTING_UNSUPPORTED : CAEKF_SETTING_OVER_CAPACITY,
+                          CAEKF_PARAM_ESTIMATE_N + i);
+        }
+    }
+    if (CAEKF_SIZED && law_count != (unsigned)CAEKF_MAX_LAW_PARAMS) {
+        return refuse(err, CAEKF_SETTING_UNSUPPORTED, CAEKF_PARAM_ESTIMATE_N);
+    }
+    for (i = 0; i < (unsigned)s->model.contacts; ++i) {
+        if (s->constraint_enabled &&
+            (s->gamma0[i] < s->gamma_min[i] || (s->gamma_max[i] > 0 && s->gamma0[i] > s->gamma_max[i]))) {
             return refuse(err, CAEKF_SETTING_BELOW_GAMMA_MIN, CAEKF_PARAM_GAMMA0 + i);
         }
+    }
+    bad = first_bad_law_param(s, &k);
+    if (bad >= 0) {
+        return refuse(err, k, (unsigned)bad);
     }
     bad = first_unscalable(s);
     if (bad >= 0) {

@@ -31,7 +31,7 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
     }
     switch (err->reason) {
     case CAEKF_SETTING_OK: snprintf(buf, len, "settings valid"); return CAEKF_OK;
-    case CAEKF_SETTING_BELOW_GAMMA_MIN: why = "must be >= gamma_min while constraint_enabled"; break;
+    case CAEKF_SETTING_BELOW_GAMMA_MIN: why = "must be within gamma_min .. gamma_max while constraint_enabled"; break;
     case CAEKF_SETTING_NOT_SCALABLE:
         why = "a value the estimator derives from it is not finite in " CAEKF_SCALAR_NAME;
         break;
@@ -39,7 +39,10 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
         why = "exceeds the build's capacity (CAEKF_MAX_* and CAEKF_NEWTON_MAX_ITER, caekf_config.h)";
         break;
     case CAEKF_SETTING_NOT_INTEGER: why = "must be an integer"; break;
-    case CAEKF_SETTING_NEEDED: why = "must be > 0: the mechanism uses it (a velocity sensor)"; break;
+    case CAEKF_SETTING_NEEDED: why = "must be > 0: the settings use it (a velocity sensor, an estimated law parameter)"; break;
+    case CAEKF_SETTING_OUTSIDE_BOUNDS:
+        why = "outside the estimated parameter's bounds (its _min and _max; a maximum must not be below the minimum)";
+        break;
     case CAEKF_SETTING_BAD_BODY:
         why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
         break;

@@ -291,6 +291,9 @@ static int plant_setup(const caekf_scenario_t *sc, const caekf_input_series_t *s
     int i, j;
     memset(p, 0, sizeof *p);
     caekf_scenario_model(sc, sc->dt, mp);
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) { /* the plant's law is the scenario's, never estimated */
+        mp->contact_estimate_n[i] = mp->contact_estimate_lambda[i] = mp->contact_estimate_gap[i] = 0;
+    }
     if (caekf_model_init(&model, mp) != 0 || (series != NULL && series->inputs != mp->inputs)) {
         return -1;
     }

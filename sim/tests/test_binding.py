@@ -165,7 +165,7 @@ def test_bad_scenario_refused_with_the_c_message(tmp_path):
     ("dt", 0.0, "dt = 0: must be finite and > 0"),
     ("m3", -1.0, "m[2] = -1: must be finite and > 0"),
     ("newton_max_iter", 99, "newton_max_iter = 99: must be an integer in [1, 20]"),
-    ("gamma0", 0.0, "gamma0[0] = 0: must be >= gamma_min while constraint_enabled")])
+    ("gamma0", 0.0, "gamma0[0] = 0: must be within gamma_min .. gamma_max while constraint_enabled")])
 def test_settings_validation_names_the_element(field, value, text):
     """Settings the C validation refuses: its message, naming the element, its value and the rule."""
     sc = load_scenario(default_scenario_path())

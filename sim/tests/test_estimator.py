@@ -137,14 +137,14 @@ def test_constrained_correction_lands_on_the_bound(sc):
     full = slice(0, ekf.n)
     x_free, _, _ = ekf._correct(xp, P, y, full, [], False)
     assert x_free[IG] < sc.gamma_min
-    x_c, P_c, used_pinv = ekf._correct(xp, P, y, full, [], False, [0])
+    x_c, P_c, used_pinv = ekf._correct(xp, P, y, full, [], False, [(IG, sc.gamma_min)])
     assert not used_pinv
     assert x_c[IG] == pytest.approx(sc.gamma_min, rel=1e-12)
     assert P_c[IG, IG] == pytest.approx(0.0, abs=1e-9 * P[IG, IG])  # perfectly known after it
     # Singular case: P_gg = 0 makes S^c singular; the pinv fallback must still return finite values.
     P0 = ekf.P.copy()
     P0[IG, IG] = 0.0
-    x_s, P_s, used = ekf._correct(xp, P0, y, full, [], False, [0])
+    x_s, P_s, used = ekf._correct(xp, P0, y, full, [], False, [(IG, sc.gamma_min)])
     assert used and np.all(np.isfinite(x_s)) and np.all(np.isfinite(P_s))
 
 

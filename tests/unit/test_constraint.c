@@ -39,7 +39,7 @@ static int correct_full(caekf_scalar_t z[N], paper_mat_t P, const caekf_scalar_t
 static void constrain_full(caekf_scalar_t z[N], paper_mat_t P, caekf_scalar_t zmin, caekf_scalar_t s_gamma,
                            caekf_scalar_t gamma_min_phys, uint32_t *flags)
 {
-    caekf_constrain_upper(z, &P[0][0], N, IG, zmin, s_gamma, gamma_min_phys, flags);
+    (void)caekf_constrain_upper(z, &P[0][0], N, IG, zmin, 0, s_gamma, gamma_min_phys, flags);
     caekf_mirror_upper(&P[0][0], N);
 }
 

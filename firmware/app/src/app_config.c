@@ -83,7 +83,6 @@ void caekf_app_handle_reset(caekf_app_t *app, const uint8_t data[CAEKF_CAN_DLC])
 caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_settings_t *settings, uint8_t *bad_param)
 {
     caekf_setting_error_t err;
-    caekf_app_settings_t copy;
     if (bad_param != NULL) {
         *bad_param = (uint8_t)CAEKF_ACK_BAD_PARAM_NONE;
     }
@@ -93,17 +92,19 @@ caekf_app_status_t caekf_app_configure(caekf_app_t *app, const caekf_app_setting
     if (app->init_magic != CAEKF_APP_MAGIC) {
         return CAEKF_APP_ERR_CONFIG;
     }
-    copy = *settings; /* settings may alias app->staged or app->active */
-    if (caekf_settings_validate(&copy.est, &err) != CAEKF_OK) {
+    /* settings may be app->staged or app->active: read only, and copied last (an exact overlap) */
+    if (caekf_settings_validate(&settings->est, &err) != CAEKF_OK) {
         if (bad_param != NULL) {
             *bad_param = err.param_id;
         }
         return CAEKF_APP_ERR_SETTINGS;
     }
-    if (caekf_init(&app->est, &copy.est) != CAEKF_OK) {
+    if (caekf_init(&app->est, &settings->est) != CAEKF_OK) {
         return CAEKF_APP_ERR_INIT;
     }
-    app->active = copy;
+    if (settings != &app->active) {
+        app->active = *settings;
+    }
     app->configured = 1;
     caekf_app_assembly_reset(app);
     return CAEKF_APP_OK;

@@ -38,7 +38,7 @@ typedef enum {
 enum {
     CAEKF_FLAG_NEWTON_NOT_CONVERGED = 1u << 0, /* Newton hit its iteration bound or a singular Jacobian */
     CAEKF_FLAG_INPUT_REJECTED = 1u << 1,       /* non-finite u or y: the step was refused */
-    CAEKF_FLAG_CONSTRAINT_APPLIED = 1u << 2,   /* gamma < gamma_min after correction: eqs. 28-30 applied */
+    CAEKF_FLAG_CONSTRAINT_APPLIED = 1u << 2,   /* a parameter left its bounds after correction: eqs. 28-30 */
     CAEKF_FLAG_CONTACT_ACTIVE = 1u << 3,       /* predicted penetration delta(x_k-) > 0 (eq. 21) */
     CAEKF_FLAG_COV_REPAIRED = 1u << 4,         /* P had lost positive semidefiniteness and was repaired */
     CAEKF_FLAG_SINGULAR_INNOVATION = 1u << 5,  /* an innovation covariance was refused as singular */
@@ -84,8 +84,20 @@ typedef struct {
     int mode;               /* caekf_mode_t */
     int switchoff;          /* caekf_switchoff_t */
     int cov_update;         /* caekf_cov_update_t */
-    int constraint_enabled; /* gamma >= gamma_min by perfect measurement (eqs. 28-30) */
+    int constraint_enabled; /* gamma_min <= gamma (<= gamma_max) by perfect measurement (eqs. 28-30) */
     caekf_scalar_t gamma_min[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t gamma_max[CAEKF_MAX_CONTACTS]; /* 0: no upper bound */
+
+    /* The contact law's other parameters, when model.contact_estimate_* makes them states: initial
+     * estimate, P0 standard deviation (> 0; also the internal scale), process noise std per step, and
+     * bounds (enforced by perfect measurements whenever the parameter is estimated; a maximum of 0 is
+     * none). docs/contact-law.md. */
+    caekf_scalar_t n0[CAEKF_MAX_CONTACTS], lambda0[CAEKF_MAX_CONTACTS], gap0[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t sigma_n0[CAEKF_MAX_CONTACTS], sigma_lambda0[CAEKF_MAX_CONTACTS], sigma_gap0[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t sigma_q_n[CAEKF_MAX_CONTACTS], sigma_q_lambda[CAEKF_MAX_CONTACTS], sigma_q_gap[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t n_min[CAEKF_MAX_CONTACTS], n_max[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t lambda_min[CAEKF_MAX_CONTACTS], lambda_max[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t gap_min[CAEKF_MAX_CONTACTS], gap_max[CAEKF_MAX_CONTACTS];
     int cov_repair_enabled; /* repair P when it loses PSD (always flagged); default on */
     int psd_check_period;   /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
                                     * screen runs every step and triggers the full test at once) */
@@ -141,7 +153,9 @@ typedef struct {
     uint32_t fv_const;                    /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N];       /* scaled Q diagonal (Q_gamma included) */
     caekf_filter_dims_t dims;             /* sizes, sensed states, scaled R; the gamma policies */
-    caekf_scalar_t gamma_min_scaled[CAEKF_MAX_CONTACTS + 1];
+    /* Bounds of parameter k (state 2 nq + k), scaled; bit k of bound_lo / bound_hi says it has one. */
+    caekf_scalar_t lo_scaled[CAEKF_NP + 1], hi_scaled[CAEKF_NP + 1];
+    uint32_t bound_lo, bound_hi;
     caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */
     uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
     uint32_t step_count;
@@ -161,7 +175,9 @@ typedef enum {
     CAEKF_SETTING_BAD_BODY = 7,        /* names a body beyond `bodies` (or the ground where a body is needed,
                                          * or both ends the same) */
     CAEKF_SETTING_UNSUPPORTED = 8,     /* a count other than a sized build's (CAEKF_SIZED) */
-    CAEKF_SETTING_NEEDED = 9           /* 0 (its default), but the mechanism uses it: must be > 0 */
+    CAEKF_SETTING_NEEDED = 9,          /* 0 (its default), but the mechanism uses it: must be > 0 */
+    CAEKF_SETTING_OUTSIDE_BOUNDS = 10  /* an estimated parameter's initial value outside its bounds, or a
+                                        * maximum below its minimum */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
@@ -252,11 +268,16 @@ caekf_status_t caekf_predict(caekf_t *est, const caekf_scalar_t *u, caekf_report
 /* Sizes of the mechanism the estimator runs: states n = 2 bodies + contacts, sensors, inputs. */
 caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs);
 
-/* Accessors in physical units. The state is x = [q_1..q_bodies, v_1..v_bodies, gamma_1..gamma_contacts];
- * entries beyond n are 0. */
+/* Accessors in physical units. The state is x = [q_1..q_bodies, v_1..v_bodies, gamma_1..gamma_contacts,
+ * then the estimated law parameters contact by contact: n, lambda, gap of those model.contact_estimate_*
+ * selects]; entries beyond n are 0. */
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N]);
 /* gamma of contact 1 (CAEKF_ERR_SETTINGS for a mechanism without contacts). */
 caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma);
+/* Contact c's law as the estimator now has it (0-based c): gamma, n, lambda and gap, the estimates of
+ * those it estimates and the settings' values of the others. Any output pointer may be NULL. */
+caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *gamma, caekf_scalar_t *n,
+                                     caekf_scalar_t *lambda, caekf_scalar_t *gap);
 /* P in physical units (P_phys = S P S), n x n in the top left corner, 0 elsewhere. */
 caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N]);
 /* 2-norm of P in physical units (largest eigenvalue, by bounded Jacobi sweeps). Uses the instance's

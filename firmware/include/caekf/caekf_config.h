@@ -12,6 +12,8 @@
  *                            the schema's capacity, or with CAEKF_SIZED = 1 exactly one scenario's
  *                            mechanism (CMake: -DCAEKF_MECHANISM=path/to/scenario.toml), whose counts
  *                            CAEKF_SIZED_* the settings must then equal.
+ *   CAEKF_MAX_LAW_PARAMS     contact-law parameters (n, lambda, gap) the build can estimate besides the
+ *                            gammas: 3 per contact, or exactly the sized scenario's (generated too).
  *
  */
 #ifndef CAEKF_CONFIG_H
@@ -48,15 +50,18 @@ typedef double caekf_scalar_t;
 #include "caekf/caekf_capacity.h"
 
 /* Model dimensions. */
-/* Storage of the augmented state x = [q; v; gamma_1..] (a mechanism uses n = 2 bodies + contacts). */
+/* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses
+ * n = 2 bodies + contacts + the n, lambda and gap it estimates). */
 #define CAEKF_NQ CAEKF_MAX_BODIES
-#define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_MAX_CONTACTS)
+#define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS) /* estimated parameters */
+#define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_NP)
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]
 
 CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES >= 1 && CAEKF_MAX_SPRINGS >= 0 && CAEKF_MAX_INPUTS >= 0 &&
-                        CAEKF_MAX_SENSORS >= 1 && CAEKF_MAX_CONTACTS >= 0,
+                        CAEKF_MAX_SENSORS >= 1 && CAEKF_MAX_CONTACTS >= 0 && CAEKF_MAX_LAW_PARAMS >= 0 &&
+                        CAEKF_MAX_LAW_PARAMS <= 3 * CAEKF_MAX_CONTACTS,
                     capacities_are_counts);
 
 #endif /* CAEKF_CONFIG_H */

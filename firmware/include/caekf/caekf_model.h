@@ -47,14 +47,30 @@ typedef struct {
     caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS];    /* [m] */
     caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];      /* exponent, >= 1 */
     caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS]; /* Hunt-Crossley damping [s/m] */
-    int discretisation;                                /* caekf_discretisation_t */
+    /* 1: the law parameter is a state (estimated, after the gammas) and the value above is unused. */
+    int contact_estimate_n[CAEKF_MAX_CONTACTS];
+    int contact_estimate_lambda[CAEKF_MAX_CONTACTS];
+    int contact_estimate_gap[CAEKF_MAX_CONTACTS];
+    int discretisation; /* caekf_discretisation_t */
 } caekf_model_params_t;
 
-/* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc states
- * (x = [q; v; gamma_1..gamma_nc]); arrays are sized for the build's capacity. */
+/* A contact's law parameters besides gamma (index into caekf_model_t.law_state). */
+enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT = 3 };
+
+/* Builds that can estimate law parameters (CAEKF_MAX_LAW_PARAMS > 0) look them up in the state; the
+ * others compile the lookups out. */
+#define CAEKF_HAS_LAW_PARAMS (CAEKF_MAX_LAW_PARAMS > 0)
+
+/* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc + ne states
+ * (x = [q; v; gamma_1..gamma_nc; the ne estimated law parameters, contact by contact in the order n,
+ * lambda, gap]); arrays are sized for the build's capacity. */
 typedef struct {
     caekf_model_params_t p;
     int nq, nc, n;
+    /* State index of contact c's n, lambda and gap when estimated, else 0 (state 0 is q_1). */
+    unsigned char law_state[CAEKF_MAX_CONTACTS][CAEKF_LAW_COUNT];
+    /* The contact of each parameter state 2 nq + k (the gammas first): its switch-off follows that contact. */
+    unsigned char param_contact[CAEKF_NP + 1];
     int contact_i[CAEKF_MAX_CONTACTS], contact_j[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
@@ -89,7 +105,7 @@ typedef struct {
     int ny;                                 /* sensors */
     int h[CAEKF_MAX_SENSORS];               /* state index each sensor measures */
     caekf_scalar_t r[CAEKF_MAX_SENSORS];    /* scaled R diagonal */
-    uint8_t policy[CAEKF_MAX_CONTACTS + 1]; /* how gamma c (state 2 nq + c) is handled this step */
+    uint8_t policy[CAEKF_NP + 1];           /* how parameter k (state 2 nq + k) is handled this step */
 } caekf_filter_dims_t;
 
 /* Work buffers of the correction: the gain and H P (in the instance, off the stack). */
@@ -98,24 +114,29 @@ typedef struct {
     caekf_scalar_t hp[CAEKF_MAX_SENSORS][CAEKF_N];
 } caekf_correct_work_t;
 
-/* One contact's law at a state: penetration and the force with its derivatives. */
+/* One contact's law at a state: penetration and the force with its derivatives (the gap's is
+ * -dfc_ddelta). */
 typedef struct {
     caekf_scalar_t delta;      /* q_a - q_b - gap */
     caekf_scalar_t fc;         /* gamma delta^n (1 + lambda d delta/dt), 0 if delta <= 0 (and >= 0) */
     caekf_scalar_t dfc_ddelta; /* with respect to delta */
     caekf_scalar_t dfc_drate;  /* with respect to d delta/dt (Hunt-Crossley) */
     caekf_scalar_t dfc_dgamma;
+#if CAEKF_HAS_LAW_PARAMS
+    caekf_scalar_t dfc_dn;      /* with respect to the exponent (only when it is estimated) */
+    caekf_scalar_t dfc_dlambda; /* with respect to lambda */
+#endif
 } caekf_contact_t;
 
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
 
-/* Contact c's law at positions q, velocities v (x = [q; v]) and stiffness gamma. */
-void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_scalar_t gamma,
-                         caekf_contact_t *out);
+/* Contact c's law at the augmented state x: positions, velocities, its gamma and its estimated law
+ * parameters (the others are the model's). */
+void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out);
 
 /* Newton-Raphson solve of the step for x_k given x_{k-1}, the inputs u_{k-1} at its start (used by the
- * trapezoidal rule only) and u_k (one per input; the gammas carry over). Backward Euler, eq. (19):
+ * trapezoidal rule only) and u_k (one per input; the gammas and law parameters carry over). Backward Euler, eq. (19):
  * unknown v_k, q_k = q_{k-1} + dt v_k. Trapezoidal: q_k = q_{k-1} + dt/2 (v_{k-1} + v_k), and the
  * momentum balance is the mean of its two ends. Initial guess v_{k-1}. Converged when the largest
  * momentum-row residual is <= rtol times the largest row's sum of term magnitudes (a norm-wise backward

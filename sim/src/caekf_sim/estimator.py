@@ -36,6 +36,7 @@ Flags use the C core's bit layout (flags.py).
 """
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass
@@ -44,8 +45,8 @@ from typing import Any, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .mechanism import Mechanism, body_values, contact_values, scenario_value
-from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_gammas, as_inputs, contact_law
+from .mechanism import Mechanism, body_values, contact_values, law_derivatives, law_layout, scenario_value
+from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_inputs
 from .scenario import Scenario
 
 # The paper's layout (4 bodies, one contact); a general mechanism has N = 2 nq + nc (AugmentedEKF.n).
@@ -91,10 +92,11 @@ class EstimatorConfig:
             raise ValueError(f"gate_nis = {self.gate_nis}: must be > 0 (inf: no gate)")
 
 
-def measurement_matrix(mech: "Mechanism | None" = None) -> np.ndarray:
-    """H of eq. (11) on the augmented state: the sensed positions/velocities (paper: y = [q1, q4])."""
+def measurement_matrix(mech: "Mechanism | None" = None, n_law: int = 0) -> np.ndarray:
+    """H of eq. (11) on the augmented state: the sensed positions/velocities (paper: y = [q1, q4]); n_law
+    estimated law parameters follow the gammas."""
     mech = mech if mech is not None else Mechanism.from_scenario({})
-    return np.hstack([mech.H, np.zeros((mech.n_sensors, mech.n_contacts))])
+    return np.hstack([mech.H, np.zeros((mech.n_sensors, mech.n_contacts + n_law))])
 
 
 def joseph(IKH: np.ndarray, P: np.ndarray, G: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -127,24 +129,48 @@ class AugmentedEKF:
         nq, nc = p.nq, p.n_contacts
         self.nq, self.nc = nq, nc
         self.nx = 2 * nq
-        self.n = n = 2 * nq + nc
-        self.ig = list(range(self.nx, n))  # indices of the gammas
+        # The estimated law parameters (docs/contact-law.md): states after the gammas, contact by contact.
+        self.law = law_layout(sc, nc)
+        self.n = n = 2 * nq + nc + len(self.law)
+        self.ig = list(range(self.nx, self.nx + nc))  # indices of the gammas
+        # state index of contact c's n, lambda, gap (absent: the mechanism's value)
+        self.law_state: List[dict] = [{} for _ in range(nc)]
+        for k, (c, name) in enumerate(self.law):
+            self.law_state[c][name] = self.nx + nc + k
+        # every parameter state of contact c: its gamma and its estimated law parameters
+        self.pstates = [[self.ig[c]] + sorted(self.law_state[c].values()) for c in range(nc)]
         self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
         self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
         self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
         self.dt = sc.dt
-        self.H = measurement_matrix(p)
+        self.H = measurement_matrix(p, len(self.law))
         self.Hx = self.H[:, : self.nx]
         sig_r = float(scenario_value(sc, "sigma_r"))
         sig_rv = float(scenario_value(sc, "sigma_rv"))
         self.R = np.diag([sig_r**2 if k == 0 else sig_rv**2 for k in p.sensor_kind.tolist()])
         self.gamma_min = contact_values(sc, "gamma_min", nc)
         self.q_gamma = cfg.q_gamma_scale * contact_values(sc, "sigma_q_gamma", nc) ** 2
-        self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma])
+
+        def law_value(key: str) -> np.ndarray:
+            return np.array([float(scenario_value(sc, f"contact{c + 1}_{key.format(p=name)}"))
+                             for c, name in self.law])
+
+        self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma,
+                               law_value("sigma_q_{p}") ** 2])
         self.Qx = self.Q[: self.nx, : self.nx]
-        self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq), contact_values(sc, "gamma0", nc)]
+        self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq), contact_values(sc, "gamma0", nc),
+                       law_value("{p}0")]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
-                               contact_values(sc, "sigma_gamma0", nc) ** 2])
+                               contact_values(sc, "sigma_gamma0", nc) ** 2, law_value("sigma_{p}0") ** 2])
+        # Bounds (state, minimum, maximum or None), in state order: gamma's when constrained (eqs. 28-30),
+        # an estimated law parameter's always. A maximum of 0 is none.
+        self.bounds: List[Tuple[int, float, Optional[float]]] = []
+        if cfg.constrained:
+            gmax = contact_values(sc, "gamma_max", nc)
+            self.bounds += [(self.ig[c], float(self.gamma_min[c]), float(gmax[c]) if gmax[c] > 0 else None)
+                            for c in range(nc)]
+        for k, (lo, hi) in enumerate(zip(law_value("{p}_min").tolist(), law_value("{p}_max").tolist())):
+            self.bounds.append((self.nx + nc + k, lo, hi if hi > 0 else None))
         self.I = np.eye(n)
         # eq. (10)'s constant Jacobians and contact-free F at dt, and at dt / contact_substeps for the substeps
         self.Jk0, self.Jprev0, self.F0 = self._constant_jacobians(self.dt)
@@ -158,15 +184,15 @@ class AugmentedEKF:
     def _constant_jacobians(self, dt: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """dg/dx_k without the contact terms, dg/dx_{k-1} without them (backward Euler: constant) and the
         contact-free F of a step dt; contact c adds its law's derivatives along b_c b_c^T (_add_contacts)."""
-        p, nq, nc, n = self.plant, self.nq, self.nc, self.n
+        p, nq, n = self.plant, self.nq, self.n
         m_dt = p.m / dt
-        Jprev = -np.diag(np.r_[np.full(nq, 1.0 / dt), m_dt, np.ones(nc)])
+        Jprev = -np.diag(np.r_[np.full(nq, 1.0 / dt), m_dt, np.ones(n - self.nx)])
         Jk = np.zeros((n, n))
         Jk[:nq, :nq] = np.eye(nq) / dt
         Jk[:nq, nq : self.nx] = -np.eye(nq)
         Jk[nq : self.nx, :nq] = p.K
         Jk[nq : self.nx, nq : self.nx] = np.diag(m_dt) + p.C
-        Jk[self.nx :, self.nx :] = np.eye(nc)
+        Jk[self.nx :, self.nx :] = np.eye(n - self.nx)
         if self.trapezoidal:
             # The trapezoidal residual (model.py, unscaled): both ends weigh 1/2 in the q rows' mean
             # velocity and in the momentum balance's G; the start's K and C enter dg/dx_{k-1}.
@@ -184,15 +210,38 @@ class AugmentedEKF:
         """Eq. (10): F = -(dg/dx_k)^-1 dg/dx_{k-1}."""
         return -np.linalg.solve(Jk, Jprev)
 
-    def _add_contacts(self, J: Optional[np.ndarray], J0: np.ndarray, weight: float, q: np.ndarray, gamma: Any,
-                      v: Optional[np.ndarray]) -> Optional[np.ndarray]:
-        """J (a copy of J0 when None) plus `weight` times every closed contact's tangents at (q, v): dG/dq,
-        dG/dv and dG/dgamma_c of b_c f_c. Returns None when no contact contributes and J was None."""
+    def laws(self, params: np.ndarray) -> Tuple[Tuple[int, int, float, float, float], ...]:
+        """(a, b, gap, n, lambda) of every contact at the parameter states `params` = x[2 nq:]: the
+        estimated ones from the state, the others the mechanism's."""
+        if not self.law:
+            return self.solver.contacts
+        out = []
+        for c, (a, b, gap, n, lam) in enumerate(self.plant.contacts):
+            st = self.law_state[c]
+            pick = lambda name, v: float(params[st[name] - self.nx]) if name in st else v  # noqa: E731
+            out.append((a, b, pick("gap", gap), pick("n", n), pick("lambda", lam)))
+        return tuple(out)
+
+    def _solver(self, solver: StepSolver, params: np.ndarray) -> StepSolver:
+        """The step solver with the contact laws at the parameter states (itself without law states)."""
+        if not self.law:
+            return solver
+        view = copy.copy(solver)
+        view.contacts = self.laws(params)
+        return view
+
+    def _add_contacts(self, J: Optional[np.ndarray], J0: np.ndarray, weight: float, q: np.ndarray,
+                      params: np.ndarray, v: Optional[np.ndarray]) -> Optional[np.ndarray]:
+        """J (a copy of J0 when None) plus `weight` times every closed contact's tangents at (q, v) and the
+        parameter states `params` (gammas, then the estimated law parameters): dG/dq, dG/dv and the
+        derivatives of b_c f_c with respect to gamma_c and contact c's estimated n, lambda and gap. Returns
+        None when no contact contributes and J was None."""
         nq = self.nq
-        for c, ((a, b, gap, n, lam), g) in enumerate(zip(self.solver.contacts, as_gammas(gamma))):
+        for c, (a, b, gap, n, lam) in enumerate(self.laws(params)):
+            g = float(params[c])
             delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
             dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
-            _, kc, kd, dfc_dg = contact_law(delta, dd, g, n, lam)
+            _, kc, kd, dfc_dg, dfc_dn, dfc_dl = law_derivatives(delta, dd, g, n, lam)
             if kc == 0.0 and kd == 0.0 and dfc_dg == 0.0:
                 continue
             if J is None:
@@ -202,11 +251,16 @@ class AugmentedEKF:
             if kd != 0.0:
                 J[nq : self.nx, nq : self.nx] += weight * kd * np.outer(bb, bb)
             J[nq : self.nx, self.nx + c] = weight * dfc_dg * bb
+            st = self.law_state[c]
+            for name, d in (("n", dfc_dn), ("lambda", dfc_dl), ("gap", -kc)):
+                if name in st:
+                    J[nq : self.nx, st[name]] = weight * d * bb
         return J
 
-    def transition_matrix(self, q: np.ndarray, gamma: Any, v: Optional[np.ndarray] = None,
+    def transition_matrix(self, q: np.ndarray, params: Any, v: Optional[np.ndarray] = None,
                           x_prev: Optional[np.ndarray] = None, substep: bool = False) -> np.ndarray:
-        """F_k at the predicted state (eq. 10 with the full Jacobians of the step); v for Hunt-Crossley.
+        """F_k at the predicted state (eq. 10 with the full Jacobians of the step) with the parameter states
+        `params` (x[2 nq:]: a number for the paper's single gamma); v for Hunt-Crossley.
         Trapezoidal: x_prev = x_{k-1} (the start-of-step tangents; None: no contact there).
         substep: the map of one substep (dt / contact_substeps) instead of the step's."""
         if substep:
@@ -215,10 +269,11 @@ class AugmentedEKF:
             Jk0, Jprev0, F0 = self.sub_maps
         else:
             Jk0, Jprev0, F0 = self.Jk0, self.Jprev0, self.F0
+        params = np.atleast_1d(np.asarray(params, dtype=float))
         if not self.trapezoidal:
-            Jk = self._add_contacts(None, Jk0, 1.0, q, gamma, v)
+            Jk = self._add_contacts(None, Jk0, 1.0, q, params, v)
             return F0 if Jk is None else self._transition(Jk, Jprev0)
-        Jk = self._add_contacts(None, Jk0, 0.5, q, gamma, v)
+        Jk = self._add_contacts(None, Jk0, 0.5, q, params, v)
         Jprev = None
         if x_prev is not None:
             nq, nx = self.nq, self.nx
@@ -233,12 +288,13 @@ class AugmentedEKF:
         substeps' inputs (`contact_substeps`), which the one-step solution calls for when it or x_{k-1}
         has a contact closed."""
         x, nq, nx = self.x, self.nq, self.nx
-        gammas = x[nx:]
+        gammas = x[nx:]  # and the law parameters: every parameter state carries over
+        solver = self._solver(self.solver, gammas)
         u_prev = u if self.u_prev is None else self.u_prev
-        if self.sub_solver is not None and any(d > 0.0 for d in self.solver.penetrations(x[:nq])):
+        if self.sub_solver is not None and any(d > 0.0 for d in solver.penetrations(x[:nq])):
             return self.substep_predict(u_prev, u)  # closed at the start: no one-step solve needed
-        q, v, iters, ok = self.solver.solve(x[:nq], x[nq:nx], u, gammas, u_prev)
-        if self.sub_solver is not None and any(d > 0.0 for d in self.solver.penetrations(q)):
+        q, v, iters, ok = solver.solve(x[:nq], x[nq:nx], u, gammas[: self.nc], u_prev)
+        if self.sub_solver is not None and any(d > 0.0 for d in solver.penetrations(q)):
             xp, F, sub_iters, ok = self.substep_predict(u_prev, u)
             return xp, F, iters + sub_iters, ok
         xp = np.empty(self.n)
@@ -258,12 +314,13 @@ class AugmentedEKF:
         b = np.asarray(as_inputs(u))
         xa = self.x.copy()
         gammas = xa[nx:]
+        sub = self._solver(self.sub_solver, gammas)
         F = self.I
         iters, ok = 0, True
         ub = a
         for j in range(1, steps + 1):
             ua, ub = ub, (b if j == steps else a + (b - a) * j / steps)
-            q, v, it, conv = self.sub_solver.solve(xa[:nq], xa[nq:nx], ub, gammas, ua)
+            q, v, it, conv = sub.solve(xa[:nq], xa[nq:nx], ub, gammas[: self.nc], ua)
             iters += it
             ok = ok and conv
             F = self.transition_matrix(q, gammas, v, xa, substep=True) @ F
@@ -272,17 +329,19 @@ class AugmentedEKF:
 
     # ---- correction -------------------------------------------------------------------
     def _index(self, live: Sequence[int]) -> Index:
-        """The live block: the physical states plus the live gammas (a slice when contiguous)."""
-        idx = list(range(self.nx)) + [self.ig[c] for c in live]
+        """The live block: the physical states plus the live contacts' parameter states (a slice when
+        contiguous)."""
+        idx = list(range(self.nx)) + sorted(g for c in live for g in self.pstates[c])
         return slice(0, len(idx)) if idx == list(range(len(idx))) else idx
 
     def _correct(
         self, xp: np.ndarray, P: np.ndarray, y: np.ndarray, L: Index, frozen: Sequence[int], schmidt: bool,
-        violated: Sequence[int] = (),
+        violated: Sequence[Tuple[int, float]] = (),
     ) -> Tuple[np.ndarray, np.ndarray, bool]:
-        """Eqs. (13)-(15) on the block L; gammas `frozen` keep value and variance (eqs. 25-27), their
-        cross-covariance with L Schmidt-updated when `schmidt`. Contacts `violated` add the perfect
-        measurements gamma_c = gamma_min_c of eqs. (28)-(30). Returns (x, P, used_pinv)."""
+        """Eqs. (13)-(15) on the block L; the parameter states of the contacts `frozen` keep value and
+        variance (eqs. 25-27), their cross-covariance with L Schmidt-updated when `schmidt`. `violated`
+        (state, bound) pairs add the perfect measurements x_state = bound of eqs. (28)-(30). Returns
+        (x, P, used_pinv)."""
         HL = self.H[:, L]
         R = self.R
         resid = y - self.H @ xp
@@ -292,13 +351,13 @@ class AugmentedEKF:
             ns, nv = len(y), len(violated)
             lidx = list(range(self.n))[L] if isinstance(L, slice) else L
             D = np.zeros((nv, len(lidx)))
-            for i, c in enumerate(violated):
-                D[i, lidx.index(self.ig[c])] = 1.0
+            for i, (g, _) in enumerate(violated):
+                D[i, lidx.index(g)] = 1.0
             HL = np.vstack([HL, D])
             Rc = np.zeros((ns + nv, ns + nv))
             Rc[:ns, :ns] = R
             R = Rc
-            resid = np.r_[resid, self.gamma_min[list(violated)] - xp[[self.ig[c] for c in violated]]]
+            resid = np.r_[resid, [bound - xp[g] for g, bound in violated]]
             # S^c has zero noise entries, so it is singular when a P_gg (or its posterior value)
             # is 0 and badly scaled always (metres^2 next to gamma^2): equilibrate with its
             # diagonal, fall back to the pseudo-inverse (least-squares gain) if still singular.
@@ -324,17 +383,15 @@ class AugmentedEKF:
         Pn = P.copy()
         _set_block(Pn, L, L, joseph(IKH, PLL, G, R) if self.cfg.joseph else IKH @ PLL)  # eq. (15) / (27)
         if schmidt:
-            for c in frozen:
-                g = self.ig[c]
+            for g in (g for c in frozen for g in self.pstates[c]):
                 col = IKH @ P[L, g]  # Schmidt update of the cross-covariance
                 Pn[L, g] = col
                 Pn[g, L] = col
         if violated and not used_pinv:
-            # A perfect measurement leaves gamma = gamma_min and zero gamma row/column in exact
+            # A perfect measurement leaves the parameter on its bound and a zero row/column in exact
             # arithmetic; restore that, else round-off (P_gg ~ -1e-15 P_gg^-) makes P indefinite.
-            for c in violated:
-                g = self.ig[c]
-                x[g] = self.gamma_min[c]
+            for g, bound in violated:
+                x[g] = bound
                 Pn[g, :] = 0.0
                 Pn[:, g] = 0.0
         return x, Pn, used_pinv
@@ -363,7 +420,7 @@ class AugmentedEKF:
             xp, F, iters, ok = self.x.copy(), self.I, 0, True
         if not ok:
             status |= fl.NEWTON_NOT_CONVERGED
-        closed = [d > 0.0 for d in self.solver.penetrations(xp[: self.nq])]  # eq. (21), per contact
+        closed = [d > 0.0 for d in self._solver(self.solver, xp[self.nx :]).penetrations(xp[: self.nq])]  # eq. (21)
         if any(closed):
             status |= fl.CONTACT_ACTIVE
         live = [c for c in range(self.nc) if cfg.mode == CANONICAL or closed[c]]
@@ -377,14 +434,13 @@ class AugmentedEKF:
             Pm = P.copy()  # no time update: P^- = P
         elif not frozen:
             Pm = F @ P @ F.T + self.Q  # eq. (12)
-        elif not _block(F, L, [self.ig[c] for c in frozen]).any():
+        elif not _block(F, L, [g for c in frozen for g in self.pstates[c]]).any():
             # F_Lg = 0 for a frozen gamma (its contact is open: df_c/dgamma = 0), eq. (23).
             FLL = _block(F, L, L)
             Pm = P.copy()
             _set_block(Pm, L, L, FLL @ _block(P, L, L) @ FLL.T + _block(self.Q, L, L))  # eq. (24)
             if consistent:
-                for c in frozen:
-                    g = self.ig[c]
+                for g in (g for c in frozen for g in self.pstates[c]):
                     col = FLL @ P[L, g]
                     Pm[L, g] = col
                     Pm[g, L] = col
@@ -396,8 +452,7 @@ class AugmentedEKF:
             Pm = P.copy()
             _set_block(Pm, L, L, FL @ P @ FL.T + _block(self.Q, L, L))
             if consistent:
-                for c in frozen:
-                    g = self.ig[c]
+                for g in (g for c in frozen for g in self.pstates[c]):
                     col = FL @ P[:, g]
                     Pm[L, g] = col
                     Pm[g, L] = col
@@ -407,14 +462,26 @@ class AugmentedEKF:
             x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True)
         else:
             x, Pp, _ = self._correct(xp, Pm, y, L, frozen, consistent)
-            violated: List[int] = []
-            for c in live if cfg.constrained else ():
-                if x[self.ig[c]] < self.gamma_min[c]:  # eq. (28): c = D x - d < 0
-                    violated.append(c)
+            # Eqs. (28)-(30) over the active set: in state order, each live parameter outside a bound
+            # joins the perfect measurements and the correction is redone, pass after pass.
+            live_states = {g for c in live for g in self.pstates[c]}
+            violated: List[Tuple[int, float]] = []
+            for _ in range(len(self.bounds)):
+                added = False
+                for g, lo, hi in self.bounds:
+                    if g not in live_states or any(g == v for v, _ in violated):
+                        continue
+                    bound = lo if x[g] < lo else hi if hi is not None and x[g] > hi else None
+                    if bound is None:
+                        continue
+                    violated.append((g, bound))
+                    added = True
                     x, Pp, used_pinv = self._correct(xp, Pm, y, L, frozen, consistent, violated)
                     status |= fl.CONSTRAINT_APPLIED
                     if used_pinv:
                         status |= fl.SINGULAR_INNOVATION
+                if not added:
+                    break
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(Pp))):
             status |= fl.NON_FINITE
         self.x, self.P = x, Pp
@@ -436,11 +503,13 @@ class EstimateResult:
     wall_time: float = float("nan")
     n_contacts: int = 1
     p_ggs: Optional[np.ndarray] = None  # (N, nc): P^+ of every gamma_c
+    n_law: int = 0  # estimated law parameters: the last n_law states
 
     @property
     def gammas(self) -> np.ndarray:
-        """(N, nc): gamma_c of every contact, the last nc states."""
-        return self.x[:, self.x.shape[1] - self.n_contacts :]
+        """(N, nc): gamma_c of every contact, the nc states before the law parameters."""
+        end = self.x.shape[1] - self.n_law
+        return self.x[:, end - self.n_contacts : end]
 
     @property
     def gamma(self) -> np.ndarray:
@@ -507,4 +576,5 @@ def run_estimator(
         wall_time=wall,
         n_contacts=ekf.nc,
         p_ggs=Ps[:, ekf.ig, ekf.ig].copy(),
+        n_law=len(ekf.law),
     )

@@ -170,6 +170,28 @@ def contact_law(delta: float, ddelta: float, gamma: float, n: float, lam: float
     return gamma * dn * fac, fd * fac, gamma * dn * lam, dn * fac
 
 
+def law_derivatives(delta: float, ddelta: float, gamma: float, n: float, lam: float
+                    ) -> Tuple[float, float, float, float, float, float]:
+    """`contact_law` plus the derivatives with respect to the exponent and the damping: (f, df/ddelta,
+    df/dddelta, df/dgamma, df/dn, df/dlambda); the gap's derivative is -df/ddelta."""
+    f, fd, fr, fg = contact_law(delta, ddelta, gamma, n, lam)
+    if delta <= 0.0 or 1.0 + lam * ddelta <= 0.0:
+        return f, fd, fr, fg, 0.0, 0.0
+    return f, fd, fr, fg, f * math.log(delta), gamma * delta**n * ddelta
+
+
+# The contact-law parameters the filter can estimate besides gamma (settings contact{i}_estimate_<p>), in
+# the order their states follow the gammas, contact by contact.
+LAW_PARAMS = ("n", "lambda", "gap")
+
+
+def law_layout(sc: Any, nc: int) -> Tuple[Tuple[int, str], ...]:
+    """The estimated law parameters of a scenario or settings, in state order: (contact, name) with the
+    contact 0-based; state 2 nq + nc + k is the k-th."""
+    return tuple((c, p) for c in range(nc) for p in LAW_PARAMS
+                 if int(float(scenario_value(sc, f"contact{c + 1}_estimate_{p}"))))
+
+
 def contact_forces(delta: np.ndarray, ddelta: np.ndarray, gamma: "np.ndarray | float", n: "np.ndarray | float",
                    lam: "np.ndarray | float") -> np.ndarray:
     """Vectorised contact force f (broadcast over any shape; the law of `contact_law`)."""

@@ -272,6 +272,10 @@ def _c_double(v: float) -> str:
     return repr(float(v))
 
 
+# The contact-law parameters a filter may estimate besides gamma (settings contact{i}_estimate_<p>).
+LAW_PARAMS = ("n", "lambda", "gap")
+
+
 def c_capacity(schema: Schema, mechanism: Optional[Path] = None) -> str:
     """caekf/caekf_capacity.h: the build's mechanism capacity. Without a mechanism, the wire's (any
     mechanism up to it, sizes at run time); with one (a scenario file), exactly its counts (CAEKF_SIZED:
@@ -290,9 +294,16 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None) -> str:
         lines.append(f"#define CAEKF_SIZED 1 /* exactly the mechanism of {mechanism.name} */")
         for cap, n in counts.items():
             lines.append(f"#define CAEKF_SIZED_{_macro(cap)} {n}")
+        law = sum(int(given.get(f"contact{i}_estimate_{p}", 0))
+                  for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS)
+        lines.append(f"#define CAEKF_SIZED_LAW_PARAMS {law} /* estimated n, lambda and gap */")
     for cap, n in counts.items():
         # C has no zero-length arrays: a capacity of 0 stores one unused element.
         lines.append(f"#define CAEKF_MAX_{_macro(cap)} {max(n, 1)}")
+    # The contact-law parameters estimated besides gamma (states after the gammas): every contact's n,
+    # lambda and gap, or exactly the sized scenario's.
+    law_cap = law if mechanism is not None else len(LAW_PARAMS) * counts["contacts"]
+    lines.append(f"#define CAEKF_MAX_LAW_PARAMS {law_cap}")
     return "\n".join(lines + ["", "#endif", ""])
 
 
