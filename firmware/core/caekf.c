@@ -50,16 +50,26 @@ static void load_fv0(caekf_t *est)
     est->fv_const = 1;
 }
 
-/* Parameter k (state 2 nq + k) has the lower bound lo and, when hi > 0, the upper bound hi (physical). */
-static void set_bounds(caekf_t *est, int k, caekf_scalar_t lo, caekf_scalar_t hi)
+/* Parameter k (state 2 nq + k) gets the lower bound lo (if has_lo) and the upper bound hi (if has_hi),
+ * both in the state's own units (ln gamma for a log gamma). */
+static void set_bounds(caekf_t *est, int k, int has_lo, caekf_scalar_t lo, int has_hi, caekf_scalar_t hi)
 {
     const caekf_scalar_t s = est->scale[2 * est->model.nq + k];
-    est->bound_lo |= 1u << k;
-    est->lo_scaled[k] = lo / s;
-    if (hi > 0) {
+    if (has_lo) {
+        est->bound_lo |= 1u << k;
+        est->lo_scaled[k] = lo / s;
+    }
+    if (has_hi) {
         est->bound_hi |= 1u << k;
         est->hi_scaled[k] = hi / s;
     }
+}
+
+/* gamma's bound (gamma_min, or gamma_max with is_max) of contact c in the state's units. */
+static caekf_scalar_t gamma_bound(const caekf_settings_t *s, int c, int is_max)
+{
+    const caekf_scalar_t b = is_max ? s->gamma_max[c] : s->gamma_min[c];
+    return s->model.gamma_log ? CAEKF_LOG(b) : b;
 }
 
 #if CAEKF_HAS_LAW_PARAMS
@@ -70,7 +80,7 @@ static void init_param(caekf_t *est, int g, caekf_scalar_t x0, caekf_scalar_t si
     est->scale[g] = sigma0;
     est->z[g] = x0 / sigma0;
     est->q_diag[g] = sq(sigma_q / sigma0);
-    set_bounds(est, g - 2 * est->model.nq, lo, hi);
+    set_bounds(est, g - 2 * est->model.nq, 1, lo, hi > 0, hi);
 }
 #endif
 
@@ -92,7 +102,7 @@ static caekf_scalar_t bound_of(const caekf_t *est, int k, int is_max)
         return is_max ? s->gap_max[c] : s->gap_min[c];
     }
 #endif
-    return is_max ? s->gamma_max[c] : s->gamma_min[c];
+    return gamma_bound(s, c, is_max);
 }
 
 /* Inequality constraints, eqs. (28)-(30) over the active set: every parameter outside a bound gets the
@@ -174,11 +184,19 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->lo_scaled[i] = est->hi_scaled[i] = 0;
     }
     for (i = 0; i < nc; ++i) {
-        est->scale[2 * nq + i] = s->sigma_gamma0[i];
-        est->z[2 * nq + i] = s->gamma0[i] / s->sigma_gamma0[i];
-        est->q_diag[2 * nq + i] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
-        if (s->constraint_enabled) { /* gamma's bounds: the paper's eqs. (28)-(30) */
-            set_bounds(est, i, s->gamma_min[i], s->gamma_max[i]);
+        const int g = 2 * nq + i;
+        if (mp->gamma_log) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
+            est->scale[g] = s->sigma_gamma0[i] / s->gamma0[i];
+            est->z[g] = CAEKF_LOG(s->gamma0[i]) / est->scale[g];
+        } else {
+            est->scale[g] = s->sigma_gamma0[i];
+            est->z[g] = s->gamma0[i] / s->sigma_gamma0[i];
+        }
+        /* the same ratio either way: sigma_q_gamma / gamma0 over sigma_gamma0 / gamma0 for ln gamma */
+        est->q_diag[g] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
+        if (s->constraint_enabled) { /* gamma's bounds: the paper's eqs. (28)-(30); ln 0 is no bound */
+            set_bounds(est, i, !mp->gamma_log || s->gamma_min[i] > 0, gamma_bound(s, i, 0), s->gamma_max[i] > 0,
+                       gamma_bound(s, i, 1));
         }
     }
 #if CAEKF_HAS_LAW_PARAMS
@@ -538,6 +556,21 @@ caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *in
     return CAEKF_OK;
 }
 
+/* State i in physical units, and the factor from its scaled value's perturbation to the physical one's
+ * (the covariance's scale): s_i, and gamma s_i for a log gamma (d gamma = gamma d ln gamma). */
+static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *factor)
+{
+    const caekf_scalar_t v = est->z[i] * est->scale[i];
+    const int nx = 2 * est->model.nq;
+    if (est->model.p.gamma_log && i >= nx && i < nx + est->model.nc) {
+        const caekf_scalar_t gamma = CAEKF_EXP(v);
+        *factor = est->scale[i] * gamma;
+        return gamma;
+    }
+    *factor = est->scale[i];
+    return v;
+}
+
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
 {
     int i;
@@ -548,13 +581,15 @@ caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
         return CAEKF_ERR_NOT_INIT;
     }
     for (i = 0; i < CAEKF_N; ++i) {
-        x[i] = i < est->model.n ? est->z[i] * est->scale[i] : 0;
+        caekf_scalar_t f;
+        x[i] = i < est->model.n ? state_value(est, i, &f) : 0;
     }
     return CAEKF_OK;
 }
 
 caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
 {
+    caekf_scalar_t f;
     int g;
     if (est == 0 || gamma == 0) {
         return CAEKF_ERR_NULL;
@@ -566,7 +601,7 @@ caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
         return CAEKF_ERR_SETTINGS;
     }
     g = 2 * est->model.nq;
-    *gamma = est->z[g] * est->scale[g];
+    *gamma = state_value(est, g, &f);
     return CAEKF_OK;
 }
 
@@ -599,7 +634,8 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
 #endif
     g = 2 * est->model.nq + c;
     if (gamma != 0) {
-        *gamma = est->z[g] * est->scale[g];
+        caekf_scalar_t f;
+        *gamma = state_value(est, g, &f);
     }
     if (n != 0) {
         *n = law[CAEKF_LAW_N];
@@ -618,12 +654,36 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
 static void physical_covariance(const caekf_t *est, caekf_scalar_t *out, int ld)
 {
     const int n = est->model.n;
+    caekf_scalar_t f[CAEKF_N];
     int i, j;
     for (i = 0; i < n; ++i) {
+        (void)state_value(est, i, &f[i]);
+    }
+    for (i = 0; i < n; ++i) {
         for (j = 0; j < n; ++j) {
-            out[i * ld + j] = est->P[i * n + j] * est->scale[i] * est->scale[j];
+            out[i * ld + j] = est->P[i * n + j] * f[i] * f[j];
         }
     }
+}
+
+caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_N])
+{
+    int i;
+    if (est == 0 || var == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    for (i = 0; i < CAEKF_N; ++i) {
+        var[i] = 0;
+    }
+    for (i = 0; i < est->model.n; ++i) {
+        caekf_scalar_t f;
+        (void)state_value(est, i, &f);
+        var[i] = est->P[i * est->model.n + i] * f * f;
+    }
+    return CAEKF_OK;
 }
 
 caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N])

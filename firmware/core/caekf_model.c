@@ -63,6 +63,9 @@ int caekf_model_params_check(const caekf_model_params_t *p)
     if (law > CAEKF_MAX_LAW_PARAMS) {
         return 1;
     }
+    if ((p->gamma_log | 1) != 1) {
+        return 1;
+    }
     if (p->discretisation != CAEKF_DISCRETISATION_BACKWARD_EULER &&
         p->discretisation != CAEKF_DISCRETISATION_TRAPEZOIDAL) {
         return 1;
@@ -99,7 +102,7 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
 void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
 {
     const int i = m->contact_i[c], j = m->contact_j[c], nq = CAEKF_DIM_NQ(m);
-    const caekf_scalar_t gamma = x[2 * nq + c];
+    const caekf_scalar_t gamma = m->p.gamma_log ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = m->p.contact_n[c], lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
 #if CAEKF_HAS_LAW_PARAMS
@@ -148,6 +151,9 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
             out->dfc_dn = out->fc * CAEKF_LOG(d);
         }
 #endif
+        if (m->p.gamma_log) { /* df/d(ln gamma) = gamma df/dgamma = f */
+            out->dfc_dgamma = out->fc;
+        }
     }
 }
 

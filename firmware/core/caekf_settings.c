@@ -218,6 +218,9 @@ static int first_unscalable(const caekf_settings_t *s)
         if (!usable(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, 1, 0)) {
             return (int)CAEKF_PARAM_SIGMA_Q_GAMMA + i;
         }
+        if (m->gamma_log && !usable(s->sigma_gamma0[i], s->gamma0[i], 1, 0, 1)) { /* ln gamma's scale */
+            return (int)CAEKF_PARAM_SIGMA_GAMMA0 + i;
+        }
         if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 1, 0, 0)) {
             return (int)CAEKF_PARAM_GAMMA_MAX + i;
         }
@@ -402,6 +405,9 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, CAEKF_PARAM_ESTIMATE_N);
     }
     for (i = 0; i < (unsigned)s->model.contacts; ++i) {
+        if (s->model.gamma_log && !(s->gamma0[i] > 0)) {
+            return refuse(err, CAEKF_SETTING_NOT_POSITIVE, CAEKF_PARAM_GAMMA0 + i);
+        }
         if (s->constraint_enabled &&
             (s->gamma0[i] < s->gamma_min[i] || (s->gamma_max[i] > 0 && s->gamma0[i] > s->gamma_max[i]))) {
             return refuse(err, CAEKF_SETTING_BELOW_GAMMA_MIN, CAEKF_PARAM_GAMMA0 + i);

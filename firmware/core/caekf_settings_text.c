@@ -40,6 +40,7 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
         break;
     case CAEKF_SETTING_NOT_INTEGER: why = "must be an integer"; break;
     case CAEKF_SETTING_NEEDED: why = "must be > 0: the settings use it (a velocity sensor, an estimated law parameter)"; break;
+    case CAEKF_SETTING_NOT_POSITIVE: why = "must be > 0 with gamma_log (the filter estimates ln gamma)"; break;
     case CAEKF_SETTING_OUTSIDE_BOUNDS:
         why = "outside the estimated parameter's bounds (its _min and _max; a maximum must not be below the minimum)";
         break;

@@ -294,6 +294,7 @@ static int plant_setup(const caekf_scenario_t *sc, const caekf_input_series_t *s
     for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) { /* the plant's law is the scenario's, never estimated */
         mp->contact_estimate_n[i] = mp->contact_estimate_lambda[i] = mp->contact_estimate_gap[i] = 0;
     }
+    mp->gamma_log = 0; /* the plant's state holds gamma itself */
     if (caekf_model_init(&model, mp) != 0 || (series != NULL && series->inputs != mp->inputs)) {
         return -1;
     }

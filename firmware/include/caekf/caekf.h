@@ -176,8 +176,9 @@ typedef enum {
                                          * or both ends the same) */
     CAEKF_SETTING_UNSUPPORTED = 8,     /* a count other than a sized build's (CAEKF_SIZED) */
     CAEKF_SETTING_NEEDED = 9,          /* 0 (its default), but the mechanism uses it: must be > 0 */
-    CAEKF_SETTING_OUTSIDE_BOUNDS = 10  /* an estimated parameter's initial value outside its bounds, or a
+    CAEKF_SETTING_OUTSIDE_BOUNDS = 10, /* an estimated parameter's initial value outside its bounds, or a
                                         * maximum below its minimum */
+    CAEKF_SETTING_NOT_POSITIVE = 11    /* gamma0 <= 0 with gamma_log (ln gamma needs gamma > 0) */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's
@@ -278,8 +279,11 @@ caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma);
  * those it estimates and the settings' values of the others. Any output pointer may be NULL. */
 caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *gamma, caekf_scalar_t *n,
                                      caekf_scalar_t *lambda, caekf_scalar_t *gap);
-/* P in physical units (P_phys = S P S), n x n in the top left corner, 0 elsewhere. */
+/* P in physical units (P_phys = S P S; with gamma_log, gamma's rows and columns also times gamma, the
+ * first-order map from ln gamma), n x n in the top left corner, 0 elsewhere. */
 caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N]);
+/* The diagonal of caekf_get_covariance (the same values): each state's variance; 0 beyond n. */
+caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_N]);
 /* 2-norm of P in physical units (largest eigenvalue, by bounded Jacobi sweeps). Uses the instance's
  * scratch buffers, hence the non-const instance; the estimate is not changed. */
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2);

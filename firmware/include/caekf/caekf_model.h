@@ -52,6 +52,7 @@ typedef struct {
     int contact_estimate_lambda[CAEKF_MAX_CONTACTS];
     int contact_estimate_gap[CAEKF_MAX_CONTACTS];
     int discretisation; /* caekf_discretisation_t */
+    int gamma_log;      /* 1: the gamma states hold ln gamma (the law takes exp of them) */
 } caekf_model_params_t;
 
 /* A contact's law parameters besides gamma (index into caekf_model_t.law_state). */

@@ -667,10 +667,9 @@ static PyObject *est_run(EstObject *self, PyObject *args)
             }
         }
         if (pdiag != NULL) {
-            /* The diagonal of caekf_get_covariance, the same expression (so the same bits), without the
-             * off-diagonal products the loop does not keep. */
+            (void)caekf_get_variances(&self->est, xs);
             for (i = 0; i < n; ++i) {
-                pdiag[k * n + i] = (double)(self->est.P[i * n + i] * self->est.scale[i] * self->est.scale[i]);
+                pdiag[k * n + i] = (double)xs[i];
             }
         }
         if (logdet != NULL) {
