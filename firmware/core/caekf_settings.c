@@ -179,11 +179,11 @@ static int first_unscalable_law(const caekf_settings_t *s, unsigned c, int *bad)
     return (m->contact_estimate_n[c] && law_unscalable(s->n0[c], s->sigma_n0[c], s->sigma_q_n[c], s->n_min[c],
                                                        s->n_max[c], s->sigma_v0, CAEKF_PARAM_SIGMA_N0 + (int)c, bad)) ||
            (m->contact_estimate_lambda[c] &&
-            law_unscalable(s->lambda0[c], s->sigma_lambda0[c], s->sigma_q_lambda[c], s->lambda_min[c],
-                           s->lambda_max[c], s->sigma_v0, CAEKF_PARAM_SIGMA_LAMBDA0 + (int)c, bad)) ||
-           (m->contact_estimate_gap[c] && law_unscalable(s->gap0[c], s->sigma_gap0[c], s->sigma_q_gap[c],
-                                                         s->gap_min[c], s->gap_max[c], s->sigma_v0,
-                                                         CAEKF_PARAM_SIGMA_GAP0 + (int)c, bad));
+            law_unscalable(s->lambda0[c], s->sigma_lambda0[c], s->sigma_q_lambda[c], s->lambda_min[c], s->lambda_max[c],
+                           s->sigma_v0, CAEKF_PARAM_SIGMA_LAMBDA0 + (int)c, bad)) ||
+           (m->contact_estimate_gap[c] &&
+            law_unscalable(s->gap0[c], s->sigma_gap0[c], s->sigma_q_gap[c], s->gap_min[c], s->gap_max[c], s->sigma_v0,
+                           CAEKF_PARAM_SIGMA_GAP0 + (int)c, bad));
 }
 
 /* The blamed parameter id of the first failing derived check, or -1. */

@@ -39,7 +39,9 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
         why = "exceeds the build's capacity (CAEKF_MAX_* and CAEKF_NEWTON_MAX_ITER, caekf_config.h)";
         break;
     case CAEKF_SETTING_NOT_INTEGER: why = "must be an integer"; break;
-    case CAEKF_SETTING_NEEDED: why = "must be > 0: the settings use it (a velocity sensor, an estimated law parameter)"; break;
+    case CAEKF_SETTING_NEEDED:
+        why = "must be > 0: the settings use it (a velocity sensor, an estimated law parameter)";
+        break;
     case CAEKF_SETTING_NOT_POSITIVE: why = "must be > 0 with gamma_log (the filter estimates ln gamma)"; break;
     case CAEKF_SETTING_OUTSIDE_BOUNDS:
         why = "outside the estimated parameter's bounds (its _min and _max; a maximum must not be below the minimum)";

@@ -201,7 +201,8 @@ static int try_init(const caekf_settings_t *s)
     }
     FZ_CHECK(all_finite(est.z, N), "accepted init: finite scaled state");
     FZ_CHECK(all_finite(est.q_diag, N) && fz_is_finite_scalar(est.dims.r[0]) &&
-                 all_finite(est.lo_scaled, CAEKF_NP + 1) && all_finite(est.hi_scaled, CAEKF_NP + 1) && est.dims.r[0] > (caekf_scalar_t)0,
+                 all_finite(est.lo_scaled, CAEKF_NP + 1) && all_finite(est.hi_scaled, CAEKF_NP + 1) &&
+                 est.dims.r[0] > (caekf_scalar_t)0,
              "accepted init: finite scaled noise (Q, R > 0) and bounds");
     return 1;
 }

@@ -102,11 +102,11 @@ typedef struct {
 
 /* The filter's sizes and structure (set at init; the policies every step). */
 typedef struct {
-    int nq, n;                              /* bodies; states */
-    int ny;                                 /* sensors */
-    int h[CAEKF_MAX_SENSORS];               /* state index each sensor measures */
-    caekf_scalar_t r[CAEKF_MAX_SENSORS];    /* scaled R diagonal */
-    uint8_t policy[CAEKF_NP + 1];           /* how parameter k (state 2 nq + k) is handled this step */
+    int nq, n;                           /* bodies; states */
+    int ny;                              /* sensors */
+    int h[CAEKF_MAX_SENSORS];            /* state index each sensor measures */
+    caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
+    uint8_t policy[CAEKF_NP + 1];        /* how parameter k (state 2 nq + k) is handled this step */
 } caekf_filter_dims_t;
 
 /* Work buffers of the correction: the gain and H P (in the instance, off the stack). */

@@ -1,0 +1,302 @@
+/* The whole contact law as states (docs/contact-law.md): the exponent n, the Hunt-Crossley damping lambda
+ * and the gap estimated with gamma (also as ln gamma). The residual's Jacobians against central finite
+ * differences including the law-parameter columns, eq. (10)'s structured F against the full inverse, the
+ * switch-off of every parameter of an open contact, bounds enforced over the active set, the refusals of
+ * validation, and the accessors. Builds without room for law parameters (an MCU build sized for the
+ * paper's mechanism) ignore the suite. */
+#include <math.h>
+#include <string.h>
+
+#include "caekf_model_internal.h"
+#include "test_support.h"
+#include "unity.h"
+
+#define NL (PAPER_N + 3) /* the paper's states, then n, lambda and gap of its contact */
+#define IN PAPER_N
+#define IL (PAPER_N + 1)
+#define IGAP (PAPER_N + 2)
+
+#if CAEKF_USE_FLOAT
+#define JAC_RTOL 3e-2
+#define F_RTOL 3e-3
+#else
+#define JAC_RTOL 1e-6
+#define F_RTOL 1e-8
+#endif
+
+#if CAEKF_MAX_LAW_PARAMS >= 3
+
+static caekf_model_t model;
+static const caekf_scalar_t u_prev[1] = {(caekf_scalar_t)0.2}, u_now[1] = {(caekf_scalar_t)0.3};
+
+/* The paper's settings with every law parameter of contact 1 estimated (initial values near the truth). */
+static void law_settings(caekf_settings_t *s, int discretisation, int gamma_log)
+{
+    paper_settings(s, -1);
+    s->model.discretisation = discretisation;
+    s->model.gamma_log = gamma_log;
+    s->model.contact_estimate_n[0] = s->model.contact_estimate_lambda[0] = s->model.contact_estimate_gap[0] = 1;
+    s->n0[0] = (caekf_scalar_t)1.45;
+    s->sigma_n0[0] = (caekf_scalar_t)0.05;
+    s->lambda0[0] = (caekf_scalar_t)150;
+    s->sigma_lambda0[0] = (caekf_scalar_t)100;
+    s->gap0[0] = (caekf_scalar_t)1.0002e-3;
+    s->sigma_gap0[0] = (caekf_scalar_t)2e-7;
+    s->n_max[0] = (caekf_scalar_t)3;
+}
+
+/* A state with penetration `delta` (at the state's own gap) and some motion; law states set. */
+static void make_state(caekf_scalar_t x[CAEKF_N], double delta, int gamma_log)
+{
+    const double gap = 1.0001e-3, q3 = 1.5e-5;
+    memset(x, 0, sizeof(caekf_scalar_t) * CAEKF_N);
+    x[0] = (caekf_scalar_t)1.2e-3;
+    x[1] = (caekf_scalar_t)(q3 + gap + delta);
+    x[2] = (caekf_scalar_t)q3;
+    x[3] = (caekf_scalar_t)-4e-6;
+    x[4] = (caekf_scalar_t)3e-3;
+    x[5] = (caekf_scalar_t)-2e-3;
+    x[6] = (caekf_scalar_t)1e-3;
+    x[7] = (caekf_scalar_t)-5e-4;
+    x[8] = (caekf_scalar_t)(gamma_log ? log(1.1e8) : 1.1e8);
+    x[IN] = (caekf_scalar_t)1.4;
+    x[IL] = (caekf_scalar_t)200;
+    x[IGAP] = (caekf_scalar_t)gap;
+}
+
+static double fd_step(int j, int gamma_log)
+{
+    static const double base[NL] = {1e-9, 1e-9, 1e-9, 1e-9, 1e-7, 1e-7, 1e-7, 1e-7, 1e2, 1e-6, 1e-3, 1e-10};
+    double h = base[j];
+    if (j == PAPER_IG && gamma_log) {
+        h = 1e-6;
+    }
+    return CAEKF_USE_FLOAT ? h * (j == PAPER_IG && !gamma_log ? 100 : 300) : h;
+}
+
+static void init_model(int discretisation, int gamma_log)
+{
+    caekf_settings_t s;
+    law_settings(&s, discretisation, gamma_log);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&model, &s.model));
+    TEST_ASSERT_EQUAL_INT(NL, model.n);
+    TEST_ASSERT_EQUAL_INT(IN, model.law_state[0][CAEKF_LAW_N]);
+    TEST_ASSERT_EQUAL_INT(IL, model.law_state[0][CAEKF_LAW_LAMBDA]);
+    TEST_ASSERT_EQUAL_INT(IGAP, model.law_state[0][CAEKF_LAW_GAP]);
+}
+
+/* d g / d x_k and d g / d x_{k-1} of the residual against central differences, every column. */
+static void check_jacobians(int discretisation, int gamma_log)
+{
+    caekf_scalar_t xk[CAEKF_N], xp[CAEKF_N], Jk[CAEKF_N][CAEKF_N], Jp[CAEKF_N][CAEKF_N];
+    int i, j, side;
+    init_model(discretisation, gamma_log);
+    make_state(xk, 2e-6, gamma_log);
+    make_state(xp, 1.5e-6, gamma_log);
+    xp[4] = (caekf_scalar_t)2.5e-3;
+    caekf_model_jacobians(&model, xk, xp, Jk, Jp);
+    for (side = 0; side < 2; ++side) {
+        caekf_scalar_t(*J)[CAEKF_N] = side == 0 ? Jk : Jp;
+        for (j = 0; j < NL; ++j) {
+            caekf_scalar_t a[CAEKF_N], b[CAEKF_N], ga[CAEKF_N], gb[CAEKF_N];
+            const caekf_scalar_t *base = side == 0 ? xk : xp;
+            double h;
+            memcpy(a, base, sizeof a);
+            memcpy(b, base, sizeof b);
+            a[j] += (caekf_scalar_t)fd_step(j, gamma_log);
+            b[j] -= (caekf_scalar_t)fd_step(j, gamma_log);
+            h = (double)a[j] - (double)b[j];
+            caekf_model_residual(&model, side == 0 ? a : xk, side == 0 ? xp : a, u_prev, u_now, ga);
+            caekf_model_residual(&model, side == 0 ? b : xk, side == 0 ? xp : b, u_prev, u_now, gb);
+            for (i = 0; i < NL; ++i) {
+                const double fd = ((double)ga[i] - (double)gb[i]) / h;
+                double rowmax = 0;
+                int c;
+                for (c = 0; c < NL; ++c) {
+                    rowmax = fmax(rowmax, fabs((double)J[i][c]));
+                }
+                TEST_ASSERT_DOUBLE_WITHIN(JAC_RTOL * (fabs((double)J[i][j]) + 1e-3 * rowmax), (double)J[i][j], fd);
+            }
+        }
+    }
+    /* The law columns are really exercised: the force depends on each parameter in contact. */
+    TEST_ASSERT_TRUE(Jk[PAPER_NQ + 1][IN] != 0 && Jk[PAPER_NQ + 1][IL] != 0 && Jk[PAPER_NQ + 1][IGAP] != 0);
+}
+
+static void test_jacobians_with_law_states_backward_euler(void)
+{
+    check_jacobians(CAEKF_DISCRETISATION_BACKWARD_EULER, 0);
+}
+static void test_jacobians_with_law_states_trapezoidal(void) { check_jacobians(CAEKF_DISCRETISATION_TRAPEZOIDAL, 0); }
+static void test_jacobians_with_log_gamma(void) { check_jacobians(CAEKF_DISCRETISATION_TRAPEZOIDAL, 1); }
+
+/* The structured F of eq. (10) equals -(dg/dx_k)^-1 dg/dx_{k-1} in the law columns too. */
+static void check_transition(int discretisation, int gamma_log, double delta, double delta_prev)
+{
+    caekf_scalar_t xk[CAEKF_N], xp[CAEKF_N], Jk[CAEKF_N][CAEKF_N], Jp[CAEKF_N][CAEKF_N], F[CAEKF_N][CAEKF_N];
+    double A[NL][NL], Ai[NL][NL];
+    int i, j, k;
+    init_model(discretisation, gamma_log);
+    make_state(xk, delta, gamma_log);
+    make_state(xp, delta_prev, gamma_log);
+    caekf_model_jacobians(&model, xk, xp, Jk, Jp);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition(&model, xk, xp, F));
+    for (i = 0; i < NL; ++i) {
+        for (j = 0; j < NL; ++j) {
+            A[i][j] = (double)Jk[i][j];
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(0, test_invert(&A[0][0], &Ai[0][0], NL));
+    for (i = 0; i < NL; ++i) {
+        double ref[NL], rowmax = 0;
+        for (j = 0; j < NL; ++j) {
+            double s = 0;
+            for (k = 0; k < NL; ++k) {
+                s += Ai[i][k] * (double)Jp[k][j];
+            }
+            ref[j] = -s;
+            rowmax = fmax(rowmax, fabs(ref[j]));
+        }
+        for (j = 0; j < NL; ++j) {
+            TEST_ASSERT_DOUBLE_WITHIN(F_RTOL * rowmax + 1e-300, ref[j], (double)F[i][j]);
+        }
+    }
+    if (delta > 0) { /* the law states move the bodies in contact */
+        TEST_ASSERT_TRUE(F[PAPER_NQ + 1][IN] != 0 && F[PAPER_NQ + 1][IL] != 0 && F[PAPER_NQ + 1][IGAP] != 0);
+    }
+}
+
+static void test_transition_with_law_states(void)
+{
+    check_transition(CAEKF_DISCRETISATION_BACKWARD_EULER, 0, 2e-6, 1.5e-6);
+    check_transition(CAEKF_DISCRETISATION_TRAPEZOIDAL, 0, 2e-6, 1.5e-6);
+    check_transition(CAEKF_DISCRETISATION_TRAPEZOIDAL, 1, 2e-6, 1.5e-6);
+    check_transition(CAEKF_DISCRETISATION_TRAPEZOIDAL, 0, -2e-6, 1e-6); /* leaving: the start still acts */
+}
+
+typedef struct {
+    long steps, frozen_steps, applied;
+    int moved_while_open; /* a law state changed on a step its contact was open before any contact */
+    int above_max;        /* n above n_max after a step */
+    int seen_contact;     /* the contact has closed once */
+    caekf_scalar_t prev[CAEKF_N];
+    double n_max;
+} run_ctx_t;
+
+static void watch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *truth,
+                  void *vctx)
+{
+    run_ctx_t *ctx = (run_ctx_t *)vctx;
+    caekf_scalar_t x[CAEKF_N];
+    (void)truth;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, st);
+    (void)caekf_get_state(est, x);
+    ctx->seen_contact |= (rep->flags & CAEKF_FLAG_CONTACT_ACTIVE) != 0;
+    if (!ctx->seen_contact) {
+        ctx->frozen_steps += (rep->flags & CAEKF_FLAG_GAMMA_FROZEN) != 0;
+        if (ctx->steps > 0 && (x[IN] != ctx->prev[IN] || x[IL] != ctx->prev[IL] || x[IGAP] != ctx->prev[IGAP])) {
+            ctx->moved_while_open = 1;
+        }
+    }
+    ctx->applied += (rep->flags & CAEKF_FLAG_CONSTRAINT_APPLIED) != 0;
+    ctx->above_max |= (double)x[IN] > ctx->n_max;
+    memcpy(ctx->prev, x, sizeof x);
+    ctx->steps++;
+}
+
+/* Over the reference run: every law parameter is frozen (bit for bit) while the contact has never closed,
+ * and an upper bound on n below the truth is enforced on every step as a perfect measurement. */
+static void test_law_states_freeze_and_respect_their_bounds(void)
+{
+    caekf_settings_t s;
+    caekf_t est;
+    run_ctx_t ctx;
+    caekf_scalar_t g, n, lambda, gap;
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 1);
+    s.n_max[0] = (caekf_scalar_t)1.47; /* below the truth, 1.5: the correction keeps pushing against it */
+    memset(&ctx, 0, sizeof ctx);
+    ctx.n_max = (double)s.n_max[0];
+    TEST_ASSERT_EQUAL_INT(paper_steps(), run_paper(&est, &s, watch, &ctx));
+    TEST_ASSERT_TRUE(ctx.frozen_steps > 10000); /* the first contact comes near 12.8 s */
+    TEST_ASSERT_FALSE(ctx.moved_while_open);
+    TEST_ASSERT_TRUE(ctx.applied > 0);
+    TEST_ASSERT_FALSE(ctx.above_max);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_contact_law(&est, 0, &g, &n, &lambda, &gap));
+    TEST_ASSERT_TRUE(g > 0 && (double)n <= ctx.n_max && lambda >= 0 && gap > 0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_get_contact_law(&est, 1, &g, 0, 0, 0));
+}
+
+/* caekf_settings_validate names the law setting at fault. */
+static void expect_refusal(const caekf_settings_t *s, unsigned param_id, unsigned reason)
+{
+    caekf_setting_error_t e;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(s, &e));
+    TEST_ASSERT_EQUAL_UINT(param_id, e.param_id);
+    TEST_ASSERT_EQUAL_UINT(reason, e.reason);
+}
+
+static void test_validation_of_law_settings(void)
+{
+    caekf_settings_t s;
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&s, 0));
+    s.sigma_lambda0[0] = 0;
+    expect_refusal(&s, CAEKF_PARAM_SIGMA_LAMBDA0, CAEKF_SETTING_NEEDED);
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    s.n0[0] = (caekf_scalar_t)3.5; /* above n_max = 3 */
+    expect_refusal(&s, CAEKF_PARAM_N0, CAEKF_SETTING_OUTSIDE_BOUNDS);
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    s.gap_min[0] = (caekf_scalar_t)2e-3;
+    s.gap_max[0] = (caekf_scalar_t)1e-3; /* below its minimum */
+    expect_refusal(&s, CAEKF_PARAM_GAP_MAX, CAEKF_SETTING_OUTSIDE_BOUNDS);
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 1);
+    s.gamma0[0] = 0;
+    expect_refusal(&s, CAEKF_PARAM_GAMMA0, CAEKF_SETTING_NOT_POSITIVE);
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    s.model.contact_estimate_gap[0] = 2; /* a bool */
+    expect_refusal(&s, CAEKF_PARAM_ESTIMATE_GAP, CAEKF_SETTING_OUT_OF_RANGE);
+}
+
+/* ln gamma: the accessors report gamma and its variance mapped by d gamma = gamma d ln gamma. */
+static void test_log_gamma_accessors(void)
+{
+    caekf_settings_t s;
+    caekf_t est;
+    caekf_scalar_t x[CAEKF_N], var[CAEKF_N], g;
+    static caekf_scalar_t P[CAEKF_N][CAEKF_N];
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 1);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, x));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_gamma(&est, &g));
+    TEST_ASSERT_FLOAT_WITHIN(1e-5f * (float)s.gamma0[0], (float)s.gamma0[0], (float)g);
+    TEST_ASSERT_EQUAL_FLOAT((float)g, (float)x[PAPER_IG]);
+    TEST_ASSERT_EQUAL_FLOAT((float)s.n0[0], (float)x[IN]);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_variances(&est, var));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_covariance(&est, P));
+    /* P0 of ln gamma is (sigma_gamma0 / gamma0)^2: back in gamma, sigma_gamma0^2 */
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f * (float)(s.sigma_gamma0[0] * s.sigma_gamma0[0]),
+                             (float)(s.sigma_gamma0[0] * s.sigma_gamma0[0]), (float)var[PAPER_IG]);
+    TEST_ASSERT_EQUAL_FLOAT((float)var[PAPER_IG], (float)P[PAPER_IG][PAPER_IG]);
+    TEST_ASSERT_FLOAT_WITHIN(1e-6f * (float)(s.sigma_gap0[0] * s.sigma_gap0[0]),
+                             (float)(s.sigma_gap0[0] * s.sigma_gap0[0]), (float)var[IGAP]);
+}
+
+#endif
+
+void setUp(void) {}
+void tearDown(void) {}
+
+int main(void)
+{
+    UNITY_BEGIN();
+#if CAEKF_MAX_LAW_PARAMS >= 3
+    RUN_TEST(test_jacobians_with_law_states_backward_euler);
+    RUN_TEST(test_jacobians_with_law_states_trapezoidal);
+    RUN_TEST(test_jacobians_with_log_gamma);
+    RUN_TEST(test_transition_with_law_states);
+    RUN_TEST(test_law_states_freeze_and_respect_their_bounds);
+    RUN_TEST(test_validation_of_law_settings);
+    RUN_TEST(test_log_gamma_accessors);
+#endif
+    return UNITY_END();
+}
