@@ -77,6 +77,8 @@ class EstimatorConfig:
     # The setting `contact_substeps`: steps of dt / contact_substeps while a contact is closed at either end
     # of the step (1: never). 1 here (the numpy reference's own default); scenario_config takes the scenario's.
     contact_substeps: int = 1
+    # The setting `gamma_log`: the gamma states hold ln gamma (P0 and Q relative to gamma0, bounds in ln).
+    gamma_log: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.contact_substeps, bool) or not isinstance(self.contact_substeps, int) \
@@ -149,7 +151,10 @@ class AugmentedEKF:
         sig_rv = float(scenario_value(sc, "sigma_rv"))
         self.R = np.diag([sig_r**2 if k == 0 else sig_rv**2 for k in p.sensor_kind.tolist()])
         self.gamma_min = contact_values(sc, "gamma_min", nc)
-        self.q_gamma = cfg.q_gamma_scale * contact_values(sc, "sigma_q_gamma", nc) ** 2
+        g0 = contact_values(sc, "gamma0", nc)
+        # ln gamma: P0, Q and the state relative to gamma0 (sigma / gamma0 is ln gamma's std to first order)
+        rel = g0 if cfg.gamma_log else np.ones(nc)
+        self.q_gamma = cfg.q_gamma_scale * (contact_values(sc, "sigma_q_gamma", nc) / rel) ** 2
 
         def law_value(key: str) -> np.ndarray:
             return np.array([float(scenario_value(sc, f"contact{c + 1}_{key.format(p=name)}"))
@@ -158,17 +163,21 @@ class AugmentedEKF:
         self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma,
                                law_value("sigma_q_{p}") ** 2])
         self.Qx = self.Q[: self.nx, : self.nx]
-        self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq), contact_values(sc, "gamma0", nc),
-                       law_value("{p}0")]
+        self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq),
+                       np.log(g0) if cfg.gamma_log else g0, law_value("{p}0")]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
-                               contact_values(sc, "sigma_gamma0", nc) ** 2, law_value("sigma_{p}0") ** 2])
+                               (contact_values(sc, "sigma_gamma0", nc) / rel) ** 2, law_value("sigma_{p}0") ** 2])
         # Bounds (state, minimum, maximum or None), in state order: gamma's when constrained (eqs. 28-30),
         # an estimated law parameter's always. A maximum of 0 is none.
         self.bounds: List[Tuple[int, float, Optional[float]]] = []
         if cfg.constrained:
             gmax = contact_values(sc, "gamma_max", nc)
-            self.bounds += [(self.ig[c], float(self.gamma_min[c]), float(gmax[c]) if gmax[c] > 0 else None)
-                            for c in range(nc)]
+            for c in range(nc):
+                lo, hi = float(self.gamma_min[c]), (float(gmax[c]) if gmax[c] > 0 else None)
+                if cfg.gamma_log:  # ln 0 is no bound
+                    lo = math.log(lo) if lo > 0 else -math.inf
+                    hi = math.log(hi) if hi is not None else None
+                self.bounds.append((self.ig[c], lo, hi))
         for k, (lo, hi) in enumerate(zip(law_value("{p}_min").tolist(), law_value("{p}_max").tolist())):
             self.bounds.append((self.nx + nc + k, lo, hi if hi > 0 else None))
         self.I = np.eye(n)
@@ -222,6 +231,23 @@ class AugmentedEKF:
             out.append((a, b, pick("gap", gap), pick("n", n), pick("lambda", lam)))
         return tuple(out)
 
+    def gammas_of(self, params: np.ndarray) -> np.ndarray:
+        """The contacts' gamma at the parameter states x[2 nq:] (exp of them with gamma_log)."""
+        g = np.asarray(params[: self.nc], dtype=float)
+        return np.exp(g) if self.cfg.gamma_log else g
+
+    def physical(self) -> Tuple[np.ndarray, np.ndarray]:
+        """(x, P) with gamma itself in place of ln gamma (gamma_log): gamma = exp, P mapped to first order by
+        d gamma = gamma d ln gamma; unchanged otherwise."""
+        if not self.cfg.gamma_log:
+            return self.x, self.P
+        f = np.ones(self.n)
+        g = self.gammas_of(self.x[self.nx :])
+        f[self.ig] = g
+        x = self.x.copy()
+        x[self.ig] = g
+        return x, self.P * np.outer(f, f)
+
     def _solver(self, solver: StepSolver, params: np.ndarray) -> StepSolver:
         """The step solver with the contact laws at the parameter states (itself without law states)."""
         if not self.law:
@@ -237,8 +263,9 @@ class AugmentedEKF:
         derivatives of b_c f_c with respect to gamma_c and contact c's estimated n, lambda and gap. Returns
         None when no contact contributes and J was None."""
         nq = self.nq
+        gam = self.gammas_of(params)
         for c, (a, b, gap, n, lam) in enumerate(self.laws(params)):
-            g = float(params[c])
+            g = float(gam[c])
             delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
             dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
             _, kc, kd, dfc_dg, dfc_dn, dfc_dl = law_derivatives(delta, dd, g, n, lam)
@@ -250,7 +277,8 @@ class AugmentedEKF:
             J[nq : self.nx, :nq] += weight * kc * np.outer(bb, bb)
             if kd != 0.0:
                 J[nq : self.nx, nq : self.nx] += weight * kd * np.outer(bb, bb)
-            J[nq : self.nx, self.nx + c] = weight * dfc_dg * bb
+            # d/d ln gamma = gamma d/d gamma
+            J[nq : self.nx, self.nx + c] = weight * dfc_dg * (g if self.cfg.gamma_log else 1.0) * bb
             st = self.law_state[c]
             for name, d in (("n", dfc_dn), ("lambda", dfc_dl), ("gap", -kc)):
                 if name in st:
@@ -293,7 +321,7 @@ class AugmentedEKF:
         u_prev = u if self.u_prev is None else self.u_prev
         if self.sub_solver is not None and any(d > 0.0 for d in solver.penetrations(x[:nq])):
             return self.substep_predict(u_prev, u)  # closed at the start: no one-step solve needed
-        q, v, iters, ok = solver.solve(x[:nq], x[nq:nx], u, gammas[: self.nc], u_prev)
+        q, v, iters, ok = solver.solve(x[:nq], x[nq:nx], u, self.gammas_of(gammas), u_prev)
         if self.sub_solver is not None and any(d > 0.0 for d in solver.penetrations(q)):
             xp, F, sub_iters, ok = self.substep_predict(u_prev, u)
             return xp, F, iters + sub_iters, ok
@@ -320,7 +348,7 @@ class AugmentedEKF:
         ub = a
         for j in range(1, steps + 1):
             ua, ub = ub, (b if j == steps else a + (b - a) * j / steps)
-            q, v, it, conv = sub.solve(xa[:nq], xa[nq:nx], ub, gammas[: self.nc], ua)
+            q, v, it, conv = sub.solve(xa[:nq], xa[nq:nx], ub, self.gammas_of(gammas), ua)
             iters += it
             ok = ok and conv
             F = self.transition_matrix(q, gammas, v, xa, substep=True) @ F
@@ -562,8 +590,7 @@ def run_estimator(
     with np.errstate(all="ignore"):  # a diverging filter is an outcome we record, not a crash
         for k in rng:
             fls[k], its[k] = ekf.step(u_list[k], y[k])
-            xs[k] = ekf.x
-            Ps[k] = ekf.P
+            xs[k], Ps[k] = ekf.physical()
     wall = time.perf_counter() - t0
     return EstimateResult(
         t=np.asarray(t, dtype=float),
