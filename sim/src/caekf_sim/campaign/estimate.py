@@ -13,8 +13,9 @@ from __future__ import annotations
 import io
 import subprocess
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Dict
 
 import numpy as np
 
@@ -35,6 +36,10 @@ class Estimate:
     p_gg: np.ndarray
     nis: np.ndarray
     flags: np.ndarray
+    # The estimated law parameters (docs/contact-law.md) by key "contact<c>_<n|lambda|gap>": per step, and
+    # their variances.
+    law: Dict[str, np.ndarray] = field(default_factory=dict)
+    law_var: Dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def gammas(self) -> np.ndarray:
@@ -77,8 +82,12 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
              backend: str = "binding") -> Estimate:
     """Run one estimator configuration (a preset name, or "default") over measurements y (N, sensors) and
     inputs u (N,) or (N, inputs), any mechanism, with any backend."""
+    from ..mechanism import law_layout
+
     preset = None if experiment == DEFAULT else experiment
     nc = int(sc.contacts)
+    law_keys = [f"contact{c + 1}_{name}" for c, name in law_layout(sc, nc)]
+    law0 = 2 * int(sc.bodies) + nc  # the first law state
     if backend == "binding":
         from ..binding import run
 
@@ -87,19 +96,26 @@ def estimate(sc: Scenario, experiment: str, t: np.ndarray, u: np.ndarray, y: np.
         ig = res.gamma_index
         assert res.P_diag is not None  # run keeps the diagonal of P by default
         return Estimate(gamma=_one(res.x[:, ig:ig + nc]), p_gg=_one(res.P_diag[:, ig:ig + nc]),
-                        nis=res.nis.copy(), flags=res.flags.astype(np.int64))
+                        nis=res.nis.copy(), flags=res.flags.astype(np.int64),
+                        law={k: res.x[:, law0 + i].copy() for i, k in enumerate(law_keys)},
+                        law_var={k: res.P_diag[:, law0 + i].copy() for i, k in enumerate(law_keys)})
     if backend == "numpy":
         from ..experiments import experiment_config, scenario_config
         from ..estimator import run_estimator
 
         # "default": the scenario's own settings, as the binding runs them (discretisation, contact_substeps)
         cfg = scenario_config(sc) if preset is None else experiment_config(preset)
-        ref = run_estimator(sc, cfg, t, u, y, keep_P=False)
+        ref = run_estimator(sc, cfg, t, u, y, keep_P=bool(law_keys))
         assert ref.p_ggs is not None  # run_estimator fills it
         return Estimate(gamma=_one(ref.gammas), p_gg=_one(ref.p_ggs), nis=np.full(len(t), np.nan),
-                        flags=ref.flags.astype(np.int64))
+                        flags=ref.flags.astype(np.int64),
+                        law={k: ref.x[:, law0 + i].copy() for i, k in enumerate(law_keys)},
+                        law_var={k: ref.P[:, law0 + i, law0 + i].copy() for i, k in enumerate(law_keys)
+                                 if ref.P is not None})
     if backend != "replay":
         raise ValueError(f"unknown estimator backend {backend!r}; choose from {BACKENDS}")
+    if law_keys:
+        raise ValueError("caekf-replay writes no law parameters: estimate them with the binding or numpy backend")
     import pyarrow.csv as pcsv
 
     tool = require_tool("caekf-replay")

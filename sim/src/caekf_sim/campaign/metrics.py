@@ -6,7 +6,7 @@ the largest |final error| and final NEES, diverged if any contact diverged, with
 contact is; the family table reports them (for one contact they equal contact 1's)."""
 from __future__ import annotations
 
-from typing import Any, Dict, Sequence, Union
+from typing import Any, Dict, Optional, Sequence, Union
 
 import numpy as np
 
@@ -14,6 +14,9 @@ from .. import flags as fl
 from .estimate import Estimate
 
 WITHIN_CONVERGED = 0.05  # time to converge: |error| within 5 % from then on
+# The whole law's targets (docs/contact-law.md): |final error| of gamma and n relative, lambda relative,
+# the gap absolute [m].
+JOINT_TOL = {"gamma": 0.02, "n": 0.02, "lambda": 0.10, "gap": 1e-7}
 DIVERGED = 0.5  # |final error| above 50 %, or gamma <= 0, or NaN
 NEES_3SIGMA = 9.0  # final NEES of a chi-square(1) within 3 sigma
 
@@ -57,8 +60,31 @@ def _contact_metrics(t: np.ndarray, gamma_true: float, delta: np.ndarray, g: np.
     }
 
 
+def law_metrics(est: Estimate, law_true: Dict[str, float], gamma_final_err: Sequence[float]) -> Dict[str, Any]:
+    """The estimated law parameters' final errors ("<key>_final_err": relative for n and lambda, in metres
+    for the gap), 3-sigma consistency, and the run's verdict against JOINT_TOL: `joint_ok` when every
+    estimated parameter (and the gammas) meets its target, `joint_diverged` when any is non-finite or off
+    by more than DIVERGED (the gap: by more than its own value)."""
+    out: Dict[str, Any] = {}
+    ok = all(abs(e) <= JOINT_TOL["gamma"] for e in gamma_final_err)
+    div = any(not np.isfinite(e) or abs(e) > DIVERGED for e in gamma_final_err)
+    for key, series in est.law.items():
+        name = key.split("_", 1)[1]
+        truth, final = law_true[key], float(series[-1])
+        err = final - truth if name == "gap" else final / truth - 1.0
+        var = est.law_var.get(key)
+        out[f"{key}_final"] = final
+        out[f"{key}_final_err"] = err
+        out[f"{key}_consistent_3sigma"] = bool(var is not None and (final - truth) ** 2 <= NEES_3SIGMA * var[-1])
+        ok = ok and bool(abs(err) <= JOINT_TOL[name])
+        div = div or not np.isfinite(err) or abs(err) > (abs(truth) if name == "gap" else DIVERGED)
+    out["joint_ok"] = bool(ok)
+    out["joint_diverged"] = bool(div)
+    return out
+
+
 def run_metrics(t: np.ndarray, gamma_true: Union[float, Sequence[float], np.ndarray], delta: np.ndarray,
-                est: Estimate) -> Dict[str, Any]:
+                est: Estimate, law_true: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
     """Per contact (gamma_true (contacts,), delta (N, contacts), est.gamma (N, contacts); one contact may
     be given as a number and (N,) arrays): final and last-contact-exit gamma error, time to converge within
     5 %, divergence, NEES of gamma against its P_gamma,gamma; over the contacts the `_worst` columns; NIS
@@ -102,6 +128,8 @@ def run_metrics(t: np.ndarray, gamma_true: Union[float, Sequence[float], np.ndar
         "steps_gamma_gated": int(np.count_nonzero(est.flags & fl.GAMMA_GATED)),
         "steps_constraint": int(np.count_nonzero(est.flags & fl.CONSTRAINT_APPLIED)),
     })
+    if est.law:
+        out.update(law_metrics(est, law_true or {}, [m["final_err"] for m in per]))
     return out
 
 

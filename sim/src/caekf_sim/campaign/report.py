@@ -41,6 +41,53 @@ def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Se
     return out
 
 
+JOINT_COLUMNS = ("experiment", "group", "n", "observable", "crb_meets_targets", "joint_ok", "joint_diverged",
+                 "gamma_2pct", "n_2pct", "lambda_10pct", "gap_100nm")
+
+
+def joint_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Sequence[str]) -> List[Dict[str, Any]]:
+    """The whole law's table (runs estimating law parameters; metrics.JOINT_TOL): per experiment and
+    group, the runs the observability tool calls observable and those whose bound allows the targets, and
+    among the latter how many meet every target, diverge, and meet each parameter's. Contact 1's law."""
+    out = []
+    for e in experiments:
+        rs = [r for r in rows if r["experiment"] == e and "joint_ok" in r]
+        if not rs:
+            continue
+        groups: List[tuple] = [("all", np.ones(len(rs), dtype=bool))]
+        for sp in family.splits:
+            vals = np.array([r.get(sp.name, np.nan) for r in rs], dtype=float)
+            idx = sp.index(vals)
+            groups += [(lab, idx == i) for i, lab in enumerate(sp.labels())]
+        col = lambda key, default=False: np.array([r.get(key, default) for r in rs])  # noqa: E731
+        within = lambda key, tol: np.abs(np.nan_to_num(col(key, np.nan).astype(float), nan=np.inf)) <= tol  # noqa: E731
+        sel = col("crb_meets_targets", True).astype(bool)  # without the tool's verdict: every run
+        for label, m in groups:
+            ms = m & sel
+            out.append({
+                "experiment": e, "group": label, "n": int(m.sum()),
+                "observable": int(np.count_nonzero(m & col("observable_all", True).astype(bool))),
+                "crb_meets_targets": int(ms.sum()),
+                "joint_ok": int(np.count_nonzero(ms & col("joint_ok").astype(bool))),
+                "joint_diverged": int(np.count_nonzero(ms & col("joint_diverged").astype(bool))),
+                "gamma_2pct": int(np.count_nonzero(ms & within("final_err", 0.02))),
+                "n_2pct": int(np.count_nonzero(ms & within("contact1_n_final_err", 0.02))),
+                "lambda_10pct": int(np.count_nonzero(ms & within("contact1_lambda_final_err", 0.10))),
+                "gap_100nm": int(np.count_nonzero(ms & within("contact1_gap_final_err", 1e-7))),
+            })
+    return out
+
+
+def format_joint(summary: Sequence[Dict[str, Any]]) -> str:
+    head = ["experiment", "group", "n", "observable", "bound allows targets", "all targets met", "diverged",
+            "gamma 2 %", "n 2 %", "lambda 10 %", "gap 0.1 um"]
+    cells = [head] + [[s["experiment"], s["group"]] + [str(s[k]) for k in JOINT_COLUMNS[2:]] for s in summary]
+    w = [max(len(r[i]) for r in cells) for i in range(len(head))]
+    lines = ["| " + " | ".join(c.ljust(x) for c, x in zip(r, w)) + " |" for r in cells]
+    lines.insert(1, "|" + "|".join("-" * (x + 2) for x in w) + "|")
+    return "\n".join(lines)
+
+
 def format_summary(summary: Sequence[Dict[str, Any]]) -> str:
     head = ["experiment", "group", "n", "within 1 %", "within 5 %", "diverged", "within 3 sigma", "median |err|"]
     cells = [head] + [[s["experiment"], s["group"], str(s["n"]), str(s["within_1pct"]), str(s["within_5pct"]),

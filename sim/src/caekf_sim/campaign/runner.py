@@ -31,6 +31,7 @@ class Task:
     experiments: Tuple[str, ...]
     truth: str = "binding"
     estimator: str = "binding"
+    observability: bool = False  # also the observability tool's verdict on the estimated law parameters
 
 
 @dataclass(frozen=True)
@@ -95,13 +96,36 @@ def truth_arrays(sc: Scenario, backend: str = "binding") -> TruthArrays:
     return TruthArrays(rec[:, 0], u[:, 0] if ni == 1 else u, y, delta[:, 0] if nc == 1 else delta, failed, q, v)
 
 
+def observability_verdict(sc: Scenario, layout: Sequence[Tuple[int, str]]) -> Dict[str, Any]:
+    """What the observability tool (identifiability.py) says of the estimated law parameters and the gammas
+    of their contacts on this run's truth: `observable_all` (the rank test passes for every one),
+    `crb_meets_targets` (3 times the Cramer-Rao bound at the end is within metrics.JOINT_TOL for every one:
+    an efficient, consistent estimator can meet the targets) and each parameter's relative (the gap:
+    absolute) bound."""
+    from .. import identifiability as idf
+    from .metrics import JOINT_TOL
+
+    contacts = sorted({c + 1 for c, _ in layout})
+    names = ["gamma"] + [p for p in ("n", "lambda", "gap") if any(name == p for _, name in layout)]
+    params = idf.law_params(sc, names, contacts)
+    an = idf.analyse_run(sc, params)
+    out: Dict[str, Any] = {"observable_all": bool(np.all(an.observable))}
+    meets = True
+    for p, crb in zip(params, an.crb[-1]):
+        bound = float(crb) if p.name == "gap" else float(crb) / abs(p.value)
+        out[f"crb_contact{p.contact}_{p.name}"] = bound
+        meets = meets and 3.0 * bound <= JOINT_TOL[p.name]
+    out["crb_meets_targets"] = bool(meets and out["observable_all"])
+    return out
+
+
 def run_task(task: Task) -> List[Dict[str, Any]]:
     """All rows of one mechanism: one per experiment."""
     sc = task.run.scenario
     t0 = time.perf_counter()
     tr = truth_arrays(sc, task.truth)
     truth_s = time.perf_counter() - t0
-    from ..mechanism import contact_values
+    from ..mechanism import contact_values, law_layout, scenario_value
 
     nc = int(sc.contacts)
     g_true = contact_values(sc, "gamma", nc)
@@ -114,13 +138,18 @@ def run_task(task: Task) -> List[Dict[str, Any]]:
     base.update({"bodies": int(sc.bodies), "contacts": nc, "sensors": int(sc.sensors),
                  "truth_failed": bool(tr.failed)})
     base.update(truth_stats(tr.delta, nc))
+    layout = law_layout(sc, nc)
+    law_true = {f"contact{c + 1}_{name}": float(scenario_value(sc, f"contact{c + 1}_{name}"))
+                for c, name in layout}
+    if task.observability and layout:
+        base.update(observability_verdict(sc, layout))
     rows = []
     for e in task.experiments:
         t1 = time.perf_counter()
         est = estimate(sc, e, tr.t, tr.u, tr.y, backend=task.estimator)
         row = dict(base)
         row["experiment"] = e
-        row.update(run_metrics(tr.t, g_true, tr.delta, est))
+        row.update(run_metrics(tr.t, g_true, tr.delta, est, law_true))
         row["truth_s"] = truth_s
         row["estimate_s"] = time.perf_counter() - t1
         rows.append(row)
@@ -139,10 +168,10 @@ def _progress(total: int, enabled: bool):
 
 def run_family(family: Family, experiments: Sequence[str], truth: str = "binding", estimator: str = "binding",
                workers: Optional[int] = None, scheduler: Optional[str] = None, client: Any = None,
-               progress: bool = True) -> List[Dict[str, Any]]:
+               progress: bool = True, observability: bool = False) -> List[Dict[str, Any]]:
     """Rows of every (run, experiment), sorted. Local process pool by default (workers: all cores);
     scheduler "tcp://HOST:PORT" or a dask.distributed Client runs the same tasks on Dask."""
-    tasks = [Task(r, tuple(experiments), truth, estimator) for r in family.runs]
+    tasks = [Task(r, tuple(experiments), truth, estimator, observability) for r in family.runs]
     bar = _progress(len(tasks), progress)
     rows: List[Dict[str, Any]] = []
     if client is not None or scheduler is not None:

@@ -29,6 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", default=None, help="run on a Dask distributed cluster, e.g. tcp://HOST:8786")
     p.add_argument("--no-plots", action="store_true", help="no figures (tables only)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--observability", action="store_true",
+                   help="runs estimating law parameters: also ask the observability tool (rank test and "
+                        "Cramer-Rao bound on the truth, ~10 s a run) which runs can meet the whole law's targets")
     p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("family", help="write the scenario files and parameter table of a family spec")
@@ -43,7 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_campaign(args: argparse.Namespace) -> int:
     import pyarrow.parquet as pq
 
-    from ..campaign.report import format_summary, summary_rows, write_plots
+    from ..campaign.report import format_joint, format_summary, joint_rows, summary_rows, write_plots
     from ..campaign.runner import rows_table, run_family
     from ..campaign.spec import load_family
 
@@ -56,7 +59,8 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     try:
         rows = run_family(family, experiments, truth=args.truth, estimator=args.estimator, workers=args.workers,
-                          scheduler=args.scheduler, progress=not args.no_progress)
+                          scheduler=args.scheduler, progress=not args.no_progress,
+                          observability=args.observability)
     except ValueError as exc:  # e.g. a mechanism the truth does not simulate
         print(f"caekf-sim campaign: {exc}", file=sys.stderr)
         return 2
@@ -80,6 +84,13 @@ def cmd_campaign(args: argparse.Namespace) -> int:
         text += ("mechanisms with several contacts count by their worst contact: largest |final error|, "
                  "diverged if any contact diverged, within 3 sigma if every contact is\n")
     text += "\n" + format_summary(summary) + "\n"
+    joint = joint_rows(rows, family, experiments)
+    if joint:
+        pq.write_table(rows_table(joint), out / "joint.parquet")
+        sel = "the runs whose bound allows the targets" if args.observability else \
+            "every run (--observability: only those the tool says can meet them)"
+        text += (f"\nthe whole contact law (contact 1; targets: gamma and n within 2 %, lambda within 10 %, "
+                 f"gap within 0.1 um), counted over {sel}:\n\n" + format_joint(joint) + "\n")
     (out / "summary.txt").write_text(text, encoding="utf-8")
     print(text, end="")
     if not args.no_plots and rows:
