@@ -373,6 +373,109 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
     return 0;
 }
 
+/* The Gaussian second-order filter's term for contact c's force, for laws that are nonlinear in their
+ * parameter states (ln gamma, n, lambda, gap): the force's second-order part in the parameters' error,
+ * 1/2 dtheta^T H dtheta with H its Hessian, has the variance 1/2 tr(H P H P) over the parameters'
+ * covariance P. The EKF's first-order F ignores it, which makes the first impacts, while the law is still
+ * uncertain, move the parameters far too confidently. It enters the step as process noise on the
+ * velocities the force acts on (dv = -hs/m df). Nothing while the contact is open or the law is linear
+ * in its states (gamma alone). */
+CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
+{
+    const caekf_model_t *m = &est->model;
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), a = m->contact_i[c], b = m->contact_j[c];
+    const caekf_scalar_t *s = est->scale, s_v = s[nq];
+    /* x_k- in the states' units (x_pred holds it scaled by now), in scratch: free between the
+     * prediction's Newton solve and the correction */
+    caekf_scalar_t *const x = est->scratch.m;
+    caekf_scalar_t H[4][4], P[4][4], HP[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
+    int idx[4], kind[4], k = 0, i, j, l;
+    caekf_contact_t ct;
+    for (i = 0; i < n; ++i) {
+        x[i] = est->x_pred[i] * s[i];
+    }
+    caekf_model_contact(m, c, x, &ct);
+    if (!(ct.delta > 0) || !(ct.fc > 0)) {
+        return;
+    }
+    d = ct.delta;
+    f = ct.fc;
+    gamma = m->p.gamma_log ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
+    nn = m->p.contact_n[c];
+    lambda = m->p.contact_lambda[c];
+    idx[k] = 2 * nq + c;
+    kind[k++] = -1;
+#if CAEKF_HAS_LAW_PARAMS
+    for (i = 0; i < CAEKF_LAW_COUNT; ++i) {
+        const int g = m->law_state[c][i];
+        if (g != 0) {
+            idx[k] = g;
+            kind[k++] = i;
+            if (i == CAEKF_LAW_N) {
+                nn = x[g];
+            } else if (i == CAEKF_LAW_LAMBDA) {
+                lambda = x[g];
+            }
+        }
+    }
+#endif
+    if (k == 1 && !m->p.gamma_log) {
+        return; /* gamma alone: the law is linear in it */
+    }
+    r = (a >= 0 ? x[nq + a] : 0) - (b >= 0 ? x[nq + b] : 0);
+    L = CAEKF_LOG(d);
+    fl = f / (1 + lambda * r) * r;       /* df/dlambda = gamma delta^n r */
+    kg = m->p.gamma_log ? 1 : 1 / gamma; /* df/dtheta = kg f for theta = ln gamma or gamma */
+    for (i = 0; i < k; ++i) {
+        for (j = i; j < k; ++j) {
+            /* second derivatives of f = gamma delta^n (1 + lambda r), delta = q_a - q_b - gap */
+            const int p = kind[i] < kind[j] ? kind[i] : kind[j], q = kind[i] < kind[j] ? kind[j] : kind[i];
+            caekf_scalar_t h = 0;
+            if (p == -1 && q == -1) {
+                h = m->p.gamma_log ? f : 0;
+            } else if (p == -1) {
+                h = kg * (q == CAEKF_LAW_N ? f * L : q == CAEKF_LAW_LAMBDA ? fl : -nn * f / d);
+            } else if (p == CAEKF_LAW_N) {
+                h = q == CAEKF_LAW_N ? f * L * L : q == CAEKF_LAW_LAMBDA ? fl * L : -(nn * f * L + f) / d;
+            } else if (p == CAEKF_LAW_LAMBDA) {
+                h = q == CAEKF_LAW_LAMBDA ? 0 : -nn * fl / d;
+            } else {
+                h = nn * (nn - 1) * f / (d * d);
+            }
+            H[i][j] = H[j][i] = h;
+            /* the parameters' predicted covariance (P_work's upper triangle), physical units */
+            P[i][j] = P[j][i] =
+                est->P_work[(idx[i] < idx[j] ? idx[i] * n + idx[j] : idx[j] * n + idx[i])] * s[idx[i]] * s[idx[j]];
+        }
+    }
+    for (i = 0; i < k; ++i) {
+        for (j = 0; j < k; ++j) {
+            caekf_scalar_t acc = 0;
+            for (l = 0; l < k; ++l) {
+                acc += H[i][l] * P[l][j];
+            }
+            HP[i][j] = acc;
+        }
+    }
+    for (i = 0; i < k; ++i) {
+        for (j = 0; j < k; ++j) {
+            var += HP[i][j] * HP[j][i];
+        }
+    }
+    var = var / 2 / (s_v * s_v); /* scaled velocity units */
+    {
+        const int e[2] = {a, b};
+        const caekf_scalar_t w[2] = {a >= 0 ? -1 / m->m_dt[a] : 0, b >= 0 ? 1 / m->m_dt[b] : 0};
+        for (i = 0; i < 2; ++i) {
+            for (j = 0; j < 2; ++j) {
+                if (e[i] >= 0 && e[j] >= 0 && e[i] <= e[j]) {
+                    est->P_work[(nq + e[i]) * n + nq + e[j]] += var * w[i] * w[j];
+                }
+            }
+        }
+    }
+}
+
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
  * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
  * caller error. */
@@ -480,6 +583,10 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
+    } else if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || est->model.p.gamma_log)) {
+        for (i = 0; i < nc; ++i) {
+            add_second_order_noise(est, i);
+        }
     }
 
     if (y != 0) {

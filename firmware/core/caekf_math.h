@@ -31,6 +31,13 @@
 #define CAEKF_HOT_INLINE static inline
 #endif
 
+/* Keeps a function out of line: its frame then adds to the stack only while it runs. */
+#if defined(__GNUC__)
+#define CAEKF_NOINLINE __attribute__((noinline))
+#else
+#define CAEKF_NOINLINE
+#endif
+
 /* isfinite() is type-generic in C99. */
 #define CAEKF_ISFINITE(x) (isfinite(x) != 0)
 

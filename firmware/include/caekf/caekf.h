@@ -113,6 +113,10 @@ typedef struct {
      * an impact lasting a few samples is then resolved. 1: one step of dt always. */
     int contact_substeps;
 
+    /* The Gaussian second-order term of a closed contact's force as process noise on the velocities
+     * (docs/contact-law.md): only for laws nonlinear in their states (gamma_log, estimated n, lambda, gap). */
+    int law_second_order;
+
     int newton_max_iter;        /* 1..CAEKF_NEWTON_MAX_ITER */
     caekf_scalar_t newton_rtol; /* residual tolerance relative to the size of the equation's terms */
 } caekf_settings_t;

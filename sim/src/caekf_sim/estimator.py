@@ -79,6 +79,9 @@ class EstimatorConfig:
     contact_substeps: int = 1
     # The setting `gamma_log`: the gamma states hold ln gamma (P0 and Q relative to gamma0, bounds in ln).
     gamma_log: bool = False
+    # The setting `law_second_order`: the Gaussian second-order term of a closed contact's force as process
+    # noise on its bodies' velocities, for laws nonlinear in their states (ln gamma, n, lambda, gap).
+    law_second_order: bool = True
 
     def __post_init__(self) -> None:
         if isinstance(self.contact_substeps, bool) or not isinstance(self.contact_substeps, int) \
@@ -355,6 +358,46 @@ class AugmentedEKF:
             xa = np.r_[q, v, gammas]
         return xa, F, iters, ok
 
+    def _second_order_noise(self, xp: np.ndarray, Pm: np.ndarray) -> np.ndarray:
+        """Pm plus, for every closed contact, the variance of its force's second-order part in the parameter
+        states' error, 1/2 tr(H P H P) (H: the force's Hessian in [gamma or ln gamma, n, lambda, gap] as
+        estimated; P: their block of Pm), as noise on the velocities it acts on, dv = -hs/m df."""
+        nq, nx = self.nq, self.nx
+        params = xp[nx:]
+        gam = self.gammas_of(params)
+        hs = self.solver.hs
+        out = Pm.copy()
+        q, v = xp[:nq], xp[nq:nx]
+        for c, (a, b, gap, n, lam) in enumerate(self.laws(params)):
+            d = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+            r = (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+            f = law_derivatives(d, r, float(gam[c]), n, lam)[0]
+            if not (d > 0.0 and f > 0.0):
+                continue
+            g = float(gam[c])
+            L = math.log(d)
+            fl_ = g * d**n * r  # df/dlambda
+            kg = 1.0 if self.cfg.gamma_log else 1.0 / g  # df/dtheta = kg f
+            st = self.law_state[c]
+            names = ["gamma"] + [k for k in ("n", "lambda", "gap") if k in st]
+            idx = [self.ig[c]] + [st[k] for k in names[1:]]
+            second = {
+                ("gamma", "gamma"): f if self.cfg.gamma_log else 0.0, ("gamma", "n"): kg * f * L,
+                ("gamma", "lambda"): kg * fl_, ("gamma", "gap"): -kg * n * f / d,
+                ("n", "n"): f * L * L, ("n", "lambda"): fl_ * L, ("n", "gap"): -(n * f * L + f) / d,
+                ("lambda", "lambda"): 0.0, ("lambda", "gap"): -n * fl_ / d, ("gap", "gap"): n * (n - 1.0) * f / d**2,
+            }
+            H = np.array([[second.get((p1, p2), second.get((p2, p1), 0.0)) for p2 in names] for p1 in names])
+            HP = H @ Pm[np.ix_(idx, idx)]
+            var = 0.5 * float(np.trace(HP @ HP))
+            w = np.zeros(nq)
+            if a >= 0:
+                w[a] = -hs / self.plant.m[a]
+            if b >= 0:
+                w[b] = hs / self.plant.m[b]
+            out[nq:nx, nq:nx] += var * np.outer(w, w)
+        return out
+
     # ---- correction -------------------------------------------------------------------
     def _index(self, live: Sequence[int]) -> Index:
         """The live block: the physical states plus the live contacts' parameter states (a slice when
@@ -485,6 +528,8 @@ class AugmentedEKF:
                     Pm[L, g] = col
                     Pm[g, L] = col
             # Q_gamma = 0 (eq. 21): the frozen P_gg and gamma stay as they are.
+        if predict and cfg.law_second_order and (self.law or cfg.gamma_log):
+            Pm = self._second_order_noise(xp, Pm)
         if live and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
             status |= fl.GAMMA_GATED  # every live gamma held this step, as a consider state
             x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True)

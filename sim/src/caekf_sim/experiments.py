@@ -36,13 +36,13 @@ DEFAULT = "default"  # no preset: the scenario's own settings (scenario_config)
 def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig:
     """The configuration the C tools run: the scenario's estimator settings (mode, switchoff, cov_update,
     q_gamma_scale, constraint_enabled, gamma_gate_nis (0: off), newton_max_iter, discretisation,
-    contact_substeps, gamma_log) with preset
+    contact_substeps, gamma_log, law_second_order) with preset
     `name`'s values over them (None or "default": no preset); for the cross-check of caekf-replay and the
     binding on any mechanism."""
     values = {s.name: float(getattr(sc, s.keys[0])) for s in schema.SCHEMA.settings
               if s.name in ("mode", "switchoff", "cov_update", "q_gamma_scale", "constraint_enabled",
                             "gamma_gate_nis", "newton_max_iter", "discretisation", "contact_substeps",
-                            "gamma_log")}
+                            "gamma_log", "law_second_order")}
     if name == DEFAULT:
         name = None
     if name is not None:
@@ -58,7 +58,7 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
                            constrained=bool(values["constraint_enabled"]), joseph=enum("cov_update") == "joseph",
                            newton_max_iter=int(values["newton_max_iter"]), gate_nis=gate if gate > 0 else math.inf,
                            discretisation=enum("discretisation"), contact_substeps=int(values["contact_substeps"]),
-                           gamma_log=bool(values["gamma_log"]))
+                           gamma_log=bool(values["gamma_log"]), law_second_order=bool(values["law_second_order"]))
 
 
 def experiment_config(name: str, **overrides) -> EstimatorConfig:
