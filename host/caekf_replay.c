@@ -19,12 +19,14 @@ typedef struct {
     double gamma_last[CAEKF_MAX_CONTACTS];
 } summary_t;
 
-/* The output header: t, q1.., v1.., gamma (contact 1), gamma2.., p_norm, p_gg, p_gg2.., flags,
- * newton_iters, nis. */
-static void write_header(FILE *f, int nq, int nc)
+/* The output header: t, q1.., v1.., gamma (contact 1), gamma2.., the estimated law parameters (n, lambda,
+ * gap of contact 1, then n2, ..., in the state's order), p_norm, p_gg, p_gg2.., flags, newton_iters, nis. */
+static void write_header(FILE *f, const caekf_model_t *m)
 {
+    static const char *const law_names[CAEKF_LAW_COUNT] = {"n", "lambda", "gap"};
     char name[CAEKF_CSV_NAME_LEN];
-    int i;
+    const int nq = m->nq, nc = m->nc;
+    int i, k;
     fputs("t", f);
     for (i = 0; i < 2 * nq; ++i) {
         fprintf(f, ",%c%d", i < nq ? 'q' : 'v', i % nq + 1);
@@ -32,6 +34,14 @@ static void write_header(FILE *f, int nq, int nc)
     for (i = 0; i < nc; ++i) {
         caekf_csv_series_name(name, "gamma", i, nc, 1);
         fprintf(f, ",%s", name);
+    }
+    for (i = 0; i < nc; ++i) {
+        for (k = 0; k < CAEKF_LAW_COUNT; ++k) {
+            if (m->law_state[i][k] != 0) {
+                caekf_csv_series_name(name, law_names[k], i, nc, 1);
+                fprintf(f, ",%s", name);
+            }
+        }
     }
     fputs(",p_norm", f);
     for (i = 0; i < nc; ++i) {
@@ -58,7 +68,8 @@ static void usage(FILE *f)
         "Writes t,q1..q<bodies>,v1..v<bodies>, gamma\n"
         "(contact 1) and gamma2.. (further contacts), p_norm, p_gg (contact 1) and p_gg2.., flags,\n"
         "newton_iters, nis (stdout by default; the paper:\n"
-        "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis).\n"
+        "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis). Estimated law parameters\n"
+        "(contact{i}_estimate_n/lambda/gap) follow the gammas as n, lambda, gap (n2, ... for contact 2).\n"
         "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
         "preset named by --experiment, then the explicit flags. Presets:\n"
         "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
@@ -230,7 +241,7 @@ int main(int argc, char **argv)
     sum.gamma_min_seen = INFINITY;
     ig = 2 * est.model.nq;
     nc = est.model.nc;
-    write_header(fout, est.model.nq, nc);
+    write_header(fout, &est.model);
     for (k = 0; k < n; ++k) {
         const caekf_meas_t *m = &rows[k];
         caekf_scalar_t u[CAEKF_MAX_INPUTS + 1], y[CAEKF_MAX_SENSORS], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn = 0;

@@ -87,3 +87,35 @@ def test_log_gamma_without_law_states_equals_numpy(damped):
     ref = run_estimator(est, scenario_config(est), tr.t, tr.u, tr.y, keep_P=False)
     assert np.max(np.abs(c.gamma - ref.gamma)) <= 1e-8 * np.max(ref.gamma)
     assert np.all(c.gamma > 0)
+
+
+def test_replay_writes_the_law_columns(damped, tmp_path):
+    """caekf-replay names the estimated law parameters after the gammas, and its values are the binding's."""
+    import os
+    import subprocess
+
+    from caekf_sim.campaign.spec import scenario_text
+    from caekf_sim.truth import Truth, read_truth_csv, write_truth_csv
+    from test_c_tools import find_tool
+
+    tool = find_tool("caekf-replay")
+    if tool is None:
+        if os.environ.get("CAEKF_BUILD_DIR"):
+            pytest.fail("caekf-replay not found under $CAEKF_BUILD_DIR/host")
+        pytest.skip("caekf-replay not built")
+    sc, tr = damped
+    est = sc.replace(contact1_estimate_n=1, contact1_n0=1.4, contact1_sigma_n0=0.05,
+                     contact1_estimate_gap=1, contact1_gap0=1.0001e-3, contact1_sigma_gap0=2e-7)
+    scen, meas, out = tmp_path / "s.toml", tmp_path / "in.csv", tmp_path / "out.csv"
+    scen.write_text(scenario_text(est), encoding="utf-8")
+    write_truth_csv(Truth(t=tr.t, u=tr.u, y=tr.y, q=tr.q, v=tr.v, delta=tr.delta), meas)
+    subprocess.run([str(tool), "--scenario", str(scen), "--in", str(meas), "--out", str(out)], check=True,
+                   timeout=120)
+    header = out.read_text(encoding="utf-8").splitlines()[0].split(",")
+    assert header[9:12] == ["gamma", "n", "gap"] and header[12] == "p_norm"
+    rows = np.loadtxt(out, delimiter=",", skiprows=1)
+    back = read_truth_csv(meas)  # the measurements as the replay read them
+    c = binding.run(est, back.u, back.y, t=back.t)
+    assert rows.shape[1] == len(header)
+    assert np.array_equal(rows[:, 10], c.x[:, 9]) and np.array_equal(rows[:, 11], c.x[:, 10])
+    assert rows[-1, 10] != 1.4 and rows[-1, 11] != 1.0001e-3  # both moved in contact
