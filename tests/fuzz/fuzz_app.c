@@ -161,6 +161,22 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     if (IN(CAEKF_PARAM_SIGMA_GAMMA0, CAEKF_MAX_CONTACTS)) return &s->sigma_gamma0[id - CAEKF_PARAM_SIGMA_GAMMA0];
     if (IN(CAEKF_PARAM_SIGMA_Q_GAMMA, CAEKF_MAX_CONTACTS)) return &s->sigma_q_gamma[id - CAEKF_PARAM_SIGMA_Q_GAMMA];
     if (IN(CAEKF_PARAM_GAMMA_MIN, CAEKF_MAX_CONTACTS)) return &s->gamma_min[id - CAEKF_PARAM_GAMMA_MIN];
+    if (IN(CAEKF_PARAM_GAMMA_MAX, CAEKF_MAX_CONTACTS)) return &s->gamma_max[id - CAEKF_PARAM_GAMMA_MAX];
+    if (IN(CAEKF_PARAM_N0, CAEKF_MAX_CONTACTS)) return &s->n0[id - CAEKF_PARAM_N0];
+    if (IN(CAEKF_PARAM_LAMBDA0, CAEKF_MAX_CONTACTS)) return &s->lambda0[id - CAEKF_PARAM_LAMBDA0];
+    if (IN(CAEKF_PARAM_GAP0, CAEKF_MAX_CONTACTS)) return &s->gap0[id - CAEKF_PARAM_GAP0];
+    if (IN(CAEKF_PARAM_SIGMA_N0, CAEKF_MAX_CONTACTS)) return &s->sigma_n0[id - CAEKF_PARAM_SIGMA_N0];
+    if (IN(CAEKF_PARAM_SIGMA_LAMBDA0, CAEKF_MAX_CONTACTS)) return &s->sigma_lambda0[id - CAEKF_PARAM_SIGMA_LAMBDA0];
+    if (IN(CAEKF_PARAM_SIGMA_GAP0, CAEKF_MAX_CONTACTS)) return &s->sigma_gap0[id - CAEKF_PARAM_SIGMA_GAP0];
+    if (IN(CAEKF_PARAM_SIGMA_Q_N, CAEKF_MAX_CONTACTS)) return &s->sigma_q_n[id - CAEKF_PARAM_SIGMA_Q_N];
+    if (IN(CAEKF_PARAM_SIGMA_Q_LAMBDA, CAEKF_MAX_CONTACTS)) return &s->sigma_q_lambda[id - CAEKF_PARAM_SIGMA_Q_LAMBDA];
+    if (IN(CAEKF_PARAM_SIGMA_Q_GAP, CAEKF_MAX_CONTACTS)) return &s->sigma_q_gap[id - CAEKF_PARAM_SIGMA_Q_GAP];
+    if (IN(CAEKF_PARAM_N_MIN, CAEKF_MAX_CONTACTS)) return &s->n_min[id - CAEKF_PARAM_N_MIN];
+    if (IN(CAEKF_PARAM_N_MAX, CAEKF_MAX_CONTACTS)) return &s->n_max[id - CAEKF_PARAM_N_MAX];
+    if (IN(CAEKF_PARAM_LAMBDA_MIN, CAEKF_MAX_CONTACTS)) return &s->lambda_min[id - CAEKF_PARAM_LAMBDA_MIN];
+    if (IN(CAEKF_PARAM_LAMBDA_MAX, CAEKF_MAX_CONTACTS)) return &s->lambda_max[id - CAEKF_PARAM_LAMBDA_MAX];
+    if (IN(CAEKF_PARAM_GAP_MIN, CAEKF_MAX_CONTACTS)) return &s->gap_min[id - CAEKF_PARAM_GAP_MIN];
+    if (IN(CAEKF_PARAM_GAP_MAX, CAEKF_MAX_CONTACTS)) return &s->gap_max[id - CAEKF_PARAM_GAP_MAX];
     switch (id) {
     case CAEKF_PARAM_DT: return &m->dt;
     case CAEKF_PARAM_SIGMA_Q0: return &s->sigma_q0;
@@ -187,6 +203,11 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     if (IN(CAEKF_PARAM_SENSOR_KIND, CAEKF_MAX_SENSORS)) return &m->sensor_kind[id - CAEKF_PARAM_SENSOR_KIND];
     if (IN(CAEKF_PARAM_CONTACT_A, CAEKF_MAX_CONTACTS)) return &m->contact_a[id - CAEKF_PARAM_CONTACT_A];
     if (IN(CAEKF_PARAM_CONTACT_B, CAEKF_MAX_CONTACTS)) return &m->contact_b[id - CAEKF_PARAM_CONTACT_B];
+    if (IN(CAEKF_PARAM_ESTIMATE_N, CAEKF_MAX_CONTACTS)) return &m->contact_estimate_n[id - CAEKF_PARAM_ESTIMATE_N];
+    if (IN(CAEKF_PARAM_ESTIMATE_LAMBDA, CAEKF_MAX_CONTACTS))
+        return &m->contact_estimate_lambda[id - CAEKF_PARAM_ESTIMATE_LAMBDA];
+    if (IN(CAEKF_PARAM_ESTIMATE_GAP, CAEKF_MAX_CONTACTS))
+        return &m->contact_estimate_gap[id - CAEKF_PARAM_ESTIMATE_GAP];
     switch (id) {
     case CAEKF_PARAM_BODIES: return &m->bodies;
     case CAEKF_PARAM_SPRINGS: return &m->springs;
@@ -202,6 +223,8 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_PSD_CHECK_PERIOD: return &s->psd_check_period;
     case CAEKF_PARAM_DISCRETISATION: return &m->discretisation;
     case CAEKF_PARAM_CONTACT_SUBSTEPS: return &s->contact_substeps;
+    case CAEKF_PARAM_GAMMA_LOG: return &m->gamma_log;
+    case CAEKF_PARAM_LAW_SECOND_ORDER: return &s->law_second_order;
     default: return NULL;
     }
 }
