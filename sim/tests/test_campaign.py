@@ -338,3 +338,50 @@ def test_structure_spec_errors_are_one_line(tmp_path):
         with pytest.raises(ValueError) as exc:
             load_spec(bad, runs=2)
         assert what in str(exc.value) and "\n" not in str(exc.value)
+
+
+JOINT = Path(__file__).resolve().parents[1] / "families" / "joint.toml"
+
+
+def test_joint_metrics_follow_the_targets():
+    """The whole law's verdict: every estimated parameter within its target (gap in metres), else not."""
+    from caekf_sim.campaign.metrics import JOINT_TOL, law_metrics
+
+    n = 5
+    truth = {"contact1_n": 1.5, "contact1_lambda": 200.0, "contact1_gap": 1e-3}
+
+    def est(n_f, lam_f, gap_f):
+        law = {"contact1_n": np.full(n, n_f), "contact1_lambda": np.full(n, lam_f), "contact1_gap": np.full(n, gap_f)}
+        return Estimate(gamma=np.ones(n), p_gg=np.ones(n), nis=np.zeros(n), flags=np.zeros(n, dtype=np.int64),
+                        law=law, law_var={k: np.full(n, 1e-30) for k in law})
+
+    ok = law_metrics(est(1.5 * 1.019, 200 * 0.91, 1e-3 + 0.9e-7), truth, [0.019])
+    assert ok["joint_ok"] and not ok["joint_diverged"]
+    assert ok["contact1_gap_final_err"] == pytest.approx(0.9e-7) and ok["contact1_n_final_err"] == pytest.approx(0.019)
+    for args, g in (((1.5 * 1.021, 200, 1e-3), 0.0), ((1.5, 200 * 1.11, 1e-3), 0.0), ((1.5, 200, 1e-3 + 1.1e-7), 0.0),
+                    ((1.5, 200, 1e-3), JOINT_TOL["gamma"] * 1.01)):
+        assert not law_metrics(est(*args), truth, [g])["joint_ok"]
+    assert law_metrics(est(float("nan"), 200, 1e-3), truth, [0.0])["joint_diverged"]
+    assert law_metrics(est(1.5, 200, 2.5e-3), truth, [0.0])["joint_diverged"]  # the gap off by more than itself
+
+
+def test_joint_campaign_prints_the_whole_law_table(tmp_path, capsys):
+    """Two short runs of the joint family with the observability tool: the table and the columns."""
+    import pyarrow.parquet as pq
+
+    from caekf_sim.cli import main
+
+    out = tmp_path / "camp"
+    rc = main(["campaign", str(JOINT), "--runs", "2", "--t-end", "14", "--experiment", "default", "--workers",
+               "1", "--observability", "--no-plots", "--no-progress", "--out", str(out)])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "the whole contact law" in text and "bound allows targets" in text
+    rows = pq.read_table(out / "runs.parquet").to_pylist()
+    assert len(rows) == 2
+    for r in rows:
+        assert {"joint_ok", "joint_diverged", "observable_all", "crb_meets_targets", "crb_contact1_n",
+                "contact1_n_final_err", "contact1_lambda_final_err", "contact1_gap_final_err"} <= set(r)
+        assert math.isfinite(r["contact1_gap_final_err"])
+    joint = pq.read_table(out / "joint.parquet").to_pylist()
+    assert joint[0]["group"] == "all" and joint[0]["n"] == 2
