@@ -119,3 +119,18 @@ def test_replay_writes_the_law_columns(damped, tmp_path):
     assert rows.shape[1] == len(header)
     assert np.array_equal(rows[:, 10], c.x[:, 9]) and np.array_equal(rows[:, 11], c.x[:, 10])
     assert rows[-1, 10] != 1.4 and rows[-1, 11] != 1.0001e-3  # both moved in contact
+
+
+def test_numpy_result_csv_names_the_law_columns(damped, tmp_path):
+    from caekf_sim.results import read_result_csv, write_result_csv
+
+    sc, tr = damped
+    est = sc.replace(**LAW)
+    k = 200
+    ref = run_estimator(est, scenario_config(est), tr.t[:k], tr.u[:k], tr.y[:k], keep_P=False)
+    out = tmp_path / "est.csv"
+    write_result_csv(ref, out)
+    header = out.read_text(encoding="utf-8").splitlines()[0].split(",")
+    assert header[9:13] == ["gamma", "n", "lambda", "gap"] and len(header) == 2 + 12 + 3
+    back = read_result_csv(out)
+    assert np.array_equal(back.gamma, ref.gamma) and back.x.shape == (k, 9)

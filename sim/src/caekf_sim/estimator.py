@@ -45,7 +45,8 @@ from typing import Any, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .mechanism import Mechanism, body_values, contact_values, law_derivatives, law_layout, scenario_value
+from .mechanism import (Mechanism, body_values, contact_values, law_column_names, law_derivatives, law_layout,
+                        scenario_value)
 from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_inputs
 from .scenario import Scenario
 
@@ -577,6 +578,7 @@ class EstimateResult:
     n_contacts: int = 1
     p_ggs: Optional[np.ndarray] = None  # (N, nc): P^+ of every gamma_c
     n_law: int = 0  # estimated law parameters: the last n_law states
+    law_names: Tuple[str, ...] = ()  # their CSV columns (mechanism.law_column_names)
 
     @property
     def gammas(self) -> np.ndarray:
@@ -649,4 +651,5 @@ def run_estimator(
         n_contacts=ekf.nc,
         p_ggs=Ps[:, ekf.ig, ekf.ig].copy(),
         n_law=len(ekf.law),
+        law_names=law_column_names(ekf.law),
     )

@@ -192,6 +192,12 @@ def law_layout(sc: Any, nc: int) -> Tuple[Tuple[int, str], ...]:
                  if int(float(scenario_value(sc, f"contact{c + 1}_estimate_{p}"))))
 
 
+def law_column_names(layout: Sequence[Tuple[int, str]]) -> Tuple[str, ...]:
+    """CSV column names of estimated law parameters, as caekf-replay writes them: `n`, `lambda`, `gap` for
+    contact 1, `n2`, ... for contact 2."""
+    return tuple(name if c == 0 else f"{name}{c + 1}" for c, name in layout)
+
+
 def contact_forces(delta: np.ndarray, ddelta: np.ndarray, gamma: "np.ndarray | float", n: "np.ndarray | float",
                    lam: "np.ndarray | float") -> np.ndarray:
     """Vectorised contact force f (broadcast over any shape; the law of `contact_law`)."""

@@ -1,7 +1,8 @@
 """Estimate CSV (same columns as the C `caekf-replay` output) and its reader.
 
 A general mechanism (nq bodies, nc contacts) writes q1..q<nq>, v1..v<nq>, then `gamma` (contact 1) and
-gamma2..gamma<nc>, as caekf-replay does; the paper's columns are RESULT_COLUMNS."""
+gamma2..gamma<nc>, then the estimated law parameters (n, lambda, gap; n2.. for contact 2), as caekf-replay
+does; the paper's columns are RESULT_COLUMNS. The reader keeps q, v and the gammas."""
 from __future__ import annotations
 
 import warnings
@@ -20,9 +21,10 @@ RESULT_COLUMNS = (
 PathLike = Union[str, Path]
 
 
-def result_columns(nq: int, nc: int) -> Tuple[str, ...]:
+def result_columns(nq: int, nc: int, law: Tuple[str, ...] = ()) -> Tuple[str, ...]:
+    """The columns for nq bodies, nc contacts and the estimated law parameters' names (n, lambda, gap, n2..)."""
     gammas = ["gamma"][:nc] + [f"gamma{i}" for i in range(2, nc + 1)]
-    return ("t", *[f"q{i}" for i in range(1, nq + 1)], *[f"v{i}" for i in range(1, nq + 1)], *gammas,
+    return ("t", *[f"q{i}" for i in range(1, nq + 1)], *[f"v{i}" for i in range(1, nq + 1)], *gammas, *law,
             "p_norm", "p_gg", "flags", "newton_iters")
 
 
@@ -30,7 +32,7 @@ def write_result_csv(res: EstimateResult, path: PathLike) -> None:
     """%.17g for the floats so a reader gets the bits back; flags and iterations as integers."""
     with open(path, "w", encoding="utf-8") as f:
         nc = res.n_contacts
-        f.write(",".join(result_columns((res.x.shape[1] - nc) // 2, nc)) + "\n")
+        f.write(",".join(result_columns((res.x.shape[1] - nc - res.n_law) // 2, nc, res.law_names)) + "\n")
         floats = np.column_stack([res.t, res.x, res.p_norm, res.p_gg])
         for row, flag, it in zip(floats, res.flags, res.newton_iters):
             f.write(",".join("%.17g" % v for v in row) + f",{int(flag)},{int(it)}\n")
