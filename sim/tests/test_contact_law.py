@@ -134,3 +134,13 @@ def test_numpy_result_csv_names_the_law_columns(damped, tmp_path):
     assert header[9:13] == ["gamma", "n", "lambda", "gap"] and len(header) == 2 + 12 + 3
     back = read_result_csv(out)
     assert np.array_equal(back.gamma, ref.gamma) and back.x.shape == (k, 9)
+
+
+def test_binding_names_the_law_states(damped):
+    sc, tr = damped
+    est = sc.replace(**LAW)
+    r = binding.run(est, tr.u[:100], tr.y[:100], t=tr.t[:100])
+    assert r.gammas.shape == (100, 1) and set(r.law) == {"n", "lambda", "gap"}
+    assert np.array_equal(r.law["gap"], r.x[:, 11])
+    e = binding.Estimator(est)
+    assert e.gammas.shape == (1,) and e.law == {"n": 1.4, "lambda": 100.0, "gap": 1.0001e-3}

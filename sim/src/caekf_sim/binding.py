@@ -139,6 +139,16 @@ def _gamma_index(settings: Settings) -> int:
     return 2 * int(settings.bodies)
 
 
+def _law_columns(settings: Settings, x: np.ndarray) -> Dict[str, np.ndarray]:
+    """The law states of x (last axis) by column name: they follow the 2 bodies + contacts states."""
+    from .mechanism import law_column_names, law_layout
+
+    nc = int(settings.contacts)
+    first = 2 * int(settings.bodies) + nc
+    names = law_column_names(law_layout(settings, nc))
+    return {name: x[..., first + i] for i, name in enumerate(names)}
+
+
 def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: Optional[str],
               overrides: Dict[str, Any]) -> Settings:
     if isinstance(what, Settings):
@@ -199,7 +209,13 @@ class RunResult:
     @property
     def gammas(self) -> np.ndarray:
         """Stiffness estimates of every contact [N/m^n_c] (steps, contacts)."""
-        return self.x[:, self.gamma_index:]
+        return self.x[:, self.gamma_index:self.gamma_index + int(self.settings.contacts)]
+
+    @property
+    def law(self) -> Dict[str, np.ndarray]:
+        """The estimated law parameters (docs/contact-law.md) by caekf-replay's column name (n, lambda,
+        gap; n2.. for contact 2): (steps,) each, after the gammas in x."""
+        return _law_columns(self.settings, self.x)
 
     @property
     def p_gg(self) -> Optional[np.ndarray]:
@@ -306,7 +322,12 @@ class Estimator:
     @property
     def gammas(self) -> np.ndarray:
         """Stiffness estimates of every contact [N/m^n_c] (contacts,)."""
-        return self.x[self.gamma_index:]
+        return self.x[self.gamma_index:self.gamma_index + self._c.contacts]
+
+    @property
+    def law(self) -> Dict[str, float]:
+        """The estimated law parameters by column name (n, lambda, gap; n2.. for contact 2)."""
+        return {k: float(v) for k, v in _law_columns(self.settings, self.x).items()}
 
     @property
     def P(self) -> np.ndarray:
