@@ -63,6 +63,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     }
     est->cfg = *s;
     (void)caekf_model_init(&est->model, mp);
+#if CAEKF_HAS_SUBSTEPS
     if (s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
         caekf_model_params_t sub = *mp;
         sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
@@ -70,6 +71,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     } else {
         est->sub_model = est->model;
     }
+#endif
     nq = est->model.nq;
     nc = est->model.nc;
     n = est->model.n;
@@ -152,13 +154,14 @@ static int all_finite(const caekf_scalar_t *v, int n)
     return nf == 0;
 }
 
+#if CAEKF_HAS_SUBSTEPS
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
  * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows); F's gamma rows
  * stay identity rows. Returns 0, 1 when a Newton solve did not converge, -1 on a singular matrix. */
 static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u, int *iters)
 {
     const caekf_model_t *m = &est->sub_model;
-    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = est->cfg.contact_substeps;
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
     const caekf_scalar_t hs = m->hs, c2 = m->p.dt - m->hs;
     /* P_work is free until the covariance prediction: it holds each substep's start and inputs, off the
      * stack (the substeps' Newton solve is the deepest call of a step) */
@@ -214,6 +217,14 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
     }
     return result;
 }
+#endif
+
+/* The product's q-rows after substeps (NULL: F's q-rows follow from its v-rows). */
+#if CAEKF_HAS_SUBSTEPS
+#define SUBSTEP_FQ(est, substepped) ((substepped) ? (est)->fq : 0)
+#else
+#define SUBSTEP_FQ(est, substepped) ((void)(substepped), (caekf_scalar_t(*)[CAEKF_N])0)
+#endif
 
 /* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step; after
  * substeps their product, in fq and fv) and P- = F P F^T + Q into P_work (upper triangle);
@@ -224,6 +235,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
     caekf_scalar_t *z = est->x_pred;
     int i;
+#if CAEKF_HAS_SUBSTEPS
     if (substepped) { /* scaled: S^-1 F S */
         est->fv_const = 0;
         for (i = 0; i < nq; ++i) {
@@ -234,7 +246,9 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
             }
         }
         caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
-    } else if (closed) {
+    } else
+#endif
+        if (closed) {
         est->fv_const = 0;
         if (caekf_model_transition_v(&est->model, est->x_pred, est->x_prev, est->fv) != 0) {
             return -1;
@@ -252,7 +266,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
     }
     /* From here on P_work holds the upper triangle only; the commit mirrors it. */
     caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.hs * s_v / s_q,
-                             (est->model.p.dt - est->model.hs) * s_v / s_q, substepped ? est->fq : 0, est->q_diag,
+                             (est->model.p.dt - est->model.hs) * s_v / s_q, SUBSTEP_FQ(est, substepped), est->q_diag,
                              &est->dims);
     return 0;
 }
@@ -317,14 +331,16 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
     } else {
         const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
+        const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
         int closed_before, r = 0;
-        closed_prev = (est->cfg.contact_substeps > 1 || est->model.trap) && caekf_model_any_contact(&est->model, xprev);
-        closed_before = est->cfg.contact_substeps > 1 && closed_prev;
+        closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) && caekf_model_any_contact(&est->model, xprev);
+        closed_before = substeps > 1 && closed_prev;
         if (!closed_before) { /* a step from an open contact: one step unless it closes one */
             r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
                                    est->x_pred, &iters, est->scratch.m);
         }
-        if (closed_before || (est->cfg.contact_substeps > 1 && caekf_model_any_contact(&est->model, est->x_pred))) {
+#if CAEKF_HAS_SUBSTEPS
+        if (closed_before || (substeps > 1 && caekf_model_any_contact(&est->model, est->x_pred))) {
             substepped = 1; /* the one-step solution only decided that substeps are needed */
             r = substep_predict(est, u0, u, &iters);
             if (r < 0) {
@@ -333,6 +349,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
                 goto done;
             }
         }
+#endif
         if (r != 0) {
             flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
         }
@@ -357,7 +374,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (est->model.trap && closed_prev), substepped) != 0) {
+    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped) !=
+               0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;

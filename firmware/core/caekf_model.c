@@ -22,6 +22,18 @@ int caekf_model_params_check(const caekf_model_params_t *p)
         return 1;
     }
 #endif
+#if CAEKF_SIZED_METHOD
+    if (p->discretisation != CAEKF_SIZED_DISCRETISATION) {
+        return 1;
+    }
+#endif
+#ifdef CAEKF_SIZED_CONTACT_N
+    for (i = 0; i < p->contacts; ++i) {
+        if (p->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
+            return 1;
+        }
+    }
+#endif
     for (i = 0; i < p->bodies; ++i) {
         if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
             return 1;
@@ -98,18 +110,18 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     out->dfc_dgamma = 0;
     if (d > 0) {
         caekf_scalar_t dn, dn1;
-        power_law(d, m->p.contact_n[c], &dn, &dn1);
+        power_law(d, CAEKF_METHOD_CONTACT_N(m, c), &dn, &dn1);
         if (lambda == 0) { /* elastic: exactly eq. (17) */
             out->dfc_dgamma = dn;
             out->fc = gamma * dn;
-            out->dfc_ddelta = m->p.contact_n[c] * gamma * dn1;
+            out->dfc_ddelta = CAEKF_METHOD_CONTACT_N(m, c) * gamma * dn1;
         } else {
             const caekf_scalar_t rate = (i >= 0 ? x[nq + i] : 0) - (j >= 0 ? x[nq + j] : 0);
             const caekf_scalar_t h = 1 + lambda * rate;
             if (h > 0) {
                 out->dfc_dgamma = dn * h;
                 out->fc = gamma * out->dfc_dgamma;
-                out->dfc_ddelta = m->p.contact_n[c] * gamma * dn1 * h;
+                out->dfc_ddelta = CAEKF_METHOD_CONTACT_N(m, c) * gamma * dn1 * h;
                 out->dfc_drate = gamma * dn * lambda;
             }
         }
@@ -244,11 +256,11 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
     int i;
     contacts_at(m, xk, ct);
     for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t v = m->trap ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
+        const caekf_scalar_t v = CAEKF_METHOD_TRAP(m) ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
         g[i] = (xk[i] - xprev[i]) / m->p.dt - v;
     }
     momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
-    if (m->trap) {
+    if (CAEKF_METHOD_TRAP(m)) {
         caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
         step_start_force(m, xprev, u_prev, ct, g0, mag0); /* ct (at x_k) is no longer needed */
         for (i = 0; i < nq; ++i) {
@@ -280,7 +292,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
                            caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = m->trap ? CAEKF_C(0.5) : 1;
+    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = CAEKF_METHOD_TRAP(m) ? CAEKF_C(0.5) : 1;
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
     int i, j, c;
     for (i = 0; i < n; ++i) {
@@ -298,7 +310,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
         for (j = 0; j < nq; ++j) {
             Jk[nq + i][j] = m->K[i][j];
             Jk[nq + i][nq + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
-            if (m->trap) { /* the step's start: G(x_{k-1}) */
+            if (CAEKF_METHOD_TRAP(m)) { /* the step's start: G(x_{k-1}) */
                 Jprev[nq + i][j] = m->K[i][j];
                 Jprev[nq + i][nq + j] += m->C[i][j];
             }
@@ -308,7 +320,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
     contacts_at(m, xprev, ct0);
     for (c = 0; c < nc; ++c) {
         add_contact_tangents(m, c, &ct[c], Jk);
-        if (m->trap) {
+        if (CAEKF_METHOD_TRAP(m)) {
             add_contact_tangents(m, c, &ct0[c], Jprev);
         }
         Jk[2 * nq + c][2 * nq + c] = 1;
@@ -376,12 +388,12 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
-    if (m->trap) {
+    if (CAEKF_METHOD_TRAP(m)) {
         step_start_force(m, xprev, u_prev, ct, g0, mag0);
     }
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
-        q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
+        q[i] = CAEKF_METHOD_TRAP(m) ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
     }
     for (i = 0; i < nc; ++i) { /* random walk: gamma_k = gamma_{k-1} */
         xk[2 * nq + i] = xprev[2 * nq + i];
@@ -398,7 +410,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         }
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
-        if (m->trap) {
+        if (CAEKF_METHOD_TRAP(m)) {
             for (i = 0; i < nq; ++i) {
                 r[i] += g0[i];
                 if (it > 0) {
@@ -433,7 +445,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         }
         for (i = 0; i < nq; ++i) {
             v[i] -= r[i];
-            q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
+            q[i] = CAEKF_METHOD_TRAP(m) ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
         }
     }
     *iters = it;
@@ -501,7 +513,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     int i, j, closed, closed0 = 0;
     contacts_at(m, xk, ct);
     closed = any_contact(ct, nc);
-    if (m->trap) {
+    if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);
         closed0 = any_contact(ct0, nc);
     }
@@ -516,7 +528,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
-    transition_rhs(m, ct, m->trap ? ct0 : 0, fv); /* solved in place */
+    transition_rhs(m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0, fv); /* solved in place */
     if (closed) {
         solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
     } else { /* trapezoidal, closed only at the step's start: A is A0 */
@@ -575,7 +587,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     if (caekf_lu_factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
     }
-    transition_rhs(m, none, m->trap ? none : 0, m->fv0);
+    transition_rhs(m, none, CAEKF_METHOD_TRAP(m) ? none : 0, m->fv0);
     solve(m->A0_lu, nq, m->A0_piv, &m->fv0[0][0], m->n, CAEKF_N);
     return 0;
 }

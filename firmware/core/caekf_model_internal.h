@@ -28,6 +28,21 @@
 #define CAEKF_DIM_IS4(nq) ((nq) == 4)
 #endif
 
+/* The step method: constants in a build sized for one configuration (CAEKF_SIZED_METHOD), so the code of
+ * the other methods compiles out; the settings' otherwise. */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_METHOD_TRAP(m) ((void)(m), CAEKF_SIZED_DISCRETISATION == CAEKF_DISCRETISATION_TRAPEZOIDAL)
+#define CAEKF_METHOD_SUBSTEPS(cfg) ((void)(cfg), CAEKF_SIZED_CONTACT_SUBSTEPS)
+#else
+#define CAEKF_METHOD_TRAP(m) ((m)->trap)
+#define CAEKF_METHOD_SUBSTEPS(cfg) ((cfg)->contact_substeps)
+#endif
+#ifdef CAEKF_SIZED_CONTACT_N
+#define CAEKF_METHOD_CONTACT_N(m, c) ((void)(m), (void)(c), (caekf_scalar_t)CAEKF_SIZED_CONTACT_N)
+#else
+#define CAEKF_METHOD_CONTACT_N(m, c) ((m)->p.contact_n[c])
+#endif
+
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 

@@ -12,6 +12,14 @@
  *                            the schema's capacity, or with CAEKF_SIZED = 1 exactly one scenario's
  *                            mechanism (CMake: -DCAEKF_MECHANISM=path/to/scenario.toml), whose counts
  *                            CAEKF_SIZED_* the settings must then equal.
+ *   CAEKF_SIZED_METHOD       generated (caekf/caekf_capacity.h), 1 in a build sized for one configuration
+ *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
+ *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
+ *                            CAEKF_SIZED_DISCRETISATION, CAEKF_SIZED_CONTACT_SUBSTEPS and, when every contact
+ *                            has the same exponent, CAEKF_SIZED_CONTACT_N. The code of other methods
+ *                            compiles out (the trapezoidal rule, the substeps and their model, pow for an
+ *                            exponent of 1.5 or 1); settings asking for another are refused
+ *                            (CAEKF_SETTING_UNSUPPORTED) and the schema's defaults are the fixed values.
  *
  */
 #ifndef CAEKF_CONFIG_H
@@ -46,6 +54,16 @@ typedef double caekf_scalar_t;
 /* Mechanism capacity: generated from the settings schema, or sized for one scenario (CMake option
  * CAEKF_MECHANISM). */
 #include "caekf/caekf_capacity.h"
+
+/* The step method a build runs: one fixed by a build sized for one configuration (CAEKF_SIZED_METHOD,
+ * generated), else any. The instance holds the substeps' model only where substeps can run. */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_HAS_SUBSTEPS (CAEKF_SIZED_CONTACT_SUBSTEPS > 1)
+#define CAEKF_HAS_TRAPEZOIDAL (CAEKF_SIZED_DISCRETISATION == 1) /* CAEKF_DISCRETISATION_TRAPEZOIDAL */
+#else
+#define CAEKF_HAS_SUBSTEPS 1
+#define CAEKF_HAS_TRAPEZOIDAL 1
+#endif
 
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..] (a mechanism uses n = 2 bodies + contacts). */
