@@ -69,6 +69,52 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
     return s;
 }
 
+/* r = a (n values), written out in a sized build so that r can live in registers. */
+CAEKF_HOT_INLINE void copy_row(caekf_scalar_t *r, const caekf_scalar_t *a, int n)
+{
+    int k;
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 32
+#endif
+    for (k = 0; k < n; ++k) {
+        r[k] = a[k];
+    }
+}
+
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
+/* A dense row f of Fv times P: tv[j] = f . P_j (P symmetric), tq[j] = P_ij + c tv[j]; f is held (in
+ * registers when sized) across the rows of P. */
+NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, const caekf_scalar_t *pi,
+                                  caekf_scalar_t *tq, caekf_scalar_t *tv, caekf_scalar_t c, int n)
+{
+    caekf_scalar_t fr[CAEKF_N];
+    const caekf_scalar_t *pj = P;
+    int j;
+    copy_row(fr, f, n);
+    for (j = 0; j < n; ++j, pj += n) {
+        const caekf_scalar_t s = dot(fr, pj, n);
+        tv[j] = s;
+        tq[j] = pi[j] + c * s;
+    }
+}
+
+/* w[j] = t . Fv_j for j = j0 .. nq - 1 with every row of Fv dense; t is held (in registers when sized). */
+NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
+                             caekf_scalar_t *w)
+{
+    caekf_scalar_t tr[CAEKF_N];
+    int j;
+    copy_row(tr, t, n);
+    for (j = j0; j < nq; ++j) {
+        w[j] = dot(tr, fv[j], n);
+    }
+}
+
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, caekf_scalar_t c2,
                               caekf_scalar_t fq[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag,
@@ -77,7 +123,10 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
     caekf_scalar_t w[CAEKF_NQ], wq[CAEKF_NQ];
-    int i, j, k;
+    int i, j, k, all_dense = 1;
+    for (i = 0; i < nq; ++i) {
+        all_dense &= cnt[i] == n;
+    }
     for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
         const unsigned char *idx = pat->nz[i];
         const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
@@ -97,11 +146,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             continue;
         }
         if (cnt[i] == n) { /* a dense row (in contact): no indices */
-            for (j = 0; j < n; ++j, pj += n) {
-                const caekf_scalar_t s = dot(f, pj, n);
-                tv[j] = s;
-                tq[j] = pi[j] + c * s;
-            }
+            fp_row_dense(f, P, pi, tq, tv, c, n);
             continue;
         }
         for (j = 0; j < n; ++j, pj += n) {
@@ -137,7 +182,10 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         caekf_scalar_t *t = T + i * n;
         caekf_scalar_t dd;
         const int j0 = i < nq ? 0 : i - nq;
-        for (j = j0; j < nq; ++j) {
+        if (all_dense) { /* in contact */
+            w_dense(t, fv, j0, nq, n, w);
+        }
+        for (j = all_dense ? nq : j0; j < nq; ++j) {
             const unsigned char *idx = pat->nz[j];
             const caekf_scalar_t *f = fv[j];
             caekf_scalar_t s = 0;
