@@ -15,6 +15,14 @@ CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEK
                     scratch_holds_the_newton_and_substep_work);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
 
+/* x_{k-1}, step work: in P_work, which is free until the covariance prediction, when the step has no
+ * substeps (they keep their start there); else in the instance. */
+#if CAEKF_ONE_STEP_BE
+#define X_PREV(est) ((est)->P_work)
+#else
+#define X_PREV(est) ((est)->x_prev)
+#endif
+
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
 /* F in scaled coordinates, S^-1 F S: column j of the v-rows times s_j / s_v, which is exactly 1 for
@@ -38,12 +46,7 @@ static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t 
 static void load_fv0(caekf_t *est)
 {
     const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
-    int i, j;
-    for (i = 0; i < nq; ++i) {
-        for (j = 0; j < n; ++j) {
-            est->fv[i][j] = est->model.fv0[i][j];
-        }
-    }
+    caekf_model_free_transition_v(&est->model, est->fv);
     scale_fv(est->fv, est->scale, nq, n);
     caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     est->fv_const = 1;
@@ -79,13 +82,15 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->scale[i] = 1;
         est->z[i] = 0;
         est->q_diag[i] = 0;
-        est->x_prev[i] = 0;
+        X_PREV(est)[i] = 0;
         est->x_pred[i] = 0;
     }
+#if !CAEKF_ONE_STEP_BE
     for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
         est->u_prev[i] = 0;
     }
     est->u_prev_known = 0;
+#endif
     for (i = 0; i < nq; ++i) {
         est->scale[i] = s->sigma_q0;
         est->scale[nq + i] = s->sigma_v0;
@@ -177,7 +182,7 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
         }
     }
     for (i = 0; i < n; ++i) {
-        xa[i] = est->x_prev[i];
+        xa[i] = X_PREV(est)[i];
     }
     for (i = 0; i < nu; ++i) {
         ub[i] = u0[i];
@@ -250,7 +255,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
 #endif
         if (closed) {
         est->fv_const = 0;
-        if (caekf_model_transition_v(&est->model, est->x_pred, est->x_prev, est->fv) != 0) {
+        if (caekf_model_transition_v(&est->model, est->x_pred, X_PREV(est), est->fv) != 0) {
             return -1;
         }
         scale_fv(est->fv, s, nq, n);
@@ -317,7 +322,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         return CAEKF_ERR_INPUT; /* nothing in *est has been written */
     }
     s = est->scale;
-    xprev = est->x_prev;
+    xprev = X_PREV(est);
     z = est->x_pred;
 
     /* Prediction (Table 1): Newton solve of the step, then F by eq. (10) at x_k-. The first step after
@@ -330,7 +335,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             est->x_pred[i] = xprev[i];
         }
     } else {
+#if CAEKF_ONE_STEP_BE
+        const caekf_scalar_t *u0 = u; /* unused: only the trapezoidal rule and the substeps read it */
+#else
         const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
+#endif
         const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
         int closed_before, r = 0;
         closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) && caekf_model_any_contact(&est->model, xprev);
@@ -414,10 +423,12 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             *col = *w;
         }
     }
+#if !CAEKF_ONE_STEP_BE
     for (i = 0; i < nu; ++i) {
         est->u_prev[i] = u[i];
     }
     est->u_prev_known = 1;
+#endif
     est->step_count++;
     est->last_flags = flags;
 done:

@@ -330,6 +330,12 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
 
 #define LU_REL_TOL (CAEKF_EPS * 16)
 
+/* A0's entry (i, j): M/hs + C + hs K. */
+CAEKF_HOT_INLINE caekf_scalar_t a0_entry(const caekf_model_t *m, int i, int j)
+{
+    return m->C[i][j] + m->hs * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+}
+
 /* A = M/hs + C + hs K + sum_c (hs f_c'(delta) + f_c'(rate)) b_c b_c^T: the Jacobian of the momentum
  * rows with respect to v_k once q_k is substituted (dq_k/dv_k = hs). Returns the LU refusal
  * threshold LU_REL_TOL * max|A_ij| (a maximum does not depend on the order it is taken in; a NaN
@@ -339,9 +345,25 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     caekf_scalar_t amax = 0;
     int i;
+#if CAEKF_ONE_STEP_BE
+    /* A0 by a0_entry's operations over K and C's nonzeros: the other entries are 0 + hs 0 (+ M/hs) */
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq * nq; ++i) {
+        A[i] = 0;
+    }
+    for (i = 0; i < nq; ++i) {
+        int k;
+        for (k = 0; k < m->nnz[i]; ++k) {
+            const int j = m->nz[i][k];
+            A[i * nq + j] = m->C[i][j] + m->hs * m->K[i][j];
+        }
+        A[i * nq + i] += m->m_dt[i];
+    }
+#else
     for (i = 0; i < nq * nq; ++i) {
         A[i] = m->A0[i];
     }
+#endif
     for (i = 0; i < nc; ++i) {
         if (ct[i].delta > 0) {
             add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
@@ -502,6 +524,23 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
     }
 }
 
+void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+#if CAEKF_ONE_STEP_BE
+    const caekf_contact_t none[CAEKF_MAX_CONTACTS + 1] = {{0, 0, 0, 0, 0}};
+    transition_rhs(m, none, 0, fv);
+    solve(m->A0_lu, CAEKF_DIM_NQ(m), m->A0_piv, &fv[0][0], CAEKF_DIM_N(m), CAEKF_N);
+#else
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m);
+    int i, j;
+    for (i = 0; i < nq; ++i) {
+        for (j = 0; j < n; ++j) {
+            fv[i][j] = m->fv0[i][j];
+        }
+    }
+#endif
+}
+
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
@@ -509,8 +548,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
-    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j, closed, closed0 = 0;
+    int closed, closed0 = 0;
     contacts_at(m, xk, ct);
     closed = any_contact(ct, nc);
     if (CAEKF_METHOD_TRAP(m)) {
@@ -518,11 +556,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
         closed0 = any_contact(ct0, nc);
     }
     if (!closed && !closed0) { /* linear step: the constant F */
-        for (i = 0; i < nq; ++i) {
-            for (j = 0; j < n; ++j) {
-                fv[i][j] = m->fv0[i][j];
-            }
-        }
+        caekf_model_free_transition_v(m, fv);
         return 0;
     }
     if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
@@ -575,8 +609,10 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         m->m_dt[i] = p->m[i] / m->hs;
         m->nnz[i] = 0;
         for (j = 0; j < nq; ++j) {
-            const caekf_scalar_t a = m->C[i][j] + m->hs * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+            const caekf_scalar_t a = a0_entry(m, i, j);
+#if !CAEKF_ONE_STEP_BE
             m->A0[i * nq + j] = a;
+#endif
             m->A0_lu[i * nq + j] = a;
             if (m->K[i][j] != 0 || m->C[i][j] != 0) {
                 m->nz[i][m->nnz[i]++] = (unsigned char)j;
@@ -587,8 +623,12 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     if (caekf_lu_factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
         return -1;
     }
+#if !CAEKF_ONE_STEP_BE
     transition_rhs(m, none, CAEKF_METHOD_TRAP(m) ? none : 0, m->fv0);
     solve(m->A0_lu, nq, m->A0_piv, &m->fv0[0][0], m->n, CAEKF_N);
+#else
+    (void)none;
+#endif
     return 0;
 }
 

@@ -71,6 +71,10 @@ int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
+/* The v-rows of the constant contact-free F (nq x n): model_init's fv0, or recomputed by the same
+ * operations (CAEKF_ONE_STEP_BE). */
+void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+
 /* Whether a contact is closed at x (the step map then differs from the constant linear one). */
 int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x);
 

@@ -135,8 +135,10 @@ typedef struct {
         caekf_scalar_t m[CAEKF_N * CAEKF_N];
         caekf_correct_work_t correct;
     } scratch;
-    caekf_scalar_t x_prev[CAEKF_N]; /* step work: x_{k-1}, then x_k- and the scaled z */
-    caekf_scalar_t x_pred[CAEKF_N];
+#if !CAEKF_ONE_STEP_BE
+    caekf_scalar_t x_prev[CAEKF_N]; /* step work: x_{k-1} (CAEKF_ONE_STEP_BE: kept in P_work) */
+#endif
+    caekf_scalar_t x_pred[CAEKF_N];       /* step work: x_k-, then the scaled z */
     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]; /* step work: v-rows of the scaled F */
 #if CAEKF_HAS_SUBSTEPS
     caekf_scalar_t fq[CAEKF_NQ][CAEKF_N]; /* step work: q-rows of F after substeps (else implied by fv) */
@@ -146,8 +148,10 @@ typedef struct {
     caekf_scalar_t q_diag[CAEKF_N]; /* scaled Q diagonal (Q_gamma included) */
     caekf_filter_dims_t dims;       /* sizes, sensed states, scaled R; the gamma policies */
     caekf_scalar_t gamma_min_scaled[CAEKF_MAX_CONTACTS + 1];
+#if !CAEKF_ONE_STEP_BE
     caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */
     uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
+#endif
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;
