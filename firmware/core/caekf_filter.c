@@ -38,9 +38,17 @@ void caekf_mirror_upper(caekf_scalar_t *P, int n)
 
 void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat)
 {
-    int i, j;
+    int i, j, dense = 1;
     for (i = 0; i < nq; ++i) {
         unsigned char k = 0;
+        const caekf_scalar_t *f = fv[i];
+        for (j = 0; j < n && f[j] != 0; ++j) { /* a dense row (in contact) is left as it is */
+        }
+        if (j == n) {
+            pat->nnz[i] = (unsigned char)n;
+            continue;
+        }
+        dense = 0;
         for (j = 0; j < n; ++j) {
             if (fv[i][j] != 0) { /* a NaN is kept: it must reach P and be caught */
                 pat->nz[i][k] = (unsigned char)j;
@@ -49,6 +57,7 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
         }
         pat->nnz[i] = k;
     }
+    pat->dense = (unsigned char)dense;
 }
 
 /* The products of eq. (12) are dot products with a row of Fv over its nonzeros, summed with the column
@@ -123,14 +132,16 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
     caekf_scalar_t w[CAEKF_NQ], wq[CAEKF_NQ];
-    int i, j, k, all_dense = 1;
-    for (i = 0; i < nq; ++i) {
-        all_dense &= cnt[i] == n;
-    }
+    const int all_dense = pat->dense;
+    int i, j, k;
     for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
         const unsigned char *idx = pat->nz[i];
         const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
         caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
+        if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
+            fp_row_dense(f, P, pi, tq, tv, c, n);
+            continue;
+        }
         if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
             const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
             const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
@@ -143,10 +154,6 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                 tv[j] = s;
                 tq[j] = pi[j] + c * s;
             }
-            continue;
-        }
-        if (cnt[i] == n) { /* a dense row (in contact): no indices */
-            fp_row_dense(f, P, pi, tq, tv, c, n);
             continue;
         }
         for (j = 0; j < n; ++j, pj += n) {
@@ -189,13 +196,13 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             const unsigned char *idx = pat->nz[j];
             const caekf_scalar_t *f = fv[j];
             caekf_scalar_t s = 0;
-            if (cnt[j] == 4) {
+            if (cnt[j] == n) {
+                s = dot(t, f, n);
+            } else if (cnt[j] == 4) {
                 s += t[idx[0]] * f[0];
                 s += t[idx[1]] * f[1];
                 s += t[idx[2]] * f[2];
                 s += t[idx[3]] * f[3];
-            } else if (cnt[j] == n) {
-                s = dot(t, f, n);
             } else {
                 for (k = 0; k < cnt[j]; ++k) {
                     s += t[idx[k]] * f[k];
@@ -462,29 +469,37 @@ void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, c
         return;
     }
     *flags |= CAEKF_FLAG_CONSTRAINT_APPLIED;
+    for (i = 0; i < g; ++i) { /* P's gamma column from the upper triangle: rows above g, then row g */
+        col[i] = AT(P, n, i, g);
+    }
+    for (i = g; i < n; ++i) {
+        col[i] = AT(P, n, g, i);
+    }
     for (i = 0; i < n; ++i) { /* a valid covariance has P_ig^2 <= P_ii P_gg */
-        col[i] = UP(P, n, i, g);
         if (i != g) {
             usable = usable && col[i] * col[i] <= AT(P, n, i, i) * s * (1 + CAEKF_EPS * 64) + CAEKF_EPS * CAEKF_EPS;
         }
     }
     if (usable) {
         /* Scalar perfect measurement (R = 0): gain k = P e_g / P_gg, P+ = P - P e_g e_g^T P / P_gg.
-         * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. */
+         * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. Each
+         * entry is updated once: the columns before g, then those after it. */
         for (i = 0; i < n; ++i) {
             const caekf_scalar_t a = col[i];
+            caekf_scalar_t *p = &AT(P, n, i, 0);
             if (i == g) {
                 continue;
             }
             z[i] += a / s * dz;
-            AT(P, n, i, i) -= a * a / s;
-            for (j = i + 1; j < n; ++j) {
-                if (j != g) {
-                    AT(P, n, i, j) = flush(AT(P, n, i, j) - a * col[j] / s);
-                }
+            p[i] -= a * a / s;
+            for (j = i + 1; j < g; ++j) {
+                p[j] = flush(p[j] - a * col[j] / s);
+            }
+            for (j = i < g ? g + 1 : i + 1; j < n; ++j) {
+                p[j] = flush(p[j] - a * col[j] / s);
             }
             if (i < g) {
-                AT(P, n, i, g) = 0;
+                p[g] = 0;
             } else {
                 AT(P, n, g, i) = 0;
             }

@@ -84,8 +84,9 @@ typedef struct {
 /* The nonzero columns of each v-row of F (nz[i][0 .. nnz[i]-1], ascending): the covariance products
  * skip the exact zeros, which change no sum. */
 typedef struct {
-    unsigned char nz[CAEKF_NQ][CAEKF_N];
+    unsigned char nz[CAEKF_NQ][CAEKF_N]; /* not written for a dense row (nnz[i] == n) */
     unsigned char nnz[CAEKF_NQ];
+    unsigned char dense; /* every row is dense (in contact) */
 } caekf_fv_pattern_t;
 
 /* The filter's sizes and structure (set at init; the policies every step). */
