@@ -78,6 +78,7 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
     return s;
 }
 
+#if CAEKF_SIZED
 /* r = a (n values), written out in a sized build so that r can live in registers. */
 CAEKF_HOT_INLINE void copy_row(caekf_scalar_t *r, const caekf_scalar_t *a, int n)
 {
@@ -89,6 +90,7 @@ CAEKF_HOT_INLINE void copy_row(caekf_scalar_t *r, const caekf_scalar_t *a, int n
         r[k] = a[k];
     }
 }
+#endif
 
 #if defined(__GNUC__)
 #define NOINLINE __attribute__((noinline))
@@ -101,10 +103,14 @@ CAEKF_HOT_INLINE void copy_row(caekf_scalar_t *r, const caekf_scalar_t *a, int n
 NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, const caekf_scalar_t *pi,
                                   caekf_scalar_t *tq, caekf_scalar_t *tv, caekf_scalar_t c, int n)
 {
+#if CAEKF_SIZED
     caekf_scalar_t fr[CAEKF_N];
+    copy_row(fr, f, n);
+#else
+    const caekf_scalar_t *const fr = f; /* n unknown: a copy would not stay in registers */
+#endif
     const caekf_scalar_t *pj = P;
     int j;
-    copy_row(fr, f, n);
     for (j = 0; j < n; ++j, pj += n) {
         const caekf_scalar_t s = dot(fr, pj, n);
         tv[j] = s;
@@ -116,9 +122,13 @@ NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t 
 NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
                              caekf_scalar_t *w)
 {
+#if CAEKF_SIZED
     caekf_scalar_t tr[CAEKF_N];
-    int j;
     copy_row(tr, t, n);
+#else
+    const caekf_scalar_t *const tr = t; /* n unknown: a copy would not stay in registers */
+#endif
+    int j;
     for (j = j0; j < nq; ++j) {
         w[j] = dot(tr, fv[j], n);
     }
@@ -302,6 +312,18 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
     return 0;
 }
 
+/* Column h of a symmetric matrix kept as its upper triangle: rows above h, then row h. */
+static void upper_col(const caekf_scalar_t *P, int n, int h, caekf_scalar_t *out)
+{
+    int i;
+    for (i = 0; i < h; ++i) {
+        out[i] = AT(P, n, i, h);
+    }
+    for (; i < n; ++i) {
+        out[i] = AT(P, n, h, i);
+    }
+}
+
 int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
                         const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
                         caekf_correct_work_t *work)
@@ -337,12 +359,16 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
             *nis += e[k] * s;
         }
     }
-    for (i = 0; i < n; ++i) {
-        const int g = i - nx;
-        live[i] = (unsigned char)(g < 0 || d->policy[g] == CAEKF_GAMMA_LIVE);
+    for (i = 0; i < nx; ++i) {
+        live[i] = 1;
+        skip[i] = 0;
+    }
+    for (i = nx; i < n; ++i) {
+        const int policy = d->policy[i - nx];
+        live[i] = (unsigned char)(policy == CAEKF_GAMMA_LIVE);
         /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma's row and column are left. */
-        skip[i] = (unsigned char)(g >= 0 && d->policy[g] == CAEKF_GAMMA_FROZEN_PAPER);
-        any_live |= g >= 0 && live[i];
+        skip[i] = (unsigned char)(policy == CAEKF_GAMMA_FROZEN_PAPER);
+        any_live |= live[i];
         any_skip |= skip[i];
     }
     if (any_live && gate > 0 && *nis > gate) {
@@ -354,13 +380,14 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     if (ny == 2) { /* two sensors, written out: the same operations as the loops below */
         const int h0 = d->h[0], h1 = d->h[1];
         const caekf_scalar_t s00 = Si[0][0], s01 = Si[0][1], s11 = Si[1][1], e0 = e[0], e1 = e[1];
+        upper_col(P, n, h0, hp[0]);
+        upper_col(P, n, h1, hp[1]);
         for (i = 0; i < n; ++i) {
-            const caekf_scalar_t a = UP(P, n, h0, i), b = UP(P, n, h1, i);
-            hp[0][i] = a;
-            hp[1][i] = b;
+            const caekf_scalar_t a = hp[0][i], b = hp[1][i];
             /* eq. (26) with a gamma frozen: a Schmidt ("consider") gain of 0 on it */
-            G[i][0] = live[i] ? a * s00 + b * s01 : 0;
-            G[i][1] = live[i] ? a * s01 + b * s11 : 0;
+            const int on = i < nx || live[i];
+            G[i][0] = on ? a * s00 + b * s01 : 0;
+            G[i][1] = on ? a * s01 + b * s11 : 0;
             z[i] += G[i][0] * e0 + G[i][1] * e1;
         }
     } else {
@@ -397,8 +424,14 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                 const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
                 const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
                 p[i] -= g0 * h0[i] + g1 * h1[i];
+                if (!any_skip) {
+                    for (j = i + 1; j < n; ++j) {
+                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                    }
+                    continue;
+                }
                 for (j = i + 1; j < n; ++j) {
-                    if (!any_skip || !skip[j]) {
+                    if (!skip[j]) {
                         p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
                     }
                 }
