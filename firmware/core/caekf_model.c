@@ -248,6 +248,7 @@ NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar
     momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
 }
 
+#if CAEKF_MODEL_ORACLES
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
                           const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
 {
@@ -271,7 +272,9 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
         g[2 * nq + i] = xk[2 * nq + i] - xprev[2 * nq + i];
     }
 }
+#endif
 
+#if CAEKF_MODEL_ORACLES
 /* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): weight w on the
  * force, through delta (q columns), its rate (v columns) and gamma_c. */
 static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
@@ -327,6 +330,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
         Jprev[2 * nq + c][2 * nq + c] = -1;
     }
 }
+#endif
 
 #define LU_REL_TOL (CAEKF_EPS * 16)
 
@@ -632,6 +636,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     return 0;
 }
 
+#if CAEKF_MODEL_ORACLES
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                            const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t F[CAEKF_N][CAEKF_N])
 {
@@ -654,3 +659,4 @@ int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
     }
     return 0;
 }
+#endif
