@@ -250,7 +250,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
                 est->fv[i][j] *= s[j] / s_v;
             }
         }
-        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
+        caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
     } else
 #endif
         if (closed) {
@@ -259,7 +259,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
             return -1;
         }
         scale_fv(est->fv, s, nq, n);
-        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
+        caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
     } else if (!est->fv_const) {
         load_fv0(est);
     }

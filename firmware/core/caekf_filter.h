@@ -24,6 +24,12 @@ typedef enum {
  * the exact zeros, as adding a zero product changes no sum. */
 void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat);
 
+/* Marks every row of fv dense (nothing moved): the products then run over all n columns. For finite
+ * operands that is the compacted result bit for bit: a zero product added to a sum started at +0 changes
+ * nothing (x + 0 = x for x != 0, +0 + -0 = +0), so a step in contact (rows dense in practice) skips the
+ * scan for zeros. */
+void caekf_fv_dense(int nq, int n, caekf_fv_pattern_t *pat);
+
 /* Copies the upper triangle into the lower one. */
 void caekf_mirror_upper(caekf_scalar_t *P, int n);
 
