@@ -506,7 +506,7 @@ void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, c
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
     int usable = s > CAEKF_EPS * CAEKF_EPS;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j, k;
+    int i, k;
     if (!(z[g] < zmin)) {
         return;
     }
@@ -528,22 +528,25 @@ void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, c
          * entry is updated once: the columns before g, then those after it. */
         for (i = 0; i < n; ++i) {
             const caekf_scalar_t a = col[i];
-            caekf_scalar_t *p = &AT(P, n, i, 0);
+            caekf_scalar_t *p = &AT(P, n, i, i), *const pend = &AT(P, n, i, n);
+            const caekf_scalar_t *cj = col + i;
             if (i == g) {
                 continue;
             }
             z[i] += a / s * dz;
-            p[i] -= a * a / s;
-            for (j = i + 1; j < g; ++j) {
-                p[j] = flush(p[j] - a * col[j] / s);
-            }
-            for (j = i < g ? g + 1 : i + 1; j < n; ++j) {
-                p[j] = flush(p[j] - a * col[j] / s);
-            }
+            *p -= a * a / s;
             if (i < g) {
-                p[g] = 0;
+                caekf_scalar_t *const pg = &AT(P, n, i, g);
+                while (++p != pg) {
+                    *p = flush(*p - a * *++cj / s);
+                }
+                *p = 0; /* P_ig */
+                ++cj;
             } else {
                 AT(P, n, g, i) = 0;
+            }
+            while (++p != pend) {
+                *p = flush(*p - a * *++cj / s);
             }
         }
         AT(P, n, g, g) = 0;

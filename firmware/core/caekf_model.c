@@ -488,8 +488,13 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
     for (i = 0; i < nq; ++i) {
-        for (j = 0; j < n; ++j) {
-            fv[i][j] = j < nq ? -m->K[i][j] : 0;
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < nq; ++j) {
+            fv[i][j] = -m->K[i][j];
+        }
+        CAEKF_UNROLL_SIZED
+        for (j = nq; j < n; ++j) {
+            fv[i][j] = 0;
         }
         if (ct0 != 0) {
             for (j = 0; j < nq; ++j) {
