@@ -33,9 +33,11 @@ static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t 
     int i, j;
     for (i = 0; i < nq; ++i) {
         caekf_scalar_t *f = fv[i];
+        CAEKF_UNROLL_SIZED
         for (j = 0; j < nq; ++j) {
             f[j] *= rq;
         }
+        CAEKF_UNROLL_SIZED
         for (j = 2 * nq; j < n; ++j) {
             f[j] *= s[j] / s[nq];
         }
@@ -153,6 +155,7 @@ static int all_finite(const caekf_scalar_t *v, int n)
 {
     caekf_scalar_t nf = 0;
     int i;
+    CAEKF_UNROLL_SIZED
     for (i = 0; i < n; ++i) {
         nf += v[i] * 0;
     }

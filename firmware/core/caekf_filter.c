@@ -18,6 +18,13 @@
 #define DIM_N(d) ((d)->n)
 #define DIM_NY(d) ((d)->ny)
 #endif
+/* The size of the n x n matrices the functions below are given: a sized build runs its mechanism's n
+ * only, a constant there (fixed loop bounds); the argument otherwise. */
+#if CAEKF_SIZED
+#define SIZED_N(n) ((void)(n), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#else
+#define SIZED_N(n) (n)
+#endif
 /* P_ij of a matrix kept as its upper triangle. */
 #define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
@@ -498,9 +505,10 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     return 0;
 }
 
-void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zmin,
+void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g, caekf_scalar_t zmin,
                            caekf_scalar_t s_gamma, caekf_scalar_t gamma_min_phys, uint32_t *flags)
 {
+    const int n = SIZED_N(n_arg);
     const caekf_scalar_t s = AT(P, n, g, g);
     const caekf_scalar_t dz = zmin - z[g];
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
@@ -589,9 +597,10 @@ static int screen_fails(const caekf_scalar_t *P, int n, caekf_scalar_t *nf)
     return 0;
 }
 
-int caekf_covariance_health(caekf_scalar_t *P, int n, int full_check, int repair, caekf_scalar_t *scratch,
+int caekf_covariance_health(caekf_scalar_t *P, int n_arg, int full_check, int repair, caekf_scalar_t *scratch,
                             uint32_t *flags)
 {
+    const int n = SIZED_N(n_arg);
     caekf_scalar_t nf = 0;
     int i, j;
     if (!screen_fails(P, n, &nf)) {

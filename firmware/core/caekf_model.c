@@ -373,6 +373,7 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
             add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
+    CAEKF_UNROLL_SIZED
     for (i = 0; i < nq * nq; ++i) {
         amax = caekf_max(amax, CAEKF_FABS(A[i]));
     }
