@@ -25,6 +25,17 @@
 #else
 #define SIZED_N(n) (n)
 #endif
+/* Substeps' q-rows of F and the trapezoidal rule's c2: never given where the build cannot run them. */
+#if CAEKF_HAS_SUBSTEPS
+#define FQ_GIVEN(fq) ((fq) != 0)
+#else
+#define FQ_GIVEN(fq) ((void)(fq), 0)
+#endif
+#if CAEKF_HAS_TRAPEZOIDAL
+#define C2_GIVEN(c2) ((c2) != 0)
+#else
+#define C2_GIVEN(c2) ((void)(c2), 0)
+#endif
 /* P_ij of a matrix kept as its upper triangle. */
 #define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
@@ -191,7 +202,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             tq[j] = pi[j] + c * s;
         }
     }
-    if (fq != 0) { /* dense q-rows: T_q = Fq P */
+    if (FQ_GIVEN(fq)) { /* dense q-rows: T_q = Fq P */
         for (i = 0; i < nq; ++i) {
             caekf_scalar_t *tq = T + i * n;
             const caekf_scalar_t *pj = P;
@@ -199,7 +210,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                 tq[j] = dot(fq[i], pj, n);
             }
         }
-    } else if (c2 != 0) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
+    } else if (C2_GIVEN(c2)) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
         for (i = 0; i < nq; ++i) {
             const caekf_scalar_t *pv = P + (nq + i) * n;
             caekf_scalar_t *tq = T + i * n;
@@ -236,7 +247,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             }
             w[j] = s;
         }
-        if (i < nq && fq != 0) { /* q-columns T_i Fq_j^T, all read before any is written */
+        if (i < nq && FQ_GIVEN(fq)) { /* q-columns T_i Fq_j^T, all read before any is written */
             for (j = i; j < nq; ++j) {
                 wq[j] = dot(t, fq[j], n);
             }
@@ -247,7 +258,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             j = nq;
         } else if (i < nq) {
             dd = t[i] + c * w[i];
-            if (c2 != 0) { /* T's v-columns are still T's here: they are overwritten below */
+            if (C2_GIVEN(c2)) { /* T's v-columns are still T's here: they are overwritten below */
                 dd += c2 * t[nq + i];
                 for (j = i + 1; j < nq; ++j) {
                     t[j] = flush(t[j] + c * w[j] + c2 * t[nq + j]);
