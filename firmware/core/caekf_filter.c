@@ -303,10 +303,12 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
                               caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
 {
     const int n = DIM_N(d), ny = DIM_NY(d);
+#if CAEKF_LA_GENERAL_LU
     caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     int piv[CAEKF_MAX_SENSORS];
     int k, l;
+#endif
     if (ny == 2) {
         caekf_scalar_t inv[3];
         if (caekf_sym2_inverse(AT(P, n, d->h[0], d->h[0]) + d->r[0], UP(P, n, d->h[0], d->h[1]),
@@ -318,6 +320,7 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
         Si[1][1] = inv[2];
         return 0;
     }
+#if CAEKF_LA_GENERAL_LU
     for (k = 0; k < ny; ++k) {
         for (l = 0; l < ny; ++l) {
             S[k * ny + l] = UP(P, n, d->h[k], d->h[l]) + (k == l ? d->r[k] : 0);
@@ -336,6 +339,7 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
             Si[k][l] = I[k * ny + l];
         }
     }
+#endif
     return 0;
 }
 

@@ -383,18 +383,28 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
 /* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
+#if CAEKF_LA_GENERAL_LU
     return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK
                ? 0
                : -1;
+#else
+    (void)nq;
+    return caekf_lu4_factor_tol(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
+#endif
 }
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
 {
+#if CAEKF_LA_GENERAL_LU
     if (CAEKF_DIM_IS4(nq)) {
         caekf_lu4_solve(lu, piv, b, nrhs, ldb);
     } else {
         (void)caekf_lu_solve(lu, nq, piv, b, nrhs, ldb);
     }
+#else
+    (void)nq;
+    caekf_lu4_solve(lu, piv, b, nrhs, ldb);
+#endif
 }
 
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
@@ -630,8 +640,14 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         }
     }
     /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */
-    if (caekf_lu_factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
-        return -1;
+    {
+        caekf_scalar_t amax = 0; /* the LU's threshold, as caekf_lu_factor takes it */
+        for (i = 0; i < nq * nq; ++i) {
+            amax = caekf_max(amax, CAEKF_FABS(m->A0_lu[i]));
+        }
+        if (factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL * amax) != 0) {
+            return -1;
+        }
     }
 #if !CAEKF_ONE_STEP_BE
     transition_rhs(m, none, CAEKF_METHOD_TRAP(m) ? none : 0, m->fv0);
