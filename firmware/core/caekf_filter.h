@@ -1,10 +1,11 @@
 /*
  * The filter's building blocks on the scaled state z = S^-1 x and scaled covariance P (internal).
  * Matrices are n x n, row-major with leading dimension n (n = 2 nq + nc, the augmented state
- * [q; v; gamma_1..gamma_nc]), in buffers of the build's capacity. H selects one position or velocity per
- * sensor: the structure is used instead of multiplying by H. Within a step the work covariance is kept
- * as its upper triangle only (the *_upper functions read and write j >= i; caekf_mirror_upper completes
- * a full symmetric matrix).
+ * [q; v; gamma_1..gamma_nc]), in buffers of the build's capacity; a sized build (CAEKF_SIZED) runs its
+ * mechanism's n only, and there an n argument must be that n (the loops use the constant). H selects one
+ * position or velocity per sensor: the structure is used instead of multiplying by H. Within a step the
+ * work covariance is kept as its upper triangle only (the *_upper functions read and write j >= i;
+ * caekf_mirror_upper completes a full symmetric matrix).
  */
 #ifndef CAEKF_FILTER_H
 #define CAEKF_FILTER_H
