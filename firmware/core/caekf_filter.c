@@ -98,6 +98,8 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
     int k;
 #if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
 #pragma GCC unroll 32 /* a sized build knows n: written out even at -Os */
+#elif defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 4 /* n at run time: four terms a turn, in the same order */
 #endif
     for (k = 0; k < n; ++k) {
         s += a[k] * b[k];
