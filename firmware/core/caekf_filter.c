@@ -522,10 +522,15 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     return 0;
 }
 
-void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g, caekf_scalar_t zmin,
+void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g_arg, caekf_scalar_t zmin,
                            caekf_scalar_t s_gamma, caekf_scalar_t gamma_min_phys, uint32_t *flags)
 {
     const int n = SIZED_N(n_arg);
+#if CAEKF_SIZED && CAEKF_SIZED_CONTACTS == 1
+    const int g = ((void)g_arg, 2 * CAEKF_SIZED_BODIES); /* the one gamma: the last state */
+#else
+    const int g = g_arg;
+#endif
     const caekf_scalar_t s = AT(P, n, g, g);
     const caekf_scalar_t dz = zmin - z[g];
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
