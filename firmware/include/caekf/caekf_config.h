@@ -20,6 +20,9 @@
  *                            compiles out (the trapezoidal rule, the substeps and their model, pow for an
  *                            exponent of 1.5 or 1); settings asking for another are refused
  *                            (CAEKF_SETTING_UNSUPPORTED) and the schema's defaults are the fixed values.
+ *                            Derived from it: CAEKF_HAS_SUBSTEPS, CAEKF_HAS_TRAPEZOIDAL, CAEKF_ONE_STEP_BE.
+ *   CAEKF_MODEL_ORACLES      1: the library has the model's reference residual, Jacobians and full F (test
+ *                            oracles the estimator never calls). Default: 1, 0 with CAEKF_SIZED_METHOD.
  *
  */
 #ifndef CAEKF_CONFIG_H
