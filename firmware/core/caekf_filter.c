@@ -21,7 +21,7 @@
 /* The size of the n x n matrices the functions below are given: a sized build runs its mechanism's n
  * only, a constant there (fixed loop bounds); the argument otherwise. */
 #if CAEKF_SIZED
-#define SIZED_N(n) ((void)(n), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS)
+#define SIZED_N(n) ((void)(n), DIM_N((const caekf_filter_dims_t *)0))
 #else
 #define SIZED_N(n) (n)
 #endif
@@ -527,7 +527,7 @@ void caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int 
 {
     const int n = SIZED_N(n_arg);
 #if CAEKF_SIZED && CAEKF_SIZED_CONTACTS == 1
-    const int g = ((void)g_arg, 2 * CAEKF_SIZED_BODIES); /* the one gamma: the last state */
+    const int g = ((void)g_arg, 2 * DIM_NQ((const caekf_filter_dims_t *)0)); /* the one gamma's state */
 #else
     const int g = g_arg;
 #endif
