@@ -1,8 +1,10 @@
 # The settings schema and its generator (sim/src/caekf_sim/schema): every settings table, the scenario
 # reader's keys, the presets and the test fixtures are generated from the one description at build time.
 #
-#   caekf_codegen(<target> c-core    <outdir> [<mechanism>]) core tables: caekf/caekf_settings_schema.h, ...,
-#                                                            and the capacity (sized for <mechanism> if given)
+#   caekf_codegen(<target> c-core    <outdir> [<mechanism> [<preset>]]) core tables:
+#                                                            caekf/caekf_settings_schema.h, ..., and the capacity
+#                                                            (sized for <mechanism> if given; with <preset>, its
+#                                                            step method fixed too)
 #   caekf_codegen(<target> c-host    <outdir>)              scenario reader table and presets
 #   caekf_codegen(<target> c-fixture <outdir> <scenario>)   a scenario's values for tests
 #
@@ -29,6 +31,9 @@ function(caekf_codegen target kind outdir)
         if(ARGC GREATER 3 AND NOT "${ARGV3}" STREQUAL "")
             set(args "${ARGV3}")
             list(APPEND deps "${ARGV3}")
+            if(ARGC GREATER 4 AND NOT "${ARGV4}" STREQUAL "")
+                list(APPEND args "${ARGV4}")
+            endif()
         endif()
     elseif(kind STREQUAL "c-host")
         set(outputs "${outdir}/caekf_scenario_schema.h" "${outdir}/caekf_scenario_schema.c")

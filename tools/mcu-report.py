@@ -6,6 +6,9 @@
 
 For each preset (default cortex-m4f and cortex-m7; configured/built with `cmake --preset` if needed,
 which needs the host-double preset's test data, see tests/target/Replay.cmake):
+  * a preset configured with CAEKF_MECHANISM_PRESET (sized for one configuration: cortex-m4f) has no
+    default image: the recommended default's figures come from build/<preset>-default, the same
+    mechanism with a run-time step method (configured and built here);
   * instructions per estimator step: tests/target/target_replay.elf (the switched-highq-constrained
     experiment of the reference scenario, 60,000 steps) under QEMU with the TCG plugin
     tools/qemu-icount; min / median / max over all steps, and the worst case of the steps with
@@ -235,6 +238,23 @@ def report_preset(preset, args, o2):
     r["icount"] = icount(bdir, preset)
     if os.path.exists(os.path.join(bdir, "tests", "target", "target_replay_default.elf")):
         r["icount_default"] = icount(bdir, preset, "target_replay_default")
+    elif cache_value(bdir, "CAEKF_MECHANISM_PRESET"):
+        # Sized for one configuration (a preset's step method): no default image. The default's numbers
+        # come from the same mechanism's build with a run-time step method (build/<preset>[-o2]-default).
+        ddir = bdir + "-default"
+        if not args.no_build:
+            extra = ["-DCAEKF_MECHANISM_PRESET="]
+            if o2:
+                extra += ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
+            for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
+                v = cache_value(os.path.join(ROOT, "build", preset), key)
+                if v:
+                    extra.append(f"-D{key}={v}")
+            build(preset, ddir, extra, ["target_replay_default", "qemu_icount_plugin"])
+        if os.path.exists(os.path.join(ddir, "tests", "target", "target_replay_default.elf")):
+            r["icount_default"] = icount(ddir, preset, "target_replay_default")
+            r["icount_default"]["build"] = os.path.relpath(ddir, ROOT)
+            r["lib_default"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
     r["stack_static"] = stack_static(bdir)
     if args.breakdown:
         ic = r["icount"]
@@ -313,12 +333,13 @@ def main():
         if not ic:
             continue
         goal = ok(ic["max"], GOAL_ICOUNT_DEFAULT) if r["preset"] == "cortex-m4f" else "-"
-        rows.append([r["preset"], r["opt"], ic["min"], ic["median"], f"{ic['max']} (step {ic['max_step']})",
-                     ic["newton_iters_max"], ic["stack_measured"].get("steps"), goal])
+        rows.append([r["preset"], r["opt"], ic.get("build", "same"), ic["min"], ic["median"],
+                     f"{ic['max']} (step {ic['max_step']})", ic["newton_iters_max"], ic["stack_measured"].get("steps"),
+                     r["lib_default"][0] if "lib_default" in r else "same", goal])
     if rows:
         table("Instructions per caekf_step, the recommended default (trapezoidal, contact substeps; reference "
-              "scenario, 60,000 steps)", ["target", "opt", "min", "median", "max", "Newton iterations max",
-                                          "stack measured", f"max <= {GOAL_ICOUNT_DEFAULT}"], rows)
+              "scenario, 60,000 steps)", ["target", "opt", "build", "min", "median", "max", "Newton iterations max",
+                                          "stack measured", "lib text", f"max <= {GOAL_ICOUNT_DEFAULT}"], rows)
     for r in results:
         bd = r.get("breakdown")
         if not bd:

@@ -16,6 +16,14 @@ CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEK
                     scratch_holds_the_newton_and_substep_work);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
 
+/* x_{k-1}, step work: in P_work, which is free until the covariance prediction, when the step has no
+ * substeps (they keep their start there); else in the instance. */
+#if CAEKF_ONE_STEP_BE
+#define X_PREV(est) ((est)->P_work)
+#else
+#define X_PREV(est) ((est)->x_prev)
+#endif
+
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
 /* F in scaled coordinates, S^-1 F S: column j of the v-rows times s_j / s_v, which is exactly 1 for
@@ -26,9 +34,11 @@ static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t 
     int i, j;
     for (i = 0; i < nq; ++i) {
         caekf_scalar_t *f = fv[i];
+        CAEKF_UNROLL_SIZED
         for (j = 0; j < nq; ++j) {
             f[j] *= rq;
         }
+        CAEKF_UNROLL_SIZED
         for (j = 2 * nq; j < n; ++j) {
             f[j] *= s[j] / s[nq];
         }
@@ -39,12 +49,7 @@ static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t 
 static void load_fv0(caekf_t *est)
 {
     const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
-    int i, j;
-    for (i = 0; i < nq; ++i) {
-        for (j = 0; j < n; ++j) {
-            est->fv[i][j] = est->model.fv0[i][j];
-        }
-    }
+    caekf_model_free_transition_v(&est->model, est->fv);
     scale_fv(est->fv, est->scale, nq, n);
     caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
     est->fv_const = 1;
@@ -149,6 +154,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     }
     est->cfg = *s;
     (void)caekf_model_init(&est->model, mp);
+#if CAEKF_HAS_SUBSTEPS
     if (s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
         caekf_model_params_t sub = *mp;
         sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
@@ -156,6 +162,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     } else {
         est->sub_model = est->model;
     }
+#endif
     nq = est->model.nq;
     nc = est->model.nc;
     n = est->model.n;
@@ -163,13 +170,15 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->scale[i] = 1;
         est->z[i] = 0;
         est->q_diag[i] = 0;
-        est->x_prev[i] = 0;
+        X_PREV(est)[i] = 0;
         est->x_pred[i] = 0;
     }
+#if !CAEKF_ONE_STEP_BE
     for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
         est->u_prev[i] = 0;
     }
     est->u_prev_known = 0;
+#endif
     for (i = 0; i < nq; ++i) {
         est->scale[i] = s->sigma_q0;
         est->scale[nq + i] = s->sigma_v0;
@@ -262,19 +271,21 @@ static int all_finite(const caekf_scalar_t *v, int n)
 {
     caekf_scalar_t nf = 0;
     int i;
+    CAEKF_UNROLL_SIZED
     for (i = 0; i < n; ++i) {
         nf += v[i] * 0;
     }
     return nf == 0;
 }
 
+#if CAEKF_HAS_SUBSTEPS
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
  * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows); F's gamma rows
  * stay identity rows. Returns 0, 1 when a Newton solve did not converge, -1 on a singular matrix. */
 static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u, int *iters)
 {
     const caekf_model_t *m = &est->sub_model;
-    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = est->cfg.contact_substeps;
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
     const caekf_scalar_t hs = m->hs, c2 = m->p.dt - m->hs;
     /* P_work is free until the covariance prediction: it holds each substep's start and inputs, off the
      * stack (the substeps' Newton solve is the deepest call of a step) */
@@ -290,7 +301,7 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
         }
     }
     for (i = 0; i < n; ++i) {
-        xa[i] = est->x_prev[i];
+        xa[i] = X_PREV(est)[i];
     }
     for (i = 0; i < nu; ++i) {
         ub[i] = u0[i];
@@ -330,6 +341,14 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
     }
     return result;
 }
+#endif
+
+/* The product's q-rows after substeps (NULL: F's q-rows follow from its v-rows). */
+#if CAEKF_HAS_SUBSTEPS
+#define SUBSTEP_FQ(est, substepped) ((substepped) ? (est)->fq : 0)
+#else
+#define SUBSTEP_FQ(est, substepped) ((void)(substepped), (caekf_scalar_t(*)[CAEKF_N])0)
+#endif
 
 /* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step; after
  * substeps their product, in fq and fv) and P- = F P F^T + Q into P_work (upper triangle);
@@ -340,6 +359,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
     caekf_scalar_t *z = est->x_pred;
     int i;
+#if CAEKF_HAS_SUBSTEPS
     if (substepped) { /* scaled: S^-1 F S */
         est->fv_const = 0;
         for (i = 0; i < nq; ++i) {
@@ -349,14 +369,16 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
                 est->fv[i][j] *= s[j] / s_v;
             }
         }
-        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
-    } else if (closed) {
+        caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
+    } else
+#endif
+        if (closed) {
         est->fv_const = 0;
-        if (caekf_model_transition_v(&est->model, est->x_pred, est->x_prev, est->fv) != 0) {
+        if (caekf_model_transition_v(&est->model, est->x_pred, X_PREV(est), est->fv) != 0) {
             return -1;
         }
         scale_fv(est->fv, s, nq, n);
-        caekf_fv_compact(est->fv, nq, n, &est->fv_pattern);
+        caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
     } else if (!est->fv_const) {
         load_fv0(est);
     }
@@ -368,7 +390,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
     }
     /* From here on P_work holds the upper triangle only; the commit mirrors it. */
     caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.hs * s_v / s_q,
-                             (est->model.p.dt - est->model.hs) * s_v / s_q, substepped ? est->fq : 0, est->q_diag,
+                             (est->model.p.dt - est->model.hs) * s_v / s_q, SUBSTEP_FQ(est, substepped), est->q_diag,
                              &est->dims);
     return 0;
 }
@@ -522,7 +544,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         return CAEKF_ERR_INPUT; /* nothing in *est has been written */
     }
     s = est->scale;
-    xprev = est->x_prev;
+    xprev = X_PREV(est);
     z = est->x_pred;
 
     /* Prediction (Table 1): Newton solve of the step, then F by eq. (10) at x_k-. The first step after
@@ -535,15 +557,21 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             est->x_pred[i] = xprev[i];
         }
     } else {
+#if CAEKF_ONE_STEP_BE
+        const caekf_scalar_t *u0 = u; /* unused: only the trapezoidal rule and the substeps read it */
+#else
         const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
+#endif
+        const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
         int closed_before, r = 0;
-        closed_prev = (est->cfg.contact_substeps > 1 || est->model.trap) && caekf_model_any_contact(&est->model, xprev);
-        closed_before = est->cfg.contact_substeps > 1 && closed_prev;
+        closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) && caekf_model_any_contact(&est->model, xprev);
+        closed_before = substeps > 1 && closed_prev;
         if (!closed_before) { /* a step from an open contact: one step unless it closes one */
             r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
                                    est->x_pred, &iters, est->scratch.m);
         }
-        if (closed_before || (est->cfg.contact_substeps > 1 && caekf_model_any_contact(&est->model, est->x_pred))) {
+#if CAEKF_HAS_SUBSTEPS
+        if (closed_before || (substeps > 1 && caekf_model_any_contact(&est->model, est->x_pred))) {
             substepped = 1; /* the one-step solution only decided that substeps are needed */
             r = substep_predict(est, u0, u, &iters);
             if (r < 0) {
@@ -552,6 +580,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
                 goto done;
             }
         }
+#endif
         if (r != 0) {
             flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
         }
@@ -579,7 +608,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (est->model.trap && closed_prev), substepped) != 0) {
+    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped) !=
+               0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
@@ -618,10 +648,12 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             *col = *w;
         }
     }
+#if !CAEKF_ONE_STEP_BE
     for (i = 0; i < nu; ++i) {
         est->u_prev[i] = u[i];
     }
     est->u_prev_known = 1;
+#endif
     est->step_count++;
     est->last_flags = flags;
 done:

@@ -18,6 +18,24 @@
 #define DIM_N(d) ((d)->n)
 #define DIM_NY(d) ((d)->ny)
 #endif
+/* The size of the n x n matrices the functions below are given: a sized build runs its mechanism's n
+ * only, a constant there (fixed loop bounds); the argument otherwise. */
+#if CAEKF_SIZED
+#define SIZED_N(n) ((void)(n), DIM_N((const caekf_filter_dims_t *)0))
+#else
+#define SIZED_N(n) (n)
+#endif
+/* Substeps' q-rows of F and the trapezoidal rule's c2: never given where the build cannot run them. */
+#if CAEKF_HAS_SUBSTEPS
+#define FQ_GIVEN(fq) ((fq) != 0)
+#else
+#define FQ_GIVEN(fq) ((void)(fq), 0)
+#endif
+#if CAEKF_HAS_TRAPEZOIDAL
+#define C2_GIVEN(c2) ((c2) != 0)
+#else
+#define C2_GIVEN(c2) ((void)(c2), 0)
+#endif
 /* P_ij of a matrix kept as its upper triangle. */
 #define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
@@ -36,11 +54,28 @@ void caekf_mirror_upper(caekf_scalar_t *P, int n)
     }
 }
 
+void caekf_fv_dense(int nq, int n, caekf_fv_pattern_t *pat)
+{
+    int i;
+    for (i = 0; i < nq; ++i) {
+        pat->nnz[i] = (unsigned char)n;
+    }
+    pat->dense = 1;
+}
+
 void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat)
 {
-    int i, j;
+    int i, j, dense = 1;
     for (i = 0; i < nq; ++i) {
         unsigned char k = 0;
+        const caekf_scalar_t *f = fv[i];
+        for (j = 0; j < n && f[j] != 0; ++j) { /* a dense row (in contact) is left as it is */
+        }
+        if (j == n) {
+            pat->nnz[i] = (unsigned char)n;
+            continue;
+        }
+        dense = 0;
         for (j = 0; j < n; ++j) {
             if (fv[i][j] != 0) { /* a NaN is kept: it must reach P and be caught */
                 pat->nz[i][k] = (unsigned char)j;
@@ -49,6 +84,7 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
         }
         pat->nnz[i] = k;
     }
+    pat->dense = (unsigned char)dense;
 }
 
 /* The products of eq. (12) are dot products with a row of Fv over its nonzeros, summed with the column
@@ -62,11 +98,69 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
     int k;
 #if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
 #pragma GCC unroll 32 /* a sized build knows n: written out even at -Os */
+#elif defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 4 /* n at run time: four terms a turn, in the same order */
 #endif
     for (k = 0; k < n; ++k) {
         s += a[k] * b[k];
     }
     return s;
+}
+
+#if CAEKF_SIZED
+/* r = a (n values), written out in a sized build so that r can live in registers. */
+CAEKF_HOT_INLINE void copy_row(caekf_scalar_t *r, const caekf_scalar_t *a, int n)
+{
+    int k;
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 32
+#endif
+    for (k = 0; k < n; ++k) {
+        r[k] = a[k];
+    }
+}
+#endif
+
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
+/* A dense row f of Fv times P: tv[j] = f . P_j (P symmetric), tq[j] = P_ij + c tv[j]; f is held (in
+ * registers when sized) across the rows of P. */
+NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, const caekf_scalar_t *pi,
+                                  caekf_scalar_t *tq, caekf_scalar_t *tv, caekf_scalar_t c, int n)
+{
+#if CAEKF_SIZED
+    caekf_scalar_t fr[CAEKF_N];
+    copy_row(fr, f, n);
+#else
+    const caekf_scalar_t *const fr = f; /* n unknown: a copy would not stay in registers */
+#endif
+    const caekf_scalar_t *pj = P;
+    int j;
+    for (j = 0; j < n; ++j, pj += n) {
+        const caekf_scalar_t s = dot(fr, pj, n);
+        tv[j] = s;
+        tq[j] = pi[j] + c * s;
+    }
+}
+
+/* w[j] = t . Fv_j for j = j0 .. nq - 1 with every row of Fv dense; t is held (in registers when sized). */
+NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
+                             caekf_scalar_t *w)
+{
+#if CAEKF_SIZED
+    caekf_scalar_t tr[CAEKF_N];
+    copy_row(tr, t, n);
+#else
+    const caekf_scalar_t *const tr = t; /* n unknown: a copy would not stay in registers */
+#endif
+    int j;
+    for (j = j0; j < nq; ++j) {
+        w[j] = dot(tr, fv[j], n);
+    }
 }
 
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
@@ -77,11 +171,16 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
     caekf_scalar_t w[CAEKF_NQ], wq[CAEKF_NQ];
+    const int all_dense = pat->dense;
     int i, j, k;
     for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
         const unsigned char *idx = pat->nz[i];
         const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
         caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
+        if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
+            fp_row_dense(f, P, pi, tq, tv, c, n);
+            continue;
+        }
         if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
             const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
             const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
@@ -96,14 +195,6 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             }
             continue;
         }
-        if (cnt[i] == n) { /* a dense row (in contact): no indices */
-            for (j = 0; j < n; ++j, pj += n) {
-                const caekf_scalar_t s = dot(f, pj, n);
-                tv[j] = s;
-                tq[j] = pi[j] + c * s;
-            }
-            continue;
-        }
         for (j = 0; j < n; ++j, pj += n) {
             caekf_scalar_t s = 0;
             for (k = 0; k < cnt[i]; ++k) {
@@ -113,7 +204,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             tq[j] = pi[j] + c * s;
         }
     }
-    if (fq != 0) { /* dense q-rows: T_q = Fq P */
+    if (FQ_GIVEN(fq)) { /* dense q-rows: T_q = Fq P */
         for (i = 0; i < nq; ++i) {
             caekf_scalar_t *tq = T + i * n;
             const caekf_scalar_t *pj = P;
@@ -121,7 +212,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
                 tq[j] = dot(fq[i], pj, n);
             }
         }
-    } else if (c2 != 0) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
+    } else if (C2_GIVEN(c2)) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
         for (i = 0; i < nq; ++i) {
             const caekf_scalar_t *pv = P + (nq + i) * n;
             caekf_scalar_t *tq = T + i * n;
@@ -137,17 +228,20 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         caekf_scalar_t *t = T + i * n;
         caekf_scalar_t dd;
         const int j0 = i < nq ? 0 : i - nq;
-        for (j = j0; j < nq; ++j) {
+        if (all_dense) { /* in contact */
+            w_dense(t, fv, j0, nq, n, w);
+        }
+        for (j = all_dense ? nq : j0; j < nq; ++j) {
             const unsigned char *idx = pat->nz[j];
             const caekf_scalar_t *f = fv[j];
             caekf_scalar_t s = 0;
-            if (cnt[j] == 4) {
+            if (cnt[j] == n) {
+                s = dot(t, f, n);
+            } else if (cnt[j] == 4) {
                 s += t[idx[0]] * f[0];
                 s += t[idx[1]] * f[1];
                 s += t[idx[2]] * f[2];
                 s += t[idx[3]] * f[3];
-            } else if (cnt[j] == n) {
-                s = dot(t, f, n);
             } else {
                 for (k = 0; k < cnt[j]; ++k) {
                     s += t[idx[k]] * f[k];
@@ -155,7 +249,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             }
             w[j] = s;
         }
-        if (i < nq && fq != 0) { /* q-columns T_i Fq_j^T, all read before any is written */
+        if (i < nq && FQ_GIVEN(fq)) { /* q-columns T_i Fq_j^T, all read before any is written */
             for (j = i; j < nq; ++j) {
                 wq[j] = dot(t, fq[j], n);
             }
@@ -166,7 +260,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             j = nq;
         } else if (i < nq) {
             dd = t[i] + c * w[i];
-            if (c2 != 0) { /* T's v-columns are still T's here: they are overwritten below */
+            if (C2_GIVEN(c2)) { /* T's v-columns are still T's here: they are overwritten below */
                 dd += c2 * t[nq + i];
                 for (j = i + 1; j < nq; ++j) {
                     t[j] = flush(t[j] + c * w[j] + c2 * t[nq + j]);
@@ -211,10 +305,12 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
                               caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
 {
     const int n = DIM_N(d), ny = DIM_NY(d);
+#if CAEKF_LA_GENERAL_LU
     caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     int piv[CAEKF_MAX_SENSORS];
     int k, l;
+#endif
     if (ny == 2) {
         caekf_scalar_t inv[3];
         if (caekf_sym2_inverse(AT(P, n, d->h[0], d->h[0]) + d->r[0], UP(P, n, d->h[0], d->h[1]),
@@ -226,6 +322,7 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
         Si[1][1] = inv[2];
         return 0;
     }
+#if CAEKF_LA_GENERAL_LU
     for (k = 0; k < ny; ++k) {
         for (l = 0; l < ny; ++l) {
             S[k * ny + l] = UP(P, n, d->h[k], d->h[l]) + (k == l ? d->r[k] : 0);
@@ -244,7 +341,20 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
             Si[k][l] = I[k * ny + l];
         }
     }
+#endif
     return 0;
+}
+
+/* Column h of a symmetric matrix kept as its upper triangle: rows above h, then row h. */
+static void upper_col(const caekf_scalar_t *P, int n, int h, caekf_scalar_t *out)
+{
+    int i;
+    for (i = 0; i < h; ++i) {
+        out[i] = AT(P, n, i, h);
+    }
+    for (; i < n; ++i) {
+        out[i] = AT(P, n, h, i);
+    }
 }
 
 int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
@@ -282,12 +392,16 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
             *nis += e[k] * s;
         }
     }
-    for (i = 0; i < n; ++i) {
-        const int g = i - nx;
-        live[i] = (unsigned char)(g < 0 || d->policy[g] == CAEKF_GAMMA_LIVE);
+    for (i = 0; i < nx; ++i) {
+        live[i] = 1;
+        skip[i] = 0;
+    }
+    for (i = nx; i < n; ++i) {
+        const int policy = d->policy[i - nx];
+        live[i] = (unsigned char)(policy == CAEKF_GAMMA_LIVE);
         /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma's row and column are left. */
-        skip[i] = (unsigned char)(g >= 0 && d->policy[g] == CAEKF_GAMMA_FROZEN_PAPER);
-        any_live |= g >= 0 && live[i];
+        skip[i] = (unsigned char)(policy == CAEKF_GAMMA_FROZEN_PAPER);
+        any_live |= live[i];
         any_skip |= skip[i];
     }
     if (any_live && gate > 0 && *nis > gate) {
@@ -299,13 +413,14 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     if (ny == 2) { /* two sensors, written out: the same operations as the loops below */
         const int h0 = d->h[0], h1 = d->h[1];
         const caekf_scalar_t s00 = Si[0][0], s01 = Si[0][1], s11 = Si[1][1], e0 = e[0], e1 = e[1];
+        upper_col(P, n, h0, hp[0]);
+        upper_col(P, n, h1, hp[1]);
         for (i = 0; i < n; ++i) {
-            const caekf_scalar_t a = UP(P, n, h0, i), b = UP(P, n, h1, i);
-            hp[0][i] = a;
-            hp[1][i] = b;
+            const caekf_scalar_t a = hp[0][i], b = hp[1][i];
             /* eq. (26) with a gamma frozen: a Schmidt ("consider") gain of 0 on it */
-            G[i][0] = live[i] ? a * s00 + b * s01 : 0;
-            G[i][1] = live[i] ? a * s01 + b * s11 : 0;
+            const int on = i < nx || live[i];
+            G[i][0] = on ? a * s00 + b * s01 : 0;
+            G[i][1] = on ? a * s01 + b * s11 : 0;
             z[i] += G[i][0] * e0 + G[i][1] * e1;
         }
     } else {
@@ -342,8 +457,14 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                 const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
                 const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
                 p[i] -= g0 * h0[i] + g1 * h1[i];
+                if (!any_skip) {
+                    for (j = i + 1; j < n; ++j) {
+                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                    }
+                    continue;
+                }
                 for (j = i + 1; j < n; ++j) {
-                    if (!any_skip || !skip[j]) {
+                    if (!skip[j]) {
                         p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
                     }
                 }
@@ -401,44 +522,61 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     return 0;
 }
 
-int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, caekf_scalar_t zb, int is_max,
+int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g_arg, caekf_scalar_t zb, int is_max,
                           caekf_scalar_t s_g, caekf_scalar_t bound_phys, uint32_t *flags)
 {
+    const int n = SIZED_N(n_arg);
+#if CAEKF_SIZED && CAEKF_SIZED_CONTACTS == 1 && CAEKF_SIZED_LAW_PARAMS == 0
+    const int g = ((void)g_arg, 2 * DIM_NQ((const caekf_filter_dims_t *)0)); /* the one parameter: gamma */
+#else
+    const int g = g_arg;
+#endif
     const caekf_scalar_t s = AT(P, n, g, g);
     const caekf_scalar_t dz = zb - z[g];
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */
     int usable = s > CAEKF_EPS * CAEKF_EPS;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j, k;
+    int i, k;
     if (is_max ? !(z[g] > zb) : !(z[g] < zb)) {
         return 0;
     }
     *flags |= CAEKF_FLAG_CONSTRAINT_APPLIED;
+    for (i = 0; i < g; ++i) { /* P's gamma column from the upper triangle: rows above g, then row g */
+        col[i] = AT(P, n, i, g);
+    }
+    for (i = g; i < n; ++i) {
+        col[i] = AT(P, n, g, i);
+    }
     for (i = 0; i < n; ++i) { /* a valid covariance has P_ig^2 <= P_ii P_gg */
-        col[i] = UP(P, n, i, g);
         if (i != g) {
             usable = usable && col[i] * col[i] <= AT(P, n, i, i) * s * (1 + CAEKF_EPS * 64) + CAEKF_EPS * CAEKF_EPS;
         }
     }
     if (usable) {
         /* Scalar perfect measurement (R = 0): gain k = P e_g / P_gg, P+ = P - P e_g e_g^T P / P_gg.
-         * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. */
+         * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. Each
+         * entry is updated once: the columns before g, then those after it. */
         for (i = 0; i < n; ++i) {
             const caekf_scalar_t a = col[i];
+            caekf_scalar_t *p = &AT(P, n, i, i), *const pend = &AT(P, n, i, n);
+            const caekf_scalar_t *cj = col + i;
             if (i == g) {
                 continue;
             }
             z[i] += a / s * dz;
-            AT(P, n, i, i) -= a * a / s;
-            for (j = i + 1; j < n; ++j) {
-                if (j != g) {
-                    AT(P, n, i, j) = flush(AT(P, n, i, j) - a * col[j] / s);
-                }
-            }
+            *p -= a * a / s;
             if (i < g) {
-                AT(P, n, i, g) = 0;
+                caekf_scalar_t *const pg = &AT(P, n, i, g);
+                while (++p != pg) {
+                    *p = flush(*p - a * *++cj / s);
+                }
+                *p = 0; /* P_ig */
+                ++cj;
             } else {
                 AT(P, n, g, i) = 0;
+            }
+            while (++p != pend) {
+                *p = flush(*p - a * *++cj / s);
             }
         }
         AT(P, n, g, g) = 0;
@@ -483,9 +621,10 @@ static int screen_fails(const caekf_scalar_t *P, int n, caekf_scalar_t *nf)
     return 0;
 }
 
-int caekf_covariance_health(caekf_scalar_t *P, int n, int full_check, int repair, caekf_scalar_t *scratch,
+int caekf_covariance_health(caekf_scalar_t *P, int n_arg, int full_check, int repair, caekf_scalar_t *scratch,
                             uint32_t *flags)
 {
+    const int n = SIZED_N(n_arg);
     caekf_scalar_t nf = 0;
     int i, j;
     if (!screen_fails(P, n, &nf)) {

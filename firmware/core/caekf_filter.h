@@ -1,10 +1,11 @@
 /*
  * The filter's building blocks on the scaled state z = S^-1 x and scaled covariance P (internal).
  * Matrices are n x n, row-major with leading dimension n (the augmented state [q; v; parameters]: the
- * gammas, then the estimated law parameters), in buffers of the build's capacity. H selects one position or velocity per
- * sensor: the structure is used instead of multiplying by H. Within a step the work covariance is kept
- * as its upper triangle only (the *_upper functions read and write j >= i; caekf_mirror_upper completes
- * a full symmetric matrix).
+ * gammas, then the estimated law parameters), in buffers of the build's capacity; a sized build
+ * (CAEKF_SIZED) runs its mechanism's n only, and there an n argument must be that n (the loops use the
+ * constant). H selects one position or velocity per sensor: the structure is used instead of multiplying
+ * by H. Within a step the work covariance is kept as its upper triangle only (the *_upper functions read
+ * and write j >= i; caekf_mirror_upper completes a full symmetric matrix).
  */
 #ifndef CAEKF_FILTER_H
 #define CAEKF_FILTER_H
@@ -23,6 +24,12 @@ typedef enum {
 /* Compacts fv's rows in place to their nonzeros (fv[i][k] is column pat->nz[i][k]): the products skip
  * the exact zeros, as adding a zero product changes no sum. */
 void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat);
+
+/* Marks every row of fv dense (nothing moved): the products then run over all n columns. For finite
+ * operands that is the compacted result bit for bit: a zero product added to a sum started at +0 changes
+ * nothing (x + 0 = x for x != 0, +0 + -0 = +0), so a step in contact (rows dense in practice) skips the
+ * scan for zeros. */
+void caekf_fv_dense(int nq, int n, caekf_fv_pattern_t *pat);
 
 /* Copies the upper triangle into the lower one. */
 void caekf_mirror_upper(caekf_scalar_t *P, int n);

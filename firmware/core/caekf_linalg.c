@@ -8,6 +8,7 @@ static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
 static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0);
 
+#if CAEKF_LA_GENERAL_LU
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol)
 {
     int i;
@@ -25,6 +26,7 @@ caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf
 {
     return size_ok(n) ? lu_factor_from(a, n, piv, tol, 0) : CAEKF_LA_BAD_SIZE;
 }
+#endif
 
 /* Partial-pivoting LU from elimination step k0 on (steps before it done, without row exchanges). */
 static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0)
@@ -100,6 +102,7 @@ caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scal
     return CAEKF_LA_OK;
 }
 
+#if CAEKF_LA_GENERAL_LU
 caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
 {
     int i, j, c;
@@ -128,6 +131,7 @@ caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[
     }
     return CAEKF_LA_OK;
 }
+#endif
 
 /* The 4x4 solve the model runs on every step: the same operations in the same order as
  * caekf_lu_solve (bit for bit the same results), with the size fixed so that the factors stay in

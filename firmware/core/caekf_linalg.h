@@ -18,6 +18,15 @@ typedef enum {
     CAEKF_LA_NOT_PSD = 3
 } caekf_la_status_t;
 
+/* The LU of any size. A sized build whose Newton matrix is 4 x 4 and whose innovation covariance is 2 x 2
+ * runs the fixed-size kernels and closed forms only, and leaves it out. */
+#if CAEKF_SIZED
+#define CAEKF_LA_GENERAL_LU (CAEKF_SIZED_BODIES != 4 || CAEKF_SIZED_SENSORS != 2)
+#else
+#define CAEKF_LA_GENERAL_LU 1
+#endif
+
+#if CAEKF_LA_GENERAL_LU
 /* LU with partial pivoting, in place: PA = LU. A pivot whose magnitude is <= rel_tol * max|a_ij| is
  * refused (CAEKF_LA_SINGULAR) instead of being divided by. */
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol);
@@ -29,6 +38,7 @@ caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[
 /* caekf_lu_factor with the refusal threshold given (tol = rel_tol * max|a_ij|, from a caller who knows the
  * largest entry already): bit for bit the same. */
 caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol);
+#endif
 
 /* caekf_lu_factor for n = 4 with the refusal threshold given (tol = rel_tol * max|a_ij|, from a
  * caller who knows the largest entry already): bit for bit the same, faster. */

@@ -38,6 +38,14 @@
 #define CAEKF_NOINLINE
 #endif
 
+/* Before a loop whose bound is a size: a sized build knows it, and the loop is then written out even at
+ * -Os (no library call for a fill, operands held in registers). */
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#define CAEKF_UNROLL_SIZED _Pragma("GCC unroll 32")
+#else
+#define CAEKF_UNROLL_SIZED
+#endif
+
 /* isfinite() is type-generic in C99. */
 #define CAEKF_ISFINITE(x) (isfinite(x) != 0)
 

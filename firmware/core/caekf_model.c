@@ -22,6 +22,18 @@ int caekf_model_params_check(const caekf_model_params_t *p)
         return 1;
     }
 #endif
+#if CAEKF_SIZED_METHOD
+    if (p->discretisation != CAEKF_SIZED_DISCRETISATION) {
+        return 1;
+    }
+#endif
+#ifdef CAEKF_SIZED_CONTACT_N
+    for (i = 0; i < p->contacts; ++i) {
+        if (p->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
+            return 1;
+        }
+    }
+#endif
     for (i = 0; i < p->bodies; ++i) {
         if (!CAEKF_ISFINITE(p->m[i]) || !(p->m[i] > 0)) {
             return 1;
@@ -103,7 +115,7 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
 {
     const int i = m->contact_i[c], j = m->contact_j[c], nq = CAEKF_DIM_NQ(m);
     const caekf_scalar_t gamma = m->p.gamma_log ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
-    caekf_scalar_t n = m->p.contact_n[c], lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
+    caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
 #if CAEKF_HAS_LAW_PARAMS
     const unsigned char *law = m->law_state[c];
@@ -277,6 +289,7 @@ NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar
     momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
 }
 
+#if CAEKF_MODEL_ORACLES
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
                           const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
 {
@@ -285,11 +298,11 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
     int i;
     contacts_at(m, xk, ct);
     for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t v = m->trap ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
+        const caekf_scalar_t v = CAEKF_METHOD_TRAP(m) ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
         g[i] = (xk[i] - xprev[i]) / m->p.dt - v;
     }
     momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
-    if (m->trap) {
+    if (CAEKF_METHOD_TRAP(m)) {
         caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
         step_start_force(m, xprev, u_prev, ct, g0, mag0); /* ct (at x_k) is no longer needed */
         for (i = 0; i < nq; ++i) {
@@ -301,6 +314,7 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
     }
     (void)nc;
 }
+#endif
 
 /* Adds s b_c to column col of the nq rows at `rows` (leading dimension CAEKF_N): +s on body a's row,
  * -s on body b's (ground ends drop out). */
@@ -337,6 +351,7 @@ static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact
 #endif
 }
 
+#if CAEKF_MODEL_ORACLES
 /* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): the force through
  * delta (q columns), its rate (v columns) and the contact's parameter states. */
 static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
@@ -352,7 +367,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
                            caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = m->trap ? CAEKF_C(0.5) : 1;
+    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = CAEKF_METHOD_TRAP(m) ? CAEKF_C(0.5) : 1;
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
     int i, j, c;
     for (i = 0; i < n; ++i) {
@@ -370,7 +385,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
         for (j = 0; j < nq; ++j) {
             Jk[nq + i][j] = m->K[i][j];
             Jk[nq + i][nq + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
-            if (m->trap) { /* the step's start: G(x_{k-1}) */
+            if (CAEKF_METHOD_TRAP(m)) { /* the step's start: G(x_{k-1}) */
                 Jprev[nq + i][j] = m->K[i][j];
                 Jprev[nq + i][nq + j] += m->C[i][j];
             }
@@ -380,7 +395,7 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
     contacts_at(m, xprev, ct0);
     for (c = 0; c < nc; ++c) {
         add_contact_tangents(m, c, &ct[c], Jk);
-        if (m->trap) {
+        if (CAEKF_METHOD_TRAP(m)) {
             add_contact_tangents(m, c, &ct0[c], Jprev);
         }
     }
@@ -389,8 +404,15 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
         Jprev[i][i] = -1;
     }
 }
+#endif
 
 #define LU_REL_TOL (CAEKF_EPS * 16)
+
+/* A0's entry (i, j): M/hs + C + hs K. */
+CAEKF_HOT_INLINE caekf_scalar_t a0_entry(const caekf_model_t *m, int i, int j)
+{
+    return m->C[i][j] + m->hs * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+}
 
 /* A = M/hs + C + hs K + sum_c (hs f_c'(delta) + f_c'(rate)) b_c b_c^T: the Jacobian of the momentum
  * rows with respect to v_k once q_k is substituted (dq_k/dv_k = hs). Returns the LU refusal
@@ -401,14 +423,31 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     caekf_scalar_t amax = 0;
     int i;
+#if CAEKF_ONE_STEP_BE
+    /* A0 by a0_entry's operations over K and C's nonzeros: the other entries are 0 + hs 0 (+ M/hs) */
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq * nq; ++i) {
+        A[i] = 0;
+    }
+    for (i = 0; i < nq; ++i) {
+        int k;
+        for (k = 0; k < m->nnz[i]; ++k) {
+            const int j = m->nz[i][k];
+            A[i * nq + j] = m->C[i][j] + m->hs * m->K[i][j];
+        }
+        A[i * nq + i] += m->m_dt[i];
+    }
+#else
     for (i = 0; i < nq * nq; ++i) {
         A[i] = m->A0[i];
     }
+#endif
     for (i = 0; i < nc; ++i) {
         if (ct[i].delta > 0) {
             add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
+    CAEKF_UNROLL_SIZED
     for (i = 0; i < nq * nq; ++i) {
         amax = caekf_max(amax, CAEKF_FABS(A[i]));
     }
@@ -418,18 +457,28 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
 /* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
+#if CAEKF_LA_GENERAL_LU
     return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK
                ? 0
                : -1;
+#else
+    (void)nq;
+    return caekf_lu4_factor_tol(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
+#endif
 }
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
 {
+#if CAEKF_LA_GENERAL_LU
     if (CAEKF_DIM_IS4(nq)) {
         caekf_lu4_solve(lu, piv, b, nrhs, ldb);
     } else {
         (void)caekf_lu_solve(lu, nq, piv, b, nrhs, ldb);
     }
+#else
+    (void)nq;
+    caekf_lu4_solve(lu, piv, b, nrhs, ldb);
+#endif
 }
 
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
@@ -450,12 +499,12 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
-    if (m->trap) {
+    if (CAEKF_METHOD_TRAP(m)) {
         step_start_force(m, xprev, u_prev, ct, g0, mag0);
     }
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
-        q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
+        q[i] = CAEKF_METHOD_TRAP(m) ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
     }
     for (i = 2 * nq; i < CAEKF_DIM_N(m); ++i) { /* random walks: gamma_k = gamma_{k-1}, law parameters */
         xk[i] = xprev[i];
@@ -472,7 +521,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         }
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
-        if (m->trap) {
+        if (CAEKF_METHOD_TRAP(m)) {
             for (i = 0; i < nq; ++i) {
                 r[i] += g0[i];
                 if (it > 0) {
@@ -507,7 +556,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
         }
         for (i = 0; i < nq; ++i) {
             v[i] -= r[i];
-            q[i] = m->trap ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
+            q[i] = CAEKF_METHOD_TRAP(m) ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
         }
     }
     *iters = it;
@@ -524,8 +573,13 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
     for (i = 0; i < nq; ++i) {
-        for (j = 0; j < n; ++j) {
-            fv[i][j] = j < nq ? -m->K[i][j] : 0;
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < nq; ++j) {
+            fv[i][j] = -m->K[i][j];
+        }
+        CAEKF_UNROLL_SIZED
+        for (j = nq; j < n; ++j) {
+            fv[i][j] = 0;
         }
         if (ct0 != 0) {
             for (j = 0; j < nq; ++j) {
@@ -554,6 +608,27 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
     }
 }
 
+void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+#if CAEKF_ONE_STEP_BE
+    caekf_contact_t none[CAEKF_MAX_CONTACTS + 1]; /* every contact open: only delta = 0 is read */
+    int i;
+    for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
+        none[i].delta = 0;
+    }
+    transition_rhs(m, none, 0, fv);
+    solve(m->A0_lu, CAEKF_DIM_NQ(m), m->A0_piv, &fv[0][0], CAEKF_DIM_N(m), CAEKF_N);
+#else
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m);
+    int i, j;
+    for (i = 0; i < nq; ++i) {
+        for (j = 0; j < n; ++j) {
+            fv[i][j] = m->fv0[i][j];
+        }
+    }
+#endif
+}
+
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
@@ -561,26 +636,21 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
-    /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j, closed, closed0 = 0;
+    int closed, closed0 = 0;
     contacts_at(m, xk, ct);
     closed = any_contact(ct, nc);
-    if (m->trap) {
+    if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);
         closed0 = any_contact(ct0, nc);
     }
     if (!closed && !closed0) { /* linear step: the constant F */
-        for (i = 0; i < nq; ++i) {
-            for (j = 0; j < n; ++j) {
-                fv[i][j] = m->fv0[i][j];
-            }
-        }
+        caekf_model_free_transition_v(m, fv);
         return 0;
     }
     if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
-    transition_rhs(m, ct, m->trap ? ct0 : 0, fv); /* solved in place */
+    transition_rhs(m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0, fv); /* solved in place */
     if (closed) {
         solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
     } else { /* trapezoidal, closed only at the step's start: A is A0 */
@@ -645,8 +715,10 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         m->m_dt[i] = p->m[i] / m->hs;
         m->nnz[i] = 0;
         for (j = 0; j < nq; ++j) {
-            const caekf_scalar_t a = m->C[i][j] + m->hs * m->K[i][j] + (i == j ? m->m_dt[i] : 0);
+            const caekf_scalar_t a = a0_entry(m, i, j);
+#if !CAEKF_ONE_STEP_BE
             m->A0[i * nq + j] = a;
+#endif
             m->A0_lu[i * nq + j] = a;
             if (m->K[i][j] != 0 || m->C[i][j] != 0) {
                 m->nz[i][m->nnz[i]++] = (unsigned char)j;
@@ -654,14 +726,25 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         }
     }
     /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */
-    if (caekf_lu_factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL) != CAEKF_LA_OK) {
-        return -1;
+    {
+        caekf_scalar_t amax = 0; /* the LU's threshold, as caekf_lu_factor takes it */
+        for (i = 0; i < nq * nq; ++i) {
+            amax = caekf_max(amax, CAEKF_FABS(m->A0_lu[i]));
+        }
+        if (factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL * amax) != 0) {
+            return -1;
+        }
     }
-    transition_rhs(m, none, m->trap ? none : 0, m->fv0);
+#if !CAEKF_ONE_STEP_BE
+    transition_rhs(m, none, CAEKF_METHOD_TRAP(m) ? none : 0, m->fv0);
     solve(m->A0_lu, nq, m->A0_piv, &m->fv0[0][0], m->n, CAEKF_N);
+#else
+    (void)none;
+#endif
     return 0;
 }
 
+#if CAEKF_MODEL_ORACLES
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                            const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t F[CAEKF_N][CAEKF_N])
 {
@@ -684,3 +767,4 @@ int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
     }
     return 0;
 }
+#endif

@@ -28,9 +28,32 @@
 #define CAEKF_DIM_IS4(nq) ((nq) == 4)
 #endif
 
+/* The step method: constants in a build sized for one configuration (CAEKF_SIZED_METHOD), so the code of
+ * the other methods compiles out; the settings' otherwise. */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_METHOD_TRAP(m) ((void)(m), CAEKF_SIZED_DISCRETISATION == CAEKF_DISCRETISATION_TRAPEZOIDAL)
+#define CAEKF_METHOD_SUBSTEPS(cfg) ((void)(cfg), CAEKF_SIZED_CONTACT_SUBSTEPS)
+#else
+#define CAEKF_METHOD_TRAP(m) ((m)->trap)
+#define CAEKF_METHOD_SUBSTEPS(cfg) ((cfg)->contact_substeps)
+#endif
+#ifdef CAEKF_SIZED_CONTACT_N
+#define CAEKF_METHOD_CONTACT_N(m, c) ((void)(m), (void)(c), (caekf_scalar_t)CAEKF_SIZED_CONTACT_N)
+#else
+#define CAEKF_METHOD_CONTACT_N(m, c) ((m)->p.contact_n[c])
+#endif
+
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 
+/* The model's reference functions (the residual, its Jacobians, the full F of eq. 10): test oracles for
+ * the structured step, which the estimator never calls. A build sized for one configuration
+ * (CAEKF_SIZED_METHOD) leaves them out of its library. */
+#ifndef CAEKF_MODEL_ORACLES
+#define CAEKF_MODEL_ORACLES (!CAEKF_SIZED_METHOD)
+#endif
+
+#if CAEKF_MODEL_ORACLES
 /* The step's residual g(x_k, x_{k-1}, u_{k-1}, u_k) of the augmented state x = [q; v; gamma], theta = 1
  * (backward Euler, eq. 19) or 1/2 (trapezoidal), G(x, u) = C v + K q - B_u u + sum_c b_c f_c(x, gamma_c):
  *   rows 0..nq-1:     (q_k - q_{k-1})/dt - theta v_k - (1 - theta) v_{k-1}
@@ -49,12 +72,17 @@ void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, con
  * are identity rows by construction. Returns 0, or -1 if A is singular. */
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                            const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t F[CAEKF_N][CAEKF_N]);
+#endif
 
 /* The v-rows of F only (nq x n), which is all the filter needs: F's q-rows are
  * [I, (dt - hs) I, 0] + hs * (v-rows), and its gamma rows are identity rows. Returns 0, or -1 if A is
  * singular. */
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+
+/* The v-rows of the constant contact-free F (nq x n): model_init's fv0, or recomputed by the same
+ * operations (CAEKF_ONE_STEP_BE). */
+void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
 /* Whether a contact is closed at x (the step map then differs from the constant linear one). */
 int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x);

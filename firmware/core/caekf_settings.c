@@ -355,6 +355,32 @@ static int first_unsized(const caekf_model_params_t *m)
 #endif
 }
 
+/* A build sized for one configuration (CAEKF_SIZED_METHOD) runs exactly its step method: the first
+ * setting that differs. */
+static int first_unsized_method(const caekf_settings_t *s)
+{
+#if CAEKF_SIZED_METHOD
+    unsigned i;
+    if (s->model.discretisation != CAEKF_SIZED_DISCRETISATION) {
+        return (int)CAEKF_PARAM_DISCRETISATION;
+    }
+    if (s->contact_substeps != CAEKF_SIZED_CONTACT_SUBSTEPS) {
+        return (int)CAEKF_PARAM_CONTACT_SUBSTEPS;
+    }
+#ifdef CAEKF_SIZED_CONTACT_N
+    for (i = 0; i < (unsigned)s->model.contacts; ++i) {
+        if (s->model.contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
+            return (int)(CAEKF_PARAM_CONTACT_N + i);
+        }
+    }
+#endif
+    (void)i;
+#else
+    (void)s;
+#endif
+    return -1;
+}
+
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
 {
     unsigned k, i;
@@ -390,6 +416,9 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
         }
     }
     bad = first_unsized(&s->model);
+    if (bad < 0) {
+        bad = first_unsized_method(s);
+    }
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);
     }

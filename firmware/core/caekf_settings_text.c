@@ -50,7 +50,8 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
         why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
         break;
     case CAEKF_SETTING_UNSUPPORTED:
-        why = "this build is sized for another mechanism (CAEKF_SIZED: the counts must equal its capacity)";
+        why = "this build is sized for another mechanism or step method (CAEKF_SIZED: the counts, and with "
+              "CAEKF_SIZED_METHOD the step method, must equal its own)";
         break;
     default: why = caekf_setting_rule_text(err->setting); break;
     }

@@ -61,3 +61,32 @@ def test_presets_reproduce_the_paper_experiments_rule():
     assert p["canonical"]["gamma_gate_nis"] == 0.0 and "gamma_gate_nis" not in p["switched"]
     assert [p[n]["q_gamma_scale"] for n in p] == [1.0, 1.0, 1000.0, 1000.0]
     assert [p[n]["constraint_enabled"] for n in p] == [0, 0, 0, 1]
+
+
+SCENARIOS = REPO / "sim" / "scenarios"
+
+
+def test_a_mechanism_sizes_counts_only_and_a_preset_fixes_the_step_method(tmp_path):
+    """CAEKF_MECHANISM alone: the counts are constants, the step method stays a run-time setting; with a
+    preset (CAEKF_MECHANISM_PRESET) the method the scenario and the preset give is fixed, and the schema's
+    defaults follow it."""
+    cap = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml")
+    assert "#define CAEKF_SIZED 1" in cap and "#define CAEKF_SIZED_BODIES 4" in cap
+    assert "#define CAEKF_SIZED_METHOD 0" in cap and "CAEKF_SIZED_DISCRETISATION" not in cap
+    files = codegen.c_core(schema.SCHEMA, SCENARIOS / "paper.toml", "switched-highq-constrained")
+    cap = files["caekf/caekf_capacity.h"]
+    be = schema.SCHEMA.by_name("discretisation").values.index("backward_euler")
+    assert "#define CAEKF_SIZED_METHOD 1" in cap
+    assert f"#define CAEKF_SIZED_DISCRETISATION {be}" in cap
+    assert "#define CAEKF_SIZED_CONTACT_SUBSTEPS 1" in cap
+    assert "#define CAEKF_SIZED_CONTACT_N 1.5" in cap
+    table = files["caekf_settings_table.c"]
+    assert "s->model.discretisation = CAEKF_SIZED_DISCRETISATION;" in table
+    assert "s->contact_substeps = CAEKF_SIZED_CONTACT_SUBSTEPS;" in table
+    # Contacts with different exponents: the exponent stays a run-time setting.
+    two = tmp_path / "two.toml"
+    two.write_text("contacts = 2\ncontact2_a = 3\ncontact2_b = 4\ncontact2_n = 1.0\n")
+    cap = codegen.c_capacity(schema.SCHEMA, two, "canonical")
+    assert "#define CAEKF_SIZED_CONTACTS 2" in cap and "CAEKF_SIZED_CONTACT_N" not in cap
+    with pytest.raises(codegen.SchemaError, match="unknown preset"):
+        codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", "no-such-preset")

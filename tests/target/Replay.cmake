@@ -50,7 +50,13 @@ set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS 
 
 # Two images: target_replay runs the switched-highq-constrained preset (the paper's heaviest step: contact
 # + constraint), target_replay_default the recommended default estimator (no preset).
-foreach(_variant IN ITEMS constrained default)
+# A build sized for one configuration (CAEKF_MECHANISM_PRESET) runs that preset's step method only: no
+# default image (its defaults would be the preset's method, not the recommended estimator's).
+set(_variants constrained)
+if(CAEKF_MECHANISM_PRESET STREQUAL "")
+    list(APPEND _variants default)
+endif()
+foreach(_variant IN LISTS _variants)
     if(_variant STREQUAL "constrained")
         set(_image target_replay)
         set(_preset_def "")

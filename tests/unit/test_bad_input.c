@@ -176,6 +176,40 @@ static void test_newton_bound_is_a_capacity(void)
     TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_NEWTON_MAX_ITER, err.param_id);
 }
 
+#if CAEKF_SIZED_METHOD
+/* A build sized for one configuration runs its step method only: any other is refused as unsupported
+ * (its defaults are that method), and the model refuses it too. */
+static void test_a_method_sized_build_refuses_other_methods(void)
+{
+    caekf_settings_t b;
+    caekf_setting_error_t err;
+    caekf_model_t m;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_default(&b));
+    TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_DISCRETISATION, b.model.discretisation);
+    TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_CONTACT_SUBSTEPS, b.contact_substeps);
+    b = good;
+    b.model.discretisation = 1 - CAEKF_SIZED_DISCRETISATION;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_DISCRETISATION, err.param_id);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+    b = good;
+    b.contact_substeps = CAEKF_SIZED_CONTACT_SUBSTEPS == 1 ? 2 : 1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_CONTACT_SUBSTEPS, err.param_id);
+#ifdef CAEKF_SIZED_CONTACT_N
+    b = good;
+    b.model.contact_n[0] = (caekf_scalar_t)CAEKF_SIZED_CONTACT_N + 1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_CONTACT_N, err.param_id);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+#endif
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&good, &err));
+}
+#endif
+
 #if CAEKF_HAS_SETTING_TEXT
 /* The refusal reads as the schema states the rule, with the element and its value. */
 static void test_refusal_text_names_element_value_and_rule(void)
@@ -266,6 +300,9 @@ int main(void)
     RUN_TEST(test_null_and_uninitialised);
     RUN_TEST(test_bad_settings_are_refused);
     RUN_TEST(test_newton_bound_is_a_capacity);
+#if CAEKF_SIZED_METHOD
+    RUN_TEST(test_a_method_sized_build_refuses_other_methods);
+#endif
 #if CAEKF_HAS_SETTING_TEXT
     RUN_TEST(test_refusal_text_names_element_value_and_rule);
 #endif

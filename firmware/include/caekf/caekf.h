@@ -138,8 +138,10 @@ typedef struct {
  * a failed step can be dropped without touching P. */
 typedef struct {
     caekf_settings_t cfg;
-    caekf_model_t model;                 /* derived model matrices */
-    caekf_model_t sub_model;             /* the same at dt / contact_substeps (when > 1) */
+    caekf_model_t model; /* derived model matrices */
+#if CAEKF_HAS_SUBSTEPS
+    caekf_model_t sub_model; /* the same at dt / contact_substeps (when > 1) */
+#endif
     caekf_scalar_t scale[CAEKF_N];       /* S */
     caekf_scalar_t z[CAEKF_N];           /* scaled state */
     caekf_scalar_t P[CAEKF_N * CAEKF_N]; /* scaled covariance */
@@ -149,19 +151,25 @@ typedef struct {
         caekf_scalar_t m[CAEKF_N * CAEKF_N];
         caekf_correct_work_t correct;
     } scratch;
-    caekf_scalar_t x_prev[CAEKF_N]; /* step work: x_{k-1}, then x_k- and the scaled z */
-    caekf_scalar_t x_pred[CAEKF_N];
+#if !CAEKF_ONE_STEP_BE
+    caekf_scalar_t x_prev[CAEKF_N]; /* step work: x_{k-1} (CAEKF_ONE_STEP_BE: kept in P_work) */
+#endif
+    caekf_scalar_t x_pred[CAEKF_N];       /* step work: x_k-, then the scaled z */
     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]; /* step work: v-rows of the scaled F */
+#if CAEKF_HAS_SUBSTEPS
     caekf_scalar_t fq[CAEKF_NQ][CAEKF_N]; /* step work: q-rows of F after substeps (else implied by fv) */
-    caekf_fv_pattern_t fv_pattern;        /* fv's rows, compacted to their nonzeros: their columns */
-    uint32_t fv_const;                    /* fv holds the constant contact-free F (kept across steps) */
-    caekf_scalar_t q_diag[CAEKF_N];       /* scaled Q diagonal (Q_gamma included) */
-    caekf_filter_dims_t dims;             /* sizes, sensed states, scaled R; the gamma policies */
+#endif
+    caekf_fv_pattern_t fv_pattern;  /* fv's rows, compacted to their nonzeros: their columns */
+    uint32_t fv_const;              /* fv holds the constant contact-free F (kept across steps) */
+    caekf_scalar_t q_diag[CAEKF_N]; /* scaled Q diagonal (Q_gamma included) */
+    caekf_filter_dims_t dims;       /* sizes, sensed states, scaled R; the parameters' policies */
     /* Bounds of parameter k (state 2 nq + k), scaled; bit k of bound_lo / bound_hi says it has one. */
     caekf_scalar_t lo_scaled[CAEKF_NP + 1], hi_scaled[CAEKF_NP + 1];
     uint32_t bound_lo, bound_hi;
+#if !CAEKF_ONE_STEP_BE
     caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */
     uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
+#endif
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;
@@ -178,7 +186,7 @@ typedef enum {
     CAEKF_SETTING_NOT_INTEGER = 6,     /* caekf_settings_set: an int, enum or bool setting got a fraction */
     CAEKF_SETTING_BAD_BODY = 7,        /* names a body beyond `bodies` (or the ground where a body is needed,
                                          * or both ends the same) */
-    CAEKF_SETTING_UNSUPPORTED = 8,     /* a count other than a sized build's (CAEKF_SIZED) */
+    CAEKF_SETTING_UNSUPPORTED = 8,     /* a count or step method other than a sized build's (CAEKF_SIZED) */
     CAEKF_SETTING_NEEDED = 9,          /* 0 (its default), but the mechanism uses it: must be > 0 */
     CAEKF_SETTING_OUTSIDE_BOUNDS = 10, /* an estimated parameter's initial value outside its bounds, or a
                                         * maximum below its minimum */

@@ -14,6 +14,17 @@
  *                            CAEKF_SIZED_* the settings must then equal.
  *   CAEKF_MAX_LAW_PARAMS     contact-law parameters (n, lambda, gap) the build can estimate besides the
  *                            gammas: 3 per contact, or exactly the sized scenario's (generated too).
+ *   CAEKF_SIZED_METHOD       generated (caekf/caekf_capacity.h), 1 in a build sized for one configuration
+ *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
+ *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
+ *                            CAEKF_SIZED_DISCRETISATION, CAEKF_SIZED_CONTACT_SUBSTEPS and, when every contact
+ *                            has the same exponent, CAEKF_SIZED_CONTACT_N. The code of other methods
+ *                            compiles out (the trapezoidal rule, the substeps and their model, pow for an
+ *                            exponent of 1.5 or 1); settings asking for another are refused
+ *                            (CAEKF_SETTING_UNSUPPORTED) and the schema's defaults are the fixed values.
+ *                            Derived from it: CAEKF_HAS_SUBSTEPS, CAEKF_HAS_TRAPEZOIDAL, CAEKF_ONE_STEP_BE.
+ *   CAEKF_MODEL_ORACLES      1: the library has the model's reference residual, Jacobians and full F (test
+ *                            oracles the estimator never calls). Default: 1, 0 with CAEKF_SIZED_METHOD.
  *
  */
 #ifndef CAEKF_CONFIG_H
@@ -48,6 +59,20 @@ typedef double caekf_scalar_t;
 /* Mechanism capacity: generated from the settings schema, or sized for one scenario (CMake option
  * CAEKF_MECHANISM). */
 #include "caekf/caekf_capacity.h"
+
+/* The step method a build runs: one fixed by a build sized for one configuration (CAEKF_SIZED_METHOD,
+ * generated), else any. The instance holds the substeps' model only where substeps can run. */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_HAS_SUBSTEPS (CAEKF_SIZED_CONTACT_SUBSTEPS > 1)
+#define CAEKF_HAS_TRAPEZOIDAL (CAEKF_SIZED_DISCRETISATION == 1) /* CAEKF_DISCRETISATION_TRAPEZOIDAL */
+#else
+#define CAEKF_HAS_SUBSTEPS 1
+#define CAEKF_HAS_TRAPEZOIDAL 1
+#endif
+/* One backward-Euler step per sample only: the model keeps no contact-free Newton matrix and F (each is
+ * recomputed where it is needed, by the same operations) and the instance no inputs of the step's start
+ * (only the trapezoidal rule and the substeps read them): a smaller instance. */
+#define CAEKF_ONE_STEP_BE (!CAEKF_HAS_SUBSTEPS && !CAEKF_HAS_TRAPEZOIDAL)
 
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses

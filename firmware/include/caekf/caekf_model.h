@@ -86,18 +86,24 @@ typedef struct {
     unsigned char nnz[CAEKF_NQ];
     /* A0 = M/hs + C + hs K, the Newton matrix without contact, packed nq x nq. Without contact the step
      * is linear: A0's LU and the v-rows of F are constants, computed once by the same code the contact
-     * path runs, so using them changes no bit of the result. */
+     * path runs, so using them changes no bit of the result (CAEKF_ONE_STEP_BE: A0 and fv0 are not
+     * kept but recomputed where needed, by the same operations). */
+#if !CAEKF_ONE_STEP_BE
     caekf_scalar_t A0[CAEKF_NQ * CAEKF_NQ];
+#endif
     caekf_scalar_t A0_lu[CAEKF_NQ * CAEKF_NQ];
     int A0_piv[CAEKF_NQ];
+#if !CAEKF_ONE_STEP_BE
     caekf_scalar_t fv0[CAEKF_NQ][CAEKF_N];
+#endif
 } caekf_model_t;
 
 /* The nonzero columns of each v-row of F (nz[i][0 .. nnz[i]-1], ascending): the covariance products
  * skip the exact zeros, which change no sum. */
 typedef struct {
-    unsigned char nz[CAEKF_NQ][CAEKF_N];
+    unsigned char nz[CAEKF_NQ][CAEKF_N]; /* not written for a dense row (nnz[i] == n) */
     unsigned char nnz[CAEKF_NQ];
+    unsigned char dense; /* every row is dense (in contact) */
 } caekf_fv_pattern_t;
 
 /* The filter's sizes and structure (set at init; the policies every step). */

@@ -3,8 +3,10 @@
 
 Run by CMake at build time (the outputs live in the build tree and are never edited by hand):
 
-    codegen.py c-core   OUTDIR [MECH]     caekf/caekf_settings_schema.h, caekf_settings_table.c,
-                                          caekf/caekf_capacity.h (sized for MECH, a scenario, if given)
+    codegen.py c-core   OUTDIR [MECH [PRESET]]
+                                          caekf/caekf_settings_schema.h, caekf_settings_table.c,
+                                          caekf/caekf_capacity.h (sized for MECH, a scenario, if given;
+                                          with PRESET, a preset's name, also its step method)
     codegen.py c-host   OUTDIR            caekf_scenario_schema.h, caekf_scenario_schema.c (scenario
                                           reader table, presets)
     codegen.py c-fixture OUTDIR SCENARIO  caekf_fixture_settings.h (a scenario's values as parameter
@@ -276,11 +278,36 @@ def _c_double(v: float) -> str:
 LAW_PARAMS = ("n", "lambda", "gap")
 
 
-def c_capacity(schema: Schema, mechanism: Optional[Path] = None) -> str:
+# The step method a build sized for one configuration fixes (CAEKF_SIZED_METHOD): these settings, as the
+# scenario and the preset give them (or their defaults), become compile-time constants.
+METHOD = ("discretisation", "contact_substeps", "contact_n")
+
+
+def sized_method(schema: Schema, mechanism: Path, preset: str, contacts: int) -> Dict[str, Any]:
+    """The method settings of the scenario under the preset: {name: value} (contact_n: the exponent all
+    contacts share, omitted when they differ)."""
+    given = read_scenario_values(schema, mechanism, wire_only=False)
+    p = next((q for q in schema.presets if q.name == preset), None)
+    if p is None:
+        raise SchemaError(f"unknown preset {preset!r} (known: {', '.join(q.name for q in schema.presets)})")
+    out: Dict[str, Any] = {}
+    for name in METHOD:
+        s = schema.by_name(name)
+        elements = contacts if s.capacity is not None else 1
+        vals = [float(p.values[name]) if name in p.values else float(given.get(s.keys[i], s.default_value(index=i)))
+                for i in range(elements)]
+        if vals and all(v == vals[0] for v in vals):
+            out[name] = vals[0]
+    return out
+
+
+def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> str:
     """caekf/caekf_capacity.h: the build's mechanism capacity. Without a mechanism, the wire's (any
     mechanism up to it, sizes at run time); with one (a scenario file), exactly its counts (CAEKF_SIZED:
-    the sizes are constants, as nanopb sizes its structs from a .proto)."""
-    lines = [f"/* {GENERATED}" + (f", and from {mechanism.name}" if mechanism else "") + ". */",
+    the sizes are constants, as nanopb sizes its structs from a .proto). With a preset as well, the build
+    is sized for that configuration of the scenario: its step method is fixed too (CAEKF_SIZED_METHOD)."""
+    lines = [f"/* {GENERATED}" + (f", and from {mechanism.name}" if mechanism else "") +
+             (f" with the preset {preset}" if preset else "") + ". */",
              "#ifndef CAEKF_CAPACITY_H", "#define CAEKF_CAPACITY_H", ""]
     if mechanism is None:
         counts = dict(schema.capacity)
@@ -294,9 +321,25 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None) -> str:
         lines.append(f"#define CAEKF_SIZED 1 /* exactly the mechanism of {mechanism.name} */")
         for cap, n in counts.items():
             lines.append(f"#define CAEKF_SIZED_{_macro(cap)} {n}")
-        law = sum(int(given.get(f"contact{i}_estimate_{p}", 0))
-                  for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS)
+        pv = next((q.values for q in schema.presets if q.name == preset), {}) if preset else {}
+        flags = {f"contact{i}_estimate_{p}": int(float(pv.get(f"contact{i}_estimate_{p}",
+                                                             given.get(f"contact{i}_estimate_{p}", 0))))
+                 for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS}
+        law = sum(flags.values())
         lines.append(f"#define CAEKF_SIZED_LAW_PARAMS {law} /* estimated n, lambda and gap */")
+    if mechanism is not None and preset:
+        method = sized_method(schema, mechanism, preset, counts["contacts"])
+        if any(v for k, v in flags.items() if k.endswith("_estimate_n")):
+            method.pop("contact_n", None)  # an estimated exponent is a state, never a constant
+        lines += ["", f"/* The step method of {mechanism.name} under the preset {preset}: constants of the build. */",
+                  "#define CAEKF_SIZED_METHOD 1",
+                  f"#define CAEKF_SIZED_DISCRETISATION {int(method['discretisation'])}",
+                  f"#define CAEKF_SIZED_CONTACT_SUBSTEPS {int(method['contact_substeps'])}"]
+        if "contact_n" in method:
+            lines.append(f"#define CAEKF_SIZED_CONTACT_N {_c_double(method['contact_n'])}")
+    else:
+        lines.append("#define CAEKF_SIZED_METHOD 0 /* the step method is a run-time setting */")
+    lines.append("")
     for cap, n in counts.items():
         # C has no zero-length arrays: a capacity of 0 stores one unused element.
         lines.append(f"#define CAEKF_MAX_{_macro(cap)} {max(n, 1)}")
@@ -307,7 +350,7 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None) -> str:
     return "\n".join(lines + ["", "#endif", ""])
 
 
-def c_core(schema: Schema, mechanism: Optional[Path] = None) -> Dict[str, str]:
+def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> Dict[str, str]:
     wire = schema.wire
     h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SETTINGS_SCHEMA_H", "#define CAEKF_SETTINGS_SCHEMA_H", "",
          "/* CTRL_PARAM parameter ids: an array setting takes ids ID .. ID+count-1 (element i at ID+i). */"]
@@ -365,6 +408,13 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None) -> Dict[str, str]:
                 guard = (f"    if (CAEKF_MAX_{_macro(s.capacity)} > {i}u) {{" if isinstance(s.default, list)
                          else f"    for (i = 0; i < CAEKF_MAX_{_macro(s.capacity)}; ++i) {{")
                 c += [guard, f"        {lhs} = {expr};", "    }"]
+    # A build sized for one configuration (CAEKF_SIZED_METHOD) runs one step method: its defaults.
+    fixed = {"discretisation": "CAEKF_SIZED_DISCRETISATION", "contact_substeps": "CAEKF_SIZED_CONTACT_SUBSTEPS"}
+    c += ["#if CAEKF_SIZED_METHOD"]
+    c += [f"    s->{schema.by_name(k).field} = {v};" for k, v in fixed.items()]
+    c += ["#ifdef CAEKF_SIZED_CONTACT_N", "    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {",
+          f"        s->{schema.by_name('contact_n').field}[i] = (caekf_scalar_t)CAEKF_SIZED_CONTACT_N;", "    }",
+          "#endif", "#endif"]
     c += ["    (void)i;", "    return CAEKF_OK;", "}", ""]
     # Names: only host tools and messages need them; a separate object the MCU links only if used.
     n = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "",
@@ -389,7 +439,7 @@ const char *caekf_param_key(unsigned param_id)
 }
 """]
     return {"caekf/caekf_settings_schema.h": "\n".join(h), "caekf_settings_table.c": "\n".join(c),
-            "caekf_settings_names.c": "\n".join(n), "caekf/caekf_capacity.h": c_capacity(schema, mechanism)}
+            "caekf_settings_names.c": "\n".join(n), "caekf/caekf_capacity.h": c_capacity(schema, mechanism, preset)}
 
 
 def c_host(schema: Schema) -> Dict[str, str]:
@@ -550,7 +600,9 @@ def main(argv: Sequence[str]) -> int:
     try:
         schema = load()
         if len(argv) >= 2 and argv[0] == "c-core":
-            _write(Path(argv[1]), c_core(schema, Path(argv[2]) if len(argv) >= 3 and argv[2] else None))
+            mech = Path(argv[2]) if len(argv) >= 3 and argv[2] else None
+            preset = argv[3] if len(argv) >= 4 and argv[3] and mech is not None else None
+            _write(Path(argv[1]), c_core(schema, mech, preset))
         elif len(argv) >= 2 and argv[0] == "c-host":
             _write(Path(argv[1]), c_host(schema))
         elif len(argv) >= 3 and argv[0] == "c-fixture":
