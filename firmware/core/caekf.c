@@ -74,7 +74,7 @@ static void set_bounds(caekf_t *est, int k, int has_lo, caekf_scalar_t lo, int h
 static caekf_scalar_t gamma_bound(const caekf_settings_t *s, int c, int is_max)
 {
     const caekf_scalar_t b = is_max ? s->gamma_max[c] : s->gamma_min[c];
-    return s->model.gamma_log ? CAEKF_LOG(b) : b;
+    return CAEKF_PARAMS_GAMMA_LOG(&s->model) ? CAEKF_LOG(b) : b;
 }
 
 #if CAEKF_HAS_LAW_PARAMS
@@ -194,7 +194,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     }
     for (i = 0; i < nc; ++i) {
         const int g = 2 * nq + i;
-        if (mp->gamma_log) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
+        if (CAEKF_PARAMS_GAMMA_LOG(mp)) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
             est->scale[g] = s->sigma_gamma0[i] / s->gamma0[i];
             est->z[g] = CAEKF_LOG(s->gamma0[i]) / est->scale[g];
         } else {
@@ -204,8 +204,8 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         /* the same ratio either way: sigma_q_gamma / gamma0 over sigma_gamma0 / gamma0 for ln gamma */
         est->q_diag[g] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
         if (s->constraint_enabled) { /* gamma's bounds: the paper's eqs. (28)-(30); ln 0 is no bound */
-            set_bounds(est, i, !mp->gamma_log || s->gamma_min[i] > 0, gamma_bound(s, i, 0), s->gamma_max[i] > 0,
-                       gamma_bound(s, i, 1));
+            set_bounds(est, i, !CAEKF_PARAMS_GAMMA_LOG(mp) || s->gamma_min[i] > 0, gamma_bound(s, i, 0),
+                       s->gamma_max[i] > 0, gamma_bound(s, i, 1));
         }
     }
 #if CAEKF_HAS_LAW_PARAMS
@@ -413,6 +413,12 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     caekf_scalar_t H[4][4], P[4][4], HP[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
     int idx[4], kind[4], k = 0, i, j, l;
     caekf_contact_t ct;
+#if CAEKF_HAS_LAW_PARAMS
+    if (!CAEKF_METHOD_GAMMA_LOG(m) &&
+        (m->law_state[c][CAEKF_LAW_N] | m->law_state[c][CAEKF_LAW_LAMBDA] | m->law_state[c][CAEKF_LAW_GAP]) == 0) {
+        return; /* gamma alone: the law is linear in it */
+    }
+#endif
     for (i = 0; i < n; ++i) {
         x[i] = est->x_pred[i] * s[i];
     }
@@ -422,8 +428,8 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
     d = ct.delta;
     f = ct.fc;
-    gamma = m->p.gamma_log ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
-    nn = m->p.contact_n[c];
+    gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
+    nn = CAEKF_METHOD_CONTACT_N(m, c);
     lambda = m->p.contact_lambda[c];
     idx[k] = 2 * nq + c;
     kind[k++] = -1;
@@ -441,20 +447,20 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
         }
     }
 #endif
-    if (k == 1 && !m->p.gamma_log) {
+    if (k == 1 && !CAEKF_METHOD_GAMMA_LOG(m)) {
         return; /* gamma alone: the law is linear in it */
     }
     r = (a >= 0 ? x[nq + a] : 0) - (b >= 0 ? x[nq + b] : 0);
     L = CAEKF_LOG(d);
-    fl = f / (1 + lambda * r) * r;       /* df/dlambda = gamma delta^n r */
-    kg = m->p.gamma_log ? 1 : 1 / gamma; /* df/dtheta = kg f for theta = ln gamma or gamma */
+    fl = f / (1 + lambda * r) * r;                  /* df/dlambda = gamma delta^n r */
+    kg = CAEKF_METHOD_GAMMA_LOG(m) ? 1 : 1 / gamma; /* df/dtheta = kg f for theta = ln gamma or gamma */
     for (i = 0; i < k; ++i) {
         for (j = i; j < k; ++j) {
             /* second derivatives of f = gamma delta^n (1 + lambda r), delta = q_a - q_b - gap */
             const int p = kind[i] < kind[j] ? kind[i] : kind[j], q = kind[i] < kind[j] ? kind[j] : kind[i];
             caekf_scalar_t h = 0;
             if (p == -1 && q == -1) {
-                h = m->p.gamma_log ? f : 0;
+                h = CAEKF_METHOD_GAMMA_LOG(m) ? f : 0;
             } else if (p == -1) {
                 h = kg * (q == CAEKF_LAW_N ? f * L : q == CAEKF_LAW_LAMBDA ? fl : -nn * f / d);
             } else if (p == CAEKF_LAW_N) {
@@ -613,7 +619,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
-    } else if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || est->model.p.gamma_log)) {
+    } else if (any_contact && est->cfg.law_second_order &&
+               (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
         for (i = 0; i < nc; ++i) {
             add_second_order_noise(est, i);
         }
@@ -701,7 +708,7 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
 {
     const caekf_scalar_t v = est->z[i] * est->scale[i];
     const int nx = 2 * est->model.nq;
-    if (est->model.p.gamma_log && i >= nx && i < nx + est->model.nc) {
+    if (CAEKF_METHOD_GAMMA_LOG(&est->model) && i >= nx && i < nx + est->model.nc) {
         const caekf_scalar_t gamma = CAEKF_EXP(v);
         *factor = est->scale[i] * gamma;
         return gamma;

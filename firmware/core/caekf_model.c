@@ -23,7 +23,7 @@ int caekf_model_params_check(const caekf_model_params_t *p)
     }
 #endif
 #if CAEKF_SIZED_METHOD
-    if (p->discretisation != CAEKF_SIZED_DISCRETISATION) {
+    if (p->discretisation != CAEKF_SIZED_DISCRETISATION || p->gamma_log != CAEKF_SIZED_GAMMA_LOG) {
         return 1;
     }
 #endif
@@ -114,7 +114,7 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
 void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
 {
     const int i = m->contact_i[c], j = m->contact_j[c], nq = CAEKF_DIM_NQ(m);
-    const caekf_scalar_t gamma = m->p.gamma_log ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
+    const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
 #if CAEKF_HAS_LAW_PARAMS
@@ -163,7 +163,7 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
             out->dfc_dn = out->fc * CAEKF_LOG(d);
         }
 #endif
-        if (m->p.gamma_log) { /* df/d(ln gamma) = gamma df/dgamma = f */
+        if (CAEKF_METHOD_GAMMA_LOG(m)) { /* df/d(ln gamma) = gamma df/dgamma = f */
             out->dfc_dgamma = out->fc;
         }
     }

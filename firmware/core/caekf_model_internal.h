@@ -33,10 +33,13 @@
 #if CAEKF_SIZED_METHOD
 #define CAEKF_METHOD_TRAP(m) ((void)(m), CAEKF_SIZED_DISCRETISATION == CAEKF_DISCRETISATION_TRAPEZOIDAL)
 #define CAEKF_METHOD_SUBSTEPS(cfg) ((void)(cfg), CAEKF_SIZED_CONTACT_SUBSTEPS)
+#define CAEKF_PARAMS_GAMMA_LOG(p) ((void)(p), CAEKF_SIZED_GAMMA_LOG)
 #else
 #define CAEKF_METHOD_TRAP(m) ((m)->trap)
 #define CAEKF_METHOD_SUBSTEPS(cfg) ((cfg)->contact_substeps)
+#define CAEKF_PARAMS_GAMMA_LOG(p) ((p)->gamma_log)
 #endif
+#define CAEKF_METHOD_GAMMA_LOG(m) CAEKF_PARAMS_GAMMA_LOG(&(m)->p) /* of a model */
 #ifdef CAEKF_SIZED_CONTACT_N
 #define CAEKF_METHOD_CONTACT_N(m, c) ((void)(m), (void)(c), (caekf_scalar_t)CAEKF_SIZED_CONTACT_N)
 #else

@@ -160,6 +160,7 @@ static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, in
     return CAEKF_ISFINITE(r) && (!pos || r > 0);
 }
 
+#if CAEKF_HAS_LAW_PARAMS
 /* One estimated law parameter's scaled values (x0, bounds and Q over sigma0, and sigma0 / sigma_v0 in
  * the scaled transition): 1 with *bad set when one is not usable. */
 static int law_unscalable(caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q, caekf_scalar_t lo,
@@ -185,13 +186,17 @@ static int first_unscalable_law(const caekf_settings_t *s, unsigned c, int *bad)
             law_unscalable(s->gap0[c], s->sigma_gap0[c], s->sigma_q_gap[c], s->gap_min[c], s->gap_max[c], s->sigma_v0,
                            CAEKF_PARAM_SIGMA_GAP0 + (int)c, bad));
 }
+#endif
 
 /* The blamed parameter id of the first failing derived check, or -1. */
 static int first_unscalable(const caekf_settings_t *s)
 {
     const caekf_model_params_t *m = &s->model;
     const caekf_scalar_t rq = s->sigma_q0 / s->sigma_v0;
-    int i, bad = -1;
+    int i;
+#if CAEKF_HAS_LAW_PARAMS
+    int bad = -1;
+#endif
     for (i = 0; i < m->bodies; ++i) {
         if (!usable(s->q0[i], s->sigma_q0, 1, 0, 0)) {
             return (int)CAEKF_PARAM_Q0 + i;
@@ -224,9 +229,11 @@ static int first_unscalable(const caekf_settings_t *s)
         if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 1, 0, 0)) {
             return (int)CAEKF_PARAM_GAMMA_MAX + i;
         }
+#if CAEKF_HAS_LAW_PARAMS
         if (first_unscalable_law(s, (unsigned)i, &bad)) {
             return bad;
         }
+#endif
         /* The scaled transition multiplies by sigma_gamma0 / sigma_v0. */
         if (!usable(s->sigma_gamma0[i], s->sigma_v0, 1, 0, 1)) {
             return (int)CAEKF_PARAM_SIGMA_V0;
@@ -287,6 +294,7 @@ static int first_bad_body(const caekf_model_params_t *m)
     return -1;
 }
 
+#if CAEKF_HAS_LAW_PARAMS
 /* One estimated law parameter's settings (the settings' ids of its flag, initial value, sigma0, minimum
  * and maximum): the blamed id and reason of the first problem, or -1. */
 static int bad_law_param(const caekf_settings_t *s, unsigned c, int flag_id, caekf_scalar_t x0, int x0_id,
@@ -331,6 +339,7 @@ static int first_bad_law_param(const caekf_settings_t *s, unsigned *reason)
     }
     return bad;
 }
+#endif
 
 /* A build sized for one mechanism (CAEKF_SIZED) runs exactly its counts: the first count that differs. */
 static int first_unsized(const caekf_model_params_t *m)
@@ -366,6 +375,9 @@ static int first_unsized_method(const caekf_settings_t *s)
     }
     if (s->contact_substeps != CAEKF_SIZED_CONTACT_SUBSTEPS) {
         return (int)CAEKF_PARAM_CONTACT_SUBSTEPS;
+    }
+    if (s->model.gamma_log != CAEKF_SIZED_GAMMA_LOG) {
+        return (int)CAEKF_PARAM_GAMMA_LOG;
     }
 #ifdef CAEKF_SIZED_CONTACT_N
     for (i = 0; i < (unsigned)s->model.contacts; ++i) {
@@ -442,10 +454,12 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
             return refuse(err, CAEKF_SETTING_BELOW_GAMMA_MIN, CAEKF_PARAM_GAMMA0 + i);
         }
     }
+#if CAEKF_HAS_LAW_PARAMS
     bad = first_bad_law_param(s, &k);
     if (bad >= 0) {
         return refuse(err, k, (unsigned)bad);
     }
+#endif
     bad = first_unscalable(s);
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_NOT_SCALABLE, (unsigned)bad);

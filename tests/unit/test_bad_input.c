@@ -187,6 +187,7 @@ static void test_a_method_sized_build_refuses_other_methods(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_default(&b));
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_DISCRETISATION, b.model.discretisation);
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_CONTACT_SUBSTEPS, b.contact_substeps);
+    TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_GAMMA_LOG, b.model.gamma_log);
     b = good;
     b.model.discretisation = 1 - CAEKF_SIZED_DISCRETISATION;
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
@@ -198,6 +199,12 @@ static void test_a_method_sized_build_refuses_other_methods(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
     TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_CONTACT_SUBSTEPS, err.param_id);
+    b = good;
+    b.model.gamma_log = 1 - CAEKF_SIZED_GAMMA_LOG;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_GAMMA_LOG, err.param_id);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
 #ifdef CAEKF_SIZED_CONTACT_N
     b = good;
     b.model.contact_n[0] = (caekf_scalar_t)CAEKF_SIZED_CONTACT_N + 1;

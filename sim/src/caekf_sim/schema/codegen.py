@@ -280,7 +280,7 @@ LAW_PARAMS = ("n", "lambda", "gap")
 
 # The step method a build sized for one configuration fixes (CAEKF_SIZED_METHOD): these settings, as the
 # scenario and the preset give them (or their defaults), become compile-time constants.
-METHOD = ("discretisation", "contact_substeps", "contact_n")
+METHOD = ("discretisation", "contact_substeps", "contact_n", "gamma_log")
 
 
 def sized_method(schema: Schema, mechanism: Path, preset: str, contacts: int) -> Dict[str, Any]:
@@ -334,7 +334,8 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
         lines += ["", f"/* The step method of {mechanism.name} under the preset {preset}: constants of the build. */",
                   "#define CAEKF_SIZED_METHOD 1",
                   f"#define CAEKF_SIZED_DISCRETISATION {int(method['discretisation'])}",
-                  f"#define CAEKF_SIZED_CONTACT_SUBSTEPS {int(method['contact_substeps'])}"]
+                  f"#define CAEKF_SIZED_CONTACT_SUBSTEPS {int(method['contact_substeps'])}",
+                  f"#define CAEKF_SIZED_GAMMA_LOG {int(method['gamma_log'])}"]
         if "contact_n" in method:
             lines.append(f"#define CAEKF_SIZED_CONTACT_N {_c_double(method['contact_n'])}")
     else:
@@ -409,7 +410,8 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
                          else f"    for (i = 0; i < CAEKF_MAX_{_macro(s.capacity)}; ++i) {{")
                 c += [guard, f"        {lhs} = {expr};", "    }"]
     # A build sized for one configuration (CAEKF_SIZED_METHOD) runs one step method: its defaults.
-    fixed = {"discretisation": "CAEKF_SIZED_DISCRETISATION", "contact_substeps": "CAEKF_SIZED_CONTACT_SUBSTEPS"}
+    fixed = {"discretisation": "CAEKF_SIZED_DISCRETISATION", "contact_substeps": "CAEKF_SIZED_CONTACT_SUBSTEPS",
+             "gamma_log": "CAEKF_SIZED_GAMMA_LOG"}
     c += ["#if CAEKF_SIZED_METHOD"]
     c += [f"    s->{schema.by_name(k).field} = {v};" for k, v in fixed.items()]
     c += ["#ifdef CAEKF_SIZED_CONTACT_N", "    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {",
