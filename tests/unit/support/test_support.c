@@ -90,6 +90,37 @@ void test_spd_matrix(paper_mat_t P)
         }
 }
 
+double test_eq10_error(caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jp[CAEKF_N][CAEKF_N],
+                       caekf_scalar_t F[CAEKF_N][CAEKF_N], int n)
+{
+    static double A[CAEKF_N * CAEKF_N], Ai[CAEKF_N * CAEKF_N]; /* off the small MCU stacks */
+    double worst = 0;
+    int i, j, k;
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            A[i * n + j] = (double)Jk[i][j];
+        }
+    }
+    if (test_invert(A, Ai, n) != 0) {
+        return -1;
+    }
+    for (i = 0; i < n; ++i) {
+        double ref[CAEKF_N], rowmax = 0;
+        for (j = 0; j < n; ++j) {
+            double s = 0;
+            for (k = 0; k < n; ++k) {
+                s += Ai[i * n + k] * (double)Jp[k][j];
+            }
+            ref[j] = -s; /* eq. (10) */
+            rowmax = fmax(rowmax, fabs(ref[j]));
+        }
+        for (j = 0; j < n; ++j) {
+            worst = fmax(worst, fabs((double)F[i][j] - ref[j]) / (rowmax + 1e-300));
+        }
+    }
+    return worst;
+}
+
 int test_invert(double *a, double *inv, int n)
 {
     int i, j, k;

@@ -70,6 +70,12 @@ void test_spd_matrix(paper_mat_t P);
  * reference computations: a (n x n, row-major, destroyed) -> inv. Returns 0, or -1 on a zero pivot. */
 int test_invert(double *a, double *inv, int n);
 
+/* Eq. (10) as the reference for a structured F: the largest |F_ij - ref_ij| / max_j |ref_ij| over the rows,
+ * ref = -(Jk)^-1 Jp computed in double by test_invert (n x n in arrays of the capacity); -1 when Jk is
+ * singular. */
+double test_eq10_error(caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jp[CAEKF_N][CAEKF_N],
+                       caekf_scalar_t F[CAEKF_N][CAEKF_N], int n);
+
 /* Runs `experiment` over the whole truth, calling `each` after every step (may be NULL). Returns the
  * number of steps, or -1 when the truth cannot be read. */
 typedef void (*step_hook_t)(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *truth,
