@@ -755,7 +755,7 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
                                      caekf_scalar_t *lambda, caekf_scalar_t *gap)
 {
     const caekf_model_params_t *p;
-    caekf_scalar_t law[CAEKF_LAW_COUNT];
+    caekf_scalar_t law[CAEKF_LAW_COUNT], f;
     int k, g;
     if (est == 0) {
         return CAEKF_ERR_NULL;
@@ -774,13 +774,12 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
     for (k = 0; k < CAEKF_LAW_COUNT; ++k) {
         const int s = est->model.law_state[c][k];
         if (s != 0) {
-            law[k] = est->z[s] * est->scale[s];
+            law[k] = state_value(est, s, &f);
         }
     }
 #endif
     g = 2 * est->model.nq + c;
     if (gamma != 0) {
-        caekf_scalar_t f;
         *gamma = state_value(est, g, &f);
     }
     if (n != 0) {

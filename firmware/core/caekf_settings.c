@@ -297,14 +297,9 @@ static int first_bad_body(const caekf_model_params_t *m)
 #if CAEKF_HAS_LAW_PARAMS
 /* One estimated law parameter's settings (the settings' ids of its flag, initial value, sigma0, minimum
  * and maximum): the blamed id and reason of the first problem, or -1. */
-static int bad_law_param(const caekf_settings_t *s, unsigned c, int flag_id, caekf_scalar_t x0, int x0_id,
-                         caekf_scalar_t sigma0, int sigma0_id, caekf_scalar_t lo, caekf_scalar_t hi, int hi_id,
-                         unsigned *reason)
+static int bad_law_param(int estimated, unsigned c, caekf_scalar_t x0, int x0_id, caekf_scalar_t sigma0, int sigma0_id,
+                         caekf_scalar_t lo, caekf_scalar_t hi, int hi_id, unsigned *reason)
 {
-    int estimated;
-    double flag = 0;
-    (void)caekf_settings_get(s, (unsigned)flag_id + c, &flag);
-    estimated = flag != 0;
     if (!estimated) {
         return -1;
     }
@@ -325,15 +320,15 @@ static int first_bad_law_param(const caekf_settings_t *s, unsigned *reason)
     unsigned c;
     int bad = -1;
     for (c = 0; c < (unsigned)s->model.contacts && bad < 0; ++c) {
-        bad = bad_law_param(s, c, CAEKF_PARAM_ESTIMATE_N, s->n0[c], CAEKF_PARAM_N0, s->sigma_n0[c],
+        bad = bad_law_param(s->model.contact_estimate_n[c], c, s->n0[c], CAEKF_PARAM_N0, s->sigma_n0[c],
                             CAEKF_PARAM_SIGMA_N0, s->n_min[c], s->n_max[c], CAEKF_PARAM_N_MAX, reason);
         if (bad < 0) {
-            bad = bad_law_param(s, c, CAEKF_PARAM_ESTIMATE_LAMBDA, s->lambda0[c], CAEKF_PARAM_LAMBDA0,
+            bad = bad_law_param(s->model.contact_estimate_lambda[c], c, s->lambda0[c], CAEKF_PARAM_LAMBDA0,
                                 s->sigma_lambda0[c], CAEKF_PARAM_SIGMA_LAMBDA0, s->lambda_min[c], s->lambda_max[c],
                                 CAEKF_PARAM_LAMBDA_MAX, reason);
         }
         if (bad < 0) {
-            bad = bad_law_param(s, c, CAEKF_PARAM_ESTIMATE_GAP, s->gap0[c], CAEKF_PARAM_GAP0, s->sigma_gap0[c],
+            bad = bad_law_param(s->model.contact_estimate_gap[c], c, s->gap0[c], CAEKF_PARAM_GAP0, s->sigma_gap0[c],
                                 CAEKF_PARAM_SIGMA_GAP0, s->gap_min[c], s->gap_max[c], CAEKF_PARAM_GAP_MAX, reason);
         }
     }
