@@ -124,12 +124,12 @@ static void apply_bounds(caekf_t *est, caekf_scalar_t *z, uint32_t *flags)
     }
     for (pass = 0; pass < np; ++pass) {
         int applied = 0;
-        for (k = 0; k < np; ++k) {
-            if ((est->bound_lo >> k) & 1u) {
+        for (k = 0; k < np; ++k) { /* the physical bound (a log for ln gamma) only for a violated one */
+            if (((est->bound_lo >> k) & 1u) && z[nx + k] < est->lo_scaled[k]) {
                 applied |= caekf_constrain_upper(z, est->P_work, n, nx + k, est->lo_scaled[k], 0, s[nx + k],
                                                  bound_of(est, k, 0), flags);
             }
-            if ((est->bound_hi >> k) & 1u) {
+            if (((est->bound_hi >> k) & 1u) && z[nx + k] > est->hi_scaled[k]) {
                 applied |= caekf_constrain_upper(z, est->P_work, n, nx + k, est->hi_scaled[k], 1, s[nx + k],
                                                  bound_of(est, k, 1), flags);
             }
