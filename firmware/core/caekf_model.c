@@ -293,7 +293,7 @@ NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
                           const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
 {
-    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
+    const int nq = CAEKF_DIM_NQ(m);
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
     int i;
     contacts_at(m, xk, ct);
@@ -312,7 +312,6 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
     for (i = 2 * nq; i < CAEKF_DIM_N(m); ++i) { /* random walks: the gammas and law parameters */
         g[i] = xk[i] - xprev[i];
     }
-    (void)nc;
 }
 #endif
 
