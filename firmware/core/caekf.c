@@ -754,7 +754,7 @@ caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
 caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *gamma, caekf_scalar_t *n,
                                      caekf_scalar_t *lambda, caekf_scalar_t *gap)
 {
-    const caekf_model_params_t *p;
+    const caekf_model_run_params_t *p;
     caekf_scalar_t law[CAEKF_LAW_COUNT], f;
     int k, g;
     if (est == 0) {

@@ -2,7 +2,11 @@
 
 #include "caekf_math.h"
 
+#include <stdint.h>
+
 #define A_(m, n, i, j) ((m)[(i) * (n) + (j)])
+
+CAEKF_STATIC_ASSERT(CAEKF_LA_MAX_N <= 32, zero_variances_fit_a_word);
 
 static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
@@ -194,30 +198,38 @@ caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_s
 
 /* D^-1/2 A D^-1/2 with D = diag(A): the correlation form makes the PSD test and the repair
  * independent of the state scaling. A zero diagonal must come with a zero row. Reads a's upper
- * triangle and writes w's lower one (all the LDL^T below uses). */
-static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *d)
+ * triangle and writes w's lower one (all the LDL^T below uses). Out of line: the LDL^T then keeps its
+ * registers (fewer instructions on the M4F). */
+CAEKF_NOINLINE static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *d)
 {
-    int i, j, all_pos = 1;
+    uint32_t zero = 0; /* bit i: a_ii = 0 */
+    int i, j;
     for (i = 0; i < n; ++i) {
         caekf_scalar_t aii = A_(a, n, i, i);
         if (!(aii >= 0) || !CAEKF_ISFINITE(aii)) {
             return CAEKF_LA_NOT_PSD;
         }
-        d[i] = CAEKF_SQRT(aii);
-        all_pos &= d[i] > 0;
+        /* a zero variance divides by 1 here: its row and column are set below */
+        d[i] = aii > 0 ? CAEKF_SQRT(aii) : 1;
+        zero |= (uint32_t)(aii > 0 ? 0 : 1) << i;
     }
-    for (i = 0; i < n; ++i) {
+    for (i = 0; i < n; ++i) { /* no branch per entry */
         caekf_scalar_t *wi = w + i * n;
         const caekf_scalar_t *aji = a + i; /* a[j][i], j = 0.. */
         const caekf_scalar_t di = d[i];
         for (j = 0; j <= i; ++j, aji += n) {
-            if (all_pos || (di > 0 && d[j] > 0)) { /* the usual case tested once */
-                wi[j] = *aji / (di * d[j]);
-            } else if (*aji != 0) {
+            wi[j] = *aji / (di * d[j]);
+        }
+    }
+    for (i = 0; zero != 0 && i < n; ++i, zero >>= 1) { /* a zero variance must come with a zero row */
+        if ((zero & 1u) == 0) {
+            continue;
+        }
+        for (j = 0; j < n; ++j) {
+            if ((j < i ? A_(a, n, j, i) : A_(a, n, i, j)) != 0) {
                 return CAEKF_LA_NOT_PSD;
-            } else {
-                wi[j] = 0;
             }
+            *(j < i ? &A_(w, n, i, j) : &A_(w, n, j, i)) = 0;
         }
     }
     return CAEKF_LA_OK;

@@ -674,7 +674,17 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
         none[i].delta = 0;
     }
-    m->p = *p;
+    m->p.dt = p->dt;
+    m->p.inputs = p->inputs;
+    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
+        m->p.input_body[i] = p->input_body[i];
+    }
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
+        m->p.contact_gap[i] = p->contact_gap[i];
+        m->p.contact_n[i] = p->contact_n[i];
+        m->p.contact_lambda[i] = p->contact_lambda[i];
+    }
+    m->p.gamma_log = p->gamma_log;
     m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
     m->hs = m->trap ? p->dt / 2 : p->dt;
     nq = p->bodies;

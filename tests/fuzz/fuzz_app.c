@@ -474,7 +474,7 @@ static void model_run_step(void)
  * no such sensor); inputs take bits 0..CAEKF_MAX_INPUTS-1, sensors the bits above. */
 static unsigned model_sensor_bit(int s, int kind)
 {
-    const caekf_model_params_t *mp = &M.est.model.p;
+    const caekf_model_params_t *mp = &M.est.cfg.model;
     return (s < mp->sensors && mp->sensor_kind[s] == kind) ? 1u << (CAEKF_MAX_INPUTS + s) : 0u;
 }
 
@@ -538,7 +538,7 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
         bit = model_sensor_bit(0, CAEKF_SENSOR_POSITION);
         bit2 = model_sensor_bit(1, CAEKF_SENSOR_POSITION);
     } else if (input >= 0) {
-        bit = (input < M.est.model.p.inputs) ? 1u << input : 0u;
+        bit = (input < M.est.cfg.model.inputs) ? 1u << input : 0u;
     } else if (sensor >= 0) {
         bit = model_sensor_bit(sensor, kind);
     }
@@ -580,10 +580,10 @@ static void model_assembly(unsigned msg, const uint8_t d[8], uint32_t now)
     } else {
         M.y[sensor] = v;
     }
-    for (i = 0; i < (unsigned)M.est.model.p.inputs; ++i) {
+    for (i = 0; i < (unsigned)M.est.cfg.model.inputs; ++i) {
         need |= 1u << i;
     }
-    for (i = 0; i < (unsigned)M.est.model.p.sensors; ++i) {
+    for (i = 0; i < (unsigned)M.est.cfg.model.sensors; ++i) {
         need |= 1u << (CAEKF_MAX_INPUTS + i);
     }
     if ((M.have & need) == need) {

@@ -22,7 +22,7 @@ CAEKF_STATIC_ASSERT(CAEKF_MAX_INPUTS + CAEKF_MAX_SENSORS <= 8, slot_bits_fit_in_
 /* Every value the configured mechanism needs for a step. */
 static unsigned need_mask(const caekf_app_t *app)
 {
-    const caekf_model_params_t *mp = &app->est.model.p;
+    const caekf_model_params_t *mp = &app->est.cfg.model;
     unsigned m = 0u;
     int i;
     for (i = 0; i < mp->inputs && i < CAEKF_MAX_INPUTS; i++) {
@@ -37,7 +37,7 @@ static unsigned need_mask(const caekf_app_t *app)
 /* The slot bit of sensor s (0-based) carried as kind, 0 when the mechanism has no such sensor. */
 static unsigned sensor_bit(const caekf_app_t *app, int s, int kind)
 {
-    const caekf_model_params_t *mp = &app->est.model.p;
+    const caekf_model_params_t *mp = &app->est.cfg.model;
     if (s < 0 || s >= mp->sensors || s >= CAEKF_MAX_SENSORS || mp->sensor_kind[s] != kind) {
         return 0u;
     }
@@ -47,7 +47,7 @@ static unsigned sensor_bit(const caekf_app_t *app, int s, int kind)
 /* The slot bit of input i (0-based), 0 when the mechanism has no such input. */
 static unsigned input_bit(const caekf_app_t *app, int i)
 {
-    return (i < app->est.model.p.inputs && i < CAEKF_MAX_INPUTS) ? HAVE_INPUT(i) : 0u;
+    return (i < app->est.cfg.model.inputs && i < CAEKF_MAX_INPUTS) ? HAVE_INPUT(i) : 0u;
 }
 
 /* Which input (*input, or -1) or sensor (*sensor and *kind, or NO_SENSOR) a diagnostics value frame

@@ -65,8 +65,21 @@ enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT
 /* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc + ne states
  * (x = [q; v; gamma_1..gamma_nc; the ne estimated law parameters, contact by contact in the order n,
  * lambda, gap]); arrays are sized for the build's capacity. */
+/* The mechanism's values the model's functions read at run time (the rest of caekf_model_params_t is
+ * derived into the matrices below at init, and the estimator keeps the whole of it in its settings): the
+ * same names as there, so a model reads them as m->p.dt etc. */
 typedef struct {
-    caekf_model_params_t p;
+    caekf_scalar_t dt;
+    int inputs;
+    int input_body[CAEKF_MAX_INPUTS];
+    caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];
+    caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS];
+    int gamma_log;
+} caekf_model_run_params_t;
+
+typedef struct {
+    caekf_model_run_params_t p;
     int nq, nc, n;
     /* State index of contact c's n, lambda and gap when estimated, else 0 (state 0 is q_1). */
     unsigned char law_state[CAEKF_MAX_CONTACTS][CAEKF_LAW_COUNT];
