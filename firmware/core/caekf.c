@@ -637,9 +637,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     } else {
         flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
     }
-    if (!caekf_covariance_health(est->P_work, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
-                                 est->cfg.cov_repair_enabled, est->scratch.m, &flags) ||
-        !all_finite(z, n)) {
+    if (!caekf_covariance_health(est->P_work, z, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
+                                 est->cfg.cov_repair_enabled, est->scratch.m, &flags)) {
         flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_NUMERIC;
         goto done;

@@ -594,9 +594,9 @@ int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g
 
 /* Every valid covariance has P_ii >= 0 and P_ij^2 <= P_ii P_jj; failing either is the common way
  * P goes bad (|corr| > 1, as eqs. 23-27 produce). Cheap enough for every step. On the way it sums
- * v * 0 over the upper triangle into *nf: 0 when every entry is finite, NaN otherwise (one
- * multiply-add per entry instead of a classification); *nf is only complete when the screen passes. */
-static int screen_fails(const caekf_scalar_t *P, int n, caekf_scalar_t *nf)
+ * v * 0 over the upper triangle and the state z into *nf: 0 when every entry is finite, NaN otherwise
+ * (one multiply-add per entry instead of a classification); *nf is only complete when the screen passes. */
+static int screen_fails(const caekf_scalar_t *P, const caekf_scalar_t *z, int n, caekf_scalar_t *nf)
 {
     caekf_scalar_t acc = 0;
     int i;
@@ -604,6 +604,7 @@ static int screen_fails(const caekf_scalar_t *P, int n, caekf_scalar_t *nf)
         const caekf_scalar_t *pij = P + i * n + i, *const pend = P + i * n + n;
         const caekf_scalar_t *pjj = pij;
         const caekf_scalar_t pii = *pij;
+        acc += z[i] * 0;
         acc += pii * 0;
         if (!(pii >= 0)) {
             return 1;
@@ -621,13 +622,13 @@ static int screen_fails(const caekf_scalar_t *P, int n, caekf_scalar_t *nf)
     return 0;
 }
 
-int caekf_covariance_health(caekf_scalar_t *P, int n_arg, int full_check, int repair, caekf_scalar_t *scratch,
-                            uint32_t *flags)
+int caekf_covariance_health(caekf_scalar_t *P, const caekf_scalar_t *z, int n_arg, int full_check, int repair,
+                            caekf_scalar_t *scratch, uint32_t *flags)
 {
     const int n = SIZED_N(n_arg);
     caekf_scalar_t nf = 0;
     int i, j;
-    if (!screen_fails(P, n, &nf)) {
+    if (!screen_fails(P, z, n, &nf)) {
         /* Tolerance on the correlation form: rounding grows with the ~n-term sums of each update. */
         if (!full_check || caekf_psd_check(P, n, CAEKF_EPS * 1024, scratch) == CAEKF_LA_OK) {
             return nf == 0;
@@ -641,6 +642,7 @@ int caekf_covariance_health(caekf_scalar_t *P, int n_arg, int full_check, int re
     }
     nf = 0;
     for (i = 0; i < n; ++i) {
+        nf += z[i] * 0;
         for (j = i; j < n; ++j) {
             nf += AT(P, n, i, j) * 0;
         }

@@ -66,8 +66,9 @@ int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n, int g, ca
 /* Covariance health of an upper-triangle P: a cheap necessary test every step (P_ii >= 0,
  * P_ij^2 <= P_ii P_jj) and, when full_check, the complete PSD test (LDL^T of the correlation form).
  * A failure is flagged COV_INDEFINITE; with repair allowed P is repaired (flag COV_REPAIRED; P is then
- * full). Never silent. Returns 1 when every entry of P is finite (afterwards), else 0. */
-int caekf_covariance_health(caekf_scalar_t *P, int n, int full_check, int repair, caekf_scalar_t *scratch,
-                            uint32_t *flags);
+ * full). Never silent. Returns 1 when every entry of P (afterwards) and of the state z (n values) is
+ * finite, else 0. */
+int caekf_covariance_health(caekf_scalar_t *P, const caekf_scalar_t *z, int n, int full_check, int repair,
+                            caekf_scalar_t *scratch, uint32_t *flags);
 
 #endif /* CAEKF_FILTER_H */

@@ -446,10 +446,25 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
             add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
+#if CAEKF_A0_MAX_OPEN
+    { /* the entries outside the one contact's block are A0's: their maximum is a constant */
+        const int e[2] = {m->contact_i[0], m->contact_j[0]};
+        int a, b;
+        amax = m->a0_max_open;
+        for (a = 0; a < 2; ++a) {
+            for (b = 0; b < 2; ++b) {
+                if (e[a] >= 0 && e[b] >= 0) {
+                    amax = caekf_max(amax, CAEKF_FABS(A[e[a] * nq + e[b]]));
+                }
+            }
+        }
+    }
+#else
     CAEKF_UNROLL_SIZED
     for (i = 0; i < nq * nq; ++i) {
         amax = caekf_max(amax, CAEKF_FABS(A[i]));
     }
+#endif
     return LU_REL_TOL * amax;
 }
 
@@ -737,8 +752,17 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */
     {
         caekf_scalar_t amax = 0; /* the LU's threshold, as caekf_lu_factor takes it */
+#if CAEKF_A0_MAX_OPEN
+        m->a0_max_open = 0;
+#endif
         for (i = 0; i < nq * nq; ++i) {
             amax = caekf_max(amax, CAEKF_FABS(m->A0_lu[i]));
+#if CAEKF_A0_MAX_OPEN
+            if ((i / nq != m->contact_i[0] && i / nq != m->contact_j[0]) ||
+                (i % nq != m->contact_i[0] && i % nq != m->contact_j[0])) { /* outside contact 1's block */
+                m->a0_max_open = caekf_max(m->a0_max_open, CAEKF_FABS(m->A0_lu[i]));
+            }
+#endif
         }
         if (factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL * amax) != 0) {
             return -1;

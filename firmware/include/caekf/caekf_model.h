@@ -62,6 +62,11 @@ enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT
  * others compile the lookups out. */
 #define CAEKF_HAS_LAW_PARAMS (CAEKF_MAX_LAW_PARAMS > 0)
 
+/* A build sized for one mechanism with one contact keeps the largest |A0_ij| outside that contact's block:
+ * the Newton matrix's largest entry (the LU's refusal threshold) then takes the block's entries only (a
+ * maximum is the same in any order). */
+#define CAEKF_A0_MAX_OPEN (CAEKF_SIZED && CAEKF_MAX_CONTACTS == 1)
+
 /* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc + ne states
  * (x = [q; v; gamma_1..gamma_nc; the ne estimated law parameters, contact by contact in the order n,
  * lambda, gap]); arrays are sized for the build's capacity. */
@@ -108,6 +113,9 @@ typedef struct {
     int A0_piv[CAEKF_NQ];
 #if !CAEKF_ONE_STEP_BE
     caekf_scalar_t fv0[CAEKF_NQ][CAEKF_N];
+#endif
+#if CAEKF_A0_MAX_OPEN
+    caekf_scalar_t a0_max_open; /* max |A0_ij| outside the contact's 2 x 2 block (the Newton matrix's rest) */
 #endif
 } caekf_model_t;
 
