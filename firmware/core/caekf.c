@@ -353,7 +353,7 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
 /* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step; after
  * substeps their product, in fq and fv) and P- = F P F^T + Q into P_work (upper triangle);
  * z = S^-1 x_k-. Returns 0, or -1 on a singular matrix. */
-static int predict_covariance(caekf_t *est, int closed, int substepped)
+static int predict_covariance(caekf_t *est, int closed, int substepped, const caekf_contact_t *ct)
 {
     const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
@@ -374,7 +374,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped)
 #endif
         if (closed) {
         est->fv_const = 0;
-        if (caekf_model_transition_v(&est->model, est->x_pred, X_PREV(est), est->fv) != 0) {
+        if (caekf_model_transition_v_at(&est->model, ct, X_PREV(est), est->fv) != 0) {
             return -1;
         }
         scale_fv(est->fv, s, nq, n);
@@ -512,7 +512,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
-    caekf_filter_dims_t *dims; /* the instance's, once est is known to be one */
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* the contacts' laws at x_k- */
+    caekf_filter_dims_t *dims;                  /* the instance's, once est is known to be one */
     caekf_status_t st = CAEKF_OK;
     caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
@@ -591,12 +592,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
         }
     }
-    for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
-        caekf_contact_t c;
-        caekf_model_contact(&est->model, i, est->x_pred, &c);
-        deepest = i == 0 ? c.delta : caekf_max(deepest, c.delta);
-        any_contact |= c.delta > 0;
-        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, c.delta > 0);
+    for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact (F at x_k- takes the same laws) */
+        caekf_model_contact(&est->model, i, est->x_pred, &ct[i]);
+        deepest = i == 0 ? ct[i].delta : caekf_max(deepest, ct[i].delta);
+        any_contact |= ct[i].delta > 0;
+        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, ct[i].delta > 0);
         if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }
@@ -614,8 +614,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped) !=
-               0) {
+    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped,
+                                  ct) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;

@@ -646,12 +646,19 @@ void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAE
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    contacts_at(m, xk, ct);
+    return caekf_model_transition_v_at(m, ct, xprev, fv);
+}
+
+int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
+                                caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
+    caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1];
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
     int closed, closed0 = 0;
-    contacts_at(m, xk, ct);
     closed = any_contact(ct, nc);
     if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);

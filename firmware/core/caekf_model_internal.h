@@ -83,6 +83,11 @@ int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                              const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
+/* caekf_model_transition_v with the contacts' laws at x_k given (caekf_model_contact of each contact at
+ * x_k, as the estimator has them for eq. 21): the same result. */
+int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
+                                caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+
 /* The v-rows of the constant contact-free F (nq x n): model_init's fv0, or recomputed by the same
  * operations (CAEKF_ONE_STEP_BE). */
 void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
