@@ -89,6 +89,26 @@ static void test_psd_check_cases(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&corr_above_one[0][0], 2, CAEKF_EPS * 1024, w));
 }
 
+/* Zero variances anywhere: accepted with a zero row and column, refused with any coupling, whether the
+ * coupling sits before or after the zero diagonal in the upper triangle the test reads. */
+static void test_psd_check_zero_variances(void)
+{
+    caekf_scalar_t w[9];
+    caekf_scalar_t mid[3][3] = {{2, 0, 1}, {0, 0, 0}, {1, 0, 3}};
+    caekf_scalar_t two[3][3] = {{0, 0, 0}, {0, 4, 0}, {0, 0, 0}};
+    caekf_scalar_t first_indef[3][3] = {{0, 0, 0}, {0, 1, 2}, {0, 2, 1}};
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&mid[0][0], 3, CAEKF_EPS * 1024, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&two[0][0], 3, CAEKF_EPS * 1024, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&first_indef[0][0], 3, CAEKF_EPS * 1024, w));
+    mid[0][1] = mid[1][0] = (caekf_scalar_t)0.1; /* coupled to a state before it */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&mid[0][0], 3, CAEKF_EPS * 1024, w));
+    mid[0][1] = mid[1][0] = 0;
+    mid[1][2] = mid[2][1] = (caekf_scalar_t)0.1; /* coupled to a state after it */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&mid[0][0], 3, CAEKF_EPS * 1024, w));
+    two[0][2] = two[2][0] = (caekf_scalar_t)1e-30; /* two zero variances coupled to each other */
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_PSD, caekf_psd_check(&two[0][0], 3, CAEKF_EPS * 1024, w));
+}
+
 /* A = R diag(d) R^T with R a rotation in the (0, 2) plane. */
 static void rotated(caekf_scalar_t a[3][3], const double d[3], double angle)
 {
@@ -144,6 +164,7 @@ int main(void)
 #endif
     RUN_TEST(test_sym2_inverse_and_refusals);
     RUN_TEST(test_psd_check_cases);
+    RUN_TEST(test_psd_check_zero_variances);
     RUN_TEST(test_eigen_norm_and_repair);
     return UNITY_END();
 }

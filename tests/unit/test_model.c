@@ -193,6 +193,30 @@ static void test_newton_converges_over_the_reference_scenario(void)
     TEST_ASSERT_TRUE((double)iters / (double)n < 1.5);
 }
 
+/* F's v-rows from the contacts' laws the estimator already has (eq. 21) equal those the model evaluates
+ * itself, bit for bit, closed (the Newton matrix with the contact's tangents) and open (the constant F). */
+static void test_transition_at_given_contacts_is_the_same(void)
+{
+    static const double deltas[2] = {2e-6, -2e-6};
+    int k;
+    for (k = 0; k < 2; ++k) {
+        caekf_scalar_t xk[CAEKF_N], xp[CAEKF_N], fa[CAEKF_NQ][CAEKF_N], fb[CAEKF_NQ][CAEKF_N];
+        caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+        int c;
+        make_state(xk, deltas[k]);
+        make_state(xp, deltas[k] * 0.9);
+        memset(fa, 0, sizeof fa);
+        memset(fb, 0, sizeof fb);
+        for (c = 0; c < model.nc; ++c) {
+            caekf_model_contact(&model, c, xk, &ct[c]);
+        }
+        TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_v(&model, xk, xp, fa));
+        TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_v_at(&model, ct, xp, fb));
+        TEST_ASSERT_EQUAL_MEMORY(fa, fb, sizeof fa);
+        TEST_ASSERT_TRUE(k == 1 || ct[0].delta > 0);
+    }
+}
+
 static void test_forced_newton_failure_is_reported(void)
 {
     caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], work[4 * CAEKF_NQ];
@@ -228,6 +252,7 @@ int main(void)
     RUN_TEST(test_structured_transition_equals_eq10);
 #endif
     RUN_TEST(test_newton_converges_over_the_reference_scenario);
+    RUN_TEST(test_transition_at_given_contacts_is_the_same);
     RUN_TEST(test_forced_newton_failure_is_reported);
 #if CAEKF_HAS_TRAPEZOIDAL /* the build runs it */
     discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
@@ -237,6 +262,7 @@ int main(void)
     RUN_TEST(test_structured_transition_equals_eq10);
 #endif
     RUN_TEST(test_newton_converges_over_the_reference_scenario);
+    RUN_TEST(test_transition_at_given_contacts_is_the_same);
     RUN_TEST(test_forced_newton_failure_is_reported);
 #endif
     return UNITY_END();
