@@ -189,7 +189,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->q_diag[nq + i] = sq(s->sigma_qx_v / s->sigma_v0);
     }
     est->bound_lo = est->bound_hi = 0;
-    for (i = 0; i <= CAEKF_NP; ++i) {
+    for (i = 0; i < CAEKF_NP_STORE; ++i) {
         est->lo_scaled[i] = est->hi_scaled[i] = 0;
     }
     for (i = 0; i < nc; ++i) {
@@ -236,7 +236,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
         est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
     }
-    for (i = 0; i <= CAEKF_NP; ++i) {
+    for (i = 0; i < CAEKF_NP_STORE; ++i) {
         est->dims.policy[i] = CAEKF_GAMMA_LIVE;
     }
     for (i = 0; i < CAEKF_N * CAEKF_N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
@@ -766,7 +766,7 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
         return CAEKF_ERR_SETTINGS;
     }
     p = &est->model.p;
-    law[CAEKF_LAW_N] = p->contact_n[c];
+    law[CAEKF_LAW_N] = CAEKF_METHOD_CONTACT_N(&est->model, c);
     law[CAEKF_LAW_LAMBDA] = p->contact_lambda[c];
     law[CAEKF_LAW_GAP] = p->contact_gap[c];
 #if CAEKF_HAS_LAW_PARAMS

@@ -423,18 +423,17 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     caekf_scalar_t amax = 0;
     int i;
 #if CAEKF_ONE_STEP_BE
-    /* A0 by a0_entry's operations over K and C's nonzeros: the other entries are 0 + hs 0 (+ M/hs) */
-    CAEKF_UNROLL_SIZED
-    for (i = 0; i < nq * nq; ++i) {
-        A[i] = 0;
-    }
-    for (i = 0; i < nq; ++i) {
-        int k;
-        for (k = 0; k < m->nnz[i]; ++k) {
-            const int j = m->nz[i][k];
-            A[i * nq + j] = m->C[i][j] + m->hs * m->K[i][j];
+    { /* A0 from its upper triangle: M/hs + C + hs K is symmetric bit for bit (links add to both sides) */
+        const caekf_scalar_t *a = m->A0_up;
+        CAEKF_UNROLL_SIZED
+        for (i = 0; i < nq; ++i) {
+            int j;
+            A[i * nq + i] = *a++;
+            CAEKF_UNROLL_SIZED
+            for (j = i + 1; j < nq; ++j) {
+                A[i * nq + j] = A[j * nq + i] = *a++;
+            }
         }
-        A[i * nq + i] += m->m_dt[i];
     }
 #else
     for (i = 0; i < nq * nq; ++i) {
@@ -697,23 +696,29 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         none[i].delta = 0;
     }
     m->p.dt = p->dt;
+#if !CAEKF_SIZED
     m->p.inputs = p->inputs;
+#endif
     for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
         m->p.input_body[i] = p->input_body[i];
     }
     for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
         m->p.contact_gap[i] = p->contact_gap[i];
+#ifndef CAEKF_SIZED_CONTACT_N
         m->p.contact_n[i] = p->contact_n[i];
+#endif
         m->p.contact_lambda[i] = p->contact_lambda[i];
     }
+#if !CAEKF_SIZED_METHOD
     m->p.gamma_log = p->gamma_log;
     m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
-    m->hs = m->trap ? p->dt / 2 : p->dt;
+#endif
+    m->hs = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? p->dt / 2 : p->dt;
     nq = p->bodies;
     m->nq = nq;
     m->nc = p->contacts;
     m->n = 2 * p->bodies + p->contacts;
-    for (i = 0; i <= CAEKF_NP; ++i) {
+    for (i = 0; i < CAEKF_NP_STORE; ++i) {
         m->param_contact[i] = (unsigned char)(i < p->contacts ? i : 0);
     }
     for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) { /* the estimated law parameters, after the gammas */
@@ -744,11 +749,17 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     }
     for (i = 0; i < nq; ++i) {
         m->m_dt[i] = p->m[i] / m->hs;
+    }
+    for (i = 0; i < nq; ++i) {
         m->nnz[i] = 0;
         for (j = 0; j < nq; ++j) {
             const caekf_scalar_t a = a0_entry(m, i, j);
 #if !CAEKF_ONE_STEP_BE
             m->A0[i * nq + j] = a;
+#else
+            if (j >= i) { /* row i of the upper triangle follows rows 0 .. i-1 (nq - k entries each) */
+                m->A0_up[i * nq - i * (i - 1) / 2 + j - i] = a;
+            }
 #endif
             m->A0_lu[i * nq + j] = a;
             if (m->K[i][j] != 0 || m->C[i][j] != 0) {

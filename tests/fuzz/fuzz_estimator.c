@@ -192,7 +192,7 @@ static int try_init(const caekf_settings_t *s)
     }
     FZ_CHECK(all_finite(est.scale, N), "accepted init: finite scale");
     if (!all_finite(est.z, N) || !all_finite(est.q_diag, N) || !fz_is_finite_scalar(est.dims.r[0]) ||
-        !(all_finite(est.lo_scaled, CAEKF_NP + 1) && all_finite(est.hi_scaled, CAEKF_NP + 1)) ||
+        !(all_finite(est.lo_scaled, CAEKF_NP_STORE) && all_finite(est.hi_scaled, CAEKF_NP_STORE)) ||
         !(est.dims.r[0] > (caekf_scalar_t)0)) {
         if (FZ_KNOWN_INIT_SCALING) {
             return 1; /* known core issue, reported: the steps below must still roll back cleanly */
@@ -201,7 +201,7 @@ static int try_init(const caekf_settings_t *s)
     }
     FZ_CHECK(all_finite(est.z, N), "accepted init: finite scaled state");
     FZ_CHECK(all_finite(est.q_diag, N) && fz_is_finite_scalar(est.dims.r[0]) &&
-                 all_finite(est.lo_scaled, CAEKF_NP + 1) && all_finite(est.hi_scaled, CAEKF_NP + 1) &&
+                 all_finite(est.lo_scaled, CAEKF_NP_STORE) && all_finite(est.hi_scaled, CAEKF_NP_STORE) &&
                  est.dims.r[0] > (caekf_scalar_t)0,
              "accepted init: finite scaled noise (Q, R > 0) and bounds");
     return 1;

@@ -160,11 +160,11 @@ typedef struct {
     caekf_scalar_t fq[CAEKF_NQ][CAEKF_N]; /* step work: q-rows of F after substeps (else implied by fv) */
 #endif
     caekf_fv_pattern_t fv_pattern;  /* fv's rows, compacted to their nonzeros: their columns */
-    uint32_t fv_const;              /* fv holds the constant contact-free F (kept across steps) */
+    uint8_t fv_const;               /* fv holds the constant contact-free F (kept across steps) */
     caekf_scalar_t q_diag[CAEKF_N]; /* scaled Q diagonal (Q_gamma included) */
     caekf_filter_dims_t dims;       /* sizes, sensed states, scaled R; the parameters' policies */
     /* Bounds of parameter k (state 2 nq + k), scaled; bit k of bound_lo / bound_hi says it has one. */
-    caekf_scalar_t lo_scaled[CAEKF_NP + 1], hi_scaled[CAEKF_NP + 1];
+    caekf_scalar_t lo_scaled[CAEKF_NP_STORE], hi_scaled[CAEKF_NP_STORE];
     uint32_t bound_lo, bound_hi;
 #if !CAEKF_ONE_STEP_BE
     caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */

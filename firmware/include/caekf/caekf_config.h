@@ -80,6 +80,8 @@ typedef double caekf_scalar_t;
 #define CAEKF_NQ CAEKF_MAX_BODIES
 #define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS) /* estimated parameters */
 #define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_NP)
+/* Arrays with one element per estimated parameter: at least one (C has no empty arrays). */
+#define CAEKF_NP_STORE (CAEKF_NP > 0 ? CAEKF_NP : 1)
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]

@@ -75,12 +75,18 @@ enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT
  * same names as there, so a model reads them as m->p.dt etc. */
 typedef struct {
     caekf_scalar_t dt;
+#if !CAEKF_SIZED /* else the sized count */
     int inputs;
+#endif
     int input_body[CAEKF_MAX_INPUTS];
     caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS];
+#ifndef CAEKF_SIZED_CONTACT_N /* else the sized exponent */
     caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];
+#endif
     caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS];
+#if !CAEKF_SIZED_METHOD /* else the sized method's */
     int gamma_log;
+#endif
 } caekf_model_run_params_t;
 
 typedef struct {
@@ -89,14 +95,16 @@ typedef struct {
     /* State index of contact c's n, lambda and gap when estimated, else 0 (state 0 is q_1). */
     unsigned char law_state[CAEKF_MAX_CONTACTS][CAEKF_LAW_COUNT];
     /* The contact of each parameter state 2 nq + k (the gammas first): its switch-off follows that contact. */
-    unsigned char param_contact[CAEKF_NP + 1];
+    unsigned char param_contact[CAEKF_NP_STORE];
     int contact_i[CAEKF_MAX_CONTACTS], contact_j[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
     /* The implicit stage: the momentum rows are scaled so that their v_k-derivative is
      * M/hs + C_t + hs K_t, with hs = dt (backward Euler) or dt/2 (trapezoidal, rows times 2). */
     caekf_scalar_t hs;
-    int trap;                      /* trapezoidal: the step's start enters the rows */
+#if !CAEKF_SIZED_METHOD /* else the sized method's */
+    int trap;           /* trapezoidal: the step's start enters the rows */
+#endif
     caekf_scalar_t m_dt[CAEKF_NQ]; /* M / hs (diagonal) */
     /* Row i of K and C is nonzero in columns nz[i][0 .. nnz[i]-1] (ascending): the residual skips the
      * structural zeros, which change no sum. */
@@ -104,10 +112,12 @@ typedef struct {
     unsigned char nnz[CAEKF_NQ];
     /* A0 = M/hs + C + hs K, the Newton matrix without contact, packed nq x nq. Without contact the step
      * is linear: A0's LU and the v-rows of F are constants, computed once by the same code the contact
-     * path runs, so using them changes no bit of the result (CAEKF_ONE_STEP_BE: A0 and fv0 are not
-     * kept but recomputed where needed, by the same operations). */
+     * path runs, so using them changes no bit of the result (CAEKF_ONE_STEP_BE: A0 is kept as its upper
+     * triangle, and fv0 is not kept but recomputed where needed, by the same operations). */
 #if !CAEKF_ONE_STEP_BE
     caekf_scalar_t A0[CAEKF_NQ * CAEKF_NQ];
+#else
+    caekf_scalar_t A0_up[CAEKF_NQ * (CAEKF_NQ + 1) / 2]; /* A0's upper triangle, row by row (it is symmetric) */
 #endif
     caekf_scalar_t A0_lu[CAEKF_NQ * CAEKF_NQ];
     int A0_piv[CAEKF_NQ];
@@ -133,7 +143,7 @@ typedef struct {
     int ny;                              /* sensors */
     int h[CAEKF_MAX_SENSORS];            /* state index each sensor measures */
     caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
-    uint8_t policy[CAEKF_NP + 1];        /* how parameter k (state 2 nq + k) is handled this step */
+    uint8_t policy[CAEKF_NP_STORE];      /* how parameter k (state 2 nq + k) is handled this step */
 } caekf_filter_dims_t;
 
 /* Work buffers of the correction: the gain and H P (in the instance, off the stack). */
