@@ -31,7 +31,12 @@ static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *s, int nq, int n)
 {
     const caekf_scalar_t rq = s[0] / s[nq];
+    caekf_scalar_t rp[CAEKF_NP_STORE]; /* the parameters' ratios, once for all rows */
     int i, j;
+    CAEKF_UNROLL_SIZED
+    for (j = 2 * nq; j < n; ++j) {
+        rp[j - 2 * nq] = s[j] / s[nq];
+    }
     for (i = 0; i < nq; ++i) {
         caekf_scalar_t *f = fv[i];
         CAEKF_UNROLL_SIZED
@@ -40,7 +45,7 @@ static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t 
         }
         CAEKF_UNROLL_SIZED
         for (j = 2 * nq; j < n; ++j) {
-            f[j] *= s[j] / s[nq];
+            f[j] *= rp[j - 2 * nq];
         }
     }
 }

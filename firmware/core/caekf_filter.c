@@ -549,7 +549,7 @@ int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g
     }
     for (i = 0; i < n; ++i) { /* a valid covariance has P_ig^2 <= P_ii P_gg */
         if (i != g) {
-            usable = usable && col[i] * col[i] <= AT(P, n, i, i) * s * (1 + CAEKF_EPS * 64) + CAEKF_EPS * CAEKF_EPS;
+            usable &= col[i] * col[i] <= AT(P, n, i, i) * s * (1 + CAEKF_EPS * 64) + CAEKF_EPS * CAEKF_EPS;
         }
     }
     if (usable) {

@@ -150,7 +150,7 @@ static unsigned elements_in_use(const caekf_settings_t *s, const caekf_setting_r
  * or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in float,
  * subnormal sigmas in double). Each check repeats the operation of the value it guards: the quotient
  * num / den (squared if sq, times fac) must be finite, and > 0 if pos. Returns 1 if it passes. */
-static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, int sq, int pos)
+CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, int sq, int pos)
 {
     caekf_scalar_t r = num / den;
     if (sq) {
