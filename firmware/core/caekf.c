@@ -45,6 +45,7 @@ static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t 
         }
         CAEKF_UNROLL_SIZED
         for (j = 2 * nq; j < n; ++j) {
+            /* cppcheck-suppress uninitvar ; rp is written above for every j of this loop */
             f[j] *= rp[j - 2 * nq];
         }
     }
