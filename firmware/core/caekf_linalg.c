@@ -72,37 +72,60 @@ static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], cae
     return CAEKF_LA_OK;
 }
 
+/* Step k of the 4 x 4 elimination for row i (k < i): l = a_ik / a_kk, then a_ij -= l a_kj for j = 3 .. k + 1,
+ * each entry once (the general loop's operations). */
+CAEKF_HOT_INLINE void lu4_eliminate(caekf_scalar_t *a, int k, int i)
+{
+    caekf_scalar_t *const ri = a + 4 * i;
+    const caekf_scalar_t *const rk = a + 4 * k;
+    const caekf_scalar_t l = ri[k] / rk[k];
+    int j;
+    ri[k] = l;
+    CAEKF_UNROLL_SIZED
+    for (j = 3; j > k; --j) {
+        ri[j] -= l * rk[j];
+    }
+}
+
 caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scalar_t tol)
 {
-    int i, k;
     /* While partial pivoting keeps the diagonal (no later row strictly larger in column k; A is
-     * diagonally dominant in practice) the row updates are written out; an exchange goes to the
-     * general loop from that step. */
-    for (k = 0; k < 4; ++k) {
-        const caekf_scalar_t *rk = a + 4 * k;
-        const caekf_scalar_t best = CAEKF_FABS(rk[k]);
-        for (i = k + 1; i < 4; ++i) {
-            if (CAEKF_FABS(a[4 * i + k]) > best) {
-                return lu_factor_from(a, 4, piv, tol, k);
-            }
-        }
-        if (!(best > tol)) { /* also refuses a NaN pivot */
-            return CAEKF_LA_SINGULAR;
-        }
-        piv[k] = k;
-        for (i = k + 1; i < 4; ++i) {
-            caekf_scalar_t *ri = a + 4 * i;
-            caekf_scalar_t l = ri[k] / rk[k];
-            ri[k] = l;
-            ri[3] -= l * rk[3]; /* columns k + 1 .. 3, each once */
-            if (k < 2) {
-                ri[2] -= l * rk[2];
-            }
-            if (k < 1) {
-                ri[1] -= l * rk[1];
-            }
-        }
+     * diagonally dominant in practice) the elimination is written out, step by step (a deliberately
+     * unrolled kernel); an exchange goes to the general loop from that step. */
+    caekf_scalar_t best = CAEKF_FABS(a[0]);
+    if (CAEKF_FABS(a[4]) > best || CAEKF_FABS(a[8]) > best || CAEKF_FABS(a[12]) > best) {
+        return lu_factor_from(a, 4, piv, tol, 0);
     }
+    if (!(best > tol)) { /* also refuses a NaN pivot */
+        return CAEKF_LA_SINGULAR;
+    }
+    piv[0] = 0;
+    lu4_eliminate(a, 0, 1);
+    lu4_eliminate(a, 0, 2);
+    lu4_eliminate(a, 0, 3);
+    best = CAEKF_FABS(a[5]);
+    if (CAEKF_FABS(a[9]) > best || CAEKF_FABS(a[13]) > best) {
+        return lu_factor_from(a, 4, piv, tol, 1);
+    }
+    if (!(best > tol)) {
+        return CAEKF_LA_SINGULAR;
+    }
+    piv[1] = 1;
+    lu4_eliminate(a, 1, 2);
+    lu4_eliminate(a, 1, 3);
+    best = CAEKF_FABS(a[10]);
+    if (CAEKF_FABS(a[14]) > best) {
+        return lu_factor_from(a, 4, piv, tol, 2);
+    }
+    if (!(best > tol)) {
+        return CAEKF_LA_SINGULAR;
+    }
+    piv[2] = 2;
+    lu4_eliminate(a, 2, 3);
+    if (!(CAEKF_FABS(a[15]) > tol)) {
+        return CAEKF_LA_SINGULAR;
+    }
+    piv[3] = 3;
     return CAEKF_LA_OK;
 }
 

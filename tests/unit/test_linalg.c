@@ -56,6 +56,64 @@ static void test_lu_refuses_singular_and_nan(void)
 
 #endif
 
+/* The written-out 4 x 4 kernel: solves, and refuses a singular or NaN matrix, at every step. */
+static void test_lu4_solves_and_refuses(void)
+{
+    caekf_scalar_t a[16] = {4, 1, 0, 0, 1, 5, 2, 0, 0, 2, 6, 1, 0, 0, 1, 3};
+    caekf_scalar_t x[4] = {1, 2, 3, 4}, b[4];
+    int piv[4], i, j;
+    for (i = 0; i < 4; ++i) {
+        b[i] = 0;
+        for (j = 0; j < 4; ++j) {
+            b[i] += a[4 * i + j] * x[j];
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu4_factor_tol(a, piv, CAEKF_EPS * 16 * 6));
+    caekf_lu4_solve(a, piv, b, 1, 1);
+    for (i = 0; i < 4; ++i) {
+        TEST_ASSERT_DOUBLE_WITHIN(TOL * 10, (double)x[i], (double)b[i]);
+    }
+    for (i = 0; i < 4; ++i) { /* row i a copy of row i - 1 (or zero): singular at step i */
+        caekf_scalar_t s[16] = {4, 1, 0, 0, 1, 5, 2, 0, 0, 2, 6, 1, 0, 0, 1, 3};
+        for (j = 0; j < 4; ++j) {
+            s[4 * i + j] = i > 0 ? s[4 * (i - 1) + j] : 0;
+        }
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_lu4_factor_tol(s, piv, CAEKF_EPS * 16 * 6));
+        s[4 * i + i] = (caekf_scalar_t)NAN;
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_lu4_factor_tol(s, piv, CAEKF_EPS * 16 * 6));
+    }
+}
+
+#if CAEKF_LA_GENERAL_LU
+/* The 4 x 4 kernel is the general LU bit for bit: factors, pivots and the matrix left behind, also when
+ * an exchange hands over to the general loop at step 0, 1 or 2 or a step refuses. */
+static void test_lu4_is_the_general_lu(void)
+{
+    static const caekf_scalar_t cases[6][16] = {
+        {4, 1, 0, 0, 1, 5, 2, 0, 0, 2, 6, 1, 0, 0, 1, 3},                     /* diagonally dominant */
+        {1, 2, 3, 4, 5, 6, 7, 8, 2, 1, 9, 3, 4, 4, 1, 7},                     /* exchange at step 0 */
+        {9, 1, 2, 3, 1, 1, 2, 1, 2, 8, 1, 1, 3, 1, 1, 9},                     /* exchange at step 1 */
+        {9, 1, 1, 1, 1, 9, 1, 1, 1, 1, 1, 1, 1, 1, 8, 9},                     /* exchange at step 2 */
+        {2, 1, 0, 0, 1, 2, 1, 0, 0, 1, 2, 1, 2, 4, 2, (caekf_scalar_t)1e-30}, /* late refusal */
+        {-3, 1, 1, 1, 1, -3, (caekf_scalar_t)0.5f, 0, 1, 0, 4, 1, 0, 1, 1, -5}};
+    int c;
+    for (c = 0; c < 6; ++c) {
+        caekf_scalar_t a[16], b[16];
+        int pa[4] = {-1, -1, -1, -1}, pb[4] = {-1, -1, -1, -1};
+        int ra, rb;
+        memcpy(a, cases[c], sizeof a);
+        memcpy(b, cases[c], sizeof b);
+        ra = caekf_lu_factor_tol(a, 4, pa, CAEKF_EPS * 16 * 9);
+        rb = caekf_lu4_factor_tol(b, pb, CAEKF_EPS * 16 * 9);
+        TEST_ASSERT_EQUAL_INT(ra, rb);
+        TEST_ASSERT_EQUAL_MEMORY(a, b, sizeof a);
+        if (ra == CAEKF_LA_OK) {
+            TEST_ASSERT_EQUAL_INT_ARRAY(pa, pb, 4);
+        }
+    }
+}
+#endif
+
 static void test_sym2_inverse_and_refusals(void)
 {
     caekf_scalar_t inv[3];
@@ -158,7 +216,9 @@ static void test_eigen_norm_and_repair(void)
 int main(void)
 {
     UNITY_BEGIN();
+    RUN_TEST(test_lu4_solves_and_refuses);
 #if CAEKF_LA_GENERAL_LU
+    RUN_TEST(test_lu4_is_the_general_lu);
     RUN_TEST(test_lu_solves_several_rhs_with_pivoting);
     RUN_TEST(test_lu_refuses_singular_and_nan);
 #endif
