@@ -172,7 +172,8 @@ void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t 
     const caekf_scalar_t d0 = (caekf_scalar_t)1 / lu[0], d1 = (caekf_scalar_t)1 / lu[5],
                          d2 = (caekf_scalar_t)1 / lu[10], d3 = (caekf_scalar_t)1 / lu[15];
     const caekf_scalar_t *r0, *r1, *r2, *r3;
-    for (i = 0; i < 4; ++i) { /* the row swaps, applied once as a permutation of the rows */
+    for (i = 0; i < 4 && (piv[0] | (piv[1] ^ 1) | (piv[2] ^ 2) | (piv[3] ^ 3)) != 0; ++i) {
+        /* the row swaps (none without an exchange), applied once as a permutation of the rows */
         int t = perm[i];
         perm[i] = perm[piv[i]];
         perm[piv[i]] = t;
