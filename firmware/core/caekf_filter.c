@@ -556,9 +556,10 @@ int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g
         /* Scalar perfect measurement (R = 0): gain k = P e_g / P_gg, P+ = P - P e_g e_g^T P / P_gg.
          * The standard and the Joseph forms coincide here. Row/column gamma become exactly 0. Each
          * entry is updated once: the columns before g, then those after it. */
-        for (i = 0; i < n; ++i) {
+        caekf_scalar_t *pii = P;
+        for (i = 0; i < n; ++i, pii += n + 1) { /* pii: P_ii */
             const caekf_scalar_t a = col[i];
-            caekf_scalar_t *p = &AT(P, n, i, i), *const pend = &AT(P, n, i, n);
+            caekf_scalar_t *p = pii, *const pend = pii + (n - i);
             const caekf_scalar_t *cj = col + i;
             if (i == g) {
                 continue;
@@ -566,7 +567,7 @@ int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g
             z[i] += a / s * dz;
             *p -= a * a / s;
             if (i < g) {
-                caekf_scalar_t *const pg = &AT(P, n, i, g);
+                caekf_scalar_t *const pg = pii + (g - i);
                 while (++p != pg) {
                     *p = flush(*p - a * *++cj / s);
                 }
