@@ -54,15 +54,6 @@ void caekf_mirror_upper(caekf_scalar_t *P, int n)
     }
 }
 
-void caekf_fv_dense(int nq, int n, caekf_fv_pattern_t *pat)
-{
-    int i;
-    for (i = 0; i < nq; ++i) {
-        pat->nnz[i] = (unsigned char)n;
-    }
-    pat->dense = 1;
-}
-
 void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_fv_pattern_t *pat)
 {
     int i, j, dense = 1;

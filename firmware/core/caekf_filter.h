@@ -13,6 +13,7 @@
 #include <stdint.h>
 
 #include "caekf/caekf_model.h"
+#include "caekf_math.h"
 
 /* How a parameter (a gamma or an estimated law parameter) is handled in this step. */
 typedef enum {
@@ -29,7 +30,15 @@ void caekf_fv_compact(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf
  * operands that is the compacted result bit for bit: a zero product added to a sum started at +0 changes
  * nothing (x + 0 = x for x != 0, +0 + -0 = +0), so a step in contact (rows dense in practice) skips the
  * scan for zeros. */
-void caekf_fv_dense(int nq, int n, caekf_fv_pattern_t *pat);
+CAEKF_HOT_INLINE void caekf_fv_dense(int nq, int n, caekf_fv_pattern_t *pat)
+{
+    int i;
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq; ++i) {
+        pat->nnz[i] = (unsigned char)n;
+    }
+    pat->dense = 1;
+}
 
 /* Copies the upper triangle into the lower one. */
 void caekf_mirror_upper(caekf_scalar_t *P, int n);
