@@ -510,6 +510,27 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
+#if CAEKF_SIZED
+/* The commit of a step in a sized build: z, and P from P_work's upper triangle, filling the lower one;
+ * the sizes are constants, and the copy is written out (no loop overhead per entry). */
+static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
+{
+    const int n = CAEKF_DIM_N(&est->model);
+    int i, j;
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < n; ++i) {
+        const caekf_scalar_t *const w = &est->P_work[i * n];
+        est->z[i] = z[i];
+        est->P[i * n + i] = w[i];
+        CAEKF_UNROLL_SIZED
+        for (j = i + 1; j < n; ++j) {
+            est->P[i * n + j] = w[j];
+            est->P[j * n + i] = w[j];
+        }
+    }
+}
+#endif
+
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
  * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
  * caller error. */
@@ -649,6 +670,9 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
+#if CAEKF_SIZED
+    commit_sized(est, z);
+#else
     for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */
         const caekf_scalar_t *w = &est->P_work[i * n + i];
         caekf_scalar_t *row = &est->P[i * n + i], *col = row, *const end = est->P + i * n + n;
@@ -660,6 +684,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             *col = *w;
         }
     }
+#endif
 #if !CAEKF_ONE_STEP_BE
     for (i = 0; i < nu; ++i) {
         est->u_prev[i] = u[i];
