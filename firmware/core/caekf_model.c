@@ -171,7 +171,7 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
 
 /* Adds s * (e_i - e_j)(e_i - e_j)^T to the nq x nq matrix a (leading dimension ld); ground ends (-1)
  * drop out. Entry order: (i,i), (i,j), (j,i), (j,j). */
-static void add_contact_block(caekf_scalar_t *a, int ld, int i, int j, caekf_scalar_t s)
+CAEKF_HOT_INLINE void add_contact_block(caekf_scalar_t *a, int ld, int i, int j, caekf_scalar_t s)
 {
     if (i >= 0) {
         a[i * ld + i] += s;
