@@ -510,8 +510,8 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
-#if CAEKF_SIZED
-/* The commit of a step in a sized build: z, and P from P_work's upper triangle, filling the lower one;
+#if CAEKF_SIZED_METHOD
+/* The commit of a step in a build sized for one configuration: z, and P from P_work's upper triangle, filling the lower one;
  * the sizes are constants, and the copy is written out (no loop overhead per entry). */
 static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 {
@@ -670,7 +670,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
-#if CAEKF_SIZED
+#if CAEKF_SIZED_METHOD
     commit_sized(est, z);
 #else
     for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */

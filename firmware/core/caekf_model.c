@@ -169,9 +169,17 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     }
 }
 
+/* Written into its callers in a build sized for one configuration (on the step's path: the Newton matrix and
+ * F), a function elsewhere (less flash where the step has more paths). */
+#if CAEKF_SIZED_METHOD
+#define ADD_CONTACT_BLOCK_INLINE CAEKF_HOT_INLINE
+#else
+#define ADD_CONTACT_BLOCK_INLINE static
+#endif
+
 /* Adds s * (e_i - e_j)(e_i - e_j)^T to the nq x nq matrix a (leading dimension ld); ground ends (-1)
  * drop out. Entry order: (i,i), (i,j), (j,i), (j,j). */
-CAEKF_HOT_INLINE void add_contact_block(caekf_scalar_t *a, int ld, int i, int j, caekf_scalar_t s)
+ADD_CONTACT_BLOCK_INLINE void add_contact_block(caekf_scalar_t *a, int ld, int i, int j, caekf_scalar_t s)
 {
     if (i >= 0) {
         a[i * ld + i] += s;
