@@ -511,8 +511,9 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
 }
 
 #if CAEKF_SIZED_METHOD
-/* The commit of a step in a build sized for one configuration: z, and P from P_work's upper triangle, filling the lower one;
- * the sizes are constants, and the copy is written out (no loop overhead per entry). */
+/* The commit of a step in a build sized for one configuration: z, and P from P_work's upper triangle,
+ * filling the lower one; the sizes are constants, and the copy is written out (no loop overhead per
+ * entry). */
 static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 {
     const int n = CAEKF_DIM_N(&est->model);
