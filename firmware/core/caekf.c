@@ -540,8 +540,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* the contacts' laws at x_k- */
-    caekf_filter_dims_t *dims;                  /* the instance's, once est is known to be one */
+    caekf_filter_dims_t *dims; /* the instance's, once est is known to be one */
     caekf_status_t st = CAEKF_OK;
     caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
@@ -549,6 +548,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     int i, nq, nc, n, ny, nu, any_contact = 0, substepped = 0;
     int closed_prev = 0; /* a contact closed at x_{k-1}: substeps and the trapezoidal F both ask */
     const caekf_scalar_t *s;
+    caekf_contact_t *ct; /* the contacts' laws at x_k-, after the Newton solve (in scratch) */
     caekf_scalar_t nis = 0;
 
     if (report != 0) {
@@ -579,6 +579,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         return CAEKF_ERR_INPUT; /* nothing in *est has been written */
     }
     s = est->scale;
+    ct = est->scratch.contacts;
     xprev = X_PREV(est);
     z = est->x_pred;
 

@@ -146,10 +146,12 @@ typedef struct {
     caekf_scalar_t z[CAEKF_N];           /* scaled state */
     caekf_scalar_t P[CAEKF_N * CAEKF_N]; /* scaled covariance */
     caekf_scalar_t P_work[CAEKF_N * CAEKF_N];
-    /* scratch: the PSD check's and the P norm's n x n workspace, earlier in a step the correction's */
+    /* scratch: the PSD check's and the P norm's n x n workspace, earlier in a step the correction's, and
+     * before it the contacts' laws at x_k- (eq. 21, then F) */
     union {
         caekf_scalar_t m[CAEKF_N * CAEKF_N];
         caekf_correct_work_t correct;
+        caekf_contact_t contacts[CAEKF_MAX_CONTACTS + 1];
     } scratch;
 #if !CAEKF_ONE_STEP_BE
     caekf_scalar_t x_prev[CAEKF_N]; /* step work: x_{k-1} (CAEKF_ONE_STEP_BE: kept in P_work) */
