@@ -69,9 +69,10 @@ typedef double caekf_scalar_t;
 #define CAEKF_HAS_SUBSTEPS 1
 #define CAEKF_HAS_TRAPEZOIDAL 1
 #endif
-/* One backward-Euler step per sample only: the model keeps no contact-free Newton matrix and F (each is
- * recomputed where it is needed, by the same operations) and the instance no inputs of the step's start
- * (only the trapezoidal rule and the substeps read them): a smaller instance. */
+/* One backward-Euler step per sample only: the model keeps no contact-free F (recomputed where it is
+ * needed, by the same operations) and the contact-free Newton matrix only as its upper triangle, and the
+ * instance no inputs of the step's start (only the trapezoidal rule and the substeps read them): a smaller
+ * instance. */
 #define CAEKF_ONE_STEP_BE (!CAEKF_HAS_SUBSTEPS && !CAEKF_HAS_TRAPEZOIDAL)
 
 /* Model dimensions. */
