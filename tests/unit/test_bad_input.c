@@ -217,6 +217,23 @@ static void test_a_method_sized_build_refuses_other_methods(void)
 }
 #endif
 
+#if CAEKF_SIZED
+/* A sized build's model keeps no input count (the sized one is a constant): any other count is refused,
+ * by the settings and by the model itself, never read as the sized one. */
+static void test_a_sized_build_refuses_another_input_count(void)
+{
+    caekf_settings_t b = good;
+    caekf_setting_error_t err;
+    caekf_model_t m;
+    b.model.inputs = CAEKF_SIZED_INPUTS > 0 ? CAEKF_SIZED_INPUTS - 1 : 1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_TRUE(err.reason == CAEKF_SETTING_UNSUPPORTED || err.reason == CAEKF_SETTING_OVER_CAPACITY);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_INPUTS, err.param_id);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &good.model));
+}
+#endif
+
 #if CAEKF_HAS_SETTING_TEXT
 /* The refusal reads as the schema states the rule, with the element and its value. */
 static void test_refusal_text_names_element_value_and_rule(void)
@@ -309,6 +326,9 @@ int main(void)
     RUN_TEST(test_newton_bound_is_a_capacity);
 #if CAEKF_SIZED_METHOD
     RUN_TEST(test_a_method_sized_build_refuses_other_methods);
+#endif
+#if CAEKF_SIZED
+    RUN_TEST(test_a_sized_build_refuses_another_input_count);
 #endif
 #if CAEKF_HAS_SETTING_TEXT
     RUN_TEST(test_refusal_text_names_element_value_and_rule);
