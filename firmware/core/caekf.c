@@ -316,8 +316,7 @@ static void substep_product(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t
  * unchanged except that -0 becomes +0 (x + 0), and a term with an identity entry 1 is the value itself.
  * The parameter columns (where such zeros decide a sign of zero) take the general operations. */
 static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs,
-                              caekf_scalar_t c2)
+                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs, caekf_scalar_t c2)
 {
     int i, j;
     for (i = 0; i < nq; ++i) {

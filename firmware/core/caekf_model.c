@@ -581,6 +581,7 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
             fv[i][j] = 0;
         }
         if (ct0 != 0) {
+            CAEKF_UNROLL_SIZED
             for (j = 0; j < nq; ++j) {
                 fv[i][j] -= m->K[i][j];
                 fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);

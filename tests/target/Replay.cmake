@@ -50,11 +50,16 @@ set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS 
 
 # Two images: target_replay runs the switched-highq-constrained preset (the paper's heaviest step: contact
 # + constraint), target_replay_default the recommended default estimator (no preset).
-# A build sized for one configuration (CAEKF_MECHANISM_PRESET) runs that preset's step method only: no
-# default image (its defaults would be the preset's method, not the recommended estimator's).
-set(_variants constrained)
+# A build sized for one configuration (CAEKF_MECHANISM_PRESET) runs that configuration's step method only:
+# a preset's build has no default image (its defaults would be the preset's method, not the recommended
+# estimator's), a build sized for the default (CAEKF_MECHANISM_PRESET=default) only the default image.
+# The settings are CAEKF_SCENARIO's (the replayed truth is the reference scenario's record).
 if(CAEKF_MECHANISM_PRESET STREQUAL "")
-    list(APPEND _variants default)
+    set(_variants constrained default)
+elseif(CAEKF_MECHANISM_PRESET STREQUAL "default")
+    set(_variants default)
+else()
+    set(_variants constrained)
 endif()
 foreach(_variant IN LISTS _variants)
     if(_variant STREQUAL "constrained")
@@ -107,7 +112,7 @@ foreach(_variant IN LISTS _variants)
     endif()
 endforeach()
 
-if(CAEKF_MCU STREQUAL "cortex-m4f" AND TARGET qemu_icount_plugin)
+if(CAEKF_MCU STREQUAL "cortex-m4f" AND TARGET qemu_icount_plugin AND TARGET target_replay)
     add_test(NAME target_replay.icount
         COMMAND "${Python3_EXECUTABLE}" "${CAEKF_ROOT_DIR}/tools/qemu-icount/icount-run.py"
                 --machine "${CAEKF_QEMU_MACHINE}" --plugin "${CAEKF_ICOUNT_PLUGIN}" --quiet

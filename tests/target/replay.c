@@ -73,8 +73,8 @@ static void replay_settings(caekf_settings_t *s)
 {
     unsigned i;
     (void)caekf_settings_default(s);
-    for (i = 0u; i < CAEKF_N_PAPER_PARAMS; ++i) {
-        (void)caekf_settings_set(s, caekf_paper_params[i].id, caekf_paper_params[i].value, NULL);
+    for (i = 0u; i < CAEKF_N_SCENARIO_PARAMS; ++i) {
+        (void)caekf_settings_set(s, caekf_scenario_params[i].id, caekf_scenario_params[i].value, NULL);
     }
 #if REPLAY_PRESET >= 0
     for (i = 0u; i < caekf_fixture_presets[REPLAY_PRESET].n; ++i) {
