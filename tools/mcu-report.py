@@ -8,7 +8,11 @@ For each preset (default cortex-m4f and cortex-m7; configured/built with `cmake 
 which needs the host-double preset's test data, see tests/target/Replay.cmake):
   * a preset configured with CAEKF_MECHANISM_PRESET (sized for one configuration: cortex-m4f) has no
     default image: the recommended default's figures come from build/<preset>-default, the same
-    mechanism with a run-time step method (configured and built here);
+    mechanism sized for the default's configuration (CAEKF_MECHANISM_PRESET=default), and the joint
+    four-parameter step's (ln gamma, n, lambda and gap estimated: sim/scenarios/paper-joint.toml, the
+    same mechanism and truth) from build/<preset>-joint (configured and built here); each default image
+    also runs with the full PSD test of P on every step (target_replay_default_worst): its max is the
+    constructed worst case (a contact step with the most Newton iterations and the full test);
   * instructions per estimator step: tests/target/target_replay.elf (the switched-highq-constrained
     experiment of the reference scenario, 60,000 steps) under QEMU with the TCG plugin
     tools/qemu-icount; min / median / max over all steps, and the worst case of the steps with
@@ -56,7 +60,9 @@ def cache_value(bdir, key):
 
 
 def build(preset, bdir, extra=(), targets=()):
-    if not os.path.exists(os.path.join(bdir, "CMakeCache.txt")):
+    stale = [e for e in extra if e.startswith("-D") and "=" in e
+             and cache_value(bdir, e[2:].split("=", 1)[0].split(":", 1)[0]) not in (None, e.split("=", 1)[1])]
+    if not os.path.exists(os.path.join(bdir, "CMakeCache.txt")) or stale:
         print(f"mcu-report: configuring {bdir}", file=sys.stderr)
         subprocess.run(["cmake", "--preset", preset, "-B", bdir, "--no-warn-unused-cli", *extra], check=True, cwd=ROOT,
                        stdout=subprocess.DEVNULL)
@@ -238,23 +244,42 @@ def report_preset(preset, args, o2):
     r["icount"] = icount(bdir, preset)
     if os.path.exists(os.path.join(bdir, "tests", "target", "target_replay_default.elf")):
         r["icount_default"] = icount(bdir, preset, "target_replay_default")
+        if os.path.exists(os.path.join(bdir, "tests", "target", "target_replay_default_worst.elf")):
+            r["icount_default"]["constructed"] = icount(bdir, preset, "target_replay_default_worst")
     elif cache_value(bdir, "CAEKF_MECHANISM_PRESET"):
         # Sized for one configuration (a preset's step method): no default image. The default's numbers
-        # come from the same mechanism's build with a run-time step method (build/<preset>[-o2]-default).
-        ddir = bdir + "-default"
-        if not args.no_build:
-            extra = ["-DCAEKF_MECHANISM_PRESET="]
-            if o2:
-                extra += ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
-            for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
-                v = cache_value(os.path.join(ROOT, "build", preset), key)
-                if v:
-                    extra.append(f"-D{key}={v}")
-            build(preset, ddir, extra, ["target_replay_default", "qemu_icount_plugin"])
-        if os.path.exists(os.path.join(ddir, "tests", "target", "target_replay_default.elf")):
-            r["icount_default"] = icount(ddir, preset, "target_replay_default")
-            r["icount_default"]["build"] = os.path.relpath(ddir, ROOT)
-            r["lib_default"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
+        # come from the same mechanism's build sized for the default's configuration
+        # (CAEKF_MECHANISM_PRESET=default, build/<preset>[-o2]-default), and the joint four-parameter
+        # step's from the same mechanism estimating its whole contact law (sim/scenarios/paper-joint.toml,
+        # build/<preset>[-o2]-joint; -Os only).
+        variants = [("default", "-default", [])]
+        if not o2:
+            joint = os.path.join(ROOT, "sim", "scenarios", "paper-joint.toml")
+            variants.append(("joint", "-joint", [f"-DCAEKF_MECHANISM={joint}", f"-DCAEKF_SCENARIO={joint}"]))
+        for label, suffix, vextra in variants:
+            ddir = bdir + suffix
+            if not args.no_build:
+                extra = ["-DCAEKF_MECHANISM_PRESET=default", *vextra]
+                if o2:
+                    extra += ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
+                for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
+                    v = cache_value(os.path.join(ROOT, "build", preset), key)
+                    if v:
+                        extra.append(f"-D{key}={v}")
+                build(preset, ddir, extra, ["target_replay_default", "target_replay_default_worst",
+                                            "qemu_icount_plugin"])
+            image = os.path.join(ddir, "tests", "target", "target_replay_default.elf")
+            if not os.path.exists(image):
+                continue
+            ic = icount(ddir, preset, "target_replay_default")
+            ic["build"] = os.path.relpath(ddir, ROOT)
+            if os.path.exists(os.path.join(ddir, "tests", "target", "target_replay_default_worst.elf")):
+                ic["constructed"] = icount(ddir, preset, "target_replay_default_worst")
+            ic["lib"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
+            ic["sizeof_caekf_t"] = symbol_size(image, "est")
+            r["icount_" + label] = ic
+            if label == "default":
+                r["lib_default"] = ic["lib"]
     r["stack_static"] = stack_static(bdir)
     if args.breakdown:
         ic = r["icount"]
@@ -329,17 +354,25 @@ def main():
     print("\n".join(notes))
     rows = []
     for r in results:
-        ic = r.get("icount_default")
-        if not ic:
-            continue
-        goal = ok(ic["max"], GOAL_ICOUNT_DEFAULT) if r["preset"] == "cortex-m4f" else "-"
-        rows.append([r["preset"], r["opt"], ic.get("build", "same"), ic["min"], ic["median"],
-                     f"{ic['max']} (step {ic['max_step']})", ic["newton_iters_max"], ic["stack_measured"].get("steps"),
-                     r["lib_default"][0] if "lib_default" in r else "same", goal])
+        for label in ("default", "joint"):
+            ic = r.get("icount_" + label)
+            if not ic:
+                continue
+            worst = max(ic["max"], ic["constructed"]["max"]) if "constructed" in ic else ic["max"]
+            goal = ok(worst, GOAL_ICOUNT_DEFAULT) if r["preset"] == "cortex-m4f" and label == "default" else "-"
+            cons = ic.get("constructed")
+            rows.append([r["preset"], r["opt"], label, ic.get("build", "same"), ic["min"], ic["median"],
+                         f"{ic['max']} (step {ic['max_step']})",
+                         f"{cons['max']} (step {cons['max_step']})" if cons else "n/a", ic["newton_iters_max"],
+                         ic["stack_measured"].get("steps"), ic["lib"][0] if "lib" in ic else "same",
+                         ic.get("sizeof_caekf_t") or "same", goal])
     if rows:
-        table("Instructions per caekf_step, the recommended default (trapezoidal, contact substeps; reference "
-              "scenario, 60,000 steps)", ["target", "opt", "build", "min", "median", "max", "Newton iterations max",
-                                          "stack measured", "lib text", f"max <= {GOAL_ICOUNT_DEFAULT}"], rows)
+        table("Instructions per caekf_step, the recommended default (trapezoidal, 4 contact substeps) and the joint "
+              "four-parameter step (ln gamma, n, lambda, gap: sim/scenarios/paper-joint.toml); reference scenario, "
+              "60,000 steps; constructed worst case: the full PSD test of P on every step",
+              ["target", "opt", "estimator", "build", "min", "median", "max", "constructed worst case",
+               "Newton iterations max", "stack measured", "lib text", "sizeof(caekf_t)",
+               f"worst <= {GOAL_ICOUNT_DEFAULT}"], rows)
     for r in results:
         bd = r.get("breakdown")
         if not bd:

@@ -361,12 +361,20 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
             ua[i] = ub[i];
             ub[i] = step == steps ? u[i] : u0[i] + (u[i] - u0[i]) * (caekf_scalar_t)step / (caekf_scalar_t)steps;
         }
-        if (caekf_model_newton(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
-                               est->scratch.m) != 0) {
+        /* the contacts at the substep's start and end (the next one's start): their roles swap every
+         * substep; the first start's are evaluated here, where the trapezoidal rule reads them */
+        caekf_contact_t *ct0 = est->sub_ct[step & 1], *ct = est->sub_ct[(step + 1) & 1];
+        if (step == 1 && CAEKF_METHOD_TRAP(m)) {
+            for (i = 0; i < CAEKF_DIM_NC(m); ++i) {
+                caekf_model_contact(m, i, xa, &ct0[i]);
+            }
+        }
+        if (caekf_model_newton_ct(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
+                                  est->scratch.m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0) != 0) {
             result = 1;
         }
         *iters += it;
-        if (caekf_model_transition_v(m, est->x_pred, xa, fj) != 0) {
+        if (caekf_model_transition_ct(m, ct, ct0, fj) != 0) {
             return -1;
         }
         if (step == 1) {

@@ -77,6 +77,19 @@ foreach(_variant IN LISTS _variants)
         INCLUDES "${_gen}" "${CAEKF_FIXTURE_DIR}"
         DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"" ${_preset_def})
     add_dependencies(${_image} caekf_fixture_generated)
+    if(_variant STREQUAL "default")
+        # The constructed worst case of the default (tools/mcu-report.py): the full PSD test of P on every
+        # step, so that the contact steps with the most Newton iterations pay for it as well.
+        caekf_target_image(${_image}_worst
+            SOURCES "${_dir}/replay.c" "${_gen}/replay_inputs.S"
+            LIBS caekf_core_names caekf_core
+            INCLUDES "${_gen}" "${CAEKF_FIXTURE_DIR}"
+            DEFINITIONS "CAEKF_REPLAY_MCU=\"${CAEKF_MCU}\"" ${_preset_def} "REPLAY_PSD_CHECK_PERIOD=1")
+        add_dependencies(${_image}_worst caekf_fixture_generated)
+        add_test(NAME ${_image}_worst COMMAND ${_image}_worst)
+        set_tests_properties(${_image}_worst PROPERTIES LABELS "target;replay" TIMEOUT 700
+            PASS_REGULAR_EXPRESSION "replay: done")
+    endif()
 
     if(TARGET caekf_host_tools OR (EXISTS "${CAEKF_HOST_REPLAY}" AND EXISTS "${CAEKF_REPLAY_TRUTH_CSV}"))
         set(_ref "${CMAKE_CURRENT_BINARY_DIR}/${_image}_host_reference.csv")

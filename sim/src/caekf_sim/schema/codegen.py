@@ -559,7 +559,7 @@ def c_fixture(schema: Schema, scenario: Path) -> Dict[str, str]:
     for k, v in given.items():
         mant, e10 = shortest_decimal(v)
         rows.append(f"    {{{ids[k]}u, {e10}, {mant}, {v!r}}}, /* {k} */")
-    name = scenario.stem
+    name = "".join(ch if ch.isalnum() else "_" for ch in scenario.stem)  # a C identifier (paper-joint)
     h = [f"/* {GENERATED}, and from {scenario.name}. */",
          f"/* The wire settings {scenario.name} gives, as the bench sends them (CTRL_PARAM: value = mantissa",
          " * 10^exp10, shortest decimal form) and as values. One table for every C test that configures the",
