@@ -66,7 +66,7 @@ def build(preset, bdir, extra=(), targets=()):
         print(f"mcu-report: configuring {bdir}", file=sys.stderr)
         subprocess.run(["cmake", "--preset", preset, "-B", bdir, "--no-warn-unused-cli", *extra], check=True, cwd=ROOT,
                        stdout=subprocess.DEVNULL)
-    cmd = ["cmake", "--build", bdir, "-j", "2"]
+    cmd = ["cmake", "--build", bdir, "-j", os.environ.get("JOBS", "2")]
     for t in targets:
         cmd += ["--target", t]
     subprocess.run(cmd, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)

@@ -219,6 +219,49 @@ static void test_forced_newton_failure_is_reported(void)
     }
 }
 
+#if CAEKF_HAS_SUBSTEPS
+/* The substeps' entry points, which are handed the contacts instead of evaluating them again, give
+ * caekf_model_newton's and caekf_model_transition_v's results bit for bit: x_k, the iterations, the
+ * contacts left at x_k, and F's v-rows (entering, leaving, in and out of contact). */
+static void check_contacts_passed_on(double delta, double delta_prev)
+{
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], xk_ct[CAEKF_N], work[4 * CAEKF_NQ];
+    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], fv_ct[CAEKF_NQ][CAEKF_N];
+    caekf_contact_t ct0[CAEKF_MAX_CONTACTS], ct[CAEKF_MAX_CONTACTS], c;
+    int it = -1, it_ct = -2, pass;
+    make_state(xp, delta_prev);
+    xp[5] = (caekf_scalar_t)(delta > delta_prev ? 1.5e-3 : -1.5e-3);
+    caekf_model_contact(&model, 0, xp, &ct0[0]);
+    for (pass = 0; pass < 2; ++pass) { /* the start's contacts given, then evaluated inside */
+        const int st = caekf_model_newton(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER,
+                                          (caekf_scalar_t)(CAEKF_EPS * 256), xk, &it, work);
+        TEST_ASSERT_EQUAL_INT(st, caekf_model_newton_ct(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER,
+                                                        (caekf_scalar_t)(CAEKF_EPS * 256), xk_ct, &it_ct, work, ct,
+                                                        pass == 0 ? ct0 : 0));
+        TEST_ASSERT_EQUAL_INT(it, it_ct);
+        TEST_ASSERT_EQUAL_MEMORY(xk, xk_ct, N * sizeof xk[0]);
+    }
+    caekf_model_contact(&model, 0, xk, &c);
+    TEST_ASSERT_EQUAL_MEMORY(&c, &ct[0], sizeof c);
+    /* a state of its own for the map, so that the contact's state at x_k is the one asked for */
+    make_state(xk, delta);
+    caekf_model_contact(&model, 0, xk, &ct[0]);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_v(&model, xk, xp, fv));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_ct(&model, ct, ct0, fv_ct));
+    for (it = 0; it < PAPER_NQ; ++it) { /* the mechanism's rows and columns (the capacity's tail is unused) */
+        TEST_ASSERT_EQUAL_MEMORY(fv[it], fv_ct[it], N * sizeof fv[0][0]);
+    }
+}
+
+static void test_substeps_pass_their_contacts_on_bit_for_bit(void)
+{
+    check_contacts_passed_on(2e-6, 1.5e-6);
+    check_contacts_passed_on(-5e-6, -4e-6);
+    check_contacts_passed_on(-5e-6, 1e-6);
+    check_contacts_passed_on(1e-6, -2e-6);
+}
+#endif
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -238,6 +281,12 @@ int main(void)
 #endif
     RUN_TEST(test_newton_converges_over_the_reference_scenario);
     RUN_TEST(test_forced_newton_failure_is_reported);
+#endif
+#if CAEKF_HAS_SUBSTEPS /* the substeps' entry points, with either rule */
+    discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
+    RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+    discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
+    RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
 #endif
     return UNITY_END();
 }
