@@ -285,29 +285,74 @@ static int all_finite(const caekf_scalar_t *v, int n)
  *   vnew_ij = [j a parameter column] fj_ij + sum_k (fj_ik pq_k + fj_i,nq+k pv_k)   (k ascending; the
  *   product's parameter rows are identity rows), and its q-rows [I, c2 I, 0] + hs fj the new q-rows
  *   pq_i + (c2 pv_i + hs vnew_ij): the operations, in their order, of the plain triple loop. */
+CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                                     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int param, int nq, caekf_scalar_t hs,
+                                     caekf_scalar_t c2)
+{
+    caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ];
+    int i, k;
+    CAEKF_UNROLL_SIZED
+    for (k = 0; k < nq; ++k) {
+        pq[k] = fq[k][j];
+        pv[k] = fv[k][j];
+    }
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t *f = fj[i];
+        caekf_scalar_t acc = param ? f[j] : 0;
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < nq; ++k) {
+            acc += f[k] * pq[k] + f[nq + k] * pv[k];
+        }
+        fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
+        fv[i][j] = acc;
+    }
+}
+
+/* Two q- or v-columns j, j + 1 at once: F_j's row is read once for both (the same operations). */
+CAEKF_HOT_INLINE void substep_columns2(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                                       caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
+                                       caekf_scalar_t c2)
+{
+    caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ], pq1[CAEKF_NQ], pv1[CAEKF_NQ];
+    int i, k;
+    CAEKF_UNROLL_SIZED
+    for (k = 0; k < nq; ++k) {
+        pq[k] = fq[k][j];
+        pv[k] = fv[k][j];
+        pq1[k] = fq[k][j + 1];
+        pv1[k] = fv[k][j + 1];
+    }
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t *f = fj[i];
+        caekf_scalar_t acc = 0, acc1 = 0;
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < nq; ++k) {
+            const caekf_scalar_t a = f[k], b = f[nq + k];
+            acc += a * pq[k] + b * pv[k];
+            acc1 += a * pq1[k] + b * pv1[k];
+        }
+        fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
+        fv[i][j] = acc;
+        fq[i][j + 1] = pq1[i] + (c2 * pv1[i] + hs * acc1);
+        fv[i][j + 1] = acc1;
+    }
+}
+
 static void substep_product(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n, caekf_scalar_t hs,
                             caekf_scalar_t c2)
 {
-    int i, j, k;
-    for (j = j0; j < n; ++j) {
-        caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ];
-        CAEKF_UNROLL_SIZED
-        for (k = 0; k < nq; ++k) {
-            pq[k] = fq[k][j];
-            pv[k] = fv[k][j];
-        }
-        CAEKF_UNROLL_SIZED
-        for (i = 0; i < nq; ++i) {
-            const caekf_scalar_t *f = fj[i];
-            caekf_scalar_t acc = j >= 2 * nq ? f[j] : 0;
-            CAEKF_UNROLL_SIZED
-            for (k = 0; k < nq; ++k) {
-                acc += f[k] * pq[k] + f[nq + k] * pv[k];
-            }
-            fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
-            fv[i][j] = acc;
-        }
+    int j;
+    for (j = j0; j + 1 < 2 * nq; j += 2) { /* the q- and v-columns, two at a time */
+        substep_columns2(fj, fq, fv, j, nq, hs, c2);
+    }
+    for (; j < 2 * nq; ++j) {
+        substep_column(fj, fq, fv, j, 0, nq, hs, c2);
+    }
+    for (j = j0 > 2 * nq ? j0 : 2 * nq; j < n; ++j) { /* the parameter columns */
+        substep_column(fj, fq, fv, j, 1, nq, hs, c2);
     }
 }
 
