@@ -284,9 +284,10 @@ static int all_finite(const caekf_scalar_t *v, int n)
  * of F_j (fj, dense in contact) give the new v-rows
  *   vnew_ij = [j a parameter column] fj_ij + sum_k (fj_ik pq_k + fj_i,nq+k pv_k)   (k ascending; the
  *   product's parameter rows are identity rows), and its q-rows [I, c2 I, 0] + hs fj the new q-rows
- *   pq_i + (c2 pv_i + hs vnew_ij): the operations, in their order, of the plain triple loop. */
+ *   pq_i + (c2 pv_i + hs vnew_ij): the operations, in their order, of the plain triple loop. This one: a
+ * parameter column j. */
 CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                                     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int param, int nq, caekf_scalar_t hs,
+                                     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
                                      caekf_scalar_t c2)
 {
     caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ];
@@ -299,7 +300,7 @@ CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf
     CAEKF_UNROLL_SIZED
     for (i = 0; i < nq; ++i) {
         const caekf_scalar_t *f = fj[i];
-        caekf_scalar_t acc = param ? f[j] : 0;
+        caekf_scalar_t acc = f[j]; /* a parameter column: the product's parameter rows are identity rows */
         CAEKF_UNROLL_SIZED
         for (k = 0; k < nq; ++k) {
             acc += f[k] * pq[k] + f[nq + k] * pv[k];
@@ -345,14 +346,11 @@ static void substep_product(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t
                             caekf_scalar_t c2)
 {
     int j;
-    for (j = j0; j + 1 < 2 * nq; j += 2) { /* the q- and v-columns, two at a time */
+    for (j = j0; j < 2 * nq; j += 2) { /* the q- and v-columns (2 nq of them, j0 is 0 or 2 nq), two at a time */
         substep_columns2(fj, fq, fv, j, nq, hs, c2);
     }
-    for (; j < 2 * nq; ++j) {
-        substep_column(fj, fq, fv, j, 0, nq, hs, c2);
-    }
     for (j = j0 > 2 * nq ? j0 : 2 * nq; j < n; ++j) { /* the parameter columns */
-        substep_column(fj, fq, fv, j, 1, nq, hs, c2);
+        substep_column(fj, fq, fv, j, nq, hs, c2);
     }
 }
 
