@@ -53,8 +53,10 @@ set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS 
 # A build sized for one configuration (CAEKF_MECHANISM_PRESET) runs that configuration's step method only:
 # a preset's build has no default image (its defaults would be the preset's method, not the recommended
 # estimator's), a build sized for the default (CAEKF_MECHANISM_PRESET=default) only the default image.
-# The settings are CAEKF_SCENARIO's (the replayed truth is the reference scenario's record).
-if(CAEKF_MECHANISM_PRESET STREQUAL "")
+# The settings are CAEKF_SCENARIO's (the replayed truth is the reference scenario's record). This file is read
+# before firmware/core defines CAEKF_MECHANISM_PRESET's cache entry: on a first configure without the option
+# it is not defined yet, which counts as empty.
+if(NOT CAEKF_MECHANISM_PRESET)
     set(_variants constrained default)
 elseif(CAEKF_MECHANISM_PRESET STREQUAL "default")
     set(_variants default)
