@@ -184,10 +184,10 @@ def icount(bdir, preset, name="target_replay"):
     return r
 
 
-def breakdown(bdir, preset, steps, top):
+def breakdown(bdir, preset, steps, top, name="target_replay"):
     """{label: [(function, instructions), ...] + [("total", all)]} for the given 1-based steps (one QEMU
     run each); the list holds the top functions, the total all of them."""
-    image = os.path.join(bdir, "tests", "target", "target_replay.elf")
+    image = os.path.join(bdir, "tests", "target", name + ".elf")
     plugin = os.path.join(bdir, "tools", "qemu-icount", "libqemu-icount.so")
     res = {}
     for label, step in steps:
@@ -279,6 +279,10 @@ def report_preset(preset, args, o2):
             ic["sizeof_caekf_t"] = symbol_size(image, "est")
             ic["stack_static"] = stack_static(ddir, "target_replay_default").get("caekf_step", {}).get("worst")
             r["icount_" + label] = ic
+            if args.breakdown:
+                r["breakdown_" + label] = breakdown(ddir, preset, [("median", ic["median_step"]),
+                                                                   ("max", ic["max_step"])],
+                                                    args.breakdown, "target_replay_default")
             if label == "default":
                 r["lib_default"] = ic["lib"]
     r["stack_static"] = stack_static(bdir)
@@ -375,8 +379,9 @@ def main():
               ["target", "opt", "estimator", "build", "min", "median", "max", "constructed worst case",
                "Newton iterations max", "caekf_step stack static / painted", "lib text", "sizeof(caekf_t)",
                f"worst <= {GOAL_ICOUNT_DEFAULT}"], rows)
-    for r in results:
-        bd = r.get("breakdown")
+    for r, key, what in [(r, key, what) for r in results for key, what in
+                         (("breakdown", ""), ("breakdown_default", " (the default)"), ("breakdown_joint", " (joint)"))]:
+        bd = r.get(key)
         if not bd:
             continue
         names = []
@@ -384,7 +389,7 @@ def main():
             names += [n for n, _ in rows if n not in names and n != "total"]
         labels = list(bd)
         per = {lab: dict(bd[lab]) for lab in labels}
-        table(f"Instructions per function, {r['preset']} {r['opt']} (the largest; total: all functions)",
+        table(f"Instructions per function, {r['preset']} {r['opt']}{what} (the largest; total: all functions)",
               ["function", *labels],
               [[n, *(per[lab].get(n, "-") for lab in labels)] for n in names + ["total"]])
 
