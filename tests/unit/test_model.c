@@ -253,6 +253,68 @@ static void check_contacts_passed_on(double delta, double delta_prev)
     }
 }
 
+#if CAEKF_MODEL_ORACLES
+/* After a step in contact with 4 substeps, the estimator's F (fq, fv: its q- and v-rows, scaled) is the
+ * product F_4 F_3 F_2 F_1 of the substep maps, each the reference F of eq. (10) at the substep's solution
+ * (the product here in double, plain loops). */
+static void test_substep_product_is_the_product_of_the_substep_maps(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    caekf_report_t rep;
+    caekf_scalar_t y[2], xa[CAEKF_N], xk[CAEKF_N], work[4 * CAEKF_NQ], Fj[CAEKF_N][CAEKF_N];
+    const caekf_scalar_t u[1] = {(caekf_scalar_t)0.3};
+    const caekf_scalar_t *sc;
+    double prod[PAPER_N][PAPER_N], next[PAPER_N][PAPER_N];
+    int i, j, k, step, it;
+    paper_settings(&s, EXP_SWITCHED);
+    s.model.discretisation = discretisation;
+    s.contact_substeps = 4;
+    s.q0[0] = (caekf_scalar_t)1.2e-3;
+    s.q0[1] = (caekf_scalar_t)(1.0e-3 + 3e-6); /* body 2 into body 3: the contact is closed at the start */
+    s.v0[1] = (caekf_scalar_t)1e-3;
+    y[0] = s.q0[0];
+    y[1] = s.q0[3];
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, u, y, &rep));
+    TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
+    for (i = 0; i < N; ++i) {
+        xa[i] = est.x_prev[i]; /* x_{k-1}, which the step keeps */
+        for (j = 0; j < N; ++j) {
+            prod[i][j] = i == j ? 1 : 0;
+        }
+    }
+    for (step = 0; step < 4; ++step) { /* the first step holds u over its interval: every substep's input */
+        caekf_model_newton(&est.sub_model, xa, u, u, s.newton_max_iter, s.newton_rtol, xk, &it, work);
+        TEST_ASSERT_EQUAL_INT(0, caekf_model_transition(&est.sub_model, xk, xa, Fj));
+        for (i = 0; i < N; ++i) {
+            for (j = 0; j < N; ++j) {
+                double acc = 0;
+                for (k = 0; k < N; ++k) {
+                    acc += (double)Fj[i][k] * prod[k][j];
+                }
+                next[i][j] = acc;
+            }
+        }
+        memcpy(prod, next, sizeof prod);
+        memcpy(xa, xk, sizeof xa);
+    }
+    sc = est.scale;
+    for (i = 0; i < PAPER_NQ; ++i) {
+        double qmax = 0, vmax = 0;
+        for (j = 0; j < N; ++j) {
+            qmax = fmax(qmax, fabs(prod[i][j] * (double)sc[j] / (double)sc[0]));
+            vmax = fmax(vmax, fabs(prod[PAPER_NQ + i][j] * (double)sc[j] / (double)sc[PAPER_NQ]));
+        }
+        for (j = 0; j < N; ++j) {
+            TEST_ASSERT_DOUBLE_WITHIN(F_RTOL * qmax, prod[i][j] * (double)sc[j] / (double)sc[0], (double)est.fq[i][j]);
+            TEST_ASSERT_DOUBLE_WITHIN(F_RTOL * vmax, prod[PAPER_NQ + i][j] * (double)sc[j] / (double)sc[PAPER_NQ],
+                                      (double)est.fv[i][j]);
+        }
+    }
+}
+#endif
+
 static void test_substeps_pass_their_contacts_on_bit_for_bit(void)
 {
     check_contacts_passed_on(2e-6, 1.5e-6);
@@ -285,8 +347,14 @@ int main(void)
 #if CAEKF_HAS_SUBSTEPS /* the substeps' entry points, with either rule */
     discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
     RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+#if CAEKF_MODEL_ORACLES
+    RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+#endif
     discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
     RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+#if CAEKF_MODEL_ORACLES
+    RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+#endif
 #endif
     return UNITY_END();
 }
