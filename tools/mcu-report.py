@@ -8,7 +8,11 @@ For each preset (default cortex-m4f and cortex-m7; configured/built with `cmake 
 which needs the host-double preset's test data, see tests/target/Replay.cmake):
   * a preset configured with CAEKF_MECHANISM_PRESET (sized for one configuration: cortex-m4f) has no
     default image: the recommended default's figures come from build/<preset>-default, the same
-    mechanism with a run-time step method (configured and built here);
+    mechanism sized for the default's configuration (CAEKF_MECHANISM_PRESET=default), and the joint
+    four-parameter step's (ln gamma, n, lambda and gap estimated: sim/scenarios/paper-joint.toml, the
+    same mechanism and truth) from build/<preset>-joint (configured and built here); each default image
+    also runs with the full PSD test of P on every step (target_replay_default_worst): its max is the
+    constructed worst case (a contact step with the most Newton iterations and the full test);
   * instructions per estimator step: tests/target/target_replay.elf (the switched-highq-constrained
     experiment of the reference scenario, 60,000 steps) under QEMU with the TCG plugin
     tools/qemu-icount; min / median / max over all steps, and the worst case of the steps with
@@ -56,11 +60,16 @@ def cache_value(bdir, key):
 
 
 def build(preset, bdir, extra=(), targets=()):
-    if not os.path.exists(os.path.join(bdir, "CMakeCache.txt")):
+    stale = [e for e in extra if e.startswith("-D") and "=" in e
+             and cache_value(bdir, e[2:].split("=", 1)[0].split(":", 1)[0]) not in (None, e.split("=", 1)[1])]
+    if not os.path.exists(os.path.join(bdir, "CMakeCache.txt")) or stale:
         print(f"mcu-report: configuring {bdir}", file=sys.stderr)
         subprocess.run(["cmake", "--preset", preset, "-B", bdir, "--no-warn-unused-cli", *extra], check=True, cwd=ROOT,
                        stdout=subprocess.DEVNULL)
-    cmd = ["cmake", "--build", bdir, "-j", "2"]
+    cmd = ["cmake", "--build", bdir, "-j", os.environ.get("JOBS", "2")]
+    if targets:  # only those the configuration has (a build sized for one configuration has one replay image)
+        known = {line.split(":")[0] for line in sh(["ninja", "-C", bdir, "-t", "targets", "all"]).splitlines()}
+        targets = [t for t in targets if t in known]
     for t in targets:
         cmd += ["--target", t]
     subprocess.run(cmd, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
@@ -178,10 +187,10 @@ def icount(bdir, preset, name="target_replay"):
     return r
 
 
-def breakdown(bdir, preset, steps, top):
+def breakdown(bdir, preset, steps, top, name="target_replay"):
     """{label: [(function, instructions), ...] + [("total", all)]} for the given 1-based steps (one QEMU
     run each); the list holds the top functions, the total all of them."""
-    image = os.path.join(bdir, "tests", "target", "target_replay.elf")
+    image = os.path.join(bdir, "tests", "target", name + ".elf")
     plugin = os.path.join(bdir, "tools", "qemu-icount", "libqemu-icount.so")
     res = {}
     for label, step in steps:
@@ -200,10 +209,10 @@ def breakdown(bdir, preset, steps, top):
     return res
 
 
-def stack_static(bdir):
+def stack_static(bdir, image="target_replay"):
     out = sh([sys.executable, os.path.join(ROOT, "tools", "mcu-stack.py"),
               "--ci-dir", os.path.join(bdir, "firmware", "core"),
-              "--image", os.path.join(bdir, "tests", "target", "target_replay.elf"),
+              "--image", os.path.join(bdir, "tests", "target", image + ".elf"),
               "--root", "caekf_step", "--root", "caekf_init"])
     res = {}
     for line in out.splitlines():
@@ -218,9 +227,9 @@ def report_preset(preset, args, o2):
     if not args.no_build:
         extra = []
         if o2:
-            # same host data as the -Os build; no unit tests needed for the library and replay image
-            extra = ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG",
-                     "-DCAEKF_BUILD_TESTS=OFF"]
+            # same host data as the -Os build; only the library and the replay images are built (the tests
+            # stay configured: the replay images take their settings from the tests' fixture)
+            extra = ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
             for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
                 v = cache_value(os.path.join(ROOT, "build", preset), key)
                 if v:
@@ -238,23 +247,47 @@ def report_preset(preset, args, o2):
     r["icount"] = icount(bdir, preset)
     if os.path.exists(os.path.join(bdir, "tests", "target", "target_replay_default.elf")):
         r["icount_default"] = icount(bdir, preset, "target_replay_default")
+        if os.path.exists(os.path.join(bdir, "tests", "target", "target_replay_default_worst.elf")):
+            r["icount_default"]["constructed"] = icount(bdir, preset, "target_replay_default_worst")
     elif cache_value(bdir, "CAEKF_MECHANISM_PRESET"):
         # Sized for one configuration (a preset's step method): no default image. The default's numbers
-        # come from the same mechanism's build with a run-time step method (build/<preset>[-o2]-default).
-        ddir = bdir + "-default"
-        if not args.no_build:
-            extra = ["-DCAEKF_MECHANISM_PRESET="]
-            if o2:
-                extra += ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
-            for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
-                v = cache_value(os.path.join(ROOT, "build", preset), key)
-                if v:
-                    extra.append(f"-D{key}={v}")
-            build(preset, ddir, extra, ["target_replay_default", "qemu_icount_plugin"])
-        if os.path.exists(os.path.join(ddir, "tests", "target", "target_replay_default.elf")):
-            r["icount_default"] = icount(ddir, preset, "target_replay_default")
-            r["icount_default"]["build"] = os.path.relpath(ddir, ROOT)
-            r["lib_default"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
+        # come from the same mechanism's build sized for the default's configuration
+        # (CAEKF_MECHANISM_PRESET=default, build/<preset>[-o2]-default), and the joint four-parameter
+        # step's from the same mechanism estimating its whole contact law (sim/scenarios/paper-joint.toml,
+        # build/<preset>[-o2]-joint; -Os only).
+        variants = [("default", "-default", [])]
+        if not o2:
+            joint = os.path.join(ROOT, "sim", "scenarios", "paper-joint.toml")
+            variants.append(("joint", "-joint", [f"-DCAEKF_MECHANISM={joint}", f"-DCAEKF_SCENARIO={joint}"]))
+        for label, suffix, vextra in variants:
+            ddir = bdir + suffix
+            if not args.no_build:
+                extra = ["-DCAEKF_MECHANISM_PRESET=default", *vextra]
+                if o2:
+                    extra += ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
+                for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
+                    v = cache_value(os.path.join(ROOT, "build", preset), key)
+                    if v:
+                        extra.append(f"-D{key}={v}")
+                build(preset, ddir, extra, ["target_replay_default", "target_replay_default_worst",
+                                            "qemu_icount_plugin"])
+            image = os.path.join(ddir, "tests", "target", "target_replay_default.elf")
+            if not os.path.exists(image):
+                continue
+            ic = icount(ddir, preset, "target_replay_default")
+            ic["build"] = os.path.relpath(ddir, ROOT)
+            if os.path.exists(os.path.join(ddir, "tests", "target", "target_replay_default_worst.elf")):
+                ic["constructed"] = icount(ddir, preset, "target_replay_default_worst")
+            ic["lib"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
+            ic["sizeof_caekf_t"] = symbol_size(image, "est")
+            ic["stack_static"] = stack_static(ddir, "target_replay_default").get("caekf_step", {}).get("worst")
+            r["icount_" + label] = ic
+            if args.breakdown:
+                r["breakdown_" + label] = breakdown(ddir, preset, [("median", ic["median_step"]),
+                                                                   ("max", ic["max_step"])],
+                                                    args.breakdown, "target_replay_default")
+            if label == "default":
+                r["lib_default"] = ic["lib"]
     r["stack_static"] = stack_static(bdir)
     if args.breakdown:
         ic = r["icount"]
@@ -329,19 +362,29 @@ def main():
     print("\n".join(notes))
     rows = []
     for r in results:
-        ic = r.get("icount_default")
-        if not ic:
-            continue
-        goal = ok(ic["max"], GOAL_ICOUNT_DEFAULT) if r["preset"] == "cortex-m4f" else "-"
-        rows.append([r["preset"], r["opt"], ic.get("build", "same"), ic["min"], ic["median"],
-                     f"{ic['max']} (step {ic['max_step']})", ic["newton_iters_max"], ic["stack_measured"].get("steps"),
-                     r["lib_default"][0] if "lib_default" in r else "same", goal])
+        for label in ("default", "joint"):
+            ic = r.get("icount_" + label)
+            if not ic:
+                continue
+            worst = max(ic["max"], ic["constructed"]["max"]) if "constructed" in ic else ic["max"]
+            goal = ok(worst, GOAL_ICOUNT_DEFAULT) if r["preset"] == "cortex-m4f" and label == "default" else "-"
+            cons = ic.get("constructed")
+            rows.append([r["preset"], r["opt"], label, ic.get("build", "same"), ic["min"], ic["median"],
+                         f"{ic['max']} (step {ic['max_step']})",
+                         f"{cons['max']} (step {cons['max_step']})" if cons else "n/a", ic["newton_iters_max"],
+                         f"{ic.get('stack_static', '-')} / {ic['stack_measured'].get('steps')}",
+                         ic["lib"][0] if "lib" in ic else "same",
+                         ic.get("sizeof_caekf_t") or "same", goal])
     if rows:
-        table("Instructions per caekf_step, the recommended default (trapezoidal, contact substeps; reference "
-              "scenario, 60,000 steps)", ["target", "opt", "build", "min", "median", "max", "Newton iterations max",
-                                          "stack measured", "lib text", f"max <= {GOAL_ICOUNT_DEFAULT}"], rows)
-    for r in results:
-        bd = r.get("breakdown")
+        table("Instructions per caekf_step, the recommended default (trapezoidal, 4 contact substeps) and the joint "
+              "four-parameter step (ln gamma, n, lambda, gap: sim/scenarios/paper-joint.toml); reference scenario, "
+              "60,000 steps; constructed worst case: the full PSD test of P on every step",
+              ["target", "opt", "estimator", "build", "min", "median", "max", "constructed worst case",
+               "Newton iterations max", "caekf_step stack static / painted", "lib text", "sizeof(caekf_t)",
+               f"worst <= {GOAL_ICOUNT_DEFAULT}"], rows)
+    for r, key, what in [(r, key, what) for r in results for key, what in
+                         (("breakdown", ""), ("breakdown_default", " (the default)"), ("breakdown_joint", " (joint)"))]:
+        bd = r.get(key)
         if not bd:
             continue
         names = []
@@ -349,7 +392,7 @@ def main():
             names += [n for n, _ in rows if n not in names and n != "total"]
         labels = list(bd)
         per = {lab: dict(bd[lab]) for lab in labels}
-        table(f"Instructions per function, {r['preset']} {r['opt']} (the largest; total: all functions)",
+        table(f"Instructions per function, {r['preset']} {r['opt']}{what} (the largest; total: all functions)",
               ["function", *labels],
               [[n, *(per[lab].get(n, "-") for lab in labels)] for n in names + ["total"]])
 

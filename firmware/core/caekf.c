@@ -285,6 +285,105 @@ static int all_finite(const caekf_scalar_t *v, int n)
 }
 
 #if CAEKF_HAS_SUBSTEPS
+/* The product of the substep maps, F <- F_j F, one column j at a time: column j of the product so far
+ * (its q-rows pq and v-rows pv) is read once and then overwritten, and nothing else reads it. The v-rows
+ * of F_j (fj, dense in contact) give the new v-rows
+ *   vnew_ij = [j a parameter column] fj_ij + sum_k (fj_ik pq_k + fj_i,nq+k pv_k)   (k ascending; the
+ *   product's parameter rows are identity rows), and its q-rows [I, c2 I, 0] + hs fj the new q-rows
+ *   pq_i + (c2 pv_i + hs vnew_ij): the operations, in their order, of the plain triple loop. This one: a
+ * parameter column j. */
+CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                                     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
+                                     caekf_scalar_t c2)
+{
+    caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ];
+    int i, k;
+    CAEKF_UNROLL_SIZED
+    for (k = 0; k < nq; ++k) {
+        pq[k] = fq[k][j];
+        pv[k] = fv[k][j];
+    }
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t *f = fj[i];
+        caekf_scalar_t acc = f[j]; /* a parameter column: the product's parameter rows are identity rows */
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < nq; ++k) {
+            acc += f[k] * pq[k] + f[nq + k] * pv[k];
+        }
+        fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
+        fv[i][j] = acc;
+    }
+}
+
+/* Two q- or v-columns j, j + 1 at once: F_j's row is read once for both (the same operations). */
+CAEKF_HOT_INLINE void substep_columns2(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                                       caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
+                                       caekf_scalar_t c2)
+{
+    caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ], pq1[CAEKF_NQ], pv1[CAEKF_NQ];
+    int i, k;
+    CAEKF_UNROLL_SIZED
+    for (k = 0; k < nq; ++k) {
+        pq[k] = fq[k][j];
+        pv[k] = fv[k][j];
+        pq1[k] = fq[k][j + 1];
+        pv1[k] = fv[k][j + 1];
+    }
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t *f = fj[i];
+        caekf_scalar_t acc = 0, acc1 = 0;
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < nq; ++k) {
+            const caekf_scalar_t a = f[k], b = f[nq + k];
+            acc += a * pq[k] + b * pv[k];
+            acc1 += a * pq1[k] + b * pv1[k];
+        }
+        fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
+        fv[i][j] = acc;
+        fq[i][j + 1] = pq1[i] + (c2 * pv1[i] + hs * acc1);
+        fv[i][j + 1] = acc1;
+    }
+}
+
+static void substep_product(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                            caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n, caekf_scalar_t hs,
+                            caekf_scalar_t c2)
+{
+    int j;
+    for (j = j0; j < 2 * nq; j += 2) { /* the q- and v-columns (2 nq of them, j0 is 0 or 2 nq), two at a time */
+        substep_columns2(fj, fq, fv, j, nq, hs, c2);
+    }
+    for (j = j0 > 2 * nq ? j0 : 2 * nq; j < n; ++j) { /* the parameter columns */
+        substep_column(fj, fq, fv, j, nq, hs, c2);
+    }
+}
+
+/* The first substep's map F_1 as the product: substep_product from the identity, bit for bit (finite
+ * values) in the q- and v-columns: a term with an identity entry 0 adds a zero, which leaves a sum
+ * unchanged except that -0 becomes +0 (x + 0), and a term with an identity entry 1 is the value itself.
+ * The parameter columns (where such zeros decide a sign of zero) take the general operations. */
+static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs, caekf_scalar_t c2)
+{
+    int i, j;
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t *f = fj[i];
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < 2 * nq; ++j) {
+            const caekf_scalar_t v = f[j] + 0;
+            fv[i][j] = v;
+            fq[i][j] = j == i ? 1 + hs * v : j == nq + i ? 0 + (c2 + hs * v) : hs * v + 0;
+        }
+        for (j = 2 * nq; j < n; ++j) { /* the identity's parameter columns */
+            fq[i][j] = 0;
+            fv[i][j] = 0;
+        }
+    }
+    substep_product(fj, fq, fv, 2 * nq, nq, n, hs, c2);
+}
+
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
  * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows); F's gamma rows
  * stay identity rows. Returns 0, 1 when a Newton solve did not converge, -1 on a singular matrix. */
@@ -296,16 +395,9 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
     /* P_work is free until the covariance prediction: it holds each substep's start and inputs, off the
      * stack (the substeps' Newton solve is the deepest call of a step) */
     caekf_scalar_t *xa = est->P_work, *ua = est->P_work + CAEKF_N, *ub = ua + CAEKF_MAX_INPUTS;
-    /* scratch: the Newton work, then F_j's v-rows (fj) and the new v-rows of the product (vnew) */
+    /* scratch: the Newton work, then F_j's v-rows (fj) */
     caekf_scalar_t(*fj)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])est->scratch.m;
-    caekf_scalar_t(*vnew)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])(est->scratch.m + CAEKF_NQ * CAEKF_N);
-    int i, j, k, step, result = 0;
-    for (i = 0; i < nq; ++i) {
-        for (j = 0; j < n; ++j) {
-            est->fq[i][j] = i == j ? 1 : 0;
-            est->fv[i][j] = j == nq + i ? 1 : 0;
-        }
-    }
+    int i, step, result = 0;
     for (i = 0; i < n; ++i) {
         xa[i] = X_PREV(est)[i];
     }
@@ -318,28 +410,26 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
             ua[i] = ub[i];
             ub[i] = step == steps ? u[i] : u0[i] + (u[i] - u0[i]) * (caekf_scalar_t)step / (caekf_scalar_t)steps;
         }
-        if (caekf_model_newton(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
-                               est->scratch.m) != 0) {
+        /* the contacts at the substep's start and end (the next one's start): their roles swap every
+         * substep; the first start's are evaluated here, where the trapezoidal rule reads them */
+        caekf_contact_t *ct0 = est->sub_ct[step & 1], *ct = est->sub_ct[(step + 1) & 1];
+        if (step == 1 && CAEKF_METHOD_TRAP(m)) {
+            for (i = 0; i < CAEKF_DIM_NC(m); ++i) {
+                caekf_model_contact(m, i, xa, &ct0[i]);
+            }
+        }
+        if (caekf_model_newton_ct(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
+                                  est->scratch.m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0) != 0) {
             result = 1;
         }
         *iters += it;
-        if (caekf_model_transition_v(m, est->x_pred, xa, fj) != 0) {
+        if (caekf_model_transition_ct(m, ct, ct0, fj) != 0) {
             return -1;
         }
-        for (i = 0; i < nq; ++i) { /* F_j's v-rows (dense in contact) times the product so far */
-            for (j = 0; j < n; ++j) {
-                caekf_scalar_t acc = j >= 2 * nq ? fj[i][j] : 0; /* the product's gamma rows: identity */
-                for (k = 0; k < nq; ++k) {
-                    acc += fj[i][k] * est->fq[k][j] + fj[i][nq + k] * est->fv[k][j];
-                }
-                vnew[i][j] = acc;
-            }
-        }
-        for (i = 0; i < nq; ++i) { /* q-rows: [I, c2 I, 0] + hs * v-rows, times the product */
-            for (j = 0; j < n; ++j) {
-                est->fq[i][j] += c2 * est->fv[i][j] + hs * vnew[i][j];
-                est->fv[i][j] = vnew[i][j];
-            }
+        if (step == 1) {
+            substep_first_map(fj, est->fq, est->fv, nq, n, hs, c2);
+        } else {
+            substep_product(fj, est->fq, est->fv, 0, nq, n, hs, c2);
         }
         for (i = 0; i < n; ++i) {
             xa[i] = est->x_pred[i];
@@ -366,13 +456,21 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
     caekf_scalar_t *z = est->x_pred;
     int i;
 #if CAEKF_HAS_SUBSTEPS
-    if (substepped) { /* scaled: S^-1 F S */
+    if (substepped) { /* scaled: S^-1 F S, column j times s_j / s_q (q-rows) or s_j / s_v (v-rows) */
+        const caekf_scalar_t rvq = s_v / s_q, rqv = s_q / s_v;
         est->fv_const = 0;
         for (i = 0; i < nq; ++i) {
+            caekf_scalar_t *fq = est->fq[i], *fv = est->fv[i];
             int j;
-            for (j = 0; j < n; ++j) {
-                est->fq[i][j] *= s[j] / s_q;
-                est->fv[i][j] *= s[j] / s_v;
+            /* the ratio is exactly 1 for the rows' own kind (one scale for all q, one for all v) */
+            CAEKF_UNROLL_SIZED
+            for (j = 0; j < nq; ++j) {
+                fq[nq + j] *= rvq;
+                fv[j] *= rqv;
+            }
+            for (j = 2 * nq; j < n; ++j) {
+                fq[j] *= s[j] / s_q;
+                fv[j] *= s[j] / s_v;
             }
         }
         caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */

@@ -138,6 +138,25 @@ NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t 
     }
 }
 
+#if CAEKF_HAS_SUBSTEPS
+/* t[j] = f . P_j (P symmetric) for a dense row f of F (the product of substep maps); f is held (in
+ * registers when sized) across the rows of P. */
+NOINLINE static void f_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, caekf_scalar_t *t, int n)
+{
+#if CAEKF_SIZED
+    caekf_scalar_t fr[CAEKF_N];
+    copy_row(fr, f, n);
+#else
+    const caekf_scalar_t *const fr = f;
+#endif
+    const caekf_scalar_t *pj = P;
+    int j;
+    for (j = 0; j < n; ++j, pj += n) {
+        t[j] = dot(fr, pj, n);
+    }
+}
+#endif
+
 /* w[j] = t . Fv_j for j = j0 .. nq - 1 with every row of Fv dense; t is held (in registers when sized). */
 NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
                              caekf_scalar_t *w)
@@ -196,13 +215,11 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         }
     }
     if (FQ_GIVEN(fq)) { /* dense q-rows: T_q = Fq P */
+#if CAEKF_HAS_SUBSTEPS
         for (i = 0; i < nq; ++i) {
-            caekf_scalar_t *tq = T + i * n;
-            const caekf_scalar_t *pj = P;
-            for (j = 0; j < n; ++j, pj += n) {
-                tq[j] = dot(fq[i], pj, n);
-            }
+            f_row_dense(fq[i], P, T + i * n, n);
         }
+#endif
     } else if (C2_GIVEN(c2)) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
         for (i = 0; i < nq; ++i) {
             const caekf_scalar_t *pv = P + (nq + i) * n;

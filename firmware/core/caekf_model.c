@@ -288,6 +288,7 @@ int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x)
     return any_contact(ct, CAEKF_DIM_NC(m));
 }
 
+#if CAEKF_MODEL_ORACLES
 /* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
  * the residual with no inertia (v_{k-1} against itself). */
 NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev, const caekf_scalar_t *u_prev,
@@ -297,7 +298,6 @@ NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar
     momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
 }
 
-#if CAEKF_MODEL_ORACLES
 void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
                           const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
 {
@@ -502,9 +502,21 @@ static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar
 #endif
 }
 
-int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
-                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
-                       int *iters, caekf_scalar_t work[4 * CAEKF_NQ])
+/* caekf_model_newton_ct and caekf_model_transition_ct are the substeps' entry points (caekf_model_internal.h);
+ * without substeps they are this file's own, so that the one-step path keeps its calls as they are. */
+#if CAEKF_HAS_SUBSTEPS
+#define NEWTON_CT caekf_model_newton_ct
+#define TRANSITION_CT caekf_model_transition_ct
+#define CT_LINKAGE
+#else
+#define NEWTON_CT newton_ct
+#define TRANSITION_CT transition_ct
+#define CT_LINKAGE static
+#endif
+
+CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
+                         const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
+                         int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
@@ -514,14 +526,17 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     const caekf_scalar_t dt = m->p.dt, hs = m->hs;
     caekf_scalar_t *const g0 = work, *const mag0 = work + CAEKF_NQ;                  /* trapezoidal: the step's start */
     caekf_scalar_t *const r = work + 2 * CAEKF_NQ, *const mag = work + 3 * CAEKF_NQ; /* each iterate's */
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
     int it, i;
     int result = 1;
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
-    if (CAEKF_METHOD_TRAP(m)) {
-        step_start_force(m, xprev, u_prev, ct, g0, mag0);
+    if (CAEKF_METHOD_TRAP(m)) { /* step_start_force, with the contacts at x_{k-1} when they are known */
+        if (ct0 == 0) {
+            contacts_at(m, xprev, ct);
+            ct0 = ct;
+        }
+        momentum_residual(m, xprev, vp, u_prev, ct0, g0, mag0);
     }
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
@@ -584,6 +599,14 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
     return result;
 }
 
+int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
+                       const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
+                       int *iters, caekf_scalar_t work[4 * CAEKF_NQ])
+{
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
+    return NEWTON_CT(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0);
+}
+
 /* Right-hand sides of the linearised step, A dv_k = -(dg/dx_{k-1}) dx_{k-1}, one column per component of
  * x_{k-1}: backward Euler -K_t dq + M/hs dv - sum_c b_c f_c'(gamma) dgamma_c with the tangents at x_k;
  * the trapezoidal rule adds the step's start, -K_t0 dq - (C_t0 + hs K_t) dv - sum_c b_c f_c0'(gamma),
@@ -603,6 +626,7 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
             fv[i][j] = 0;
         }
         if (ct0 != 0) {
+            CAEKF_UNROLL_SIZED
             for (j = 0; j < nq; ++j) {
                 fv[i][j] -= m->K[i][j];
                 fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
@@ -650,27 +674,13 @@ void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAE
 #endif
 }
 
-int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
-                             const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
-{
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
-    contacts_at(m, xk, ct);
-    return caekf_model_transition_v_at(m, ct, xprev, fv);
-}
-
-int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
-                                caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
+                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1];
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];
-    int closed, closed0 = 0;
-    closed = any_contact(ct, nc);
-    if (CAEKF_METHOD_TRAP(m)) {
-        contacts_at(m, xprev, ct0);
-        closed0 = any_contact(ct0, nc);
-    }
+    const int closed = any_contact(ct, nc), closed0 = CAEKF_METHOD_TRAP(m) ? any_contact(ct0, nc) : 0;
     if (!closed && !closed0) { /* linear step: the constant F */
         caekf_model_free_transition_v(m, fv);
         return 0;
@@ -685,6 +695,24 @@ int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *c
         solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
     }
     return 0;
+}
+
+int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
+                                caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1];
+    if (CAEKF_METHOD_TRAP(m)) {
+        contacts_at(m, xprev, ct0);
+    }
+    return TRANSITION_CT(m, ct, ct0, fv);
+}
+
+int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
+                             const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    contacts_at(m, xk, ct);
+    return caekf_model_transition_v_at(m, ct, xprev, fv);
 }
 
 /* Adds value to the link matrix entries of link (a, b) (body numbers, 0 = ground). */

@@ -90,3 +90,20 @@ def test_a_mechanism_sizes_counts_only_and_a_preset_fixes_the_step_method(tmp_pa
     assert "#define CAEKF_SIZED_CONTACTS 2" in cap and "CAEKF_SIZED_CONTACT_N" not in cap
     with pytest.raises(codegen.SchemaError, match="unknown preset"):
         codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", "no-such-preset")
+
+
+def test_the_default_configuration_sizes_a_build_for_the_recommended_estimator():
+    """CAEKF_MECHANISM_PRESET=default: no preset's values, the schema's defaults under the scenario (the
+    recommended estimator: trapezoidal, 4 contact substeps); with the whole contact law estimated
+    (paper-joint.toml) the law's states and ln gamma are sized and the exponent is no constant."""
+    trap = schema.SCHEMA.by_name("discretisation").values.index("trapezoidal")
+    cap = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", "default")
+    assert "#define CAEKF_SIZED_METHOD 1" in cap and f"#define CAEKF_SIZED_DISCRETISATION {trap}" in cap
+    assert "#define CAEKF_SIZED_CONTACT_SUBSTEPS 4" in cap and "#define CAEKF_SIZED_LAW_PARAMS 0" in cap
+    cap = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper-joint.toml", "default")
+    assert "#define CAEKF_SIZED_LAW_PARAMS 3" in cap and "#define CAEKF_MAX_LAW_PARAMS 3" in cap
+    assert "#define CAEKF_SIZED_GAMMA_LOG 1" in cap and "CAEKF_SIZED_CONTACT_N" not in cap
+    # the fixture of a scenario whose file name is no C identifier, and its name-independent alias
+    fixture = codegen.c_fixture(schema.SCHEMA, SCENARIOS / "paper-joint.toml")["caekf_fixture_settings.h"]
+    assert "caekf_paper_joint_params[] = {" in fixture
+    assert "#define caekf_scenario_params caekf_paper_joint_params" in fixture

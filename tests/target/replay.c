@@ -1,6 +1,8 @@
 /*
  * replay.c - the reference scenario on the MCU with the switched-highq-constrained preset (target_replay),
- * or with no preset: the recommended default estimator (target_replay_default, REPLAY_PRESET -1).
+ * or with no preset: the recommended default estimator (target_replay_default, REPLAY_PRESET -1); with
+ * REPLAY_PSD_CHECK_PERIOD 1 the full PSD test of P runs on every step (target_replay_default_worst: every
+ * contact step then also pays for it, the constructed worst case of tools/mcu-report.py).
  *
  * Inputs: u, y1, y4 of every step (from caekf-truth, generated on the host), embedded as const data
  * in flash by replay_inputs.S (.incbin of a file written by gen_replay_data.py), in the build's
@@ -73,14 +75,17 @@ static void replay_settings(caekf_settings_t *s)
 {
     unsigned i;
     (void)caekf_settings_default(s);
-    for (i = 0u; i < CAEKF_N_PAPER_PARAMS; ++i) {
-        (void)caekf_settings_set(s, caekf_paper_params[i].id, caekf_paper_params[i].value, NULL);
+    for (i = 0u; i < CAEKF_N_SCENARIO_PARAMS; ++i) {
+        (void)caekf_settings_set(s, caekf_scenario_params[i].id, caekf_scenario_params[i].value, NULL);
     }
 #if REPLAY_PRESET >= 0
     for (i = 0u; i < caekf_fixture_presets[REPLAY_PRESET].n; ++i) {
         (void)caekf_settings_set(s, caekf_fixture_presets[REPLAY_PRESET].id[i],
                                  caekf_fixture_presets[REPLAY_PRESET].value[i], NULL);
     }
+#endif
+#ifdef REPLAY_PSD_CHECK_PERIOD /* the constructed worst case: the full PSD test on every step */
+    s->psd_check_period = REPLAY_PSD_CHECK_PERIOD;
 #endif
 }
 

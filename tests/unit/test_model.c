@@ -243,6 +243,111 @@ static void test_forced_newton_failure_is_reported(void)
     }
 }
 
+#if CAEKF_HAS_SUBSTEPS
+/* The substeps' entry points, which are handed the contacts instead of evaluating them again, give
+ * caekf_model_newton's and caekf_model_transition_v's results bit for bit: x_k, the iterations, the
+ * contacts left at x_k, and F's v-rows (entering, leaving, in and out of contact). */
+static void check_contacts_passed_on(double delta, double delta_prev)
+{
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], xk_ct[CAEKF_N], work[4 * CAEKF_NQ];
+    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], fv_ct[CAEKF_NQ][CAEKF_N];
+    caekf_contact_t ct0[CAEKF_MAX_CONTACTS], ct[CAEKF_MAX_CONTACTS], c;
+    int it = -1, it_ct = -2, pass;
+    make_state(xp, delta_prev);
+    xp[5] = (caekf_scalar_t)(delta > delta_prev ? 1.5e-3 : -1.5e-3);
+    caekf_model_contact(&model, 0, xp, &ct0[0]);
+    for (pass = 0; pass < 2; ++pass) { /* the start's contacts given, then evaluated inside */
+        const int st = caekf_model_newton(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER,
+                                          (caekf_scalar_t)(CAEKF_EPS * 256), xk, &it, work);
+        TEST_ASSERT_EQUAL_INT(st, caekf_model_newton_ct(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER,
+                                                        (caekf_scalar_t)(CAEKF_EPS * 256), xk_ct, &it_ct, work, ct,
+                                                        pass == 0 ? ct0 : 0));
+        TEST_ASSERT_EQUAL_INT(it, it_ct);
+        TEST_ASSERT_EQUAL_MEMORY(xk, xk_ct, N * sizeof xk[0]);
+    }
+    caekf_model_contact(&model, 0, xk, &c);
+    TEST_ASSERT_EQUAL_MEMORY(&c, &ct[0], sizeof c);
+    /* a state of its own for the map, so that the contact's state at x_k is the one asked for */
+    make_state(xk, delta);
+    caekf_model_contact(&model, 0, xk, &ct[0]);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_v(&model, xk, xp, fv));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_ct(&model, ct, ct0, fv_ct));
+    for (it = 0; it < PAPER_NQ; ++it) { /* the mechanism's rows and columns (the capacity's tail is unused) */
+        TEST_ASSERT_EQUAL_MEMORY(fv[it], fv_ct[it], N * sizeof fv[0][0]);
+    }
+}
+
+#if CAEKF_MODEL_ORACLES
+/* After a step in contact with 4 substeps, the estimator's F (fq, fv: its q- and v-rows, scaled) is the
+ * product F_4 F_3 F_2 F_1 of the substep maps, each the reference F of eq. (10) at the substep's solution
+ * (the product here in double, plain loops). */
+static void test_substep_product_is_the_product_of_the_substep_maps(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    caekf_report_t rep;
+    caekf_scalar_t y[2], xa[CAEKF_N], xk[CAEKF_N], work[4 * CAEKF_NQ], Fj[CAEKF_N][CAEKF_N];
+    const caekf_scalar_t u[1] = {(caekf_scalar_t)0.3};
+    const caekf_scalar_t *sc;
+    double prod[PAPER_N][PAPER_N], next[PAPER_N][PAPER_N];
+    int i, j, k, step, it;
+    paper_settings(&s, EXP_SWITCHED);
+    s.model.discretisation = discretisation;
+    s.contact_substeps = 4;
+    s.q0[0] = (caekf_scalar_t)1.2e-3;
+    s.q0[1] = (caekf_scalar_t)(1.0e-3 + 3e-6); /* body 2 into body 3: the contact is closed at the start */
+    s.v0[1] = (caekf_scalar_t)1e-3;
+    y[0] = s.q0[0];
+    y[1] = s.q0[3];
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, u, y, &rep));
+    TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
+    for (i = 0; i < N; ++i) {
+        xa[i] = est.x_prev[i]; /* x_{k-1}, which the step keeps */
+        for (j = 0; j < N; ++j) {
+            prod[i][j] = i == j ? 1 : 0;
+        }
+    }
+    for (step = 0; step < 4; ++step) { /* the first step holds u over its interval: every substep's input */
+        caekf_model_newton(&est.sub_model, xa, u, u, s.newton_max_iter, s.newton_rtol, xk, &it, work);
+        TEST_ASSERT_EQUAL_INT(0, caekf_model_transition(&est.sub_model, xk, xa, Fj));
+        for (i = 0; i < N; ++i) {
+            for (j = 0; j < N; ++j) {
+                double acc = 0;
+                for (k = 0; k < N; ++k) {
+                    acc += (double)Fj[i][k] * prod[k][j];
+                }
+                next[i][j] = acc;
+            }
+        }
+        memcpy(prod, next, sizeof prod);
+        memcpy(xa, xk, sizeof xa);
+    }
+    sc = est.scale;
+    for (i = 0; i < PAPER_NQ; ++i) {
+        double qmax = 0, vmax = 0;
+        for (j = 0; j < N; ++j) {
+            qmax = fmax(qmax, fabs(prod[i][j] * (double)sc[j] / (double)sc[0]));
+            vmax = fmax(vmax, fabs(prod[PAPER_NQ + i][j] * (double)sc[j] / (double)sc[PAPER_NQ]));
+        }
+        for (j = 0; j < N; ++j) {
+            TEST_ASSERT_DOUBLE_WITHIN(F_RTOL * qmax, prod[i][j] * (double)sc[j] / (double)sc[0], (double)est.fq[i][j]);
+            TEST_ASSERT_DOUBLE_WITHIN(F_RTOL * vmax, prod[PAPER_NQ + i][j] * (double)sc[j] / (double)sc[PAPER_NQ],
+                                      (double)est.fv[i][j]);
+        }
+    }
+}
+#endif
+
+static void test_substeps_pass_their_contacts_on_bit_for_bit(void)
+{
+    check_contacts_passed_on(2e-6, 1.5e-6);
+    check_contacts_passed_on(-5e-6, -4e-6);
+    check_contacts_passed_on(-5e-6, 1e-6);
+    check_contacts_passed_on(1e-6, -2e-6);
+}
+#endif
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -264,6 +369,18 @@ int main(void)
     RUN_TEST(test_newton_converges_over_the_reference_scenario);
     RUN_TEST(test_transition_at_given_contacts_is_the_same);
     RUN_TEST(test_forced_newton_failure_is_reported);
+#endif
+#if CAEKF_HAS_SUBSTEPS /* the substeps' entry points, with either rule */
+    discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
+    RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+#if CAEKF_MODEL_ORACLES
+    RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+#endif
+    discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
+    RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+#if CAEKF_MODEL_ORACLES
+    RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+#endif
 #endif
     return UNITY_END();
 }

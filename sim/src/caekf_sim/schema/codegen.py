@@ -6,7 +6,8 @@ Run by CMake at build time (the outputs live in the build tree and are never edi
     codegen.py c-core   OUTDIR [MECH [PRESET]]
                                           caekf/caekf_settings_schema.h, caekf_settings_table.c,
                                           caekf/caekf_capacity.h (sized for MECH, a scenario, if given;
-                                          with PRESET, a preset's name, also its step method)
+                                          with PRESET, a preset's name or `default` for
+                                          the schema's defaults, also its step method)
     codegen.py c-host   OUTDIR            caekf_scenario_schema.h, caekf_scenario_schema.c (scenario
                                           reader table, presets)
     codegen.py c-fixture OUTDIR SCENARIO  caekf_fixture_settings.h (a scenario's values as parameter
@@ -283,18 +284,32 @@ LAW_PARAMS = ("n", "lambda", "gap")
 METHOD = ("discretisation", "contact_substeps", "contact_n", "gamma_log")
 
 
+# The configuration name of no preset: the schema's defaults under the scenario, i.e. the recommended
+# default estimator (CAEKF_MECHANISM_PRESET=default sizes a build for its step method).
+DEFAULT_CONFIGURATION = "default"
+
+
+def preset_values(schema: Schema, preset: str) -> Dict[str, Any]:
+    """The values a configuration sets over the scenario: a preset's, or none for `default`."""
+    if preset == DEFAULT_CONFIGURATION:
+        return {}
+    p = next((q for q in schema.presets if q.name == preset), None)
+    if p is None:
+        raise SchemaError(f"unknown preset {preset!r} (known: {DEFAULT_CONFIGURATION}, "
+                          f"{', '.join(q.name for q in schema.presets)})")
+    return dict(p.values)
+
+
 def sized_method(schema: Schema, mechanism: Path, preset: str, contacts: int) -> Dict[str, Any]:
     """The method settings of the scenario under the preset: {name: value} (contact_n: the exponent all
     contacts share, omitted when they differ)."""
     given = read_scenario_values(schema, mechanism, wire_only=False)
-    p = next((q for q in schema.presets if q.name == preset), None)
-    if p is None:
-        raise SchemaError(f"unknown preset {preset!r} (known: {', '.join(q.name for q in schema.presets)})")
+    values = preset_values(schema, preset)
     out: Dict[str, Any] = {}
     for name in METHOD:
         s = schema.by_name(name)
         elements = contacts if s.capacity is not None else 1
-        vals = [float(p.values[name]) if name in p.values else float(given.get(s.keys[i], s.default_value(index=i)))
+        vals = [float(values[name]) if name in values else float(given.get(s.keys[i], s.default_value(index=i)))
                 for i in range(elements)]
         if vals and all(v == vals[0] for v in vals):
             out[name] = vals[0]
@@ -321,7 +336,7 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
         lines.append(f"#define CAEKF_SIZED 1 /* exactly the mechanism of {mechanism.name} */")
         for cap, n in counts.items():
             lines.append(f"#define CAEKF_SIZED_{_macro(cap)} {n}")
-        pv = next((q.values for q in schema.presets if q.name == preset), {}) if preset else {}
+        pv = preset_values(schema, preset) if preset else {}
         flags = {f"contact{i}_estimate_{p}": int(float(pv.get(f"contact{i}_estimate_{p}",
                                                              given.get(f"contact{i}_estimate_{p}", 0))))
                  for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS}
@@ -544,7 +559,7 @@ def c_fixture(schema: Schema, scenario: Path) -> Dict[str, str]:
     for k, v in given.items():
         mant, e10 = shortest_decimal(v)
         rows.append(f"    {{{ids[k]}u, {e10}, {mant}, {v!r}}}, /* {k} */")
-    name = scenario.stem
+    name = "".join(ch if ch.isalnum() else "_" for ch in scenario.stem)  # a C identifier (paper-joint)
     h = [f"/* {GENERATED}, and from {scenario.name}. */",
          f"/* The wire settings {scenario.name} gives, as the bench sends them (CTRL_PARAM: value = mantissa",
          " * 10^exp10, shortest decimal form) and as values. One table for every C test that configures the",
@@ -555,6 +570,9 @@ def c_fixture(schema: Schema, scenario: Path) -> Dict[str, str]:
          f"static const caekf_fixture_param_t caekf_{name}_params[] = {{"] + rows + [
          "};",
          f"#define CAEKF_N_{_macro(name)}_PARAMS ((unsigned)(sizeof caekf_{name}_params / sizeof caekf_{name}_params[0]))",
+         "/* The same under a name that does not depend on the scenario's file name. */",
+         f"#define caekf_scenario_params caekf_{name}_params",
+         f"#define CAEKF_N_SCENARIO_PARAMS CAEKF_N_{_macro(name)}_PARAMS",
          "", "/* The presets, as (id, value) lists. */",
          "typedef struct {", "    const char *name;", "    unsigned n;", "    uint8_t id[8];", "    double value[8];",
          "} caekf_fixture_preset_t;", "", "static const caekf_fixture_preset_t caekf_fixture_presets[] = {"]
