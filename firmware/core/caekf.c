@@ -608,10 +608,10 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
-#if CAEKF_SIZED_METHOD
-/* The commit of a step in a build sized for one configuration: z, and P from P_work's upper triangle,
- * filling the lower one; the sizes are constants, and the copy is written out (no loop overhead per
- * entry). */
+#if CAEKF_ONE_STEP_BE
+/* The commit of a step in a build sized for one backward-Euler step per sample (the paper's presets): z,
+ * and P from P_work's upper triangle, filling the lower one; the sizes are constants, and the copy is
+ * written out (no loop overhead per entry). */
 static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 {
     const int n = CAEKF_DIM_N(&est->model);
@@ -770,7 +770,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
-#if CAEKF_SIZED_METHOD
+#if CAEKF_ONE_STEP_BE
     commit_sized(est, z);
 #else
     for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */

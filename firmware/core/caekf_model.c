@@ -169,9 +169,9 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     }
 }
 
-/* Written into its callers in a build sized for one configuration (on the step's path: the Newton matrix and
- * F), a function elsewhere (less flash where the step has more paths). */
-#if CAEKF_SIZED_METHOD
+/* Written into its callers in a build sized for one backward-Euler step per sample (on the step's path: the
+ * Newton matrix and F), a function elsewhere (less flash where the step has more paths). */
+#if CAEKF_ONE_STEP_BE
 #define ADD_CONTACT_BLOCK_INLINE CAEKF_HOT_INLINE
 #else
 #define ADD_CONTACT_BLOCK_INLINE static
