@@ -602,6 +602,32 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
+/* Statistically linearised contacts (contact_slr_p > 0): each contact's penetration std,
+ * sqrt(b^T P_qq b) from P_{k-1} (physical units; every q shares one scale), into both models. */
+static void set_penetration_std(caekf_t *est)
+{
+    const int nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
+    int c;
+    for (c = 0; c < nc; ++c) {
+        const int a = est->model.contact_i[c], b = est->model.contact_j[c];
+        caekf_scalar_t v = 0;
+        if (a >= 0) {
+            v += est->P[a * n + a];
+        }
+        if (b >= 0) {
+            v += est->P[b * n + b];
+        }
+        if (a >= 0 && b >= 0) {
+            v -= 2 * est->P[a * n + b];
+        }
+        v = v > 0 ? CAEKF_SQRT(v) * est->scale[0] : 0;
+        est->model.slr_s[c] = v;
+#if CAEKF_HAS_SUBSTEPS
+        est->sub_model.slr_s[c] = v;
+#endif
+    }
+}
+
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
  * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
  * caller error. */
@@ -656,6 +682,9 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     for (i = 0; i < n; ++i) {
         xprev[i] = est->z[i] * s[i];
     }
+    if (est->cfg.contact_slr_p > 0) {
+        set_penetration_std(est);
+    }
     if (!predict) {
         for (i = 0; i < n; ++i) {
             est->x_pred[i] = xprev[i];
@@ -691,10 +720,16 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact */
         caekf_contact_t c;
+        int on;
         caekf_model_contact(&est->model, i, est->x_pred, &c);
+        on = c.delta > 0;
+        if (est->cfg.contact_slr_p > 0 && est->model.slr_s[i] > 0) { /* active while P(delta > 0) > p */
+            on = CAEKF_C(0.5) * CAEKF_ERFC(-c.delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
+                 est->cfg.contact_slr_p;
+        }
         deepest = i == 0 ? c.delta : caekf_max(deepest, c.delta);
-        any_contact |= c.delta > 0;
-        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, c.delta > 0);
+        any_contact |= on;
+        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, on);
         if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }

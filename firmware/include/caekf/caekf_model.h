@@ -96,6 +96,10 @@ typedef struct {
 #if !CAEKF_ONE_STEP_BE
     caekf_scalar_t fv0[CAEKF_NQ][CAEKF_N];
 #endif
+    /* Statistically linearised contact tangents (setting contact_slr_p > 0): the std of each contact's
+     * penetration (m), set by the estimator from P each step; 0 (caekf_model_init): the law's own
+     * tangents. */
+    caekf_scalar_t slr_s[CAEKF_MAX_CONTACTS];
 } caekf_model_t;
 
 /* The nonzero columns of each v-row of F (nz[i][0 .. nnz[i]-1], ascending): the covariance products
