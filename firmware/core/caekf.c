@@ -630,6 +630,34 @@ static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 }
 #endif
 
+#if CAEKF_HAS_SLR
+/* Statistically linearised contacts (contact_slr_p > 0): each contact's penetration std,
+ * sqrt(b^T P_qq b) from P_{k-1} (physical units; every q shares one scale), into both models. */
+static void set_penetration_std(caekf_t *est)
+{
+    const int nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
+    int c;
+    for (c = 0; c < nc; ++c) {
+        const int a = est->model.contact_i[c], b = est->model.contact_j[c];
+        caekf_scalar_t v = 0;
+        if (a >= 0) {
+            v += est->P[a * n + a];
+        }
+        if (b >= 0) {
+            v += est->P[b * n + b];
+        }
+        if (a >= 0 && b >= 0) {
+            v -= 2 * est->P[a * n + b];
+        }
+        v = v > 0 ? CAEKF_SQRT(v) * est->scale[0] : 0;
+        est->model.slr_s[c] = v;
+#if CAEKF_HAS_SUBSTEPS
+        est->sub_model.slr_s[c] = v;
+#endif
+    }
+}
+#endif
+
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
  * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
  * caller error. */
@@ -686,6 +714,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     for (i = 0; i < n; ++i) {
         xprev[i] = est->z[i] * s[i];
     }
+#if CAEKF_HAS_SLR
+    if (est->cfg.contact_slr_p > 0) {
+        set_penetration_std(est);
+    }
+#endif
     if (!predict) {
         for (i = 0; i < n; ++i) {
             est->x_pred[i] = xprev[i];
@@ -720,10 +753,18 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
     }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact (F at x_k- takes the same laws) */
+        int on;
         caekf_model_contact(&est->model, i, est->x_pred, &ct[i]);
+        on = ct[i].delta > 0;
+#if CAEKF_HAS_SLR
+        if (est->cfg.contact_slr_p > 0 && est->model.slr_s[i] > 0) { /* active while P(delta > 0) > p */
+            on = CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
+                 est->cfg.contact_slr_p;
+        }
+#endif
         deepest = i == 0 ? ct[i].delta : caekf_max(deepest, ct[i].delta);
-        any_contact |= ct[i].delta > 0;
-        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, ct[i].delta > 0);
+        any_contact |= on;
+        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, on);
         if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }

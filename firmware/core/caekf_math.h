@@ -13,6 +13,7 @@
 #define CAEKF_POW(x, y) powf((x), (y))
 #define CAEKF_LOG(x) logf(x)
 #define CAEKF_EXP(x) expf(x)
+#define CAEKF_ERFC(x) erfcf(x)
 #define CAEKF_C(x) ((caekf_scalar_t)(x##f))
 #else
 #define CAEKF_SQRT(x) sqrt(x)
@@ -21,6 +22,7 @@
 #define CAEKF_POW(x, y) pow((x), (y))
 #define CAEKF_LOG(x) log(x)
 #define CAEKF_EXP(x) exp(x)
+#define CAEKF_ERFC(x) erfc(x)
 #define CAEKF_C(x) ((caekf_scalar_t)(x))
 #endif
 

@@ -108,6 +108,45 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
     }
 }
 
+#if CAEKF_HAS_SLR
+/* Gauss-Hermite rule, 20 nodes (symmetric): the 10 positive nodes of the weight exp(-x^2) and their
+ * weights over sqrt(pi), which sum to 1 over all 20. E[g(t)] for t ~ N(mu, s^2) is
+ * sum_k w_k (g(mu + sqrt(2) s x_k) + g(mu - sqrt(2) s x_k)). */
+#define SLR_NODES 10
+static const double slr_x[SLR_NODES] = {0.2453407083009012, 0.7374737285453944, 1.2340762153953231, 1.7385377121165861,
+                                        2.2549740020892757, 2.7888060584281305, 3.3478545673832163, 3.9447640401156252,
+                                        4.6036824495507442, 5.3874808900112328};
+static const double slr_w[SLR_NODES] = {2.6079306344955488e-01, 1.6173933398399998e-01, 6.1506372063976897e-02,
+                                        1.3997837447101022e-02, 1.8301031310804900e-03, 1.2882627996192928e-04,
+                                        4.4021210902308510e-06, 6.1274902599829280e-08, 2.4820623623151755e-10,
+                                        1.2578006724379234e-13};
+
+/* E[max(0, t)^n] (*e) and E[max(0, t)^(n-1)] (*e1, the law's slope over n gamma) for t ~ N(d, s^2).
+ * Nodes beyond 7.6 s of d add nothing, so the expectations are those of the law itself once s << d. */
+static void slr_moments(caekf_scalar_t d, caekf_scalar_t s, caekf_scalar_t n, caekf_scalar_t *e, caekf_scalar_t *e1)
+{
+    const caekf_scalar_t r2 = CAEKF_SQRT(CAEKF_C(2.0));
+    caekf_scalar_t a = 0, a1 = 0;
+    int k, sgn;
+    for (k = 0; k < SLR_NODES; ++k) {
+        for (sgn = -1; sgn <= 1; sgn += 2) {
+            const caekf_scalar_t t = d + (caekf_scalar_t)sgn * s * r2 * (caekf_scalar_t)slr_x[k];
+            if (t > 0) {
+                caekf_scalar_t tn, tn1;
+                power_law(t, n, &tn, &tn1);
+                a += (caekf_scalar_t)slr_w[k] * tn;
+                a1 += (caekf_scalar_t)slr_w[k] * tn1;
+            }
+        }
+    }
+    *e = a;
+    *e1 = a1;
+}
+#define CONTACT_ON(c) ((c).delta > 0 || (c).dfc_ddelta != 0) /* closed, or an uncertain contact's tangents */
+#else
+#define CONTACT_ON(c) ((c).delta > 0)
+#endif
+
 /* Eqs. (16)-(17) generalised: f = gamma delta^n (1 + lambda d delta/dt) while delta > 0, never pulling
  * (a Hunt-Crossley factor below 0 gives f = 0 and no derivatives). gamma is the state's; n, lambda and
  * the gap are the state's when estimated, else the model's. */
@@ -117,8 +156,14 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
+#if CAEKF_HAS_SLR
+    int slr_law = lambda == 0; /* statistically linearised: an elastic law of gamma alone */
+#endif
 #if CAEKF_HAS_LAW_PARAMS
     const unsigned char *law = m->law_state[c];
+#if CAEKF_HAS_SLR
+    slr_law &= law[CAEKF_LAW_N] == 0 && law[CAEKF_LAW_LAMBDA] == 0 && law[CAEKF_LAW_GAP] == 0;
+#endif
     if (law[CAEKF_LAW_N] != 0) {
         n = x[law[CAEKF_LAW_N]];
     }
@@ -138,6 +183,24 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     out->dfc_ddelta = 0;
     out->dfc_drate = 0;
     out->dfc_dgamma = 0;
+#if CAEKF_HAS_SLR
+    if (m->slr_s[c] > 0 && slr_law) {
+        /* Statistically linearised tangents (setting contact_slr_p): the force is the law's own, its
+         * tangents in delta and gamma the expectations of the law's over delta ~ N(d, slr_s^2) (the
+         * regression slopes of the force on the states, Stein's lemma): the tangents of a contact whose
+         * penetration is uncertain are neither the stiff ones of the predicted penetration nor zero
+         * on the open side of eq. (21). */
+        caekf_scalar_t e, e1, dn = 0, dn1 = 0;
+        slr_moments(d, m->slr_s[c], n, &e, &e1);
+        if (d > 0) {
+            power_law(d, n, &dn, &dn1);
+        }
+        out->fc = gamma * dn;
+        out->dfc_ddelta = n * gamma * e1;
+        out->dfc_dgamma = CAEKF_METHOD_GAMMA_LOG(m) ? gamma * e : e; /* df/d(ln gamma) = gamma df/dgamma */
+        return;
+    }
+#endif
     if (d > 0) {
         caekf_scalar_t dn, dn1;
         power_law(d, n, &dn, &dn1);
@@ -276,7 +339,7 @@ static int any_contact(const caekf_contact_t *ct, int nc)
 {
     int i, any = 0;
     for (i = 0; i < nc; ++i) {
-        any |= ct[i].delta > 0;
+        any |= CONTACT_ON(ct[i]);
     }
     return any;
 }
@@ -449,7 +512,7 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     }
 #endif
     for (i = 0; i < nc; ++i) {
-        if (ct[i].delta > 0) {
+        if (CONTACT_ON(ct[i])) {
             add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
@@ -638,14 +701,14 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
     }
     for (i = 0; i < nc; ++i) {
         const int a = m->contact_i[i], b = m->contact_j[i];
-        if (ct[i].delta > 0) {
+        if (CONTACT_ON(ct[i])) {
             add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct[i].dfc_ddelta);
             if (ct0 != 0) {
                 add_contact_block(&fv[0][nq], CAEKF_N, a, b, -m->hs * ct[i].dfc_ddelta);
             }
             add_param_columns(m, i, &ct[i], -1, &fv[0][0]);
         }
-        if (ct0 != 0 && ct0[i].delta > 0) {
+        if (ct0 != 0 && CONTACT_ON(ct0[i])) {
             add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct0[i].dfc_ddelta);
             add_contact_block(&fv[0][nq], CAEKF_N, a, b, -ct0[i].dfc_drate);
             add_param_columns(m, i, &ct0[i], -1, &fv[0][0]);
@@ -660,6 +723,7 @@ void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAE
     int i;
     for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
         none[i].delta = 0;
+        none[i].dfc_ddelta = 0;
     }
     transition_rhs(m, none, 0, fv);
     solve(m->A0_lu, CAEKF_DIM_NQ(m), m->A0_piv, &fv[0][0], CAEKF_DIM_N(m), CAEKF_N);
@@ -730,6 +794,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     }
     for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
         none[i].delta = 0;
+        none[i].dfc_ddelta = 0;
     }
     m->p.dt = p->dt;
 #if !CAEKF_SIZED
@@ -748,6 +813,11 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 #if !CAEKF_SIZED_METHOD
     m->p.gamma_log = p->gamma_log;
     m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
+#endif
+#if CAEKF_HAS_SLR
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
+        m->slr_s[i] = 0;
+    }
 #endif
     m->hs = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? p->dt / 2 : p->dt;
     nq = p->bodies;

@@ -374,6 +374,9 @@ static int first_unsized_method(const caekf_settings_t *s)
     if (s->model.gamma_log != CAEKF_SIZED_GAMMA_LOG) {
         return (int)CAEKF_PARAM_GAMMA_LOG;
     }
+    if (s->contact_slr_p != 0) { /* statistically linearised contacts: a run-time choice (CAEKF_HAS_SLR) */
+        return (int)CAEKF_PARAM_CONTACT_SLR_P;
+    }
 #ifdef CAEKF_SIZED_CONTACT_N
     for (i = 0; i < (unsigned)s->model.contacts; ++i) {
         if (s->model.contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {

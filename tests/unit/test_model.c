@@ -348,9 +348,65 @@ static void test_substeps_pass_their_contacts_on_bit_for_bit(void)
 }
 #endif
 
+#if CAEKF_HAS_SLR
+/* E[max(0, t)^a] for t ~ N(d, s^2) by Simpson's rule over d +- 10 s (a fine grid; the kink at 0 costs
+ * it some digits, far below the Gauss-Hermite rule's). */
+static double expected_power(double d, double s, double a)
+{
+    const int m = 40000; /* even */
+    const double lo = d - 10 * s, h = 20 * s / m;
+    double acc = 0;
+    int k;
+    for (k = 0; k <= m; ++k) {
+        const double t = lo + k * h, z = (t - d) / s;
+        const double g = (t > 0 ? pow(t, a) : 0) * exp(-z * z / 2) / (s * sqrt(2 * 3.14159265358979323846));
+        acc += g * (k == 0 || k == m ? 1 : (k % 2) ? 4 : 2);
+    }
+    return acc * h / 3;
+}
+
+/* Statistically linearised contact (setting contact_slr_p): with a penetration std slr_s the force is the
+ * law's own, bit for bit, and its tangents in delta and gamma are the law's expected over
+ * N(delta, slr_s^2): n gamma E[delta^(n-1)] and E[delta^n] (20-node Gauss-Hermite: within 10 % around
+ * the kink, |delta| <= 2 s, the law's own once delta >> s); nonzero on the open side. */
+static void test_slr_tangents_are_the_law_expected_over_the_penetration(void)
+{
+    static const double k_of_s[] = {-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 3.0, 30.0};
+    const double s = 1e-6, n = 1.5;
+    caekf_scalar_t x[CAEKF_N];
+    caekf_contact_t own, slr;
+    unsigned i;
+    for (i = 0; i < sizeof k_of_s / sizeof k_of_s[0]; ++i) {
+        const double d = k_of_s[i] * s, tol = fabs(k_of_s[i]) <= 2 ? 0.1 : CAEKF_USE_FLOAT ? 1e-3 : 1e-4;
+        double e, e1, gamma;
+        make_state(x, d);
+        gamma = (double)x[8];
+        model.slr_s[0] = 0;
+        caekf_model_contact(&model, 0, x, &own);
+        model.slr_s[0] = (caekf_scalar_t)s;
+        caekf_model_contact(&model, 0, x, &slr);
+        model.slr_s[0] = 0;
+        TEST_ASSERT_EQUAL_MEMORY(&own.fc, &slr.fc, sizeof own.fc);
+        TEST_ASSERT_EQUAL_MEMORY(&own.delta, &slr.delta, sizeof own.delta);
+        e = expected_power((double)own.delta, s, n);
+        e1 = expected_power((double)own.delta, s, n - 1);
+        TEST_ASSERT_DOUBLE_WITHIN(tol * e, e, (double)slr.dfc_dgamma);
+        TEST_ASSERT_DOUBLE_WITHIN(tol * n * gamma * e1, n * gamma * e1, (double)slr.dfc_ddelta);
+        TEST_ASSERT_TRUE(slr.dfc_ddelta > 0); /* sensitivity on the open side too */
+        if (k_of_s[i] >= 30) {                /* certain: the law's own tangents */
+            TEST_ASSERT_DOUBLE_WITHIN(1e-3 * (double)own.dfc_ddelta, (double)own.dfc_ddelta, (double)slr.dfc_ddelta);
+            TEST_ASSERT_DOUBLE_WITHIN(1e-3 * (double)own.dfc_dgamma, (double)own.dfc_dgamma, (double)slr.dfc_dgamma);
+        }
+    }
+}
+#endif
+
 int main(void)
 {
     UNITY_BEGIN();
+#if CAEKF_HAS_SLR
+    RUN_TEST(test_slr_tangents_are_the_law_expected_over_the_penetration);
+#endif
 #if CAEKF_MODEL_ORACLES
     RUN_TEST(test_jacobians_match_finite_differences_in_contact);
     RUN_TEST(test_jacobians_match_finite_differences_out_of_contact);

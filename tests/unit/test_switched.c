@@ -102,11 +102,127 @@ static void test_paper_variant_with_repair_is_flagged(void)
     TEST_ASSERT_TRUE(w.max_corr <= 1 + 1e-3);
 }
 
+#if CAEKF_HAS_SLR
+/* Statistically linearised contacts (contact_slr_p): the contact is active (eq. 21) exactly while
+ * P(delta > 0) > contact_slr_p under N(delta, s^2), s the step's penetration std from P_{k-1}, so gamma is
+ * live on the open side of a contact whose penetration is uncertain; with the setting 0, the switch is
+ * delta > 0 as before. */
+typedef struct {
+    double p;
+    long open_active, checked, disagree;
+} slr_watch_t;
+
+static void slr_step(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *t, void *ctx)
+{
+    slr_watch_t *w = ctx;
+    const double d = (double)rep->delta, s = (double)est->model.slr_s[0];
+    const int active = (rep->flags & CAEKF_FLAG_CONTACT_ACTIVE) != 0;
+    double pc;
+    (void)t;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, st);
+    TEST_ASSERT_EQUAL_INT(active, (rep->flags & CAEKF_FLAG_GAMMA_FROZEN) == 0);
+    if (w->p > 0) {
+        TEST_ASSERT_TRUE(s > 0);
+        pc = 0.5 * erfc(-d / (s * sqrt(2.0)));
+        if (fabs(pc - w->p) > (CAEKF_USE_FLOAT ? 1e-3 : 1e-9)) { /* off the threshold's rounding */
+            w->checked++;
+            w->disagree += active != (pc > w->p);
+        }
+    } else {
+        TEST_ASSERT_TRUE(s == 0);
+        w->checked++;
+        w->disagree += active != (d > 0);
+    }
+    w->open_active += active && d <= 0;
+}
+
+static slr_watch_t run_slr(double p)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    slr_watch_t w;
+    memset(&w, 0, sizeof w);
+    paper_settings(&s, EXP_SWITCHED);
+    s.contact_slr_p = (caekf_scalar_t)p;
+    w.p = (double)s.contact_slr_p;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT32(paper_steps(), run_paper(&est, &s, slr_step, &w));
+    return w;
+}
+
+static void test_slr_switch_is_the_probability_of_contact(void)
+{
+    slr_watch_t off = run_slr(0), on = run_slr(0.01);
+    TEST_ASSERT_EQUAL_INT32(0, off.disagree);
+    TEST_ASSERT_EQUAL_INT32(0, off.open_active);
+    TEST_ASSERT_EQUAL_INT32(0, on.disagree);
+    TEST_ASSERT_TRUE(on.checked > paper_steps() / 2);
+    TEST_ASSERT_TRUE(on.open_active > 0); /* live on the open side while contact is probable */
+}
+
+/* The same switch at the threshold: one prediction from each of a fine grid of starts around the contact
+ * (P0 = I: s = sqrt(2) sigma_q0), so that P(delta > 0) falls on both sides of p and between p and 2 p. */
+static void test_slr_switch_at_its_threshold(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    const caekf_scalar_t u[1] = {0};
+    const double p = 0.01;
+    double drift = 0;
+    long near = 0, k;
+    paper_settings(&s, EXP_SWITCHED);
+    s.contact_slr_p = (caekf_scalar_t)p;
+    for (k = -1; k < 400; ++k) { /* k = -1: the step's own drift of delta from a start at the gap */
+        const double d0 = k < 0 ? 0 : (-4.0 + 5.0 * (double)k / 399.0) * sqrt(2.0) * (double)s.sigma_q0 - drift;
+        caekf_report_t rep;
+        double pc, sd;
+        int active;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+        est.z[1] = est.z[2] + (caekf_scalar_t)(((double)s.model.contact_gap[0] + d0) / (double)est.scale[1]);
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&est, u, &rep));
+        if (k < 0) {
+            drift = (double)rep.delta;
+            continue;
+        }
+        sd = (double)est.model.slr_s[0];
+        TEST_ASSERT_TRUE(sd > 0);
+        pc = 0.5 * erfc(-(double)rep.delta / (sd * sqrt(2.0)));
+        active = (rep.flags & CAEKF_FLAG_CONTACT_ACTIVE) != 0;
+        if (fabs(pc - p) > (CAEKF_USE_FLOAT ? 1e-4 : 1e-9)) {
+            TEST_ASSERT_EQUAL_INT(pc > p, active);
+        }
+        near += pc > p && pc <= 2 * p;
+    }
+    TEST_ASSERT_TRUE(near > 0);
+}
+#else
+/* A build sized for one configuration leaves the statistically linearised contacts out: the setting is
+ * refused, not ignored. */
+static void test_slr_refused_where_compiled_out(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    caekf_setting_error_t err;
+    paper_settings(&s, EXP_SWITCHED);
+    s.contact_slr_p = (caekf_scalar_t)0.01;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&s, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_CONTACT_SLR_P, err.param_id);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_init(&est, &s));
+}
+#endif
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_consistent_freezes_gamma_bitwise_and_stays_a_covariance);
     RUN_TEST(test_paper_variant_turns_indefinite);
     RUN_TEST(test_paper_variant_with_repair_is_flagged);
+#if CAEKF_HAS_SLR
+    RUN_TEST(test_slr_switch_is_the_probability_of_contact);
+    RUN_TEST(test_slr_switch_at_its_threshold);
+#else
+    RUN_TEST(test_slr_refused_where_compiled_out);
+#endif
     return UNITY_END();
 }

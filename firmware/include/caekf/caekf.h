@@ -117,6 +117,12 @@ typedef struct {
      * (docs/contact-law.md): only for laws nonlinear in their states (gamma_log, estimated n, lambda, gap). */
     int law_second_order;
 
+    /* Statistically linearised contacts (0: off, the paper's switch). > 0: an elastic contact's tangents
+     * in delta and gamma (F, eq. 10) are the law's expected over the penetration's distribution
+     * N(delta, s^2), s^2 = b^T P_qq b from P_{k-1}, and the contact is active (eq. 21) while
+     * P(delta > 0) > contact_slr_p. */
+    caekf_scalar_t contact_slr_p;
+
     int newton_max_iter;        /* 1..CAEKF_NEWTON_MAX_ITER */
     caekf_scalar_t newton_rtol; /* residual tolerance relative to the size of the equation's terms */
 } caekf_settings_t;

@@ -74,6 +74,9 @@ typedef double caekf_scalar_t;
  * instance no inputs of the step's start (only the trapezoidal rule and the substeps read them): a smaller
  * instance. */
 #define CAEKF_ONE_STEP_BE (!CAEKF_HAS_SUBSTEPS && !CAEKF_HAS_TRAPEZOIDAL)
+/* Statistically linearised contacts (setting contact_slr_p): a run-time choice of the estimator, so a
+ * build sized for one configuration (whose method is fixed) leaves them out and refuses the setting. */
+#define CAEKF_HAS_SLR (!CAEKF_SIZED_METHOD)
 
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses

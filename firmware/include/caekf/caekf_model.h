@@ -127,6 +127,12 @@ typedef struct {
 #if CAEKF_A0_MAX_OPEN
     caekf_scalar_t a0_max_open; /* max |A0_ij| outside the contact's 2 x 2 block (the Newton matrix's rest) */
 #endif
+#if CAEKF_HAS_SLR
+    /* Statistically linearised contact tangents (setting contact_slr_p > 0): the std of each contact's
+     * penetration (m), set by the estimator from P each step; 0 (caekf_model_init): the law's own
+     * tangents. */
+    caekf_scalar_t slr_s[CAEKF_MAX_CONTACTS];
+#endif
 } caekf_model_t;
 
 /* The nonzero columns of each v-row of F (nz[i][0 .. nnz[i]-1], ascending): the covariance products

@@ -355,12 +355,12 @@ bool caekf_can_ctrl_param_e2_e_counter_is_in_phys_range(double value)
 
 bool caekf_can_ctrl_param_param_id_is_in_range(uint8_t value)
 {
-    return (value <= 163u);
+    return (value <= 164u);
 }
 
 bool caekf_can_ctrl_param_param_id_is_in_phys_range(double value)
 {
-    return ((value >= 0.0) && (value <= 163.0));
+    return ((value >= 0.0) && (value <= 164.0));
 }
 
 bool caekf_can_ctrl_param_param_exp10_is_in_range(int8_t value)

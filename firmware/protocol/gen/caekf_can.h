@@ -344,6 +344,7 @@ extern "C" {
 #define CAEKF_CAN_CTRL_PARAM_PARAM_ID_CONTACT2_GAP_MAX_CHOICE (161u)
 #define CAEKF_CAN_CTRL_PARAM_PARAM_ID_GAMMA_LOG_CHOICE (162u)
 #define CAEKF_CAN_CTRL_PARAM_PARAM_ID_LAW_SECOND_ORDER_CHOICE (163u)
+#define CAEKF_CAN_CTRL_PARAM_PARAM_ID_CONTACT_SLR_P_CHOICE (164u)
 
 #define CAEKF_CAN_EST_ACK_ACK_STATUS_REFUSED_INIT_CHOICE (-6)
 #define CAEKF_CAN_EST_ACK_ACK_STATUS_REFUSED_NO_SETTINGS_CHOICE (-5)
@@ -715,7 +716,7 @@ struct caekf_can_ctrl_param_t {
     /**
      * Which setting (value table generated from the settings schema; names are the scenario file keys). Integer, enum and bool settings need an integral value.
      *
-     * Range: 0..163 (0..163 -)
+     * Range: 0..164 (0..164 -)
      * Scale: 1
      * Offset: 0
      */

@@ -47,6 +47,10 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
         name = None
     if name is not None:
         values.update(schema.preset(name).values)
+    slr_p = float(getattr(sc, "contact_slr_p", 0.0))
+    if slr_p != 0:  # the reference implements the paper's switch and tangents only (docs/discretisation.md)
+        raise ValueError(f"contact_slr_p = {slr_p:g}: statistically linearised contacts run in the C estimator "
+                         "only; the numpy reference needs contact_slr_p = 0")
 
     def enum(key: str) -> str:
         v = values[key]
