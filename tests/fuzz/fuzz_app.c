@@ -133,7 +133,7 @@ static int settings_equal(const caekf_settings_t *a, const caekf_settings_t *b)
            a->constraint_enabled == b->constraint_enabled && SAME(a->gamma_min, b->gamma_min) &&
            a->cov_repair_enabled == b->cov_repair_enabled && a->psd_check_period == b->psd_check_period &&
            a->newton_max_iter == b->newton_max_iter && SAME(a->newton_rtol, b->newton_rtol) &&
-           SAME(a->gamma_gate_nis, b->gamma_gate_nis);
+           SAME(a->gamma_gate_nis, b->gamma_gate_nis) && SAME(a->contact_slr_p, b->contact_slr_p);
 }
 
 static int app_settings_equal(const caekf_app_settings_t *a, const caekf_app_settings_t *b)
@@ -188,6 +188,7 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_Q_GAMMA_SCALE: return &s->q_gamma_scale;
     case CAEKF_PARAM_NEWTON_RTOL: return &s->newton_rtol;
     case CAEKF_PARAM_GAMMA_GATE_NIS: return &s->gamma_gate_nis;
+    case CAEKF_PARAM_CONTACT_SLR_P: return &s->contact_slr_p;
     default: return NULL;
     }
 }
