@@ -13,12 +13,18 @@ mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). O
                dt/S, inputs linear from u_{k-1} to u_k, and F = F_S ... F_1, the product of their
                eq. (10) maps. A contact closed at x_{k-1} skips the one-step solve; a discarded one-step
                solve's iterations still count, its convergence does not.)
+               (`contact_slr_p` p > 0: s_c = sqrt(b_c^T P_qq b_c) from P_{k-1}; an elastic contact of gamma
+               alone takes the law's tangents expected over delta ~ N(delta, s_c^2) (20-node Gauss-Hermite)
+               in F and in the Newton matrix (quasi-Newton), its force the law's own; a contact counts as on
+               for the step map while delta > 0 or its expected tangent is nonzero; F is the contact-free
+               one unless a contact is active, substepped, or (trapezoidal) on at x_{k-1}.)
                P_k^- = F P F^T + Q                          (eq. 12)
   correction   G = P H^T (H P H^T + R)^-1, x += G (y - H x), P = (I - G H) P   (eqs. 13-15)
   modes        canonical: Table 1 every step, every gamma live.
                switched (Sec. 3.2): gamma_c is live iff its own contact is closed at the
-               prediction, delta_c(x_k^-) > 0 (eq. 21); a frozen gamma_c has Q = 0 and keeps its
-               value and variance (eqs. 22-27), and the live block L (states + live gammas) is
+               prediction, delta_c(x_k^-) > 0 (eq. 21; contact_slr_p: while P(delta_c > 0) > p); a
+               frozen gamma_c has Q = 0 and keeps its value and variance (eqs. 22-27), and the live
+               block L (states + live gammas) is
                propagated and corrected alone. Two variants for the cross-covariance P_Lg of a
                frozen gamma:
                  "paper"      eqs. 23-27 read literally: P_Lg frozen, only P_LL moves;
@@ -83,8 +89,15 @@ class EstimatorConfig:
     # The setting `law_second_order`: the Gaussian second-order term of a closed contact's force as process
     # noise on its bodies' velocities, for laws nonlinear in their states (ln gamma, n, lambda, gap).
     law_second_order: bool = True
+    # The setting `contact_slr_p` (0: off): statistically linearised contacts. With s_c = sqrt(b_c^T P_qq b_c)
+    # from P_{k-1}, an elastic contact of gamma alone (lambda = 0, none of n, lambda, gap estimated) takes
+    # its law's tangents expected over delta ~ N(delta, s_c^2) in F and in the Newton matrix (its force stays
+    # the law's), and every contact with s_c > 0 is active (eq. 21) while P(delta > 0) > contact_slr_p.
+    contact_slr_p: float = 0.0
 
     def __post_init__(self) -> None:
+        if not self.contact_slr_p >= 0:
+            raise ValueError(f"contact_slr_p = {self.contact_slr_p}: must be >= 0")
         if isinstance(self.contact_substeps, bool) or not isinstance(self.contact_substeps, int) \
                 or self.contact_substeps < 1:
             raise ValueError(f"contact_substeps = {self.contact_substeps!r}: must be an integer >= 1")
@@ -146,6 +159,13 @@ class AugmentedEKF:
         # every parameter state of contact c: its gamma and its estimated law parameters
         self.pstates = [[self.ig[c]] + sorted(self.law_state[c].values()) for c in range(nc)]
         self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
+        # contact_slr_p: which contacts take the statistically linearised tangents (an elastic law of gamma
+        # alone), and every contact's penetration std of the current step (0: none)
+        self.slr_law = [lam == 0.0 and not self.law_state[c] for c, (_, _, _, _, lam) in enumerate(p.contacts)]
+        self.slr_s: List[float] = [0.0] * nc
+        # the last prediction: substepped, and a contact on at x_{k-1} (read when substeps or trapezoidal)
+        self._substepped = False
+        self._on_prev = False
         self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
         self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
         self.dt = sc.dt
@@ -272,7 +292,11 @@ class AugmentedEKF:
             g = float(gam[c])
             delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
             dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
-            _, kc, kd, dfc_dg, dfc_dn, dfc_dl = law_derivatives(delta, dd, g, n, lam)
+            slr = self.solver.slr_tangents(c, delta, g, n)
+            if slr is not None:  # statistically linearised: expected tangents, no law parameter states
+                kc, kd, dfc_dg, dfc_dn, dfc_dl = slr[0], 0.0, slr[1], 0.0, 0.0
+            else:
+                _, kc, kd, dfc_dg, dfc_dn, dfc_dl = law_derivatives(delta, dd, g, n, lam)
             if kc == 0.0 and kd == 0.0 and dfc_dg == 0.0:
                 continue
             if J is None:
@@ -323,12 +347,17 @@ class AugmentedEKF:
         gammas = x[nx:]  # and the law parameters: every parameter state carries over
         solver = self._solver(self.solver, gammas)
         u_prev = u if self.u_prev is None else self.u_prev
-        if self.sub_solver is not None and any(d > 0.0 for d in solver.penetrations(x[:nq])):
+        # A contact "on" changes the step map: closed, or with a statistically linearised nonzero tangent.
+        self._on_prev = (self.sub_solver is not None or self.trapezoidal) and solver.any_on(x[:nq],
+                                                                                          self.gammas_of(gammas))
+        self._substepped = True
+        if self.sub_solver is not None and self._on_prev:
             return self.substep_predict(u_prev, u)  # closed at the start: no one-step solve needed
         q, v, iters, ok = solver.solve(x[:nq], x[nq:nx], u, self.gammas_of(gammas), u_prev)
-        if self.sub_solver is not None and any(d > 0.0 for d in solver.penetrations(q)):
+        if self.sub_solver is not None and solver.any_on(q, self.gammas_of(gammas)):
             xp, F, sub_iters, ok = self.substep_predict(u_prev, u)
             return xp, F, iters + sub_iters, ok
+        self._substepped = False
         xp = np.empty(self.n)
         xp[:nq] = q
         xp[nq:nx] = v
@@ -358,6 +387,19 @@ class AugmentedEKF:
             F = self.transition_matrix(q, gammas, v, xa, substep=True) @ F
             xa = np.r_[q, v, gammas]
         return xa, F, iters, ok
+
+    def _set_penetration_std(self) -> None:
+        """contact_slr_p: each contact's penetration std sqrt(b^T P_qq b) from P_{k-1}, into the step solvers
+        (for the contacts whose tangents it linearises) and self.slr_s (the switch, every contact)."""
+        P = self.P
+        for c, (a, b, _, _, _) in enumerate(self.plant.contacts):
+            var = (P[a, a] if a >= 0 else 0.0) + (P[b, b] if b >= 0 else 0.0) - (2.0 * P[a, b] if a >= 0 and b >= 0
+                                                                                   else 0.0)
+            self.slr_s[c] = math.sqrt(var) if var > 0.0 else 0.0
+        slr = tuple(s if ok else 0.0 for s, ok in zip(self.slr_s, self.slr_law))
+        self.solver.slr = slr
+        if self.sub_solver is not None:
+            self.sub_solver.slr = slr
 
     def _second_order_noise(self, xp: np.ndarray, Pm: np.ndarray) -> np.ndarray:
         """Pm plus, for every closed contact, the variance of its force's second-order part in the parameter
@@ -486,13 +528,22 @@ class AugmentedEKF:
         predict=False: `correct`."""
         cfg = self.cfg
         status = 0
+        slr_p = cfg.contact_slr_p
+        if slr_p > 0:
+            self._set_penetration_std()
         if predict:
             xp, F, iters, ok = self.predict(u)
         else:
             xp, F, iters, ok = self.x.copy(), self.I, 0, True
         if not ok:
             status |= fl.NEWTON_NOT_CONVERGED
-        closed = [d > 0.0 for d in self._solver(self.solver, xp[self.nx :]).penetrations(xp[: self.nq])]  # eq. (21)
+        deltas = self._solver(self.solver, xp[self.nx :]).penetrations(xp[: self.nq])
+        # eq. (21); statistically linearised: on while P(delta > 0) = erfc(-delta / (s sqrt 2)) / 2 > contact_slr_p
+        closed = [0.5 * math.erfc(-d / (s * math.sqrt(2.0))) > slr_p if slr_p > 0 and s > 0 else d > 0.0
+                  for d, s in zip(deltas, self.slr_s)]
+        if predict and slr_p > 0 and not self._substepped and not any(closed) \
+                and not (self.trapezoidal and self._on_prev):
+            F = self.F0  # no contact active at either end: the contact-free F, whatever the tangents
         if any(closed):
             status |= fl.CONTACT_ACTIVE
         live = [c for c in range(self.nc) if cfg.mode == CANONICAL or closed[c]]

@@ -26,7 +26,8 @@ def _config(preset: schema.Preset) -> EstimatorConfig:
 
     return EstimatorConfig(mode=CANONICAL if enum("mode") == "canonical" else SWITCHED,
                            q_gamma_scale=value("q_gamma_scale"), constrained=bool(value("constraint_enabled")),
-                           discretisation=enum("discretisation"), contact_substeps=int(value("contact_substeps")))
+                           discretisation=enum("discretisation"), contact_substeps=int(value("contact_substeps")),
+                           contact_slr_p=value("contact_slr_p"))
 
 
 EXPERIMENTS: Dict[str, EstimatorConfig] = {p.name: _config(p) for p in schema.SCHEMA.presets}
@@ -36,21 +37,17 @@ DEFAULT = "default"  # no preset: the scenario's own settings (scenario_config)
 def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig:
     """The configuration the C tools run: the scenario's estimator settings (mode, switchoff, cov_update,
     q_gamma_scale, constraint_enabled, gamma_gate_nis (0: off), newton_max_iter, discretisation,
-    contact_substeps, gamma_log, law_second_order) with preset
+    contact_substeps, gamma_log, law_second_order, contact_slr_p) with preset
     `name`'s values over them (None or "default": no preset); for the cross-check of caekf-replay and the
     binding on any mechanism."""
     values = {s.name: float(getattr(sc, s.keys[0])) for s in schema.SCHEMA.settings
               if s.name in ("mode", "switchoff", "cov_update", "q_gamma_scale", "constraint_enabled",
                             "gamma_gate_nis", "newton_max_iter", "discretisation", "contact_substeps",
-                            "gamma_log", "law_second_order")}
+                            "gamma_log", "law_second_order", "contact_slr_p")}
     if name == DEFAULT:
         name = None
     if name is not None:
         values.update(schema.preset(name).values)
-    slr_p = float(getattr(sc, "contact_slr_p", 0.0))
-    if slr_p != 0:  # the reference implements the paper's switch and tangents only (docs/discretisation.md)
-        raise ValueError(f"contact_slr_p = {slr_p:g}: statistically linearised contacts run in the C estimator "
-                         "only; the numpy reference needs contact_slr_p = 0")
 
     def enum(key: str) -> str:
         v = values[key]
@@ -62,7 +59,8 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
                            constrained=bool(values["constraint_enabled"]), joseph=enum("cov_update") == "joseph",
                            newton_max_iter=int(values["newton_max_iter"]), gate_nis=gate if gate > 0 else math.inf,
                            discretisation=enum("discretisation"), contact_substeps=int(values["contact_substeps"]),
-                           gamma_log=bool(values["gamma_log"]), law_second_order=bool(values["law_second_order"]))
+                           gamma_log=bool(values["gamma_log"]), law_second_order=bool(values["law_second_order"]),
+                           contact_slr_p=float(values["contact_slr_p"]))
 
 
 def experiment_config(name: str, **overrides) -> EstimatorConfig:

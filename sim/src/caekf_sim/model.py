@@ -27,6 +27,7 @@ each row's magnitude in the convergence test (its rounding is part of the residu
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, List, Tuple
 
@@ -48,6 +49,31 @@ DISCRETISATIONS = (BACKWARD_EULER, TRAPEZOIDAL)
 
 # The model is the mechanism: `Plant` is the name the callers written for the paper's chain use.
 Plant = Mechanism
+
+# Statistically linearised contacts (the setting contact_slr_p, docs/discretisation.md): 20-node
+# Gauss-Hermite rule for E[g(t)], t ~ N(d, s^2) = sum_k w_k g(d + sqrt(2) s x_k) with sum w_k = 1.
+_GH_X, _GH_W = np.polynomial.hermite.hermgauss(20)
+_GH_W = _GH_W / math.sqrt(math.pi)
+
+
+def slr_moments(d: float, s: float, n: float) -> Tuple[float, float]:
+    """(E[max(0, t)^n], E[max(0, t)^(n-1)]) for t ~ N(d, s^2): the elastic law's expected force over gamma
+    and its expected slope over n gamma (each node's power as `contact_law` takes it)."""
+    e = e1 = 0.0
+    for x, w in zip(_GH_X.tolist(), _GH_W.tolist()):
+        t = d + math.sqrt(2.0) * s * x
+        if t > 0.0:
+            if n == 1.5:
+                r = math.sqrt(t)
+                e += w * (t * r)
+                e1 += w * r
+            elif n == 1.0:
+                e += w * t
+                e1 += w
+            else:
+                e += w * t**n
+                e1 += w * t ** (n - 1.0)
+    return e, e1
 
 
 def contact_force(delta: float, gamma: float) -> Tuple[float, float, float]:
@@ -96,6 +122,9 @@ class StepSolver:
     abs_K: np.ndarray = field(init=False)
     contacts: Tuple[Tuple[int, int, float, float, float], ...] = field(init=False)
     input_rows: Tuple[int, ...] = field(init=False)
+    # Statistically linearised contacts: per contact the penetration's std s (> 0: the Newton matrix takes the
+    # elastic law's tangent expected over N(delta, s^2), a quasi-Newton step; 0 or absent: the law's own).
+    slr: Tuple[float, ...] = field(init=False, default=())
 
     def __post_init__(self) -> None:
         if self.scheme not in DISCRETISATIONS:
@@ -110,6 +139,26 @@ class StepSolver:
         self.abs_K = np.abs(p.K)
         self.contacts = p.contacts
         self.input_rows = tuple(p.input_body.tolist())
+
+    def slr_tangents(self, c: int, delta: float, gamma: float, n: float) -> "Tuple[float, float] | None":
+        """Contact c's statistically linearised (df/ddelta, df/dgamma), or None when it has no std."""
+        s = self.slr[c] if c < len(self.slr) else 0.0
+        if not s > 0.0:
+            return None
+        e, e1 = slr_moments(delta, s, n)
+        return n * gamma * e1, e
+
+    def any_on(self, q: np.ndarray, gamma: Any) -> bool:
+        """Whether a contact changes the Newton matrix at positions q: closed (delta > 0), or linearised
+        statistically with a nonzero expected tangent."""
+        for c, ((a, b, gap, n, _), g) in enumerate(zip(self.contacts, as_gammas(gamma))):
+            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+            if delta > 0.0:
+                return True
+            slr = self.slr_tangents(c, delta, g, n)
+            if slr is not None and slr[0] != 0.0:
+                return True
+        return False
 
     def penetrations(self, q: "np.ndarray | List[float]") -> List[float]:
         """delta of each contact at positions q (plain floats)."""
@@ -177,10 +226,14 @@ class StepSolver:
     def jacobian(self, q: np.ndarray, gamma: Any, v: "np.ndarray | None" = None) -> np.ndarray:
         """dr/dv_k = M/hs + C + hs K + sum_c (hs df_c/ddelta + df_c/dddelta) b_c b_c^T (v: for Hunt-Crossley)."""
         J = self.J0
-        for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
+        for c, ((a, b, gap, n, lam), g) in enumerate(zip(self.contacts, as_gammas(gamma))):
             delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
             dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
-            _, kc, kd, _ = contact_law(delta, dd, g, n, lam)
+            slr = self.slr_tangents(c, delta, g, n)
+            if slr is not None:
+                kc, kd = slr[0], 0.0
+            else:
+                _, kc, kd, _ = contact_law(delta, dd, g, n, lam)
             if kc == 0.0 and kd == 0.0:
                 continue
             if J is self.J0:
@@ -223,7 +276,7 @@ class StepSolver:
         """One step: returns (q_k, v_k, Newton iterations, converged). u_prev: the trapezoidal rule's inputs
         at the step's start (None: u)."""
         start = self.step_start(q_prev, v_prev, u if u_prev is None else u_prev, gamma)
-        if all(d <= 0.0 for d in self.penetrations(self.positions(q_prev, v_prev, v_prev))):
+        if not self.any_on(self.positions(q_prev, v_prev, v_prev), gamma):
             v = self.linear_velocity(q_prev, v_prev, u, start)
             q = self.positions(q_prev, v_prev, v)
             if all(d <= 0.0 for d in self.penetrations(q)):
