@@ -219,7 +219,9 @@ static void check_flags(const caekf_t *e, const caekf_report_t *rep)
     FZ_CHECK(!(f & CAEKF_FLAG_COV_REPAIRED) || c->cov_repair_enabled, "no repair when repair is off");
     FZ_CHECK(!(f & CAEKF_FLAG_CONSTRAINT_CLAMPED) || (f & CAEKF_FLAG_CONSTRAINT_APPLIED), "clamped implies applied");
     FZ_CHECK(!(f & CAEKF_FLAG_CONSTRAINT_APPLIED) || c->constraint_enabled, "constraint only when enabled");
-    FZ_CHECK(!!(f & CAEKF_FLAG_CONTACT_ACTIVE) == (rep->delta > (caekf_scalar_t)0), "contact flag == delta > 0");
+    /* statistically linearised contacts switch on P(delta > 0), not on the sign of delta */
+    FZ_CHECK(c->contact_slr_p > 0 || !!(f & CAEKF_FLAG_CONTACT_ACTIVE) == (rep->delta > (caekf_scalar_t)0),
+             "contact flag == delta > 0");
     FZ_CHECK(!!(f & CAEKF_FLAG_GAMMA_FROZEN) == (c->mode == CAEKF_MODE_SWITCHED && !(f & CAEKF_FLAG_CONTACT_ACTIVE)),
              "gamma frozen iff switched and contact inactive");
     FZ_CHECK(rep->newton_iters >= 0 && rep->newton_iters <= c->newton_max_iter &&
