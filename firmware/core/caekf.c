@@ -632,7 +632,8 @@ static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 
 #if CAEKF_HAS_SLR
 /* Statistically linearised contacts (contact_slr_p > 0): each contact's penetration std,
- * sqrt(b^T P_qq b) from P_{k-1} (physical units; every q shares one scale), into both models. */
+ * sqrt(b^T P_qq b) from P_{k-1} (physical units; every q shares one scale), into both models; 0 for a
+ * law that is not linearised statistically (caekf_model_slr_law), which keeps eq. (21)'s sign switch. */
 static void set_penetration_std(caekf_t *est)
 {
     const int nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
@@ -649,7 +650,7 @@ static void set_penetration_std(caekf_t *est)
         if (a >= 0 && b >= 0) {
             v -= 2 * est->P[a * n + b];
         }
-        v = v > 0 ? CAEKF_SQRT(v) * est->scale[0] : 0;
+        v = v > 0 && caekf_model_slr_law(&est->model, c) ? CAEKF_SQRT(v) * est->scale[0] : 0;
         est->model.slr_s[c] = v;
 #if CAEKF_HAS_SUBSTEPS
         est->sub_model.slr_s[c] = v;

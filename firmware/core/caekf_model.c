@@ -142,6 +142,20 @@ static void slr_moments(caekf_scalar_t d, caekf_scalar_t s, caekf_scalar_t n, ca
     *e = a;
     *e1 = a1;
 }
+/* The laws statistically linearised (tangents and switch): elastic laws of gamma alone. A damped law or
+ * one with n, lambda or the gap estimated keeps its own tangents and the sign switch of eq. (21): the
+ * switch on P(delta > 0) alone, without the expected tangents, measured worse on the whole law
+ * (docs/discretisation.md). */
+int caekf_model_slr_law(const caekf_model_t *m, int c)
+{
+#if CAEKF_HAS_LAW_PARAMS
+    const unsigned char *law = m->law_state[c];
+    if (law[CAEKF_LAW_N] != 0 || law[CAEKF_LAW_LAMBDA] != 0 || law[CAEKF_LAW_GAP] != 0) {
+        return 0;
+    }
+#endif
+    return m->p.contact_lambda[c] == 0;
+}
 #define CONTACT_ON(c) ((c).delta > 0 || (c).dfc_ddelta != 0) /* closed, or an uncertain contact's tangents */
 #else
 #define CONTACT_ON(c) ((c).delta > 0)
@@ -156,14 +170,8 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
-#if CAEKF_HAS_SLR
-    int slr_law = lambda == 0; /* statistically linearised: an elastic law of gamma alone */
-#endif
 #if CAEKF_HAS_LAW_PARAMS
     const unsigned char *law = m->law_state[c];
-#if CAEKF_HAS_SLR
-    slr_law &= law[CAEKF_LAW_N] == 0 && law[CAEKF_LAW_LAMBDA] == 0 && law[CAEKF_LAW_GAP] == 0;
-#endif
     if (law[CAEKF_LAW_N] != 0) {
         n = x[law[CAEKF_LAW_N]];
     }
@@ -184,7 +192,7 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     out->dfc_drate = 0;
     out->dfc_dgamma = 0;
 #if CAEKF_HAS_SLR
-    if (m->slr_s[c] > 0 && slr_law) {
+    if (m->slr_s[c] > 0 && caekf_model_slr_law(m, c)) {
         /* Statistically linearised tangents (setting contact_slr_p): the force is the law's own, its
          * tangents in delta and gamma the expectations of the law's over delta ~ N(d, slr_s^2) (the
          * regression slopes of the force on the states, Stein's lemma): the tangents of a contact whose

@@ -108,5 +108,9 @@ void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAE
 
 /* Whether a contact is closed at x (the step map then differs from the constant linear one). */
 int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x);
+#if CAEKF_HAS_SLR
+/* 1 when contact c's law is linearised statistically (setting contact_slr_p): elastic, gamma alone. */
+int caekf_model_slr_law(const caekf_model_t *m, int c);
+#endif
 
 #endif /* CAEKF_MODEL_INTERNAL_H */

@@ -301,13 +301,15 @@ def test_c_estimator_equals_the_numpy_reference_on_an_example(name, preset):
 
 # What the statistically linearised contacts change, measured with contact_slr_p = 0.01 against 0 over the same
 # data: (the least number of steps made active by the switch P(delta > 0) > 0.01 alone, whether the expected
-# tangents move gamma by more than 0.1 %). Measured: 14 steps on the paper's chain in 15 s (gamma up to 9 %
-# apart), 4 on the shuttle in 8 s; none on the valve, whose penetration std is far below a step's change of
-# delta, and none with backward Euler in one step on the paper's chain (gamma up to 36 % apart: the tangents
-# alone). "backward-euler" is the default with the paper's step map (discretisation, contact_substeps = 1) set in
-# the scenario: the paper's presets themselves pin contact_slr_p = 0.
-SLR_ACTIVE = {("paper.toml", "default"): (1, True), ("shuttle.toml", "default"): (1, False),
-              ("valve.toml", "default"): (0, False), ("paper.toml", "backward-euler"): (0, True)}
+# tangents move gamma by more than 0.1 %), or None: a damped law, which is not linearised statistically and
+# keeps eq. 21's sign switch, so the run equals contact_slr_p = 0 bit for bit (the switch alone on the shuttle
+# made 4 steps active in 8 s, and on the whole law it measured worse: docs/discretisation.md). Measured: 14 steps
+# on the paper's chain in 15 s (gamma up to 9 % apart), none with backward Euler in one step on the paper's
+# chain (gamma up to 36 % apart: the tangents alone). "backward-euler" is the default with the paper's step map
+# (discretisation, contact_substeps = 1) set in the scenario: the paper's presets themselves pin
+# contact_slr_p = 0.
+SLR_ACTIVE = {("paper.toml", "default"): (1, True), ("shuttle.toml", "default"): None,
+              ("valve.toml", "default"): None, ("paper.toml", "backward-euler"): (0, True)}
 
 
 @pytest.mark.parametrize("name, preset", list(SLR_ACTIVE))
@@ -318,7 +320,7 @@ def test_c_estimator_equals_the_numpy_reference_with_statistically_linearised_co
     the numpy reference's own statistically linearised contacts, every gamma to 1e-8 relative at every step
     and the same flags. The paper's contact is elastic in gamma alone, so its tangents in F and in the Newton
     matrix are the expected ones (also while open, as long as a Gauss-Hermite node penetrates); the
-    shuttle's and the valve's are damped and take the switch alone (SLR_ACTIVE: what each run exercises)."""
+    shuttle's and the valve's are damped and not linearised at all (SLR_ACTIVE: what each run exercises)."""
     from caekf_sim.estimator import run_estimator
     from caekf_sim.experiments import scenario_config
 
@@ -337,10 +339,15 @@ def test_c_estimator_equals_the_numpy_reference_with_statistically_linearised_co
     ref = run_estimator(sc, cfg, tr.t, tr.u, tr.y, keep_P=False)
     contact = (res.flags & fl.CONTACT_ACTIVE) != 0
     assert np.count_nonzero(contact) > 500
-    least, tangents = SLR_ACTIVE[(name, preset)]
-    assert np.count_nonzero(contact & ((base.flags & fl.CONTACT_ACTIVE) == 0)) >= least
-    if tangents:  # the expected tangents act: gamma is not the one of contact_slr_p = 0
-        assert np.max(np.abs(res.gammas / base.gammas - 1)) > 1e-3
+    active = SLR_ACTIVE[(name, preset)]
+    if active is None:  # a damped law: untouched, tangents and switch
+        np.testing.assert_array_equal(res.gammas, base.gammas)
+        np.testing.assert_array_equal(res.flags, base.flags)
+    else:
+        least, tangents = active
+        assert np.count_nonzero(contact & ((base.flags & fl.CONTACT_ACTIVE) == 0)) >= least
+        if tangents:  # the expected tangents act: gamma is not the one of contact_slr_p = 0
+            assert np.max(np.abs(res.gammas / base.gammas - 1)) > 1e-3
     np.testing.assert_allclose(res.gammas, ref.gammas, rtol=1e-8, atol=0)
     np.testing.assert_array_equal(res.flags, ref.flags)
     assert np.count_nonzero(res.newton_iters != ref.newton_iters) <= len(tr.t) // 100

@@ -160,6 +160,25 @@ static void test_slr_switch_is_the_probability_of_contact(void)
     TEST_ASSERT_TRUE(on.open_active > 0); /* live on the open side while contact is probable */
 }
 
+/* A damped law is not linearised statistically (caekf_model_slr_law): its penetration std stays 0 and the
+ * switch is eq. (21)'s sign, as with the setting 0 (the switch alone measured worse on such laws). */
+static void test_slr_leaves_a_damped_contact_alone(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    slr_watch_t w;
+    memset(&w, 0, sizeof w);
+    paper_settings(&s, EXP_SWITCHED);
+    s.contact_slr_p = (caekf_scalar_t)0.01;
+    s.model.contact_lambda[0] = (caekf_scalar_t)0.5;
+    w.p = 0; /* slr_step checks the setting 0's behaviour: s == 0 and the sign switch */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT32(paper_steps(), run_paper(&est, &s, slr_step, &w));
+    TEST_ASSERT_TRUE(w.checked > paper_steps() / 2);
+    TEST_ASSERT_EQUAL_INT32(0, w.disagree);
+    TEST_ASSERT_EQUAL_INT32(0, w.open_active);
+}
+
 /* The same switch at the threshold: one prediction from each of a fine grid of starts around the contact
  * (P0 = I: s = sqrt(2) sigma_q0), so that P(delta > 0) falls on both sides of p and between p and 2 p. */
 static void test_slr_switch_at_its_threshold(void)
@@ -221,6 +240,7 @@ int main(void)
 #if CAEKF_HAS_SLR
     RUN_TEST(test_slr_switch_is_the_probability_of_contact);
     RUN_TEST(test_slr_switch_at_its_threshold);
+    RUN_TEST(test_slr_leaves_a_damped_contact_alone);
 #else
     RUN_TEST(test_slr_refused_where_compiled_out);
 #endif

@@ -22,7 +22,8 @@ mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). O
   correction   G = P H^T (H P H^T + R)^-1, x += G (y - H x), P = (I - G H) P   (eqs. 13-15)
   modes        canonical: Table 1 every step, every gamma live.
                switched (Sec. 3.2): gamma_c is live iff its own contact is closed at the
-               prediction, delta_c(x_k^-) > 0 (eq. 21; contact_slr_p: while P(delta_c > 0) > p); a
+               prediction, delta_c(x_k^-) > 0 (eq. 21; contact_slr_p, an elastic law of gamma alone:
+               while P(delta_c > 0) > p); a
                frozen gamma_c has Q = 0 and keeps its value and variance (eqs. 22-27), and the live
                block L (states + live gammas) is
                propagated and corrected alone. Two variants for the cross-covariance P_Lg of a
@@ -92,7 +93,7 @@ class EstimatorConfig:
     # The setting `contact_slr_p` (0: off): statistically linearised contacts. With s_c = sqrt(b_c^T P_qq b_c)
     # from P_{k-1}, an elastic contact of gamma alone (lambda = 0, none of n, lambda, gap estimated) takes
     # its law's tangents expected over delta ~ N(delta, s_c^2) in F and in the Newton matrix (its force stays
-    # the law's), and every contact with s_c > 0 is active (eq. 21) while P(delta > 0) > contact_slr_p.
+    # the law's), and is active (eq. 21) while P(delta > 0) > contact_slr_p; other laws keep eq. 21's sign.
     contact_slr_p: float = 0.0
 
     def __post_init__(self) -> None:
@@ -159,8 +160,8 @@ class AugmentedEKF:
         # every parameter state of contact c: its gamma and its estimated law parameters
         self.pstates = [[self.ig[c]] + sorted(self.law_state[c].values()) for c in range(nc)]
         self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
-        # contact_slr_p: which contacts take the statistically linearised tangents (an elastic law of gamma
-        # alone), and every contact's penetration std of the current step (0: none)
+        # contact_slr_p: which contacts are statistically linearised (tangents and switch: an elastic law of
+        # gamma alone), and their penetration std of the current step (0: none, or not linearised)
         self.slr_law = [lam == 0.0 and not self.law_state[c] for c, (_, _, _, _, lam) in enumerate(p.contacts)]
         self.slr_s: List[float] = [0.0] * nc
         # the last prediction: substepped, and a contact on at x_{k-1} (read when substeps or trapezoidal)
@@ -389,14 +390,14 @@ class AugmentedEKF:
         return xa, F, iters, ok
 
     def _set_penetration_std(self) -> None:
-        """contact_slr_p: each contact's penetration std sqrt(b^T P_qq b) from P_{k-1}, into the step solvers
-        (for the contacts whose tangents it linearises) and self.slr_s (the switch, every contact)."""
+        """contact_slr_p: the penetration std sqrt(b^T P_qq b) from P_{k-1} of each contact it linearises
+        (0 for the others), into self.slr_s (the switch) and the step solvers (the tangents)."""
         P = self.P
         for c, (a, b, _, _, _) in enumerate(self.plant.contacts):
             var = (P[a, a] if a >= 0 else 0.0) + (P[b, b] if b >= 0 else 0.0) - (2.0 * P[a, b] if a >= 0 and b >= 0
                                                                                    else 0.0)
-            self.slr_s[c] = math.sqrt(var) if var > 0.0 else 0.0
-        slr = tuple(s if ok else 0.0 for s, ok in zip(self.slr_s, self.slr_law))
+            self.slr_s[c] = math.sqrt(var) if var > 0.0 and self.slr_law[c] else 0.0
+        slr = tuple(self.slr_s)
         self.solver.slr = slr
         if self.sub_solver is not None:
             self.sub_solver.slr = slr
