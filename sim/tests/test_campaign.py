@@ -385,3 +385,47 @@ def test_joint_campaign_prints_the_whole_law_table(tmp_path, capsys):
         assert math.isfinite(r["contact1_gap_final_err"])
     joint = pq.read_table(out / "joint.parquet").to_pylist()
     assert joint[0]["group"] == "all" and joint[0]["n"] == 2
+
+
+def test_targets_verdict_counts_each_bound():
+    """[targets]: fractions of the group "all" (>=) and counts (<=), met exactly at the bound; a joint target
+    without the joint table is not measured."""
+    from caekf_sim.campaign.report import format_targets
+    from caekf_sim.campaign.spec import Family
+
+    fam = Family(name="f", runs=(), targets=(("within_1pct", 0.9), ("diverged", 0.0)))
+    row = {"experiment": "a", "group": "all", "n": 10, "within_1pct": 9, "diverged": 0}
+    assert format_targets(fam, [row], []).endswith("-> every target met")
+    assert "within_1pct 90.0 % >= 90 %: met" in format_targets(fam, [row], [])
+    for change in ({"within_1pct": 8}, {"diverged": 1}):
+        text = format_targets(fam, [{**row, **change}], [])
+        assert "NOT met" in text and text.endswith("-> targets NOT met")
+    joint = Family(name="j", runs=(), targets=(("joint_ok", 0.8),))
+    assert "joint_ok: not measured" in format_targets(joint, [row], [])
+    jrow = {"experiment": "a", "group": "all", "crb_meets_targets": 5, "joint_ok": 4}
+    assert "joint_ok 80.0 % >= 80 %: met" in format_targets(joint, [row], [jrow])
+    assert format_targets(Family(name="none", runs=()), [row], []) == ""
+
+
+def test_targets_table_is_checked_in_one_line(tmp_path, capsys):
+    from caekf_sim.cli import main
+
+    for body, expect in (("within_1pct = 1.5", "fraction in [0, 1]"), ("within_2pct = 0.5", "unknown key"),
+                         ("diverged = -1", "count >= 0")):
+        spec = tmp_path / "t.toml"
+        spec.write_text(f'[family]\nname = "t"\n[targets]\n{body}\n')
+        assert main(["campaign", str(spec), "--runs", "1", "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and expect in err
+
+
+def test_issue14_family_prints_its_targets(tmp_path, capsys):
+    from caekf_sim.cli import main
+
+    assert main(["campaign", str(SPEC), "--runs", "2", "--t-end", "2", "--out", str(tmp_path), "--no-progress",
+                 "--workers", "1", "--experiment", "default", "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    line = next(t for t in text.splitlines() if t.startswith("default: "))
+    for name in ("within_1pct", "within_5pct", "diverged", "consistent_3sigma"):
+        assert name in line
+    assert "targets (the spec's [targets]" in (tmp_path / "summary.txt").read_text()

@@ -11,7 +11,7 @@ from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
-from .spec import Family
+from .spec import TARGETS, Family
 
 SUMMARY_COLUMNS = ("experiment", "group", "n", "within_1pct", "within_5pct", "diverged", "consistent_3sigma",
                    "median_abs_err")
@@ -85,6 +85,40 @@ def format_joint(summary: Sequence[Dict[str, Any]]) -> str:
     w = [max(len(r[i]) for r in cells) for i in range(len(head))]
     lines = ["| " + " | ".join(c.ljust(x) for c, x in zip(r, w)) + " |" for r in cells]
     lines.insert(1, "|" + "|".join("-" * (x + 2) for x in w) + "|")
+    return "\n".join(lines)
+
+
+def format_targets(family: Family, summary: Sequence[Dict[str, Any]], joint: Sequence[Dict[str, Any]]) -> str:
+    """The spec's [targets] against the group "all" of each experiment: one line per experiment, each
+    target with its value and met / NOT met; empty without targets (a joint target without the joint
+    table is reported as not measured)."""
+    if not family.targets:
+        return ""
+    lines = []
+    for e in dict.fromkeys(s["experiment"] for s in summary):
+        row = next(s for s in summary if s["experiment"] == e and s["group"] == "all")
+        jrow = next((j for j in joint if j["experiment"] == e and j["group"] == "all"), None)
+        cells, all_met = [], True
+        for name, bound in family.targets:
+            kind = TARGETS[name][1]
+            if name.startswith("joint"):
+                src, total = jrow, (jrow["crb_meets_targets"] if jrow else 0)
+            else:
+                src, total = row, row["n"]
+            if src is None:
+                cells.append(f"{name}: not measured")
+                all_met = False
+                continue
+            v = float(src[name])
+            if kind == "fraction":
+                frac = v / total if total else float("nan")
+                met = frac >= bound
+                cells.append(f"{name} {100 * frac:.1f} % >= {100 * bound:g} %: {'met' if met else 'NOT met'}")
+            else:
+                met = v <= bound
+                cells.append(f"{name} {v:g} <= {bound:g}: {'met' if met else 'NOT met'}")
+            all_met &= met
+        lines.append(f"{e}: " + "; ".join(cells) + f" -> {'every target met' if all_met else 'targets NOT met'}")
     return "\n".join(lines)
 
 

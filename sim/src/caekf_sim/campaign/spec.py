@@ -80,6 +80,15 @@ class Family:
     splits: Tuple[Split, ...] = ()
     drawn: Tuple[str, ...] = ()  # names varied across the family (plots against each)
     seed: Optional[int] = None
+    targets: Tuple[Tuple[str, float], ...] = ()  # the spec's [targets]: (name, bound), checked over all runs
+
+
+# [targets]: what a family must reach, each a bound on one column of the family tables over the group "all".
+# Fractions of the runs (>=) or counts (<=); the joint ones count the runs whose bound allows the targets.
+TARGETS: Dict[str, Tuple[str, str]] = {
+    "within_1pct": (">=", "fraction"), "within_5pct": (">=", "fraction"), "diverged": ("<=", "count"),
+    "consistent_3sigma": (">=", "fraction"), "joint_ok": (">=", "fraction"), "joint_diverged": ("<=", "count"),
+}
 
 
 # ---------------------------------------------------------------- expressions
@@ -169,9 +178,18 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
             spec = tomllib.load(f)
         except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
             raise ValueError(f"{path}: not a TOML family spec: {exc}") from None
-    unknown = sorted(set(spec) - {"family", "structure", "draw", "set", "split"})
+    unknown = sorted(set(spec) - {"family", "structure", "draw", "set", "split", "targets"})
     if unknown:
-        raise ValueError(f"{path}: unknown tables {unknown} (family, structure, draw, set, split)")
+        raise ValueError(f"{path}: unknown tables {unknown} (family, structure, draw, set, split, targets)")
+    targets = spec.get("targets", {})
+    unknown = sorted(set(targets) - set(TARGETS))
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)} in [targets] ({', '.join(TARGETS)})")
+    for k, v in targets.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0 or \
+                (TARGETS[k][1] == "fraction" and v > 1):
+            raise ValueError(f"{path}: [targets] {k} = {v!r}: must be a "
+                             + ("fraction in [0, 1]" if TARGETS[k][1] == "fraction" else "count >= 0"))
     if "family" not in spec:
         raise ValueError(f"{path}: no [family] table (docs/family.md)")
     fam = spec["family"]
@@ -225,7 +243,7 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
     varied = [k for k in (structure or {}) if k in ("bodies", "contacts", "closing")]
     varied += [name.replace("{i}", "1") for name in draws]  # a template: its first element
     return Family(name=str(fam.get("name", path.stem)), runs=tuple(out), splits=splits,
-                  drawn=tuple(varied), seed=root)
+                  drawn=tuple(varied), seed=root, targets=tuple((k, float(v)) for k, v in targets.items()))
 
 
 def _expand(name: str, d: Any, known: Mapping[str, float], path: Path) -> List[Tuple[str, Optional[int]]]:

@@ -46,7 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_campaign(args: argparse.Namespace) -> int:
     import pyarrow.parquet as pq
 
-    from ..campaign.report import format_joint, format_summary, joint_rows, summary_rows, write_plots
+    from ..campaign.report import format_joint, format_summary, format_targets, joint_rows, summary_rows, write_plots
     from ..campaign.runner import rows_table, run_family
     from ..campaign.spec import load_family
 
@@ -91,6 +91,11 @@ def cmd_campaign(args: argparse.Namespace) -> int:
             "every run (--observability: only those the tool says can meet them)"
         text += (f"\nthe whole contact law (contact 1; targets: gamma and n within 2 %, lambda within 10 %, "
                  f"gap within 0.1 um), counted over {sel}:\n\n" + format_joint(joint) + "\n")
+    verdict = format_targets(family, summary, joint)
+    if verdict:
+        over = (", the joint ones over the runs whose bound allows them" if args.observability else
+                ", the joint ones over every run: --observability counts only those whose bound allows them")
+        text += "\ntargets (the spec's [targets], over all runs" + (over if joint else "") + "):\n" + verdict + "\n"
     (out / "summary.txt").write_text(text, encoding="utf-8")
     print(text, end="")
     if not args.no_plots and rows:
