@@ -61,18 +61,33 @@ static void load_fv0(caekf_t *est)
     est->fv_const = 1;
 }
 
-/* Parameter k (state 2 nq + k) gets the lower bound lo (if has_lo) and the upper bound hi (if has_hi),
- * both in the state's own units (ln gamma for a log gamma). */
+/* Parameter k (state 2 nq + k, its initial value already in z) gets the lower bound lo (if has_lo) and
+ * the upper bound hi (if has_hi), both in the state's own units (ln gamma for a log gamma). A scaled
+ * bound is moved inwards by what its rounding lost, so that a state on it reads back within the bound
+ * (found by fuzzing, in float: lo / s underflows to 0, or lo / s * s < lo, and a constrained gamma
+ * reported below gamma_min); the initial value, validated within the bounds, is held to them alike. */
 static void set_bounds(caekf_t *est, int k, int has_lo, caekf_scalar_t lo, int has_hi, caekf_scalar_t hi)
 {
-    const caekf_scalar_t s = est->scale[2 * est->model.nq + k];
+    const int g = 2 * est->model.nq + k;
+    const caekf_scalar_t s = est->scale[g];
+    int i;
     if (has_lo) {
+        caekf_scalar_t b = lo / s;
+        for (i = 0; i < 4 && b * s < lo; ++i) { /* one step, rarely two: the division rounds once */
+            b += CAEKF_FABS(b) * CAEKF_EPS + CAEKF_TINY;
+        }
         est->bound_lo |= 1u << k;
-        est->lo_scaled[k] = lo / s;
+        est->lo_scaled[k] = b;
+        est->z[g] = caekf_max(est->z[g], b);
     }
     if (has_hi) {
+        caekf_scalar_t b = hi / s;
+        for (i = 0; i < 4 && b * s > hi; ++i) {
+            b -= CAEKF_FABS(b) * CAEKF_EPS + CAEKF_TINY;
+        }
         est->bound_hi |= 1u << k;
-        est->hi_scaled[k] = hi / s;
+        est->hi_scaled[k] = b;
+        est->z[g] = est->z[g] > b ? b : est->z[g];
     }
 }
 
