@@ -25,19 +25,48 @@ CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES <= CAEKF_WIRE_MAX_BODIES && CAEKF_MAX_SPRIN
                         CAEKF_MAX_CONTACTS <= CAEKF_WIRE_MAX_CONTACTS,
                     capacities_fit_the_wire);
 
-/* The table row and element of a parameter id; 0 when there is none. Rows are in id order. */
-static const caekf_setting_rule_t *locate(unsigned param_id, unsigned *setting, unsigned *index)
+/* Row k of the table, whose first id is id (ids are dense: the counts of the rows before it). */
+static void decode(unsigned k, unsigned id, caekf_setting_rule_t *r)
 {
-    unsigned k;
+    const caekf_setting_row_t *row = &caekf_setting_rows[k];
+    const caekf_setting_kind_t *kind = &caekf_setting_kinds[row->kind & 15u];
+    const unsigned rule = row->rule & 15u;
+    r->offset = row->offset;
+    r->in_use = kind->in_use;
+    r->id = (uint8_t)id;
+    r->count = kind->count;
+    r->stored = kind->stored;
+    r->limit = (uint8_t)(row->kind >> 4 ? caekf_setting_kinds[row->kind >> 4].stored : 0u);
+    r->storage = rule == CAEKF_RULE_INT ? CAEKF_SETTING_INT : CAEKF_SETTING_REAL;
+    r->rule = (uint8_t)rule;
+    r->lo = rule == CAEKF_RULE_INT ? caekf_setting_ranges[row->rule >> 4][0] : 0u;
+    r->hi = rule == CAEKF_RULE_INT ? caekf_setting_ranges[row->rule >> 4][1] : 0u;
+}
+
+/* The row (decoded into r) and element of a parameter id, or with row < CAEKF_SETTING_COUNT that
+ * row; 0 when there is none. */
+static int locate(unsigned param_id, unsigned row, unsigned *setting, unsigned *index, caekf_setting_rule_t *r)
+{
+    unsigned k, id = 0;
     for (k = 0; k < CAEKF_SETTING_COUNT; ++k) {
-        const caekf_setting_rule_t *r = &caekf_setting_rules[k];
-        if (param_id >= r->id && param_id < (unsigned)r->id + r->count) {
+        decode(k, id, r);
+        if (row < CAEKF_SETTING_COUNT ? k == row : param_id - id < r->count) {
             *setting = k;
-            *index = param_id - r->id;
-            return r;
+            *index = param_id - id;
+            return 1;
         }
+        id += r->count;
     }
     return 0;
+}
+
+caekf_status_t caekf_setting_rule(unsigned setting, caekf_setting_rule_t *rule)
+{
+    unsigned k, index;
+    if (rule == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    return setting < CAEKF_SETTING_COUNT && locate(0, setting, &k, &index, rule) ? CAEKF_OK : CAEKF_ERR_SETTINGS;
 }
 
 /* Byte offset of one element in caekf_settings_t. */
@@ -48,11 +77,19 @@ static size_t element_offset(const caekf_setting_rule_t *r, unsigned index)
 #define ELEMENT(type, s, r, index) ((type *)(void *)((char *)(s) + element_offset((r), (index))))
 #define CELEMENT(type, s, r, index) ((const type *)(const void *)((const char *)(s) + element_offset((r), (index))))
 
+/* One element's value as a double (either storage). */
+static double element_value(const caekf_settings_t *s, const caekf_setting_rule_t *r, unsigned index)
+{
+    return r->storage == CAEKF_SETTING_REAL ? (double)*CELEMENT(caekf_scalar_t, s, r, index)
+                                            : (double)*CELEMENT(int, s, r, index);
+}
+
 static caekf_status_t refuse(caekf_setting_error_t *err, unsigned reason, unsigned param_id)
 {
     if (err != 0) {
         unsigned setting = 0, index = 0;
-        (void)locate(param_id, &setting, &index);
+        caekf_setting_rule_t r;
+        (void)locate(param_id, CAEKF_SETTING_COUNT, &setting, &index, &r);
         err->reason = (uint8_t)reason;
         err->param_id = (uint8_t)param_id;
         err->setting = (uint8_t)setting;
@@ -67,12 +104,12 @@ static caekf_status_t refuse(caekf_setting_error_t *err, unsigned reason, unsign
 caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double value, caekf_setting_error_t *err)
 {
     unsigned setting, index;
-    const caekf_setting_rule_t *r;
+    caekf_setting_rule_t row;
+    const caekf_setting_rule_t *r = &row;
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
-    r = locate(param_id, &setting, &index);
-    if (r == 0) {
+    if (!locate(param_id, CAEKF_SETTING_COUNT, &setting, &index, &row)) {
         if (err != 0) {
             err->reason = CAEKF_SETTING_UNKNOWN_ID;
             err->param_id = (uint8_t)(param_id > 255u ? 255u : param_id);
@@ -98,16 +135,14 @@ caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double
 caekf_status_t caekf_settings_get(const caekf_settings_t *s, unsigned param_id, double *value)
 {
     unsigned setting, index;
-    const caekf_setting_rule_t *r;
+    caekf_setting_rule_t r;
     if (s == 0 || value == 0) {
         return CAEKF_ERR_NULL;
     }
-    r = locate(param_id, &setting, &index);
-    if (r == 0 || index >= r->stored) {
+    if (!locate(param_id, CAEKF_SETTING_COUNT, &setting, &index, &r) || index >= r.stored) {
         return CAEKF_ERR_SETTINGS;
     }
-    *value = r->storage == CAEKF_SETTING_REAL ? (double)*CELEMENT(caekf_scalar_t, s, r, index)
-                                              : (double)*CELEMENT(int, s, r, index);
+    *value = element_value(s, &r, index);
     return CAEKF_OK;
 }
 
@@ -129,9 +164,7 @@ int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
 /* The schema's range rule of one element (an int setting holds an integer by construction). */
 static int in_range(const caekf_settings_t *s, const caekf_setting_rule_t *r, unsigned index)
 {
-    double v;
-    (void)caekf_settings_get(s, (unsigned)r->id + index, &v);
-    return caekf_setting_rule_ok(r->rule, r->lo, r->hi, v);
+    return caekf_setting_rule_ok(r->rule, r->lo, r->hi, element_value(s, r, index));
 }
 
 /* How many elements of a row are in use: its count setting's value (range-checked before, so within
@@ -393,17 +426,20 @@ static int first_unsized_method(const caekf_settings_t *s)
 
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
 {
-    unsigned k, i;
+    unsigned k, i, id = 0;
     unsigned law_count = 0;
+    caekf_setting_rule_t row;
+    const caekf_setting_rule_t *r = &row;
     int bad;
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
     /* Rows are in id order and every count precedes the arrays it counts: an array's in-use count has
      * passed its range and capacity checks when the array is checked. */
-    for (k = 0; k < CAEKF_SETTING_COUNT; ++k) {
-        const caekf_setting_rule_t *r = &caekf_setting_rules[k];
-        unsigned n = elements_in_use(s, r);
+    for (k = 0; k < CAEKF_SETTING_COUNT; ++k, id += row.count) {
+        unsigned n;
+        decode(k, id, &row);
+        n = elements_in_use(s, r);
         for (i = 0; i < n; ++i) {
             if (!in_range(s, r, i)) {
                 return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, r->id + i);
