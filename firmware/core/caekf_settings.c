@@ -78,7 +78,7 @@ static size_t element_offset(const caekf_setting_rule_t *r, unsigned index)
 #define CELEMENT(type, s, r, index) ((const type *)(const void *)((const char *)(s) + element_offset((r), (index))))
 
 /* One element's value as a double (either storage). */
-static double element_value(const caekf_settings_t *s, const caekf_setting_rule_t *r, unsigned index)
+static double element_value(const void *s, const caekf_setting_rule_t *r, unsigned index)
 {
     return r->storage == CAEKF_SETTING_REAL ? (double)*CELEMENT(caekf_scalar_t, s, r, index)
                                             : (double)*CELEMENT(int, s, r, index);
@@ -162,14 +162,14 @@ int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
 }
 
 /* The schema's range rule of one element (an int setting holds an integer by construction). */
-static int in_range(const caekf_settings_t *s, const caekf_setting_rule_t *r, unsigned index)
+static int in_range(const void *s, const caekf_setting_rule_t *r, unsigned index)
 {
     return caekf_setting_rule_ok(r->rule, r->lo, r->hi, element_value(s, r, index));
 }
 
 /* How many elements of a row are in use: its count setting's value (range-checked before, so within
  * the stored capacity), or all it stores. */
-static unsigned elements_in_use(const caekf_settings_t *s, const caekf_setting_rule_t *r)
+static unsigned elements_in_use(const void *s, const caekf_setting_rule_t *r)
 {
     int n;
     if (r->in_use == CAEKF_ALL_IN_USE) {
@@ -177,6 +177,35 @@ static unsigned elements_in_use(const caekf_settings_t *s, const caekf_setting_r
     }
     n = *(const int *)(const void *)((const char *)s + r->in_use);
     return n < 0 ? 0u : ((unsigned)n < r->stored ? (unsigned)n : r->stored);
+}
+
+/* The range and capacity rules of the table's rows that lie in the first `size` bytes of caekf_settings_t
+ * (all, or its model: caekf_model_params_check), read from s: the first offending id with *reason, or -1.
+ * Rows are in id order and every count precedes the arrays it counts: an array's in-use count has passed
+ * its range and capacity checks when the array is checked. */
+static int first_out_of_range(const void *s, size_t size, unsigned *reason)
+{
+    caekf_setting_rule_t r;
+    unsigned k, i, id = 0;
+    for (k = 0; k < CAEKF_SETTING_COUNT; ++k, id += r.count) {
+        unsigned n;
+        decode(k, id, &r);
+        if (r.offset >= size) {
+            continue;
+        }
+        n = elements_in_use(s, &r);
+        *reason = CAEKF_SETTING_OUT_OF_RANGE;
+        for (i = 0; i < n; ++i) {
+            if (!in_range(s, &r, i)) {
+                return (int)(id + i);
+            }
+        }
+        *reason = CAEKF_SETTING_OVER_CAPACITY;
+        if (r.limit != 0 && *CELEMENT(int, s, &r, 0) > (int)r.limit) {
+            return (int)id;
+        }
+    }
+    return -1;
 }
 
 /* Values caekf_init derives must be usable in this scalar type too: finite settings can still overflow
@@ -393,61 +422,76 @@ static int first_unsized(const caekf_model_params_t *m)
 }
 
 /* A build sized for one configuration (CAEKF_SIZED_METHOD) runs exactly its step method: the first
- * setting that differs. */
-static int first_unsized_method(const caekf_settings_t *s)
+ * setting that differs, in the model m and, unless s is NULL (the model's own check), the settings s. */
+static int first_unsized_method(const caekf_model_params_t *m, const caekf_settings_t *s)
 {
 #if CAEKF_SIZED_METHOD
     unsigned i;
-    if (s->model.discretisation != CAEKF_SIZED_DISCRETISATION) {
+    if (m->discretisation != CAEKF_SIZED_DISCRETISATION) {
         return (int)CAEKF_PARAM_DISCRETISATION;
     }
-    if (s->contact_substeps != CAEKF_SIZED_CONTACT_SUBSTEPS) {
+    if (s != 0 && s->contact_substeps != CAEKF_SIZED_CONTACT_SUBSTEPS) {
         return (int)CAEKF_PARAM_CONTACT_SUBSTEPS;
     }
-    if (s->model.gamma_log != CAEKF_SIZED_GAMMA_LOG) {
+    if (m->gamma_log != CAEKF_SIZED_GAMMA_LOG) {
         return (int)CAEKF_PARAM_GAMMA_LOG;
     }
-    if (s->contact_slr_p != 0) { /* statistically linearised contacts: a run-time choice (CAEKF_HAS_SLR) */
+    if (s != 0 && s->contact_slr_p != 0) { /* statistically linearised contacts: a run-time choice (CAEKF_HAS_SLR) */
         return (int)CAEKF_PARAM_CONTACT_SLR_P;
     }
 #ifdef CAEKF_SIZED_CONTACT_N
-    for (i = 0; i < (unsigned)s->model.contacts; ++i) {
-        if (s->model.contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
+    for (i = 0; i < (unsigned)m->contacts; ++i) {
+        if (m->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
             return (int)(CAEKF_PARAM_CONTACT_N + i);
         }
     }
 #endif
     (void)i;
 #else
+    (void)m;
     (void)s;
 #endif
     return -1;
 }
 
+/* The estimated law parameters of the model's contacts. */
+static unsigned law_params(const caekf_model_params_t *m)
+{
+    unsigned i, law = 0;
+    for (i = 0; i < (unsigned)m->contacts; ++i) {
+        law += (unsigned)(m->contact_estimate_n[i] + m->contact_estimate_lambda[i] + m->contact_estimate_gap[i]);
+    }
+    return law;
+}
+
+CAEKF_STATIC_ASSERT(offsetof(caekf_settings_t, model) == 0, the_model_leads_the_settings);
+
+/* The model's own defence: the checks of caekf_settings_validate that concern the model alone (the same
+ * code: its rows of the table, the bodies, a sized build's counts and method, the law parameters' room),
+ * so that an invalid mechanism can never be derived (validation says which parameter is wrong). Returns
+ * 0 if valid. */
+int caekf_model_params_check(const caekf_model_params_t *p)
+{
+    unsigned reason, law;
+    if (first_out_of_range(p, sizeof *p, &reason) >= 0 || first_bad_body(p) >= 0 || first_unsized(p) >= 0 ||
+        first_unsized_method(p, 0) >= 0) {
+        return 1;
+    }
+    law = law_params(p);
+    return law > (unsigned)CAEKF_MAX_LAW_PARAMS || (CAEKF_SIZED && law != (unsigned)CAEKF_MAX_LAW_PARAMS);
+}
+
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
 {
-    unsigned k, i, id = 0;
+    unsigned k, i;
     unsigned law_count = 0;
-    caekf_setting_rule_t row;
-    const caekf_setting_rule_t *r = &row;
     int bad;
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
-    /* Rows are in id order and every count precedes the arrays it counts: an array's in-use count has
-     * passed its range and capacity checks when the array is checked. */
-    for (k = 0; k < CAEKF_SETTING_COUNT; ++k, id += row.count) {
-        unsigned n;
-        decode(k, id, &row);
-        n = elements_in_use(s, r);
-        for (i = 0; i < n; ++i) {
-            if (!in_range(s, r, i)) {
-                return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, r->id + i);
-            }
-        }
-        if (r->limit != 0 && *CELEMENT(int, s, r, 0) > (int)r->limit) {
-            return refuse(err, CAEKF_SETTING_OVER_CAPACITY, r->id);
-        }
+    bad = first_out_of_range(s, sizeof *s, &k);
+    if (bad >= 0) {
+        return refuse(err, k, (unsigned)bad);
     }
     if (s->newton_max_iter > CAEKF_NEWTON_MAX_ITER) {
         return refuse(err, CAEKF_SETTING_OVER_CAPACITY, CAEKF_PARAM_NEWTON_MAX_ITER);
@@ -463,7 +507,7 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     }
     bad = first_unsized(&s->model);
     if (bad < 0) {
-        bad = first_unsized_method(s);
+        bad = first_unsized_method(&s->model, s);
     }
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);

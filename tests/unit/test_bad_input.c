@@ -82,11 +82,21 @@ static void expect_refused(caekf_settings_t *bad, unsigned param_id, unsigned re
     TEST_ASSERT_EQUAL_UINT_MESSAGE(reason, err.reason, what);
 }
 
-#define REFUSE(field, value, param_id)                                                   \
-    do {                                                                                 \
-        caekf_settings_t b = good;                                                       \
-        b.field = value;                                                                 \
-        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value); \
+/* A refused element of the model is refused by the model itself too (caekf_model_init's own defence). */
+static void expect_model_refuses(const caekf_settings_t *bad, size_t offset, const char *what)
+{
+    caekf_model_t m;
+    if (offset < sizeof bad->model) {
+        TEST_ASSERT_EQUAL_INT_MESSAGE(-1, caekf_model_init(&m, &bad->model), what);
+    }
+}
+
+#define REFUSE(field, value, param_id)                                                    \
+    do {                                                                                  \
+        caekf_settings_t b = good;                                                        \
+        b.field = value;                                                                  \
+        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value);  \
+        expect_model_refuses(&b, offsetof(caekf_settings_t, field), #field " = " #value); \
     } while (0)
 
 static void test_bad_settings_are_refused(void)
