@@ -125,7 +125,7 @@ caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double
         *ELEMENT(caekf_scalar_t, s, r, index) = (caekf_scalar_t)value; /* range: at validation */
         return CAEKF_OK;
     }
-    if (!(value >= -INT_SETTING_LIMIT && value <= INT_SETTING_LIMIT) || value != (double)(long)value) {
+    if (!caekf_setting_rule_ok(CAEKF_RULE_INT, -INT_SETTING_LIMIT, INT_SETTING_LIMIT, value)) {
         return refuse(err, CAEKF_SETTING_NOT_INTEGER, param_id);
     }
     *ELEMENT(int, s, r, index) = (int)value;
@@ -148,7 +148,7 @@ caekf_status_t caekf_settings_get(const caekf_settings_t *s, unsigned param_id, 
 
 int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
 {
-    if (!(v == v) || !(v - v == 0)) { /* NaN or infinite */
+    if (!(v - v == 0)) { /* NaN or infinite: v - v is NaN */
         return 0;
     }
     switch (rule) {
@@ -211,15 +211,23 @@ static int first_out_of_range(const void *s, size_t size, unsigned *reason)
 /* Values caekf_init derives must be usable in this scalar type too: finite settings can still overflow
  * or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in float,
  * subnormal sigmas in double). Each check repeats the operation of the value it guards: the quotient
- * num / den (squared if sq, times fac) must be finite, and > 0 if pos. Returns 1 if it passes. */
-CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, int sq, int pos)
+ * num / den (squared with USABLE_SQ, times fac) must be finite, and > 0 with USABLE_POS. Returns 1 if it passes. */
+#define USABLE_SQ 1u  /* the quotient squared */
+#define USABLE_POS 2u /* and > 0 */
+CAEKF_NOINLINE static int usable_times(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, unsigned how)
 {
     caekf_scalar_t r = num / den;
-    if (sq) {
+    if (how & USABLE_SQ) {
         r *= r;
     }
     r *= fac;
-    return CAEKF_ISFINITE(r) && (!pos || r > 0);
+    return CAEKF_ISFINITE(r) && (!(how & USABLE_POS) || r > 0);
+}
+
+/* usable_times with fac = 1 (the same value: r * 1 is r): the common case, one argument less a call. */
+CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, unsigned how)
+{
+    return usable_times(num, den, 1, how);
 }
 
 #if CAEKF_HAS_LAW_PARAMS
@@ -228,8 +236,8 @@ CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_s
 static int law_unscalable(caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q, caekf_scalar_t lo,
                           caekf_scalar_t hi, caekf_scalar_t sigma_v0, int id0, int *bad)
 {
-    if (!usable(x0, sigma0, 1, 0, 0) || !usable(lo, sigma0, 1, 0, 0) || !usable(hi, sigma0, 1, 0, 0) ||
-        !usable(sigma_q, sigma0, 1, 1, 0) || !usable(sigma0, sigma_v0, 1, 0, 1)) {
+    if (!usable(x0, sigma0, 0) || !usable(lo, sigma0, 0) || !usable(hi, sigma0, 0) ||
+        !usable(sigma_q, sigma0, USABLE_SQ) || !usable(sigma0, sigma_v0, USABLE_POS)) {
         *bad = id0;
         return 1;
     }
@@ -260,35 +268,35 @@ static int first_unscalable(const caekf_settings_t *s)
     int bad = -1;
 #endif
     for (i = 0; i < m->bodies; ++i) {
-        if (!usable(s->q0[i], s->sigma_q0, 1, 0, 0)) {
+        if (!usable(s->q0[i], s->sigma_q0, 0)) {
             return (int)CAEKF_PARAM_Q0 + i;
         }
-        if (!usable(s->v0[i], s->sigma_v0, 1, 0, 0)) {
+        if (!usable(s->v0[i], s->sigma_v0, 0)) {
             return (int)CAEKF_PARAM_V0 + i;
         }
-        if (!usable(m->m[i], m->dt, 1, 0, 1)) {
+        if (!usable(m->m[i], m->dt, USABLE_POS)) {
             return (int)CAEKF_PARAM_M + i;
         }
     }
     for (i = 0; i < m->springs; ++i) { /* A0 = M/dt + C + dt K takes dt k of each link */
-        if (!usable(m->spring_k[i], 1, m->dt, 0, 0)) {
+        if (!usable_times(m->spring_k[i], 1, m->dt, 0)) {
             return (int)CAEKF_PARAM_DT;
         }
     }
     for (i = 0; i < m->contacts; ++i) {
-        if (!usable(s->gamma0[i], s->sigma_gamma0[i], 1, 0, 0)) {
+        if (!usable(s->gamma0[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA0 + i;
         }
-        if (!usable(s->gamma_min[i], s->sigma_gamma0[i], 1, 0, 0)) {
+        if (!usable(s->gamma_min[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA_MIN + i;
         }
-        if (!usable(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, 1, 0)) {
+        if (!usable_times(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, USABLE_SQ)) {
             return (int)CAEKF_PARAM_SIGMA_Q_GAMMA + i;
         }
-        if (m->gamma_log && !usable(s->sigma_gamma0[i], s->gamma0[i], 1, 0, 1)) { /* ln gamma's scale */
+        if (m->gamma_log && !usable(s->sigma_gamma0[i], s->gamma0[i], USABLE_POS)) { /* ln gamma's scale */
             return (int)CAEKF_PARAM_SIGMA_GAMMA0 + i;
         }
-        if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 1, 0, 0)) {
+        if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA_MAX + i;
         }
 #if CAEKF_HAS_LAW_PARAMS
@@ -297,21 +305,21 @@ static int first_unscalable(const caekf_settings_t *s)
         }
 #endif
         /* The scaled transition multiplies by sigma_gamma0 / sigma_v0. */
-        if (!usable(s->sigma_gamma0[i], s->sigma_v0, 1, 0, 1)) {
+        if (!usable(s->sigma_gamma0[i], s->sigma_v0, USABLE_POS)) {
             return (int)CAEKF_PARAM_SIGMA_V0;
         }
     }
-    if (!usable(s->sigma_qx_q, s->sigma_q0, 1, 1, 0)) {
+    if (!usable(s->sigma_qx_q, s->sigma_q0, USABLE_SQ)) {
         return (int)CAEKF_PARAM_SIGMA_QX_Q;
     }
-    if (!usable(s->sigma_qx_v, s->sigma_v0, 1, 1, 0)) {
+    if (!usable(s->sigma_qx_v, s->sigma_v0, USABLE_SQ)) {
         return (int)CAEKF_PARAM_SIGMA_QX_V;
     }
-    if (!usable(s->sigma_r, s->sigma_q0, 1, 1, 1)) {
+    if (!usable(s->sigma_r, s->sigma_q0, USABLE_SQ | USABLE_POS)) {
         return (int)CAEKF_PARAM_SIGMA_R;
     }
     /* The scaled transition S^-1 F S multiplies by rq, 1 / rq and dt / rq. */
-    if (!usable(s->sigma_q0, s->sigma_v0, 1, 0, 1) || !usable(1, rq, 1, 0, 1) || !usable(m->dt, rq, 1, 0, 1)) {
+    if (!usable(s->sigma_q0, s->sigma_v0, USABLE_POS) || !usable(1, rq, USABLE_POS) || !usable(m->dt, rq, USABLE_POS)) {
         return (int)CAEKF_PARAM_SIGMA_V0;
     }
     return -1;

@@ -253,7 +253,8 @@ extern const uint16_t caekf_setting_ranges[][2];
  * 25) and zero for the settings without a default (the model, gamma0, sigma0s and noise): the caller
  * must fill those. */
 caekf_status_t caekf_settings_default(caekf_settings_t *s);
-/* The generated part of it: writes every default the schema gives, touches nothing else. */
+/* The generated part of it, on settings caekf_settings_default has zeroed: writes every default the
+ * schema gives that differs from all bits zero (0, 0.0, the first enumerator), touches nothing else. */
 caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s);
 
 /* Sets one element by its CTRL_PARAM id (the scenario keys and the wire use the same ids). Integer,

@@ -366,6 +366,17 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
     return "\n".join(lines + ["", "#endif", ""])
 
 
+def _all_bits_zero(s: "Setting", d: Any) -> bool:
+    """A default that all-bits-zero storage already holds: 0, +0.0 or an enum's first value."""
+    if isinstance(d, str) and d.endswith("eps"):
+        return False
+    if s.type == "enum":
+        return s.values.index(str(d)) == 0
+    if s.type == "real":
+        return float(d) == 0.0 and math.copysign(1.0, float(d)) > 0
+    return int(float(d)) == 0
+
+
 def pair_ok(s: "Setting") -> int:
     """The larger bound of an integer rule (0 for other rules): the table stores them as uint16_t."""
     return 0 if s.range != "int" else (int(s.hi) if int(s.lo) >= 0 else -1)
@@ -434,12 +445,14 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
           " * a count setting counts), rule (low nibble; high nibble: the range of an integer rule). */",
           "const caekf_setting_row_t caekf_setting_rows[CAEKF_SETTING_COUNT] = {"]
     c += rows
+    # caekf_settings_default zeroes the settings first (all bits zero: 0, 0.0 and the first enumerator), so
+    # only the defaults that differ from it are written.
     c += ["};", "", "caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s)", "{",
           "    unsigned i;", "    if (s == 0) {", "        return CAEKF_ERR_NULL;", "    }"]
     for s in wire:
         for i in range(s.count):
             d = s.element_default(i)
-            if d is None:
+            if d is None or _all_bits_zero(s, d):
                 continue
             if isinstance(d, str) and d.endswith("eps"):
                 expr = f"(caekf_scalar_t){d.split()[0]} * CAEKF_EPS"
