@@ -325,39 +325,37 @@ static int first_unscalable(const caekf_settings_t *s)
     return -1;
 }
 
-/* A body number: 1..bodies, or also 0 (the ground) where allowed. */
-static int body_ok(const caekf_model_params_t *m, int body, int ground_ok)
-{
-    return body <= m->bodies && (body >= 1 || (ground_ok && body == 0));
-}
+/* A body number within the mechanism. Its lower bound (0, the ground, or 1 where the ground is not
+ * allowed) is the setting's range rule, which every caller has checked before. */
+static int body_ok(const caekf_model_params_t *m, int body) { return body <= m->bodies; }
 
 /* The mechanism's references between its elements; returns the first offending parameter id or -1. */
 static int first_bad_body(const caekf_model_params_t *m)
 {
     int i;
     for (i = 0; i < m->springs; ++i) {
-        if (!body_ok(m, m->spring_a[i], 1)) {
+        if (!body_ok(m, m->spring_a[i])) {
             return (int)CAEKF_PARAM_SPRING_A + i;
         }
-        if (!body_ok(m, m->spring_b[i], 1) || m->spring_b[i] == m->spring_a[i]) {
+        if (!body_ok(m, m->spring_b[i]) || m->spring_b[i] == m->spring_a[i]) {
             return (int)CAEKF_PARAM_SPRING_B + i;
         }
     }
     for (i = 0; i < m->inputs; ++i) {
-        if (!body_ok(m, m->input_body[i], 0)) {
+        if (!body_ok(m, m->input_body[i])) {
             return (int)CAEKF_PARAM_INPUT_BODY + i;
         }
     }
     for (i = 0; i < m->sensors; ++i) {
-        if (!body_ok(m, m->sensor_body[i], 0)) {
+        if (!body_ok(m, m->sensor_body[i])) {
             return (int)CAEKF_PARAM_SENSOR_BODY + i;
         }
     }
     for (i = 0; i < m->contacts; ++i) {
-        if (!body_ok(m, m->contact_a[i], 1)) {
+        if (!body_ok(m, m->contact_a[i])) {
             return (int)CAEKF_PARAM_CONTACT_A + i;
         }
-        if (!body_ok(m, m->contact_b[i], 1) || m->contact_b[i] == m->contact_a[i]) {
+        if (!body_ok(m, m->contact_b[i]) || m->contact_b[i] == m->contact_a[i]) {
             return (int)CAEKF_PARAM_CONTACT_B + i;
         }
     }
