@@ -911,18 +911,8 @@ caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
 
 caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
 {
-    caekf_scalar_t f;
-    int g;
-    const caekf_status_t ok = readable(est, gamma);
-    if (ok != CAEKF_OK) {
-        return ok;
-    }
-    if (est->model.nc < 1) {
-        return CAEKF_ERR_SETTINGS;
-    }
-    g = 2 * est->model.nq;
-    *gamma = state_value(est, g, &f);
-    return CAEKF_OK;
+    /* the first contact's gamma: the same refusals in the same order, but gamma must be given */
+    return gamma == 0 ? CAEKF_ERR_NULL : caekf_get_contact_law(est, 0, gamma, 0, 0, 0);
 }
 
 caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *gamma, caekf_scalar_t *n,
