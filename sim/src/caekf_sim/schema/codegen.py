@@ -420,9 +420,9 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
                  f"CAEKF_MAX_{_macro(cap)}}}, /* {cap} */")
     rows = []
     for s in wire:
+        counted = schema.by_name(s.in_use_by).counts if s.in_use_by is not None else None
         if (s.capacity is None) != (s.in_use_by is None) or (s.capacity is None and s.count != 1) or (
-                s.capacity is not None and (s.count != schema.capacity[s.capacity]
-                                            or schema.by_name(s.in_use_by).counts != s.capacity)):
+                s.capacity is not None and (s.count != schema.capacity[s.capacity] or counted != s.capacity)):
             raise SchemaError(f"{s.name}: an array's count, capacity and in-use count must agree")
         if (s.range == "int") != (s.type != "real"):
             raise SchemaError(f"{s.name}: integer storage exactly for the integer rule")
