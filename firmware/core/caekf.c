@@ -875,13 +875,20 @@ caekf_status_t caekf_correct(caekf_t *est, const caekf_scalar_t *u, const caekf_
     return advance(est, u, y, 1, 0, report);
 }
 
-caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs)
+/* The accessors' common refusals: a NULL instance or output, then an instance never initialised. */
+CAEKF_NOINLINE static caekf_status_t readable(const caekf_t *est, const void *out)
 {
-    if (est == 0 || n == 0 || sensors == 0 || inputs == 0) {
+    if (est == 0 || out == 0) {
         return CAEKF_ERR_NULL;
     }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
+    return is_init(est) ? CAEKF_OK : CAEKF_ERR_NOT_INIT;
+}
+
+caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs)
+{
+    const caekf_status_t ok = readable(est, (n && sensors && inputs) ? (const void *)n : 0);
+    if (ok != CAEKF_OK) {
+        return ok;
     }
     *n = est->model.n;
     *sensors = est->cfg.model.sensors;
@@ -907,11 +914,9 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
 caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
 {
     int i;
-    if (est == 0 || x == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
+    const caekf_status_t ok = readable(est, x);
+    if (ok != CAEKF_OK) {
+        return ok;
     }
     for (i = 0; i < CAEKF_N; ++i) {
         caekf_scalar_t f;
@@ -922,20 +927,8 @@ caekf_status_t caekf_get_state(const caekf_t *est, caekf_scalar_t x[CAEKF_N])
 
 caekf_status_t caekf_get_gamma(const caekf_t *est, caekf_scalar_t *gamma)
 {
-    caekf_scalar_t f;
-    int g;
-    if (est == 0 || gamma == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
-    }
-    if (est->model.nc < 1) {
-        return CAEKF_ERR_SETTINGS;
-    }
-    g = 2 * est->model.nq;
-    *gamma = state_value(est, g, &f);
-    return CAEKF_OK;
+    /* the first contact's gamma: the same refusals in the same order, but gamma must be given */
+    return gamma == 0 ? CAEKF_ERR_NULL : caekf_get_contact_law(est, 0, gamma, 0, 0, 0);
 }
 
 caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *gamma, caekf_scalar_t *n,
@@ -944,11 +937,9 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
     const caekf_model_run_params_t *p;
     caekf_scalar_t law[CAEKF_LAW_COUNT], f;
     int k, g;
-    if (est == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
+    const caekf_status_t ok = readable(est, est);
+    if (ok != CAEKF_OK) {
+        return ok;
     }
     if (c < 0 || c >= est->model.nc) {
         return CAEKF_ERR_SETTINGS;
@@ -1001,11 +992,9 @@ static void physical_covariance(const caekf_t *est, caekf_scalar_t *out, int ld)
 caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_N])
 {
     int i;
-    if (est == 0 || var == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
+    const caekf_status_t ok = readable(est, var);
+    if (ok != CAEKF_OK) {
+        return ok;
     }
     for (i = 0; i < CAEKF_N; ++i) {
         var[i] = 0;
@@ -1021,11 +1010,9 @@ caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_
 caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N][CAEKF_N])
 {
     int i, j;
-    if (est == 0 || P == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
+    const caekf_status_t ok = readable(est, P);
+    if (ok != CAEKF_OK) {
+        return ok;
     }
     for (i = 0; i < CAEKF_N; ++i) {
         for (j = 0; j < CAEKF_N; ++j) {
@@ -1038,37 +1025,12 @@ caekf_status_t caekf_get_covariance(const caekf_t *est, caekf_scalar_t P[CAEKF_N
 
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2)
 {
-    if (est == 0 || norm2 == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
+    const caekf_status_t ok = readable(est, norm2);
+    if (ok != CAEKF_OK) {
+        return ok;
     }
     /* P_work is free between steps: it takes the physical P while scratch is the eigen workspace. */
     physical_covariance(est, est->P_work, est->model.n);
     return caekf_sym_norm2(est->P_work, est->model.n, est->scratch.m, norm2) == CAEKF_LA_OK ? CAEKF_OK
                                                                                             : CAEKF_ERR_NUMERIC;
-}
-
-const char *caekf_status_str(caekf_status_t st)
-{
-    switch (st) {
-    case CAEKF_OK: return "ok";
-    case CAEKF_ERR_NULL: return "null pointer";
-    case CAEKF_ERR_SETTINGS: return "settings refused";
-    case CAEKF_ERR_NOT_INIT: return "not initialised";
-    case CAEKF_ERR_INPUT: return "non-finite input rejected";
-    case CAEKF_ERR_NUMERIC: return "non-finite result, rolled back";
-    case CAEKF_ERR_SINGULAR: return "singular matrix, rolled back";
-    default: return "unknown status";
-    }
-}
-
-const char *caekf_flag_name(unsigned bit_index)
-{
-    static const char *const names[CAEKF_FLAG_COUNT] = {
-        "newton_not_converged", "input_rejected",      "constraint_applied", "contact_active",
-        "cov_repaired",         "singular_innovation", "constraint_clamped", "numeric_rollback",
-        "gamma_frozen",         "cov_indefinite",      "no_measurement",     "gamma_gated"};
-    return bit_index < CAEKF_FLAG_COUNT ? names[bit_index] : "unknown";
 }

@@ -25,19 +25,48 @@ CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES <= CAEKF_WIRE_MAX_BODIES && CAEKF_MAX_SPRIN
                         CAEKF_MAX_CONTACTS <= CAEKF_WIRE_MAX_CONTACTS,
                     capacities_fit_the_wire);
 
-/* The table row and element of a parameter id; 0 when there is none. Rows are in id order. */
-static const caekf_setting_rule_t *locate(unsigned param_id, unsigned *setting, unsigned *index)
+/* Row k of the table, whose first id is id (ids are dense: the counts of the rows before it). */
+static void decode(unsigned k, unsigned id, caekf_setting_rule_t *r)
 {
-    unsigned k;
+    const caekf_setting_row_t *row = &caekf_setting_rows[k];
+    const caekf_setting_kind_t *kind = &caekf_setting_kinds[row->kind & 15u];
+    const unsigned rule = row->rule & 15u;
+    r->offset = row->offset;
+    r->in_use = kind->in_use;
+    r->id = (uint8_t)id;
+    r->count = kind->count;
+    r->stored = kind->stored;
+    r->limit = (uint8_t)(row->kind >> 4 ? caekf_setting_kinds[row->kind >> 4].stored : 0u);
+    r->storage = rule == CAEKF_RULE_INT ? CAEKF_SETTING_INT : CAEKF_SETTING_REAL;
+    r->rule = (uint8_t)rule;
+    r->lo = rule == CAEKF_RULE_INT ? caekf_setting_ranges[row->rule >> 4][0] : 0u;
+    r->hi = rule == CAEKF_RULE_INT ? caekf_setting_ranges[row->rule >> 4][1] : 0u;
+}
+
+/* The row (decoded into r) and element of a parameter id, or with row < CAEKF_SETTING_COUNT that
+ * row; 0 when there is none. */
+static int locate(unsigned param_id, unsigned row, unsigned *setting, unsigned *index, caekf_setting_rule_t *r)
+{
+    unsigned k, id = 0;
     for (k = 0; k < CAEKF_SETTING_COUNT; ++k) {
-        const caekf_setting_rule_t *r = &caekf_setting_rules[k];
-        if (param_id >= r->id && param_id < (unsigned)r->id + r->count) {
+        decode(k, id, r);
+        if (row < CAEKF_SETTING_COUNT ? k == row : param_id - id < r->count) {
             *setting = k;
-            *index = param_id - r->id;
-            return r;
+            *index = param_id - id;
+            return 1;
         }
+        id += r->count;
     }
     return 0;
+}
+
+caekf_status_t caekf_setting_rule(unsigned setting, caekf_setting_rule_t *rule)
+{
+    unsigned k, index;
+    if (rule == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    return setting < CAEKF_SETTING_COUNT && locate(0, setting, &k, &index, rule) ? CAEKF_OK : CAEKF_ERR_SETTINGS;
 }
 
 /* Byte offset of one element in caekf_settings_t. */
@@ -48,11 +77,19 @@ static size_t element_offset(const caekf_setting_rule_t *r, unsigned index)
 #define ELEMENT(type, s, r, index) ((type *)(void *)((char *)(s) + element_offset((r), (index))))
 #define CELEMENT(type, s, r, index) ((const type *)(const void *)((const char *)(s) + element_offset((r), (index))))
 
+/* One element's value as a double (either storage). */
+static double element_value(const void *s, const caekf_setting_rule_t *r, unsigned index)
+{
+    return r->storage == CAEKF_SETTING_REAL ? (double)*CELEMENT(caekf_scalar_t, s, r, index)
+                                            : (double)*CELEMENT(int, s, r, index);
+}
+
 static caekf_status_t refuse(caekf_setting_error_t *err, unsigned reason, unsigned param_id)
 {
     if (err != 0) {
         unsigned setting = 0, index = 0;
-        (void)locate(param_id, &setting, &index);
+        caekf_setting_rule_t r;
+        (void)locate(param_id, CAEKF_SETTING_COUNT, &setting, &index, &r);
         err->reason = (uint8_t)reason;
         err->param_id = (uint8_t)param_id;
         err->setting = (uint8_t)setting;
@@ -67,12 +104,12 @@ static caekf_status_t refuse(caekf_setting_error_t *err, unsigned reason, unsign
 caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double value, caekf_setting_error_t *err)
 {
     unsigned setting, index;
-    const caekf_setting_rule_t *r;
+    caekf_setting_rule_t row;
+    const caekf_setting_rule_t *r = &row;
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
-    r = locate(param_id, &setting, &index);
-    if (r == 0) {
+    if (!locate(param_id, CAEKF_SETTING_COUNT, &setting, &index, &row)) {
         if (err != 0) {
             err->reason = CAEKF_SETTING_UNKNOWN_ID;
             err->param_id = (uint8_t)(param_id > 255u ? 255u : param_id);
@@ -88,7 +125,7 @@ caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double
         *ELEMENT(caekf_scalar_t, s, r, index) = (caekf_scalar_t)value; /* range: at validation */
         return CAEKF_OK;
     }
-    if (!(value >= -INT_SETTING_LIMIT && value <= INT_SETTING_LIMIT) || value != (double)(long)value) {
+    if (!caekf_setting_rule_ok(CAEKF_RULE_INT, -INT_SETTING_LIMIT, INT_SETTING_LIMIT, value)) {
         return refuse(err, CAEKF_SETTING_NOT_INTEGER, param_id);
     }
     *ELEMENT(int, s, r, index) = (int)value;
@@ -98,22 +135,20 @@ caekf_status_t caekf_settings_set(caekf_settings_t *s, unsigned param_id, double
 caekf_status_t caekf_settings_get(const caekf_settings_t *s, unsigned param_id, double *value)
 {
     unsigned setting, index;
-    const caekf_setting_rule_t *r;
+    caekf_setting_rule_t r;
     if (s == 0 || value == 0) {
         return CAEKF_ERR_NULL;
     }
-    r = locate(param_id, &setting, &index);
-    if (r == 0 || index >= r->stored) {
+    if (!locate(param_id, CAEKF_SETTING_COUNT, &setting, &index, &r) || index >= r.stored) {
         return CAEKF_ERR_SETTINGS;
     }
-    *value = r->storage == CAEKF_SETTING_REAL ? (double)*CELEMENT(caekf_scalar_t, s, r, index)
-                                              : (double)*CELEMENT(int, s, r, index);
+    *value = element_value(s, &r, index);
     return CAEKF_OK;
 }
 
 int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
 {
-    if (!(v == v) || !(v - v == 0)) { /* NaN or infinite */
+    if (!(v - v == 0)) { /* NaN or infinite: v - v is NaN */
         return 0;
     }
     switch (rule) {
@@ -127,16 +162,14 @@ int caekf_setting_rule_ok(unsigned rule, double lo, double hi, double v)
 }
 
 /* The schema's range rule of one element (an int setting holds an integer by construction). */
-static int in_range(const caekf_settings_t *s, const caekf_setting_rule_t *r, unsigned index)
+static int in_range(const void *s, const caekf_setting_rule_t *r, unsigned index)
 {
-    double v;
-    (void)caekf_settings_get(s, (unsigned)r->id + index, &v);
-    return caekf_setting_rule_ok(r->rule, r->lo, r->hi, v);
+    return caekf_setting_rule_ok(r->rule, r->lo, r->hi, element_value(s, r, index));
 }
 
 /* How many elements of a row are in use: its count setting's value (range-checked before, so within
  * the stored capacity), or all it stores. */
-static unsigned elements_in_use(const caekf_settings_t *s, const caekf_setting_rule_t *r)
+static unsigned elements_in_use(const void *s, const caekf_setting_rule_t *r)
 {
     int n;
     if (r->in_use == CAEKF_ALL_IN_USE) {
@@ -146,18 +179,55 @@ static unsigned elements_in_use(const caekf_settings_t *s, const caekf_setting_r
     return n < 0 ? 0u : ((unsigned)n < r->stored ? (unsigned)n : r->stored);
 }
 
+/* The range and capacity rules of the table's rows that lie in the first `size` bytes of caekf_settings_t
+ * (all, or its model: caekf_model_params_check), read from s: the first offending id with *reason, or -1.
+ * Rows are in id order and every count precedes the arrays it counts: an array's in-use count has passed
+ * its range and capacity checks when the array is checked. */
+static int first_out_of_range(const void *s, size_t size, unsigned *reason)
+{
+    caekf_setting_rule_t r;
+    unsigned k, i, id = 0;
+    for (k = 0; k < CAEKF_SETTING_COUNT; ++k, id += r.count) {
+        unsigned n;
+        decode(k, id, &r);
+        if (r.offset >= size) {
+            continue;
+        }
+        n = elements_in_use(s, &r);
+        *reason = CAEKF_SETTING_OUT_OF_RANGE;
+        for (i = 0; i < n; ++i) {
+            if (!in_range(s, &r, i)) {
+                return (int)(id + i);
+            }
+        }
+        *reason = CAEKF_SETTING_OVER_CAPACITY;
+        if (r.limit != 0 && *CELEMENT(int, s, &r, 0) > (int)r.limit) {
+            return (int)id;
+        }
+    }
+    return -1;
+}
+
 /* Values caekf_init derives must be usable in this scalar type too: finite settings can still overflow
  * or underflow once scaled (found by fuzzing: sigma_q0 = 1e-22 with sigma_qx_q = 1e22 in float,
  * subnormal sigmas in double). Each check repeats the operation of the value it guards: the quotient
- * num / den (squared if sq, times fac) must be finite, and > 0 if pos. Returns 1 if it passes. */
-CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, int sq, int pos)
+ * num / den (squared with USABLE_SQ, times fac) must be finite, and > 0 with USABLE_POS. Returns 1 if it passes. */
+#define USABLE_SQ 1u  /* the quotient squared */
+#define USABLE_POS 2u /* and > 0 */
+CAEKF_NOINLINE static int usable_times(caekf_scalar_t num, caekf_scalar_t den, caekf_scalar_t fac, unsigned how)
 {
     caekf_scalar_t r = num / den;
-    if (sq) {
+    if (how & USABLE_SQ) {
         r *= r;
     }
     r *= fac;
-    return CAEKF_ISFINITE(r) && (!pos || r > 0);
+    return CAEKF_ISFINITE(r) && (!(how & USABLE_POS) || r > 0);
+}
+
+/* usable_times with fac = 1 (the same value: r * 1 is r): the common case, one argument less a call. */
+CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, unsigned how)
+{
+    return usable_times(num, den, 1, how);
 }
 
 #if CAEKF_HAS_LAW_PARAMS
@@ -166,8 +236,8 @@ CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, caekf_s
 static int law_unscalable(caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q, caekf_scalar_t lo,
                           caekf_scalar_t hi, caekf_scalar_t sigma_v0, int id0, int *bad)
 {
-    if (!usable(x0, sigma0, 1, 0, 0) || !usable(lo, sigma0, 1, 0, 0) || !usable(hi, sigma0, 1, 0, 0) ||
-        !usable(sigma_q, sigma0, 1, 1, 0) || !usable(sigma0, sigma_v0, 1, 0, 1)) {
+    if (!usable(x0, sigma0, 0) || !usable(lo, sigma0, 0) || !usable(hi, sigma0, 0) ||
+        !usable(sigma_q, sigma0, USABLE_SQ) || !usable(sigma0, sigma_v0, USABLE_POS)) {
         *bad = id0;
         return 1;
     }
@@ -198,35 +268,35 @@ static int first_unscalable(const caekf_settings_t *s)
     int bad = -1;
 #endif
     for (i = 0; i < m->bodies; ++i) {
-        if (!usable(s->q0[i], s->sigma_q0, 1, 0, 0)) {
+        if (!usable(s->q0[i], s->sigma_q0, 0)) {
             return (int)CAEKF_PARAM_Q0 + i;
         }
-        if (!usable(s->v0[i], s->sigma_v0, 1, 0, 0)) {
+        if (!usable(s->v0[i], s->sigma_v0, 0)) {
             return (int)CAEKF_PARAM_V0 + i;
         }
-        if (!usable(m->m[i], m->dt, 1, 0, 1)) {
+        if (!usable(m->m[i], m->dt, USABLE_POS)) {
             return (int)CAEKF_PARAM_M + i;
         }
     }
     for (i = 0; i < m->springs; ++i) { /* A0 = M/dt + C + dt K takes dt k of each link */
-        if (!usable(m->spring_k[i], 1, m->dt, 0, 0)) {
+        if (!usable_times(m->spring_k[i], 1, m->dt, 0)) {
             return (int)CAEKF_PARAM_DT;
         }
     }
     for (i = 0; i < m->contacts; ++i) {
-        if (!usable(s->gamma0[i], s->sigma_gamma0[i], 1, 0, 0)) {
+        if (!usable(s->gamma0[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA0 + i;
         }
-        if (!usable(s->gamma_min[i], s->sigma_gamma0[i], 1, 0, 0)) {
+        if (!usable(s->gamma_min[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA_MIN + i;
         }
-        if (!usable(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, 1, 0)) {
+        if (!usable_times(s->sigma_q_gamma[i], s->sigma_gamma0[i], s->q_gamma_scale, USABLE_SQ)) {
             return (int)CAEKF_PARAM_SIGMA_Q_GAMMA + i;
         }
-        if (m->gamma_log && !usable(s->sigma_gamma0[i], s->gamma0[i], 1, 0, 1)) { /* ln gamma's scale */
+        if (m->gamma_log && !usable(s->sigma_gamma0[i], s->gamma0[i], USABLE_POS)) { /* ln gamma's scale */
             return (int)CAEKF_PARAM_SIGMA_GAMMA0 + i;
         }
-        if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 1, 0, 0)) {
+        if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA_MAX + i;
         }
 #if CAEKF_HAS_LAW_PARAMS
@@ -235,59 +305,57 @@ static int first_unscalable(const caekf_settings_t *s)
         }
 #endif
         /* The scaled transition multiplies by sigma_gamma0 / sigma_v0. */
-        if (!usable(s->sigma_gamma0[i], s->sigma_v0, 1, 0, 1)) {
+        if (!usable(s->sigma_gamma0[i], s->sigma_v0, USABLE_POS)) {
             return (int)CAEKF_PARAM_SIGMA_V0;
         }
     }
-    if (!usable(s->sigma_qx_q, s->sigma_q0, 1, 1, 0)) {
+    if (!usable(s->sigma_qx_q, s->sigma_q0, USABLE_SQ)) {
         return (int)CAEKF_PARAM_SIGMA_QX_Q;
     }
-    if (!usable(s->sigma_qx_v, s->sigma_v0, 1, 1, 0)) {
+    if (!usable(s->sigma_qx_v, s->sigma_v0, USABLE_SQ)) {
         return (int)CAEKF_PARAM_SIGMA_QX_V;
     }
-    if (!usable(s->sigma_r, s->sigma_q0, 1, 1, 1)) {
+    if (!usable(s->sigma_r, s->sigma_q0, USABLE_SQ | USABLE_POS)) {
         return (int)CAEKF_PARAM_SIGMA_R;
     }
     /* The scaled transition S^-1 F S multiplies by rq, 1 / rq and dt / rq. */
-    if (!usable(s->sigma_q0, s->sigma_v0, 1, 0, 1) || !usable(1, rq, 1, 0, 1) || !usable(m->dt, rq, 1, 0, 1)) {
+    if (!usable(s->sigma_q0, s->sigma_v0, USABLE_POS) || !usable(1, rq, USABLE_POS) || !usable(m->dt, rq, USABLE_POS)) {
         return (int)CAEKF_PARAM_SIGMA_V0;
     }
     return -1;
 }
 
-/* A body number: 1..bodies, or also 0 (the ground) where allowed. */
-static int body_ok(const caekf_model_params_t *m, int body, int ground_ok)
-{
-    return body <= m->bodies && (body >= 1 || (ground_ok && body == 0));
-}
+/* A body number within the mechanism. Its lower bound (0, the ground, or 1 where the ground is not
+ * allowed) is the setting's range rule, which every caller has checked before. */
+static int body_ok(const caekf_model_params_t *m, int body) { return body <= m->bodies; }
 
 /* The mechanism's references between its elements; returns the first offending parameter id or -1. */
 static int first_bad_body(const caekf_model_params_t *m)
 {
     int i;
     for (i = 0; i < m->springs; ++i) {
-        if (!body_ok(m, m->spring_a[i], 1)) {
+        if (!body_ok(m, m->spring_a[i])) {
             return (int)CAEKF_PARAM_SPRING_A + i;
         }
-        if (!body_ok(m, m->spring_b[i], 1) || m->spring_b[i] == m->spring_a[i]) {
+        if (!body_ok(m, m->spring_b[i]) || m->spring_b[i] == m->spring_a[i]) {
             return (int)CAEKF_PARAM_SPRING_B + i;
         }
     }
     for (i = 0; i < m->inputs; ++i) {
-        if (!body_ok(m, m->input_body[i], 0)) {
+        if (!body_ok(m, m->input_body[i])) {
             return (int)CAEKF_PARAM_INPUT_BODY + i;
         }
     }
     for (i = 0; i < m->sensors; ++i) {
-        if (!body_ok(m, m->sensor_body[i], 0)) {
+        if (!body_ok(m, m->sensor_body[i])) {
             return (int)CAEKF_PARAM_SENSOR_BODY + i;
         }
     }
     for (i = 0; i < m->contacts; ++i) {
-        if (!body_ok(m, m->contact_a[i], 1)) {
+        if (!body_ok(m, m->contact_a[i])) {
             return (int)CAEKF_PARAM_CONTACT_A + i;
         }
-        if (!body_ok(m, m->contact_b[i], 1) || m->contact_b[i] == m->contact_a[i]) {
+        if (!body_ok(m, m->contact_b[i]) || m->contact_b[i] == m->contact_a[i]) {
             return (int)CAEKF_PARAM_CONTACT_B + i;
         }
     }
@@ -360,35 +428,63 @@ static int first_unsized(const caekf_model_params_t *m)
 }
 
 /* A build sized for one configuration (CAEKF_SIZED_METHOD) runs exactly its step method: the first
- * setting that differs. */
-static int first_unsized_method(const caekf_settings_t *s)
+ * setting that differs, in the model m and, unless s is NULL (the model's own check), the settings s. */
+static int first_unsized_method(const caekf_model_params_t *m, const caekf_settings_t *s)
 {
 #if CAEKF_SIZED_METHOD
     unsigned i;
-    if (s->model.discretisation != CAEKF_SIZED_DISCRETISATION) {
+    if (m->discretisation != CAEKF_SIZED_DISCRETISATION) {
         return (int)CAEKF_PARAM_DISCRETISATION;
     }
-    if (s->contact_substeps != CAEKF_SIZED_CONTACT_SUBSTEPS) {
+    if (s != 0 && s->contact_substeps != CAEKF_SIZED_CONTACT_SUBSTEPS) {
         return (int)CAEKF_PARAM_CONTACT_SUBSTEPS;
     }
-    if (s->model.gamma_log != CAEKF_SIZED_GAMMA_LOG) {
+    if (m->gamma_log != CAEKF_SIZED_GAMMA_LOG) {
         return (int)CAEKF_PARAM_GAMMA_LOG;
     }
-    if (s->contact_slr_p != 0) { /* statistically linearised contacts: a run-time choice (CAEKF_HAS_SLR) */
+    if (s != 0 && s->contact_slr_p != 0) { /* statistically linearised contacts: a run-time choice (CAEKF_HAS_SLR) */
         return (int)CAEKF_PARAM_CONTACT_SLR_P;
     }
 #ifdef CAEKF_SIZED_CONTACT_N
-    for (i = 0; i < (unsigned)s->model.contacts; ++i) {
-        if (s->model.contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
+    for (i = 0; i < (unsigned)m->contacts; ++i) {
+        if (m->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
             return (int)(CAEKF_PARAM_CONTACT_N + i);
         }
     }
 #endif
     (void)i;
 #else
+    (void)m;
     (void)s;
 #endif
     return -1;
+}
+
+/* The estimated law parameters of the model's contacts. */
+static unsigned law_params(const caekf_model_params_t *m)
+{
+    unsigned i, law = 0;
+    for (i = 0; i < (unsigned)m->contacts; ++i) {
+        law += (unsigned)(m->contact_estimate_n[i] + m->contact_estimate_lambda[i] + m->contact_estimate_gap[i]);
+    }
+    return law;
+}
+
+CAEKF_STATIC_ASSERT(offsetof(caekf_settings_t, model) == 0, the_model_leads_the_settings);
+
+/* The model's own defence: the checks of caekf_settings_validate that concern the model alone (the same
+ * code: its rows of the table, the bodies, a sized build's counts and method, the law parameters' room),
+ * so that an invalid mechanism can never be derived (validation says which parameter is wrong). Returns
+ * 0 if valid. */
+int caekf_model_params_check(const caekf_model_params_t *p)
+{
+    unsigned reason, law;
+    if (first_out_of_range(p, sizeof *p, &reason) >= 0 || first_bad_body(p) >= 0 || first_unsized(p) >= 0 ||
+        first_unsized_method(p, 0) >= 0) {
+        return 1;
+    }
+    law = law_params(p);
+    return law > (unsigned)CAEKF_MAX_LAW_PARAMS || (CAEKF_SIZED && law != (unsigned)CAEKF_MAX_LAW_PARAMS);
 }
 
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
@@ -399,19 +495,9 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     if (s == 0) {
         return CAEKF_ERR_NULL;
     }
-    /* Rows are in id order and every count precedes the arrays it counts: an array's in-use count has
-     * passed its range and capacity checks when the array is checked. */
-    for (k = 0; k < CAEKF_SETTING_COUNT; ++k) {
-        const caekf_setting_rule_t *r = &caekf_setting_rules[k];
-        unsigned n = elements_in_use(s, r);
-        for (i = 0; i < n; ++i) {
-            if (!in_range(s, r, i)) {
-                return refuse(err, CAEKF_SETTING_OUT_OF_RANGE, r->id + i);
-            }
-        }
-        if (r->limit != 0 && *CELEMENT(int, s, r, 0) > (int)r->limit) {
-            return refuse(err, CAEKF_SETTING_OVER_CAPACITY, r->id);
-        }
+    bad = first_out_of_range(s, sizeof *s, &k);
+    if (bad >= 0) {
+        return refuse(err, k, (unsigned)bad);
     }
     if (s->newton_max_iter > CAEKF_NEWTON_MAX_ITER) {
         return refuse(err, CAEKF_SETTING_OVER_CAPACITY, CAEKF_PARAM_NEWTON_MAX_ITER);
@@ -427,7 +513,7 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     }
     bad = first_unsized(&s->model);
     if (bad < 0) {
-        bad = first_unsized_method(s);
+        bad = first_unsized_method(&s->model, s);
     }
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, (unsigned)bad);

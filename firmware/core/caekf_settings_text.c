@@ -8,6 +8,7 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
                                         unsigned len)
 {
     const char *name, *why;
+    caekf_setting_rule_t rule;
     char element[48], value[40] = "";
     double v;
     if (err == 0 || buf == 0 || len == 0) {
@@ -21,7 +22,8 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
     if (name == 0) {
         name = "?";
     }
-    if (caekf_setting_rules[err->setting < CAEKF_SETTING_COUNT ? err->setting : 0].count > 1) {
+    if (caekf_setting_rule(err->setting < CAEKF_SETTING_COUNT ? err->setting : 0u, &rule) == CAEKF_OK &&
+        rule.count > 1) {
         snprintf(element, sizeof element, "%s[%u]", name, (unsigned)err->index);
     } else {
         snprintf(element, sizeof element, "%s", name);

@@ -44,7 +44,12 @@ def test_generated_c_tables_follow_the_schema(tmp_path):
     for s in schema.SCHEMA.wire:
         assert f"#define CAEKF_PARAM_{s.name.upper()} {s.id}u" in header
     table = files["caekf_settings_table.c"]
-    assert table.count("{(uint16_t)offsetof(caekf_settings_t,") == len(schema.SCHEMA.wire)
+    rows = table.split("caekf_setting_rows[CAEKF_SETTING_COUNT] = {")[1].split("};")[0]
+    assert rows.count("{(uint16_t)offsetof(caekf_settings_t,") == len(schema.SCHEMA.wire)
+    assert [line.split("/* ")[1].split(" */")[0] for line in rows.strip().splitlines()[0:]
+            if "offsetof" in line] == [s.name for s in schema.SCHEMA.wire]
+    ints = {(int(s.lo), int(s.hi)) for s in schema.SCHEMA.wire if s.range == "int"}
+    assert f"caekf_setting_ranges[{len(ints)}][2]" in table  # each distinct integer range once
 
 
 def test_shortest_decimal_round_trips():

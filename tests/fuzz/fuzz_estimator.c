@@ -169,10 +169,11 @@ static int try_init(const caekf_settings_t *s)
     FZ_CHECK(v == CAEKF_OK || v == CAEKF_ERR_SETTINGS, "validate returns OK or ERR_SETTINGS");
     FZ_CHECK((v == CAEKF_OK) == (err.reason == CAEKF_SETTING_OK), "an error reason iff refused");
     if (v != CAEKF_OK) {
-        const caekf_setting_rule_t *rule;
+        caekf_setting_rule_t row;
+        const caekf_setting_rule_t *rule = &row;
         FZ_CHECK(err.reason <= CAEKF_SETTING_OVER_CAPACITY, "validate: a reason validation gives");
         FZ_CHECK(err.setting < CAEKF_SETTING_COUNT && err.param_id < CAEKF_PARAM_COUNT, "validate: names a setting");
-        rule = &caekf_setting_rules[err.setting];
+        FZ_CHECK(caekf_setting_rule(err.setting, &row) == CAEKF_OK, "validate: the named setting has a row");
         FZ_CHECK(err.index < rule->count && err.param_id == rule->id + err.index,
                  "validate: parameter id is the named setting's element");
         FZ_CHECK(caekf_param_key(err.param_id) != NULL && caekf_setting_name(err.setting) != NULL,

@@ -18,7 +18,7 @@
  *         integer setting) names that id and leaves the settings byte for byte unchanged; an accepted value
  *         reads back (caekf_settings_get) as the value in the storage type (caekf_scalar_t for reals).
  *   settings_validate: accepted only when every element in use (the row's in-use count, or all it stores)
- *         satisfies its range rule (caekf_setting_rules via caekf_setting_rule_ok); a range refusal names an
+ *         satisfies its range rule (caekf_setting_rule via caekf_setting_rule_ok); a range refusal names an
  *         element that breaks its rule.
  */
 #include "fuzz_common.h"
@@ -39,14 +39,15 @@ static void check_param_value(const caekf_msg_param_t *m)
     }
 }
 
-/* The rule row of parameter id `id` (NULL when unknown). */
+/* The rule row of parameter id `id` (NULL when unknown; valid until the next call). */
 static const caekf_setting_rule_t *rule_of(unsigned id)
 {
+    static caekf_setting_rule_t row;
     unsigned i;
     for (i = 0; i < CAEKF_SETTING_COUNT; ++i) {
-        const caekf_setting_rule_t *r = &caekf_setting_rules[i];
-        if (id >= r->id && id < (unsigned)r->id + r->count) {
-            return r;
+        FZ_CHECK(caekf_setting_rule(i, &row) == CAEKF_OK, "every row of the table decodes");
+        if (id >= row.id && id < (unsigned)row.id + row.count) {
+            return &row;
         }
     }
     return NULL;
@@ -127,7 +128,9 @@ static void check_validate(const caekf_settings_t *s)
     if (st == CAEKF_OK) {
         FZ_CHECK(e.reason == CAEKF_SETTING_OK, "validate OK: reason OK");
         for (i = 0; i < CAEKF_SETTING_COUNT; ++i) {
-            const caekf_setting_rule_t *r = &caekf_setting_rules[i];
+            caekf_setting_rule_t row;
+            const caekf_setting_rule_t *r = &row;
+            FZ_CHECK(caekf_setting_rule(i, &row) == CAEKF_OK, "every row of the table decodes");
             for (k = 0; k < in_use(s, r); ++k) {
                 FZ_CHECK(element_ok(s, (unsigned)r->id + k), "validate accepted an element that breaks its rule");
             }

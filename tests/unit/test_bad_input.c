@@ -1,6 +1,7 @@
 /* Bad inputs never corrupt the estimator: non-finite u or y is rejected with the whole instance
  * unchanged byte for byte; bad settings are refused and leave the instance as it was. */
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "test_support.h"
@@ -81,11 +82,21 @@ static void expect_refused(caekf_settings_t *bad, unsigned param_id, unsigned re
     TEST_ASSERT_EQUAL_UINT_MESSAGE(reason, err.reason, what);
 }
 
-#define REFUSE(field, value, param_id)                                                   \
-    do {                                                                                 \
-        caekf_settings_t b = good;                                                       \
-        b.field = value;                                                                 \
-        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value); \
+/* A refused element of the model is refused by the model itself too (caekf_model_init's own defence). */
+static void expect_model_refuses(const caekf_settings_t *bad, size_t offset, const char *what)
+{
+    caekf_model_t m;
+    if (offset < sizeof bad->model) {
+        TEST_ASSERT_EQUAL_INT_MESSAGE(-1, caekf_model_init(&m, &bad->model), what);
+    }
+}
+
+#define REFUSE(field, value, param_id)                                                    \
+    do {                                                                                  \
+        caekf_settings_t b = good;                                                        \
+        b.field = value;                                                                  \
+        expect_refused(&b, (param_id), CAEKF_SETTING_OUT_OF_RANGE, #field " = " #value);  \
+        expect_model_refuses(&b, offsetof(caekf_settings_t, field), #field " = " #value); \
     } while (0)
 
 static void test_bad_settings_are_refused(void)
@@ -296,6 +307,56 @@ static void test_set_by_id_reaches_every_element(void)
     TEST_ASSERT_NULL(caekf_param_key(CAEKF_PARAM_COUNT));
 }
 
+/* The compact generated table decodes to every setting's row: ids dense and in order, each element
+ * addressed in caekf_settings_t, an array's counts and in-use count from its capacity, the integer
+ * ranges and a count's capacity limit as the schema gives them. */
+static void test_the_compact_table_decodes_every_row(void)
+{
+    caekf_setting_rule_t r;
+    caekf_settings_t b;
+    unsigned k, id = 0;
+    (void)caekf_settings_default(&b);
+    for (k = 0; k < CAEKF_SETTING_COUNT; ++k) {
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_setting_rule(k, &r));
+        TEST_ASSERT_EQUAL_UINT(id, r.id);
+        TEST_ASSERT_TRUE(r.count >= 1 && r.stored >= 1 && r.stored <= r.count);
+        TEST_ASSERT_EQUAL_UINT(r.rule == CAEKF_RULE_INT ? CAEKF_SETTING_INT : CAEKF_SETTING_REAL, r.storage);
+        TEST_ASSERT_TRUE(r.rule == CAEKF_RULE_INT ? r.lo <= r.hi : r.lo == 0 && r.hi == 0);
+        TEST_ASSERT_TRUE(
+            r.offset + r.stored * (r.storage == CAEKF_SETTING_REAL ? sizeof(caekf_scalar_t) : sizeof(int)) <= sizeof b);
+        id += r.count;
+    }
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_COUNT, id);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_setting_rule(CAEKF_SETTING_COUNT, &r));
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_setting_rule(0, NULL));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_setting_rule(2, &r)); /* m: an array over the bodies */
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_M, r.id);
+    TEST_ASSERT_EQUAL_UINT(offsetof(caekf_settings_t, model.m), r.offset);
+    TEST_ASSERT_EQUAL_UINT(offsetof(caekf_settings_t, model.bodies), r.in_use);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_WIRE_MAX_BODIES, r.count);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_MAX_BODIES, r.stored);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_RULE_POS, r.rule);
+    TEST_ASSERT_EQUAL_UINT(0, r.limit);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_setting_rule(1, &r)); /* bodies: counts them, up to the capacity */
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_BODIES, r.id);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_ALL_IN_USE, r.in_use);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_MAX_BODIES, r.limit);
+    TEST_ASSERT_TRUE(r.rule == CAEKF_RULE_INT && r.lo == 1 && r.hi == CAEKF_WIRE_MAX_BODIES);
+    for (k = 0; k < CAEKF_SETTING_COUNT; ++k) { /* the rows of newton_max_iter and psd_check_period */
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_setting_rule(k, &r));
+        if (r.id == CAEKF_PARAM_NEWTON_MAX_ITER) {
+            TEST_ASSERT_TRUE(r.lo == 1 && r.hi == 20 && r.offset == offsetof(caekf_settings_t, newton_max_iter));
+        }
+        if (r.id == CAEKF_PARAM_PSD_CHECK_PERIOD) {
+            TEST_ASSERT_TRUE(r.lo == 1 && r.hi == 1000 && r.offset == offsetof(caekf_settings_t, psd_check_period));
+        }
+        if (r.id == CAEKF_PARAM_CONTACT_GAP) {
+            TEST_ASSERT_TRUE(r.rule == CAEKF_RULE_NONNEG && r.stored == CAEKF_MAX_CONTACTS &&
+                             r.in_use == offsetof(caekf_settings_t, model.contacts));
+        }
+    }
+}
+
 static void test_predict_only_moves_the_model_not_gamma(void)
 {
     caekf_report_t rep;
@@ -334,6 +395,7 @@ int main(void)
     RUN_TEST(test_refusal_text_names_element_value_and_rule);
 #endif
     RUN_TEST(test_set_by_id_reaches_every_element);
+    RUN_TEST(test_the_compact_table_decodes_every_row);
     RUN_TEST(test_predict_only_moves_the_model_not_gamma);
     return UNITY_END();
 }

@@ -212,7 +212,7 @@ typedef struct {
     uint8_t index;    /* element of an array setting, else 0 */
 } caekf_setting_error_t;
 
-/* A row of the generated settings table (caekf_settings_table.c): where a setting lives in
+/* One setting of the generated settings table, decoded (caekf_setting_rule): where it lives in
  * caekf_settings_t and the range rule validation applies to each of its elements. */
 typedef struct {
     uint16_t offset; /* byte offset of element 0 in caekf_settings_t */
@@ -226,13 +226,35 @@ typedef struct {
     uint16_t lo, hi; /* integer range of CAEKF_RULE_INT */
 } caekf_setting_rule_t;
 #define CAEKF_ALL_IN_USE 0xFFFFu
-extern const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT];
+
+/* Row `setting` (0 .. CAEKF_SETTING_COUNT-1) of the table; CAEKF_ERR_SETTINGS for no such row. */
+caekf_status_t caekf_setting_rule(unsigned setting, caekf_setting_rule_t *rule);
+
+/* The table as generated, compact (what settings share is stored once): read it through
+ * caekf_setting_rule. A row: the setting's offset, its element kind (low nibble: an index into
+ * caekf_setting_kinds; high nibble: 1 + the capacity a count setting counts, else 0) and its rule (low
+ * nibble: CAEKF_RULE_*; high nibble: for CAEKF_RULE_INT an index into caekf_setting_ranges). */
+typedef struct {
+    uint16_t offset;
+    uint8_t kind;
+    uint8_t rule;
+} caekf_setting_row_t;
+/* An element kind: one element, or an array over one of the mechanism's capacities. */
+typedef struct {
+    uint16_t in_use; /* offset of the int giving how many elements are in use, or CAEKF_ALL_IN_USE */
+    uint8_t count;   /* elements on the wire */
+    uint8_t stored;  /* elements this build stores */
+} caekf_setting_kind_t;
+extern const caekf_setting_row_t caekf_setting_rows[CAEKF_SETTING_COUNT];
+extern const caekf_setting_kind_t caekf_setting_kinds[CAEKF_SETTING_KIND_COUNT];
+extern const uint16_t caekf_setting_ranges[][2];
 
 /* Fills the schema's defaults (switched, consistent, standard update, constraint off, repair on, gate
  * 25) and zero for the settings without a default (the model, gamma0, sigma0s and noise): the caller
  * must fill those. */
 caekf_status_t caekf_settings_default(caekf_settings_t *s);
-/* The generated part of it: writes every default the schema gives, touches nothing else. */
+/* The generated part of it, on settings caekf_settings_default has zeroed: writes every default the
+ * schema gives that differs from all bits zero (0, 0.0, the first enumerator), touches nothing else. */
 caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s);
 
 /* Sets one element by its CTRL_PARAM id (the scenario keys and the wire use the same ids). Integer,
@@ -310,6 +332,8 @@ caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_
  * scratch buffers, hence the non-const instance; the estimate is not changed. */
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2);
 
+/* Names of a status and of a flag bit: in the names library (<core>_names, caekf_names.c) with the
+ * settings' names, so the estimator carries no strings. */
 const char *caekf_status_str(caekf_status_t st);
 const char *caekf_flag_name(unsigned bit_index);
 

@@ -366,6 +366,22 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
     return "\n".join(lines + ["", "#endif", ""])
 
 
+def _all_bits_zero(s: "Setting", d: Any) -> bool:
+    """A default that all-bits-zero storage already holds: 0, +0.0 or an enum's first value."""
+    if isinstance(d, str) and d.endswith("eps"):
+        return False
+    if s.type == "enum":
+        return s.values.index(str(d)) == 0
+    if s.type == "real":
+        return float(d) == 0.0 and math.copysign(1.0, float(d)) > 0
+    return int(float(d)) == 0
+
+
+def pair_ok(s: "Setting") -> int:
+    """The larger bound of an integer rule (0 for other rules): the table stores them as uint16_t."""
+    return 0 if s.range != "int" else (int(s.hi) if int(s.lo) >= 0 else -1)
+
+
 def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> Dict[str, str]:
     wire = schema.wire
     h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SETTINGS_SCHEMA_H", "#define CAEKF_SETTINGS_SCHEMA_H", "",
@@ -381,6 +397,8 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
     h += ["", "/* Storage of a setting in caekf_settings_t. */",
           "#define CAEKF_SETTING_REAL 0u /* caekf_scalar_t */",
           "#define CAEKF_SETTING_INT 1u  /* int or an enum (int-sized) */", "",
+          "/* Element kinds of the table: one element, or an array over each capacity. */",
+          f"#define CAEKF_SETTING_KIND_COUNT {1 + len(CAPACITIES)}u", "",
           "#endif", ""]
     c = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "", "#include <stddef.h>", ""]
     for s in wire:
@@ -388,25 +406,53 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
             enum = C_ENUMS[s.name][1]
             cond = " && ".join(f"{enum}{_macro(v)} == {i}" for i, v in enumerate(s.values))
             c.append(f"CAEKF_STATIC_ASSERT({cond}, enum_{s.name}_matches_schema);")
-    c += ["", "/* One rule a setting, in parameter-id order (ids are dense: rule k covers ids id .. id+count-1). */",
-          "const caekf_setting_rule_t caekf_setting_rules[CAEKF_SETTING_COUNT] = {"]
+    # The table is compact (4 bytes a setting, caekf_setting_row_t): what settings share is said once, by
+    # the kind of their elements (one element, or an array over a capacity: its wire count, stored count
+    # and in-use count) and by the integer ranges; ids are dense, so a row's id is the sum of the counts
+    # before it. caekf_setting_rule (caekf_settings.c) decodes a row.
+    ranges: List[Tuple[int, int]] = []
+    c += ["", "/* The element kinds: 0 one element, 1 + i an array over the i-th capacity. */",
+          "const caekf_setting_kind_t caekf_setting_kinds[CAEKF_SETTING_KIND_COUNT] = {",
+          "    {CAEKF_ALL_IN_USE, 1u, 1u},"]
+    for cap in CAPACITIES:
+        counter = next(x for x in wire if x.counts == cap)
+        c.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {counter.field}), {schema.capacity[cap]}u, "
+                 f"CAEKF_MAX_{_macro(cap)}}}, /* {cap} */")
+    rows = []
     for s in wire:
-        storage = "CAEKF_SETTING_REAL" if s.type == "real" else "CAEKF_SETTING_INT"
-        rule = RULE_MACROS[s.range]
-        lo = 0 if s.range != "int" else int(s.lo)
-        hi = 0 if s.range != "int" else int(s.hi)
-        stored = f"CAEKF_MAX_{_macro(s.capacity)}" if s.capacity else f"{s.count}u"
-        in_use = (f"(uint16_t)offsetof(caekf_settings_t, {schema.by_name(s.in_use_by).field})" if s.in_use_by
-                  else "CAEKF_ALL_IN_USE")
-        limit = f"CAEKF_MAX_{_macro(s.counts)}" if s.counts else "0u"
-        c.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {s.field}), {in_use}, {s.id}u, {s.count}u, {stored}, "
-                 f"{limit}, {storage}, CAEKF_RULE_{rule}, {lo}u, {hi}u}}, /* {s.name} */")
+        counted = schema.by_name(s.in_use_by).counts if s.in_use_by is not None else None
+        if (s.capacity is None) != (s.in_use_by is None) or (s.capacity is None and s.count != 1) or (
+                s.capacity is not None and (s.count != schema.capacity[s.capacity] or counted != s.capacity)):
+            raise SchemaError(f"{s.name}: an array's count, capacity and in-use count must agree")
+        if (s.range == "int") != (s.type != "real"):
+            raise SchemaError(f"{s.name}: integer storage exactly for the integer rule")
+        kind = 0 if s.capacity is None else 1 + CAPACITIES.index(s.capacity)
+        counts = 0 if s.counts is None else 1 + CAPACITIES.index(s.counts)
+        rng = 0
+        if s.range == "int":
+            pair = (int(s.lo), int(s.hi))
+            if pair not in ranges:
+                ranges.append(pair)
+            rng = ranges.index(pair)
+        if rng > 15 or not 0 <= pair_ok(s) <= 65535:
+            raise SchemaError(f"{s.name}: the table's integer ranges exceed its encoding")
+        rows.append(f"    {{(uint16_t)offsetof(caekf_settings_t, {s.field}), {kind | counts << 4}u, "
+                    f"CAEKF_RULE_{RULE_MACROS[s.range]} | {rng << 4}u}}, /* {s.name} */")
+    c += ["};", "", "/* The integer ranges [lo, hi] of CAEKF_RULE_INT (a row's rule >> 4). */",
+          f"const uint16_t caekf_setting_ranges[{len(ranges)}][2] = {{"]
+    c += [f"    {{{lo}u, {hi}u}}," for lo, hi in ranges]
+    c += ["};", "", "/* One row a setting, in parameter-id order: offset, kind (low nibble; high nibble: 1 + the capacity",
+          " * a count setting counts), rule (low nibble; high nibble: the range of an integer rule). */",
+          "const caekf_setting_row_t caekf_setting_rows[CAEKF_SETTING_COUNT] = {"]
+    c += rows
+    # caekf_settings_default zeroes the settings first (all bits zero: 0, 0.0 and the first enumerator), so
+    # only the defaults that differ from it are written.
     c += ["};", "", "caekf_status_t caekf_settings_schema_defaults(caekf_settings_t *s)", "{",
           "    unsigned i;", "    if (s == 0) {", "        return CAEKF_ERR_NULL;", "    }"]
     for s in wire:
         for i in range(s.count):
             d = s.element_default(i)
-            if d is None:
+            if d is None or _all_bits_zero(s, d):
                 continue
             if isinstance(d, str) and d.endswith("eps"):
                 expr = f"(caekf_scalar_t){d.split()[0]} * CAEKF_EPS"
