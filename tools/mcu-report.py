@@ -286,6 +286,10 @@ def report_preset(preset, args, o2):
                 r["breakdown_" + label] = breakdown(ddir, preset, [("median", ic["median_step"]),
                                                                    ("max", ic["max_step"])],
                                                     args.breakdown, "target_replay_default")
+                if "constructed" in ic:  # the constructed worst case's own step, in its own image
+                    r["breakdown_" + label].update(breakdown(
+                        ddir, preset, [("constructed worst", ic["constructed"]["max_step"])], args.breakdown,
+                        "target_replay_default_worst"))
             if label == "default":
                 r["lib_default"] = ic["lib"]
     r["stack_static"] = stack_static(bdir)

@@ -205,9 +205,9 @@ def test_substeps_only_while_a_contact_is_closed():
 
 
 def test_contact_substeps_setting_from_the_schema():
-    """The scenario's contact_substeps (schema default 4) reaches scenario_config; the paper's presets run 1."""
+    """The scenario's contact_substeps (schema default 3) reaches scenario_config; the paper's presets run 1."""
     sc = load_scenario(default_scenario_path())
-    assert scenario_config(sc).contact_substeps == sc.contact_substeps == 4
+    assert scenario_config(sc).contact_substeps == sc.contact_substeps == 3
     assert scenario_config(sc.replace(contact_substeps=2)).contact_substeps == 2
     assert scenario_config(sc, "switched").contact_substeps == 1
     assert all(cfg.contact_substeps == 1 for cfg in EXPERIMENTS.values())
