@@ -368,7 +368,9 @@ static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar
                               caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs, caekf_scalar_t c2)
 {
     int i, j;
-    for (i = 0; i < nq; ++i) {
+    CAEKF_UNROLL_SIZED /* sized: the identity's pattern folds away */
+        for (i = 0; i < nq; ++i)
+    {
         const caekf_scalar_t *f = fj[i];
         CAEKF_UNROLL_SIZED
         for (j = 0; j < 2 * nq; ++j) {
@@ -517,7 +519,7 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     /* x_k- in the states' units (x_pred holds it scaled by now), in scratch: free between the
      * prediction's Newton solve and the correction */
     caekf_scalar_t *const x = est->scratch.m;
-    caekf_scalar_t H[4][4], P[4][4], HP[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
+    caekf_scalar_t H[4][4], P[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
     int idx[4], kind[4], k = 0, i, j, l;
     caekf_contact_t ct;
 #if CAEKF_HAS_LAW_PARAMS
@@ -583,18 +585,18 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
                 est->P_work[(idx[i] < idx[j] ? idx[i] * n + idx[j] : idx[j] * n + idx[i])] * s[idx[i]] * s[idx[j]];
         }
     }
+    /* tr((H P)^2): each entry of H P formed where it is used, by the same sums (no third matrix on the
+     * deepest stack path of the joint step) */
     for (i = 0; i < k; ++i) {
         for (j = 0; j < k; ++j) {
-            caekf_scalar_t acc = 0;
+            caekf_scalar_t hp_ij = 0, hp_ji = 0;
             for (l = 0; l < k; ++l) {
-                acc += H[i][l] * P[l][j];
+                hp_ij += H[i][l] * P[l][j];
             }
-            HP[i][j] = acc;
-        }
-    }
-    for (i = 0; i < k; ++i) {
-        for (j = 0; j < k; ++j) {
-            var += HP[i][j] * HP[j][i];
+            for (l = 0; l < k; ++l) {
+                hp_ji += H[j][l] * P[l][i];
+            }
+            var += hp_ij * hp_ji;
         }
     }
     var = var / 2 / (s_v * s_v); /* scaled velocity units */

@@ -760,6 +760,38 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
+#if CAEKF_FIXED_LINKS
+    /* The links' pattern is the build's: outside it K and C are +0, so the entries below are -0 there
+     * (-0, -0 - 0 and -(hs 0 + 0); backward Euler's v-columns +0) and the parameter columns 0; the
+     * pattern's entries (and the diagonal's M/hs) by the operations below. */
+    UNROLL_STEP
+    for (i = 0; i < nq; ++i) {
+        int k;
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < nq; ++j) {
+            fv[i][j] = -CAEKF_C(0.0);
+            fv[i][nq + j] = ct0 != 0 ? -CAEKF_C(0.0) : 0;
+        }
+        CAEKF_UNROLL_SIZED
+        for (j = 2 * nq; j < n; ++j) {
+            fv[i][j] = 0;
+        }
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < link_nnz[i]; ++k) {
+            j = link_nz[i][k];
+            fv[i][j] = -m->K[i][j];
+            if (ct0 != 0) {
+                fv[i][j] -= m->K[i][j];
+                fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
+            }
+        }
+        if (ct0 != 0) {
+            fv[i][nq + i] += m->m_dt[i];
+        } else {
+            fv[i][nq + i] = m->m_dt[i];
+        }
+    }
+#else
     UNROLL_STEP
     for (i = 0; i < nq; ++i) {
         CAEKF_UNROLL_SIZED
@@ -781,6 +813,7 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
             fv[i][nq + i] = m->m_dt[i];
         }
     }
+#endif
     for (i = 0; i < nc; ++i) {
         const int a = CAEKF_CONTACT_I(m, i), b = CAEKF_CONTACT_J(m, i);
         if (CONTACT_ON(ct[i])) {
