@@ -786,8 +786,10 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         on = ct[i].delta > 0;
 #if CAEKF_HAS_SLR
         if (est->cfg.contact_slr_p > 0 && est->model.slr_s[i] > 0) { /* active while P(delta > 0) > p */
-            on = CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
-                 est->cfg.contact_slr_p;
+            /* at or past the gap P(delta > 0) = erfc(-x) / 2 >= 1/2 (x >= 0): no erfc for a closed contact */
+            on = (ct[i].delta >= 0 && est->cfg.contact_slr_p < CAEKF_C(0.5)) ||
+                 CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
+                     est->cfg.contact_slr_p;
         }
 #endif
         deepest = i == 0 ? ct[i].delta : caekf_max(deepest, ct[i].delta);
