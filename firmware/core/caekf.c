@@ -383,7 +383,9 @@ static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar
                               caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs, caekf_scalar_t c2)
 {
     int i, j;
-    for (i = 0; i < nq; ++i) {
+    CAEKF_UNROLL_SIZED /* sized: the identity's pattern folds away */
+        for (i = 0; i < nq; ++i)
+    {
         const caekf_scalar_t *f = fj[i];
         CAEKF_UNROLL_SIZED
         for (j = 0; j < 2 * nq; ++j) {
@@ -401,7 +403,9 @@ static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar
 
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
  * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows); F's gamma rows
- * stay identity rows. Returns 0, 1 when a Newton solve did not converge, -1 on a singular matrix. */
+ * stay identity rows. The contacts at x_{k-1} are in sub_ct[1] (advance evaluated them; the sub-model's
+ * contacts are the model's), those at x_k- are left in sub_ct[(substeps + 1) & 1]. Returns 0, 1 when a
+ * Newton solve did not converge, -1 on a singular matrix. */
 static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u, int *iters)
 {
     const caekf_model_t *m = &est->sub_model;
@@ -426,13 +430,8 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
             ub[i] = step == steps ? u[i] : u0[i] + (u[i] - u0[i]) * (caekf_scalar_t)step / (caekf_scalar_t)steps;
         }
         /* the contacts at the substep's start and end (the next one's start): their roles swap every
-         * substep; the first start's are evaluated here, where the trapezoidal rule reads them */
+         * substep */
         caekf_contact_t *ct0 = est->sub_ct[step & 1], *ct = est->sub_ct[(step + 1) & 1];
-        if (step == 1 && CAEKF_METHOD_TRAP(m)) {
-            for (i = 0; i < CAEKF_DIM_NC(m); ++i) {
-                caekf_model_contact(m, i, xa, &ct0[i]);
-            }
-        }
         if (caekf_model_newton_ct(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
                                   est->scratch.m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0) != 0) {
             result = 1;
@@ -493,9 +492,15 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
 #endif
         if (closed) {
         est->fv_const = 0;
+#if CAEKF_HAS_SUBSTEPS /* the trapezoidal rule's contacts at x_{k-1}: advance's, in sub_ct[1] */
+        if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv) != 0) {
+            return -1;
+        }
+#else
         if (caekf_model_transition_v_at(&est->model, ct, X_PREV(est), est->fv) != 0) {
             return -1;
         }
+#endif
         scale_fv(est->fv, s, nq, n);
         caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
     } else if (!est->fv_const) {
@@ -524,12 +529,12 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
 CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
 {
     const caekf_model_t *m = &est->model;
-    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), a = m->contact_i[c], b = m->contact_j[c];
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
     const caekf_scalar_t *s = est->scale, s_v = s[nq];
     /* x_k- in the states' units (x_pred holds it scaled by now), in scratch: free between the
      * prediction's Newton solve and the correction */
     caekf_scalar_t *const x = est->scratch.m;
-    caekf_scalar_t H[4][4], P[4][4], HP[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
+    caekf_scalar_t H[4][4], P[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
     int idx[4], kind[4], k = 0, i, j, l;
     caekf_contact_t ct;
 #if CAEKF_HAS_LAW_PARAMS
@@ -595,18 +600,18 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
                 est->P_work[(idx[i] < idx[j] ? idx[i] * n + idx[j] : idx[j] * n + idx[i])] * s[idx[i]] * s[idx[j]];
         }
     }
+    /* tr((H P)^2): each entry of H P formed where it is used, by the same sums (no third matrix on the
+     * deepest stack path of the joint step) */
     for (i = 0; i < k; ++i) {
         for (j = 0; j < k; ++j) {
-            caekf_scalar_t acc = 0;
+            caekf_scalar_t hp_ij = 0, hp_ji = 0;
             for (l = 0; l < k; ++l) {
-                acc += H[i][l] * P[l][j];
+                hp_ij += H[i][l] * P[l][j];
             }
-            HP[i][j] = acc;
-        }
-    }
-    for (i = 0; i < k; ++i) {
-        for (j = 0; j < k; ++j) {
-            var += HP[i][j] * HP[j][i];
+            for (l = 0; l < k; ++l) {
+                hp_ji += H[j][l] * P[l][i];
+            }
+            var += hp_ij * hp_ji;
         }
     }
     var = var / 2 / (s_v * s_v); /* scaled velocity units */
@@ -654,7 +659,7 @@ static void set_penetration_std(caekf_t *est)
     const int nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
     int c;
     for (c = 0; c < nc; ++c) {
-        const int a = est->model.contact_i[c], b = est->model.contact_j[c];
+        const int a = CAEKF_CONTACT_I(&est->model, c), b = CAEKF_CONTACT_J(&est->model, c);
         caekf_scalar_t v = 0;
         if (a >= 0) {
             v += est->P[a * n + a];
@@ -691,6 +696,9 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     int closed_prev = 0; /* a contact closed at x_{k-1}: substeps and the trapezoidal F both ask */
     const caekf_scalar_t *s;
     caekf_contact_t *ct; /* the contacts' laws at x_k-, after the Newton solve (in scratch) */
+#if CAEKF_HAS_SUBSTEPS
+    const caekf_contact_t *ct_pred = 0; /* the prediction's contacts at x_k- when it evaluated them */
+#endif
     caekf_scalar_t nis = 0;
 
     if (report != 0) {
@@ -747,16 +755,31 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 #endif
         const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
         int closed_before, r = 0;
+#if CAEKF_HAS_SUBSTEPS
+        /* The contacts at x_{k-1} (sub_ct[1]: the first substep's start, and the one step's) and at the
+         * one step's x_k- (sub_ct[0]) are kept: evaluated once each. */
+        closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) &&
+                      caekf_model_contacts_any(&est->model, xprev, est->sub_ct[1]);
+#else
         closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) && caekf_model_any_contact(&est->model, xprev);
+#endif
         closed_before = substeps > 1 && closed_prev;
         if (!closed_before) { /* a step from an open contact: one step unless it closes one */
+#if CAEKF_HAS_SUBSTEPS
+            r = caekf_model_newton_ct(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
+                                      est->x_pred, &iters, est->scratch.m, est->sub_ct[0],
+                                      CAEKF_METHOD_TRAP(&est->model) ? est->sub_ct[1] : 0);
+            ct_pred = est->sub_ct[0];
+#else
             r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
                                    est->x_pred, &iters, est->scratch.m);
+#endif
         }
 #if CAEKF_HAS_SUBSTEPS
-        if (closed_before || (substeps > 1 && caekf_model_any_contact(&est->model, est->x_pred))) {
+        if (closed_before || (substeps > 1 && caekf_model_contacts_any(&est->model, 0, est->sub_ct[0]))) {
             substepped = 1; /* the one-step solution only decided that substeps are needed */
             r = substep_predict(est, u0, u, &iters);
+            ct_pred = est->sub_ct[(substeps + 1) & 1];
             if (r < 0) {
                 flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
                 st = CAEKF_ERR_SINGULAR;
@@ -770,12 +793,19 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact (F at x_k- takes the same laws) */
         int on;
-        caekf_model_contact(&est->model, i, est->x_pred, &ct[i]);
+#if CAEKF_HAS_SUBSTEPS
+        if (ct_pred != 0) { /* the prediction's own, at x_k- */
+            ct[i] = ct_pred[i];
+        } else
+#endif
+            caekf_model_contact(&est->model, i, est->x_pred, &ct[i]);
         on = ct[i].delta > 0;
 #if CAEKF_HAS_SLR
         if (est->cfg.contact_slr_p > 0 && est->model.slr_s[i] > 0) { /* active while P(delta > 0) > p */
-            on = CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
-                 est->cfg.contact_slr_p;
+            /* at or past the gap P(delta > 0) = erfc(-x) / 2 >= 1/2 (x >= 0): no erfc for a closed contact */
+            on = (ct[i].delta >= 0 && est->cfg.contact_slr_p < CAEKF_C(0.5)) ||
+                 CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
+                     est->cfg.contact_slr_p;
         }
 #endif
         deepest = i == 0 ? ct[i].delta : caekf_max(deepest, ct[i].delta);

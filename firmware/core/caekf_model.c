@@ -7,11 +7,25 @@
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 
+#if CAEKF_FIXED_LINKS
+/* The sized scenario's links (generated): the pattern of K and C they give. */
+static const unsigned char link_nnz[CAEKF_SIZED_BODIES] = CAEKF_SIZED_LINK_NNZ;
+static const unsigned char link_nz[CAEKF_SIZED_BODIES][CAEKF_SIZED_LINK_WIDTH] = CAEKF_SIZED_LINK_NZ;
+#endif
+
 /* Keeps a function called more than once out of line: inlined copies cost flash on the MCU. */
 #if defined(__GNUC__)
 #define NOINLINE __attribute__((noinline))
 #else
 #define NOINLINE
+#endif
+
+/* The loops of the step path (the Newton solve, its matrix, F's right-hand sides), written out where the build's sizes are constants and the step
+ * runs them many times (CAEKF_FIXED_LINKS); the one-step build keeps its loops (and its figures). */
+#if CAEKF_FIXED_LINKS
+#define UNROLL_STEP CAEKF_UNROLL_SIZED
+#else
+#define UNROLL_STEP
 #endif
 
 /* delta^n and n delta^(n-1) for delta > 0: the Hertz (1.5) and linear (1) laws exactly, others by pow. */
@@ -35,29 +49,46 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
  * weights over sqrt(pi), which sum to 1 over all 20. E[g(t)] for t ~ N(mu, s^2) is
  * sum_k w_k (g(mu + sqrt(2) s x_k) + g(mu - sqrt(2) s x_k)). */
 #define SLR_NODES 10
-static const double slr_x[SLR_NODES] = {0.2453407083009012, 0.7374737285453944, 1.2340762153953231, 1.7385377121165861,
-                                        2.2549740020892757, 2.7888060584281305, 3.3478545673832163, 3.9447640401156252,
-                                        4.6036824495507442, 5.3874808900112328};
-static const double slr_w[SLR_NODES] = {2.6079306344955488e-01, 1.6173933398399998e-01, 6.1506372063976897e-02,
-                                        1.3997837447101022e-02, 1.8301031310804900e-03, 1.2882627996192928e-04,
-                                        4.4021210902308510e-06, 6.1274902599829280e-08, 2.4820623623151755e-10,
-                                        1.2578006724379234e-13};
+/* In the build's scalar type (each the double rounded once, as a conversion at run time would; a float
+ * build converts nothing per node). */
+static const caekf_scalar_t slr_x[SLR_NODES] = {(caekf_scalar_t)0.2453407083009012, (caekf_scalar_t)0.7374737285453944,
+                                                (caekf_scalar_t)1.2340762153953231, (caekf_scalar_t)1.7385377121165861,
+                                                (caekf_scalar_t)2.2549740020892757, (caekf_scalar_t)2.7888060584281305,
+                                                (caekf_scalar_t)3.3478545673832163, (caekf_scalar_t)3.9447640401156252,
+                                                (caekf_scalar_t)4.6036824495507442, (caekf_scalar_t)5.3874808900112328};
+static const caekf_scalar_t slr_w[SLR_NODES] = {
+    (caekf_scalar_t)2.6079306344955488e-01, (caekf_scalar_t)1.6173933398399998e-01,
+    (caekf_scalar_t)6.1506372063976897e-02, (caekf_scalar_t)1.3997837447101022e-02,
+    (caekf_scalar_t)1.8301031310804900e-03, (caekf_scalar_t)1.2882627996192928e-04,
+    (caekf_scalar_t)4.4021210902308510e-06, (caekf_scalar_t)6.1274902599829280e-08,
+    (caekf_scalar_t)2.4820623623151755e-10, (caekf_scalar_t)1.2578006724379234e-13};
 
 /* E[max(0, t)^n] (*e) and E[max(0, t)^(n-1)] (*e1, the law's slope over n gamma) for t ~ N(d, s^2).
  * Nodes beyond 7.6 s of d add nothing, so the expectations are those of the law itself once s << d. */
 static void slr_moments(caekf_scalar_t d, caekf_scalar_t s, caekf_scalar_t n, caekf_scalar_t *e, caekf_scalar_t *e1)
 {
-    const caekf_scalar_t r2 = CAEKF_SQRT(CAEKF_C(2.0));
+    /* Node pairs d -/+ u, u = s sqrt(2) x_k: -(s sqrt(2) x_k) is exact, so these are the nodes
+     * d + sgn s sqrt(2) x_k, taken in that order (minus first). */
+    const caekf_scalar_t sr = s * CAEKF_SQRT(CAEKF_C(2.0));
     caekf_scalar_t a = 0, a1 = 0;
-    int k, sgn;
-    for (k = 0; k < SLR_NODES; ++k) {
-        for (sgn = -1; sgn <= 1; sgn += 2) {
-            const caekf_scalar_t t = d + (caekf_scalar_t)sgn * s * r2 * (caekf_scalar_t)slr_x[k];
-            if (t > 0) {
-                caekf_scalar_t tn, tn1;
-                power_law(t, n, &tn, &tn1);
-                a += (caekf_scalar_t)slr_w[k] * tn;
-                a1 += (caekf_scalar_t)slr_w[k] * tn1;
+    /* The nodes grow with x_k (rounding is monotone): none is positive if the outermost is not, and the
+     * sums stay 0 (the open side, most steps). */
+    if (d + sr * slr_x[SLR_NODES - 1] > 0) {
+        int k;
+        CAEKF_UNROLL_SIZED /* a sized build (one that sized for them) takes the nodes as constants */
+            for (k = 0; k < SLR_NODES; ++k)
+        {
+            const caekf_scalar_t u = sr * slr_x[k], t0 = d - u, t1 = d + u;
+            caekf_scalar_t tn, tn1;
+            if (t0 > 0) {
+                power_law(t0, n, &tn, &tn1);
+                a += slr_w[k] * tn;
+                a1 += slr_w[k] * tn1;
+            }
+            if (t1 > 0) {
+                power_law(t1, n, &tn, &tn1);
+                a += slr_w[k] * tn;
+                a1 += slr_w[k] * tn1;
             }
         }
     }
@@ -88,7 +119,7 @@ int caekf_model_slr_law(const caekf_model_t *m, int c)
  * the gap are the state's when estimated, else the model's. */
 void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
 {
-    const int i = m->contact_i[c], j = m->contact_j[c], nq = CAEKF_DIM_NQ(m);
+    const int i = CAEKF_CONTACT_I(m, c), j = CAEKF_CONTACT_J(m, c), nq = CAEKF_DIM_NQ(m);
     const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
@@ -164,7 +195,7 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
 
 /* Written into its callers in a build sized for one backward-Euler step per sample (on the step's path: the
  * Newton matrix and F), a function elsewhere (less flash where the step has more paths). */
-#if CAEKF_ONE_STEP_BE
+#if CAEKF_ONE_STEP_BE || CAEKF_FIXED_LINKS /* the latter: the contacts' ends are constants there */
 #define ADD_CONTACT_BLOCK_INLINE CAEKF_HOT_INLINE
 #else
 #define ADD_CONTACT_BLOCK_INLINE static
@@ -198,6 +229,26 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), nu = CAEKF_DIM_NU(m);
     const caekf_scalar_t *q = x, *v = x + nq;
     int i, k;
+#if CAEKF_FIXED_LINKS
+    /* The links' pattern is the build's (constants: written out, no index loads), the same operations in
+     * the same order as below; a link of zero stiffness and damping adds its zero terms. */
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
+        caekf_scalar_t s = inertia, a = CAEKF_FABS(inertia);
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < link_nnz[i]; ++k) {
+            const int j = link_nz[i][k];
+            const caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
+            s += kq + cv;
+            a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
+        }
+        r[i] = s;
+        if (mag != 0) {
+            mag[i] = a;
+        }
+    }
+#else
     for (i = 0; i < nq; ++i) {
         const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
         const caekf_scalar_t *Ki = m->K[i], *Ci = m->C[i];
@@ -228,6 +279,7 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
             mag[i] = a;
         }
     }
+#endif
     for (k = 0; k < nu; ++k) {
         const int b = m->p.input_body[k] - 1;
         r[b] -= u[k];
@@ -236,7 +288,7 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
         }
     }
     for (k = 0; k < nc; ++k) {
-        const int i_ = m->contact_i[k], j_ = m->contact_j[k];
+        const int i_ = CAEKF_CONTACT_I(m, k), j_ = CAEKF_CONTACT_J(m, k);
         if (i_ >= 0) {
             r[i_] += ct[k].fc;
         }
@@ -280,6 +332,16 @@ int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x)
     contacts_at(m, x, ct);
     return any_contact(ct, CAEKF_DIM_NC(m));
 }
+
+#if CAEKF_HAS_SUBSTEPS
+int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct)
+{
+    if (x != 0) {
+        contacts_at(m, x, ct);
+    }
+    return any_contact(ct, CAEKF_DIM_NC(m));
+}
+#endif
 
 #if CAEKF_MODEL_ORACLES
 /* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
@@ -333,7 +395,7 @@ static void add_contact_column(caekf_scalar_t *rows, int a, int b, int col, caek
 static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact_t *ct, caekf_scalar_t s,
                               caekf_scalar_t *rows)
 {
-    const int a = m->contact_i[c], b = m->contact_j[c];
+    const int a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
     add_contact_column(rows, a, b, 2 * CAEKF_DIM_NQ(m) + c, s * ct->dfc_dgamma);
 #if CAEKF_HAS_LAW_PARAMS
     {
@@ -357,7 +419,7 @@ static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact
 static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
                                  caekf_scalar_t J[CAEKF_N][CAEKF_N])
 {
-    const int nq = CAEKF_DIM_NQ(m), a = m->contact_i[c], b = m->contact_j[c];
+    const int nq = CAEKF_DIM_NQ(m), a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
     add_contact_block(&J[nq][0], CAEKF_N, a, b, ct->dfc_ddelta);
     add_contact_block(&J[nq][nq], CAEKF_N, a, b, ct->dfc_drate);
     add_param_columns(m, c, ct, 1, &J[nq][0]);
@@ -437,18 +499,20 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
         }
     }
 #else
+    UNROLL_STEP
     for (i = 0; i < nq * nq; ++i) {
         A[i] = m->A0[i];
     }
 #endif
     for (i = 0; i < nc; ++i) {
         if (CONTACT_ON(ct[i])) {
-            add_contact_block(A, nq, m->contact_i[i], m->contact_j[i], m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
+            add_contact_block(A, nq, CAEKF_CONTACT_I(m, i), CAEKF_CONTACT_J(m, i),
+                              m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
 #if CAEKF_A0_MAX_OPEN
     { /* the entries outside the one contact's block are A0's: their maximum is a constant */
-        const int e[2] = {m->contact_i[0], m->contact_j[0]};
+        const int e[2] = {CAEKF_CONTACT_I(m, 0), CAEKF_CONTACT_J(m, 0)};
         int a, b;
         amax = m->a0_max_open;
         for (a = 0; a < 2; ++a) {
@@ -531,6 +595,7 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         }
         momentum_residual(m, xprev, vp, u_prev, ct0, g0, mag0);
     }
+    UNROLL_STEP
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
         v[i] = vp[i];
         q[i] = CAEKF_METHOD_TRAP(m) ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
@@ -551,6 +616,7 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
         if (CAEKF_METHOD_TRAP(m)) {
+            UNROLL_STEP
             for (i = 0; i < nq; ++i) {
                 r[i] += g0[i];
                 if (it > 0) {
@@ -559,6 +625,7 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
             }
         }
         if (it > 0) {
+            UNROLL_STEP
             for (i = 0; i < nq; ++i) {
                 rmax = caekf_max(rmax, CAEKF_FABS(r[i]));
                 magmax = caekf_max(magmax, mag[i]);
@@ -583,6 +650,7 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         } else {
             solve(m->A0_lu, nq, m->A0_piv, r, 1, 1);
         }
+        UNROLL_STEP
         for (i = 0; i < nq; ++i) {
             v[i] -= r[i];
             q[i] = CAEKF_METHOD_TRAP(m) ? qp[i] + hs * (v[i] + vp[i]) : qp[i] + dt * v[i];
@@ -609,6 +677,39 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
+#if CAEKF_FIXED_LINKS
+    /* The links' pattern is the build's: outside it K and C are +0, so the entries below are -0 there
+     * (-0, -0 - 0 and -(hs 0 + 0); backward Euler's v-columns +0) and the parameter columns 0; the
+     * pattern's entries (and the diagonal's M/hs) by the operations below. */
+    UNROLL_STEP
+    for (i = 0; i < nq; ++i) {
+        int k;
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < nq; ++j) {
+            fv[i][j] = -CAEKF_C(0.0);
+            fv[i][nq + j] = ct0 != 0 ? -CAEKF_C(0.0) : 0;
+        }
+        CAEKF_UNROLL_SIZED
+        for (j = 2 * nq; j < n; ++j) {
+            fv[i][j] = 0;
+        }
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < link_nnz[i]; ++k) {
+            j = link_nz[i][k];
+            fv[i][j] = -m->K[i][j];
+            if (ct0 != 0) {
+                fv[i][j] -= m->K[i][j];
+                fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
+            }
+        }
+        if (ct0 != 0) {
+            fv[i][nq + i] += m->m_dt[i];
+        } else {
+            fv[i][nq + i] = m->m_dt[i];
+        }
+    }
+#else
+    UNROLL_STEP
     for (i = 0; i < nq; ++i) {
         CAEKF_UNROLL_SIZED
         for (j = 0; j < nq; ++j) {
@@ -629,8 +730,9 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
             fv[i][nq + i] = m->m_dt[i];
         }
     }
+#endif
     for (i = 0; i < nc; ++i) {
-        const int a = m->contact_i[i], b = m->contact_j[i];
+        const int a = CAEKF_CONTACT_I(m, i), b = CAEKF_CONTACT_J(m, i);
         if (CONTACT_ON(ct[i])) {
             add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct[i].dfc_ddelta);
             if (ct0 != 0) {

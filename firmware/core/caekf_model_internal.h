@@ -21,6 +21,18 @@
 #define CAEKF_DIM_N(m) ((m)->n)
 #endif
 
+/* Contact c's ends (0-based bodies, -1: ground): constants where the links are the build's
+ * (CAEKF_FIXED_LINKS; the settings' ends are refused unless they are the sized scenario's). */
+#if CAEKF_FIXED_LINKS
+static const signed char caekf_sized_contact_a[] = CAEKF_SIZED_CONTACT_A,
+                         caekf_sized_contact_b[] = CAEKF_SIZED_CONTACT_B;
+#define CAEKF_CONTACT_I(m, c) ((void)(m), caekf_sized_contact_a[c] - 1)
+#define CAEKF_CONTACT_J(m, c) ((void)(m), caekf_sized_contact_b[c] - 1)
+#else
+#define CAEKF_CONTACT_I(m, c) ((m)->contact_i[c])
+#define CAEKF_CONTACT_J(m, c) ((m)->contact_j[c])
+#endif
+
 /* nq == 4, decided at compile time in a sized build (only one LU kernel is then linked). */
 #if CAEKF_SIZED
 #define CAEKF_DIM_IS4(nq) ((void)(nq), CAEKF_SIZED_BODIES == 4)
@@ -96,6 +108,10 @@ int caekf_model_newton_ct(const caekf_model_t *m, const caekf_scalar_t xprev[CAE
                           const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
                           int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct,
                           const caekf_contact_t *ct0);
+
+/* caekf_model_any_contact keeping the contacts at x in ct (x NULL: ct holds them already, only the test).
+ * The step passes them on instead of evaluating them again at the same state (the same results). */
+int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct);
 
 /* caekf_model_transition_v from the contacts at x_k (ct) and, for the trapezoidal rule, at x_{k-1} (ct0). */
 int caekf_model_transition_ct(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,

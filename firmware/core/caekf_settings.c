@@ -442,13 +442,41 @@ static int first_unsized_method(const caekf_model_params_t *m, const caekf_setti
     if (m->gamma_log != CAEKF_SIZED_GAMMA_LOG) {
         return (int)CAEKF_PARAM_GAMMA_LOG;
     }
-    if (s != 0 && s->contact_slr_p != 0) { /* statistically linearised contacts: a run-time choice (CAEKF_HAS_SLR) */
+#if CAEKF_SIZED_SLR
+    if (s != 0 && !(s->contact_slr_p > 0)) { /* statistically linearised contacts: the sized method (CAEKF_HAS_SLR) */
         return (int)CAEKF_PARAM_CONTACT_SLR_P;
     }
+#else
+    if (s != 0 && s->contact_slr_p != 0) { /* statistically linearised contacts: compiled out (CAEKF_HAS_SLR) */
+        return (int)CAEKF_PARAM_CONTACT_SLR_P;
+    }
+#endif
 #ifdef CAEKF_SIZED_CONTACT_N
     for (i = 0; i < (unsigned)m->contacts; ++i) {
         if (m->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
             return (int)(CAEKF_PARAM_CONTACT_N + i);
+        }
+    }
+#endif
+#if CAEKF_FIXED_LINKS
+    {
+        static const int sized_a[] = CAEKF_SIZED_SPRING_A, sized_b[] = CAEKF_SIZED_SPRING_B;
+        static const int sized_ca[] = CAEKF_SIZED_CONTACT_A, sized_cb[] = CAEKF_SIZED_CONTACT_B;
+        for (i = 0; i < (unsigned)CAEKF_SIZED_SPRINGS; ++i) { /* the links' ends: the build's step is theirs */
+            if (m->spring_a[i] != sized_a[i]) {
+                return (int)(CAEKF_PARAM_SPRING_A + i);
+            }
+            if (m->spring_b[i] != sized_b[i]) {
+                return (int)(CAEKF_PARAM_SPRING_B + i);
+            }
+        }
+        for (i = 0; i < (unsigned)CAEKF_SIZED_CONTACTS; ++i) { /* and the contacts' */
+            if (m->contact_a[i] != sized_ca[i]) {
+                return (int)(CAEKF_PARAM_CONTACT_A + i);
+            }
+            if (m->contact_b[i] != sized_cb[i]) {
+                return (int)(CAEKF_PARAM_CONTACT_B + i);
+            }
         }
     }
 #endif

@@ -291,7 +291,9 @@ def test_c_estimator_equals_the_numpy_reference_on_an_example(name, preset):
     assert np.count_nonzero(contact) > 500
     if substeps > 1:  # every step predicted closed was substepped: at least one iteration per substep (the
         # switch P(delta > 0) > contact_slr_p also makes some open steps active, the flag alone does not tell)
-        assert res.newton_iters[res.delta > 0].min() >= substeps
+        closed = contact & (res.delta > 0)
+        assert np.count_nonzero(closed) > 500
+        assert res.newton_iters[closed].min() >= substeps
     np.testing.assert_allclose(res.gammas, ref.gammas, rtol=1e-8, atol=0)
     np.testing.assert_array_equal(res.flags, ref.flags)
     differ = np.count_nonzero(res.newton_iters != ref.newton_iters)

@@ -99,12 +99,24 @@ def test_a_mechanism_sizes_counts_only_and_a_preset_fixes_the_step_method(tmp_pa
 
 def test_the_default_configuration_sizes_a_build_for_the_recommended_estimator():
     """CAEKF_MECHANISM_PRESET=default: no preset's values, the schema's defaults under the scenario (the
-    recommended estimator: trapezoidal, 4 contact substeps); with the whole contact law estimated
-    (paper-joint.toml) the law's states and ln gamma are sized and the exponent is no constant."""
+    recommended estimator: trapezoidal, contact substeps, statistically linearised contacts, so
+    CAEKF_SIZED_SLR 1; the paper's presets 0); with the whole contact law estimated (paper-joint.toml) the
+    law's states and ln gamma are sized and the exponent is no constant. The links' and the contacts' ends
+    are the scenario's, with the pattern they give K and C (CAEKF_FIXED_LINKS)."""
     trap = schema.SCHEMA.by_name("discretisation").values.index("trapezoidal")
     cap = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", "default")
     assert "#define CAEKF_SIZED_METHOD 1" in cap and f"#define CAEKF_SIZED_DISCRETISATION {trap}" in cap
-    assert "#define CAEKF_SIZED_CONTACT_SUBSTEPS 4" in cap and "#define CAEKF_SIZED_LAW_PARAMS 0" in cap
+    substeps = int(schema.SCHEMA.by_name("contact_substeps").default_value())
+    assert substeps > 1 and f"#define CAEKF_SIZED_CONTACT_SUBSTEPS {substeps}" in cap
+    assert "#define CAEKF_SIZED_LAW_PARAMS 0" in cap
+    assert "#define CAEKF_SIZED_SLR 1" in cap
+    # paper.toml's links 1-ground, 1-2, 3-4, 4-ground and its contact 2-3
+    assert "#define CAEKF_SIZED_SPRING_A {1, 1, 3, 4}" in cap and "#define CAEKF_SIZED_SPRING_B {0, 2, 4, 0}" in cap
+    assert "#define CAEKF_SIZED_LINK_NNZ {2, 2, 2, 2}" in cap
+    assert "#define CAEKF_SIZED_LINK_NZ {{0, 1}, {0, 1}, {2, 3}, {2, 3}}" in cap
+    assert "#define CAEKF_SIZED_CONTACT_A {2}" in cap and "#define CAEKF_SIZED_CONTACT_B {3}" in cap
+    for preset in ("canonical", "switched", "switched-highq", "switched-highq-constrained"):
+        assert "#define CAEKF_SIZED_SLR 0" in codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", preset)
     cap = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper-joint.toml", "default")
     assert "#define CAEKF_SIZED_LAW_PARAMS 3" in cap and "#define CAEKF_MAX_LAW_PARAMS 3" in cap
     assert "#define CAEKF_SIZED_GAMMA_LOG 1" in cap and "CAEKF_SIZED_CONTACT_N" not in cap

@@ -200,6 +200,12 @@ static void test_a_method_sized_build_refuses_other_methods(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_CONTACT_SUBSTEPS, b.contact_substeps);
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_GAMMA_LOG, b.model.gamma_log);
     b = good;
+    /* statistically linearised contacts: required where sized with them, refused where compiled out */
+    b.contact_slr_p = CAEKF_SIZED_SLR ? 0 : (caekf_scalar_t)0.01;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_CONTACT_SLR_P, err.param_id);
+    b = good;
     b.model.discretisation = 1 - CAEKF_SIZED_DISCRETISATION;
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);

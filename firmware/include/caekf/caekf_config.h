@@ -17,7 +17,8 @@
  *   CAEKF_SIZED_METHOD       generated (caekf/caekf_capacity.h), 1 in a build sized for one configuration
  *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
  *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
- *                            CAEKF_SIZED_DISCRETISATION, CAEKF_SIZED_CONTACT_SUBSTEPS and, when every contact
+ *                            CAEKF_SIZED_DISCRETISATION, CAEKF_SIZED_CONTACT_SUBSTEPS, CAEKF_SIZED_SLR
+ *                            (statistically linearised contacts: contact_slr_p > 0) and, when every contact
  *                            has the same exponent, CAEKF_SIZED_CONTACT_N. The code of other methods
  *                            compiles out (the trapezoidal rule, the substeps and their model, pow for an
  *                            exponent of 1.5 or 1); settings asking for another are refused
@@ -74,9 +75,19 @@ typedef double caekf_scalar_t;
  * instance no inputs of the step's start (only the trapezoidal rule and the substeps read them): a smaller
  * instance. */
 #define CAEKF_ONE_STEP_BE (!CAEKF_HAS_SUBSTEPS && !CAEKF_HAS_TRAPEZOIDAL)
-/* Statistically linearised contacts (setting contact_slr_p): a run-time choice of the estimator, so a
- * build sized for one configuration (whose method is fixed) leaves them out and refuses the setting. */
-#define CAEKF_HAS_SLR (!CAEKF_SIZED_METHOD)
+/* The links' ends fixed at build time (CAEKF_SIZED_SPRING_A/B and their pattern of K and C, generated from
+ * the sized scenario; settings with other ends are refused): the step path of a build that substeps or
+ * takes the trapezoidal rule evaluates the residual many times a step and is written for that pattern.
+ * The one-backward-Euler-step build (the paper's presets) keeps the run-time pattern and its figures. */
+#define CAEKF_FIXED_LINKS (CAEKF_SIZED_METHOD && !CAEKF_ONE_STEP_BE)
+/* Statistically linearised contacts (setting contact_slr_p > 0): a run-time choice of the estimator, or
+ * in a build sized for one configuration part of its method (CAEKF_SIZED_SLR, generated): compiled in and
+ * required there when the configuration has them, else left out and the setting refused. */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_HAS_SLR CAEKF_SIZED_SLR
+#else
+#define CAEKF_HAS_SLR 1
+#endif
 
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses

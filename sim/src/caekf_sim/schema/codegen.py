@@ -281,7 +281,7 @@ LAW_PARAMS = ("n", "lambda", "gap")
 
 # The step method a build sized for one configuration fixes (CAEKF_SIZED_METHOD): these settings, as the
 # scenario and the preset give them (or their defaults), become compile-time constants.
-METHOD = ("discretisation", "contact_substeps", "contact_n", "gamma_log")
+METHOD = ("discretisation", "contact_substeps", "contact_n", "gamma_log", "contact_slr_p")
 
 
 # The configuration name of no preset: the schema's defaults under the scenario, i.e. the recommended
@@ -316,6 +316,37 @@ def sized_method(schema: Schema, mechanism: Path, preset: str, contacts: int) ->
     return out
 
 
+def c_sized_links(schema: Schema, given: Dict[str, float], counts: Dict[str, int]) -> List[str]:
+    """The scenario's links (spring_a, spring_b) and the pattern they give K and C: row i's columns j,
+    ascending, where a link couples bodies i and j (its diagonal included; ground ends drop out); the
+    contacts' ends (contact_a, contact_b). A step path that evaluates the residual many times is written
+    for them (CAEKF_FIXED_LINKS, caekf_config.h)."""
+    ends = {}
+    for name, cap in (("spring_a", "springs"), ("spring_b", "springs"), ("contact_a", "contacts"),
+                      ("contact_b", "contacts")):
+        st = schema.by_name(name)
+        ends[name] = [int(given.get(st.keys[i], st.default_value(index=i))) for i in range(counts[cap])]
+    nq = counts["bodies"]
+    rows: List[List[int]] = [[] for _ in range(nq)]
+    for a, b in zip(ends["spring_a"], ends["spring_b"]):
+        for i in (a, b):
+            for j in (a, b):
+                if i > 0 and j > 0 and j - 1 not in rows[i - 1]:
+                    rows[i - 1].append(j - 1)
+    width = max([len(r) for r in rows] + [1])
+    nz = ", ".join("{" + ", ".join(str(j) for j in sorted(r) + [0] * (width - len(r))) + "}" for r in rows)
+
+    def arr(v: List[int]) -> str:
+        return "{" + ", ".join(str(x) for x in (v or [0])) + "}"
+    return [f"#define CAEKF_SIZED_SPRING_A {arr(ends['spring_a'])} /* the links' ends */",
+            f"#define CAEKF_SIZED_SPRING_B {arr(ends['spring_b'])}",
+            f"#define CAEKF_SIZED_LINK_NNZ {arr([len(r) for r in rows])} /* K and C's pattern, row by row */",
+            f"#define CAEKF_SIZED_LINK_WIDTH {width}",
+            f"#define CAEKF_SIZED_LINK_NZ {{{nz}}}",
+            f"#define CAEKF_SIZED_CONTACT_A {arr(ends['contact_a'])} /* the contacts' ends */",
+            f"#define CAEKF_SIZED_CONTACT_B {arr(ends['contact_b'])}"]
+
+
 def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> str:
     """caekf/caekf_capacity.h: the build's mechanism capacity. Without a mechanism, the wire's (any
     mechanism up to it, sizes at run time); with one (a scenario file), exactly its counts (CAEKF_SIZED:
@@ -342,6 +373,7 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
                  for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS}
         law = sum(flags.values())
         lines.append(f"#define CAEKF_SIZED_LAW_PARAMS {law} /* estimated n, lambda and gap */")
+        lines += c_sized_links(schema, given, counts)
     if mechanism is not None and preset:
         method = sized_method(schema, mechanism, preset, counts["contacts"])
         if any(v for k, v in flags.items() if k.endswith("_estimate_n")):
@@ -353,6 +385,8 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
                   f"#define CAEKF_SIZED_GAMMA_LOG {int(method['gamma_log'])}"]
         if "contact_n" in method:
             lines.append(f"#define CAEKF_SIZED_CONTACT_N {_c_double(method['contact_n'])}")
+        # Statistically linearised contacts or not is part of the method (their threshold stays a setting).
+        lines.append(f"#define CAEKF_SIZED_SLR {int(method['contact_slr_p'] > 0)} /* contact_slr_p > 0 */")
     else:
         lines.append("#define CAEKF_SIZED_METHOD 0 /* the step method is a run-time setting */")
     lines.append("")
@@ -380,6 +414,11 @@ def _all_bits_zero(s: "Setting", d: Any) -> bool:
 def pair_ok(s: "Setting") -> int:
     """The larger bound of an integer rule (0 for other rules): the table stores them as uint16_t."""
     return 0 if s.range != "int" else (int(s.hi) if int(s.lo) >= 0 else -1)
+
+
+# Settings whose nonzero default is a feature a build may compile out (caekf_config.h): there the
+# default is its off value, 0, the one value such a build accepts.
+COMPILED_IN = {"contact_slr_p": "CAEKF_HAS_SLR"}
 
 
 def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> Dict[str, str]:
@@ -462,7 +501,9 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
                 expr = f"(caekf_scalar_t){_c_double(float(d))}"
             else:
                 expr = str(int(s.default_value(index=i)))
-            if s.capacity is None:
+            if s.name in COMPILED_IN:  # a default that needs its feature: off (zero) where it is compiled out
+                c += [f"#if {COMPILED_IN[s.name]}", f"    s->{s.field} = {expr};", "#endif"]
+            elif s.capacity is None:
                 c.append(f"    s->{s.field}{f'[{i}]' if s.count > 1 else ''} = {expr};")
             elif isinstance(s.default, list) or i == 0:
                 # Arrays over a capacity: the build may store fewer elements than the wire carries.
