@@ -10,7 +10,7 @@
 #   target_replay.stack      the measured stack (painting) of caekf_init and of the steps is within
 #                            CAEKF_STACK_BUDGET (512 B float, 1024 B double); reads target_replay's
 #                            saved output                                          (label budget)
-#   target_replay.icount     Cortex-M4F only: no step above CAEKF_ICOUNT_BUDGET (8000) instructions
+#   target_replay.icount     Cortex-M4F only: no step above CAEKF_ICOUNT_BUDGET (9646) instructions
 #                            (tools/qemu-icount)                                   (label budget)
 
 include("${PROJECT_SOURCE_DIR}/cmake/HostTools.cmake")
@@ -25,7 +25,9 @@ else()
     set(_stack_default 1024)
 endif()
 set(CAEKF_STACK_BUDGET ${_stack_default} CACHE STRING "Stack budget of caekf_init/caekf_step in bytes")
-set(CAEKF_ICOUNT_BUDGET 8000 CACHE STRING "Instructions per caekf_step budget (Cortex-M4F)")
+# The reference run's max step: issue 10's 9,646 (the worst contact + constraint + max Newton step's 8,000 is
+# tools/mcu-report.py's, which finds that step); a benchmark gate, left out of tools/run-tests.sh (-LE icount).
+set(CAEKF_ICOUNT_BUDGET 9646 CACHE STRING "Max instructions per caekf_step of the reference run (Cortex-M4F)")
 
 find_package(Python3 COMPONENTS Interpreter)
 if(NOT Python3_FOUND)
