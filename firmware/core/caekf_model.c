@@ -145,7 +145,7 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     out->dfc_drate = 0;
     out->dfc_dgamma = 0;
 #if CAEKF_HAS_SLR
-    if (m->slr_s[c] > 0 && caekf_model_slr_law(m, c)) {
+    if (m->slr_s[c] > 0) { /* set only for the laws caekf_model_slr_law linearises */
         /* Statistically linearised tangents (setting contact_slr_p): the force is the law's own, its
          * tangents in delta and gamma the expectations of the law's over delta ~ N(d, slr_s^2) (the
          * regression slopes of the force on the states, Stein's lemma): the tangents of a contact whose

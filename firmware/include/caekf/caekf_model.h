@@ -129,8 +129,8 @@ typedef struct {
 #endif
 #if CAEKF_HAS_SLR
     /* Statistically linearised contact tangents (setting contact_slr_p > 0): the std of each contact's
-     * penetration (m), set by the estimator from P each step; 0 (caekf_model_init): the law's own
-     * tangents. */
+     * penetration (m), set by the estimator from P each step for the laws it linearises (elastic, gamma
+     * alone: caekf_model_slr_law); 0 (caekf_model_init, and every other law): the law's own tangents. */
     caekf_scalar_t slr_s[CAEKF_MAX_CONTACTS];
 #endif
 } caekf_model_t;

@@ -100,7 +100,7 @@ def format_targets(family: Family, summary: Sequence[Dict[str, Any]], joint: Seq
         jrow = next((j for j in joint if j["experiment"] == e and j["group"] == "all"), None)
         cells, all_met = [], True
         for name, bound in family.targets:
-            kind = TARGETS[name][1]
+            kind = TARGETS[name]
             if name.startswith("joint"):
                 src, total = jrow, (jrow["crb_meets_targets"] if jrow else 0)
             else:
