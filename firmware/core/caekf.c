@@ -432,12 +432,16 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
         /* the contacts at the substep's start and end (the next one's start): their roles swap every
          * substep */
         caekf_contact_t *ct0 = est->sub_ct[step & 1], *ct = est->sub_ct[(step + 1) & 1];
+        /* Each substep's first Newton update takes the Jacobian at its start: the previous substep's map
+         * has factorised it; the first substep's is factorised here (refused: its own Jacobian). */
+        const int first_ok = step > 1 || caekf_model_newton_lu(m, ct0, &est->sub_lu) == 0;
         if (caekf_model_newton_ct(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
-                                  est->scratch.m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0) != 0) {
+                                  est->scratch.m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0,
+                                  first_ok ? &est->sub_lu : 0) != 0) {
             result = 1;
         }
         *iters += it;
-        if (caekf_model_transition_ct(m, ct, ct0, fj) != 0) {
+        if (caekf_model_transition_ct(m, ct, ct0, fj, &est->sub_lu) != 0) {
             return -1;
         }
         if (step == 1) {
@@ -493,7 +497,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         if (closed) {
         est->fv_const = 0;
 #if CAEKF_HAS_SUBSTEPS /* the trapezoidal rule's contacts at x_{k-1}: advance's, in sub_ct[1] */
-        if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv) != 0) {
+        if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv, &est->sub_lu) != 0) {
             return -1;
         }
 #else
@@ -768,7 +772,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 #if CAEKF_HAS_SUBSTEPS
             r = caekf_model_newton_ct(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
                                       est->x_pred, &iters, est->scratch.m, est->sub_ct[0],
-                                      CAEKF_METHOD_TRAP(&est->model) ? est->sub_ct[1] : 0);
+                                      CAEKF_METHOD_TRAP(&est->model) ? est->sub_ct[1] : 0, 0);
             ct_pred = est->sub_ct[0];
 #else
             r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,

@@ -220,78 +220,48 @@ caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_s
     return CAEKF_LA_OK;
 }
 
-/* D^-1/2 A D^-1/2 with D = diag(A): the correlation form makes the PSD test and the repair
- * independent of the state scaling. A zero diagonal must come with a zero row. Reads a's upper
- * triangle and writes w's lower one (all the LDL^T below uses). Out of line: the LDL^T then keeps its
- * registers (fewer instructions on the M4F). */
-CAEKF_NOINLINE static caekf_la_status_t normalise(const caekf_scalar_t *a, int n, caekf_scalar_t *w, caekf_scalar_t *d)
-{
-    uint32_t zero = 0; /* bit i: a_ii = 0 */
-    int i, j;
-    for (i = 0; i < n; ++i) {
-        caekf_scalar_t aii = A_(a, n, i, i);
-        if (!(aii >= 0) || !CAEKF_ISFINITE(aii)) {
-            return CAEKF_LA_NOT_PSD;
-        }
-        /* a zero variance divides by 1 here: its row and column are set below */
-        d[i] = aii > 0 ? CAEKF_SQRT(aii) : 1;
-        zero |= (uint32_t)(aii > 0 ? 0 : 1) << i;
-    }
-    for (i = 0; i < n; ++i) { /* no branch per entry */
-        caekf_scalar_t *wi = w + i * n;
-        const caekf_scalar_t *aji = a + i; /* a[j][i], j = 0.. */
-        const caekf_scalar_t di = d[i];
-        for (j = 0; j <= i; ++j, aji += n) {
-            wi[j] = *aji / (di * d[j]);
-        }
-    }
-    for (i = 0; zero != 0 && i < n; ++i, zero >>= 1) { /* a zero variance must come with a zero row */
-        if ((zero & 1u) == 0) {
-            continue;
-        }
-        for (j = 0; j < n; ++j) {
-            if ((j < i ? A_(a, n, j, i) : A_(a, n, i, j)) != 0) {
-                return CAEKF_LA_NOT_PSD;
-            }
-            *(j < i ? &A_(w, n, i, j) : &A_(w, n, j, i)) = 0;
-        }
-    }
-    return CAEKF_LA_OK;
-}
-
 caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *w)
 {
-    caekf_scalar_t d[CAEKF_LA_MAX_N];
-    int i, k;
+    int i, j, k;
     if (!size_ok(n)) {
         return CAEKF_LA_BAD_SIZE;
     }
-    if (normalise(a, n, w, d) != CAEKF_LA_OK) {
-        return CAEKF_LA_NOT_PSD;
-    }
-    /* Outer-product LDL^T on the lower triangle of the correlation matrix (unit diagonal). */
-    for (k = 0; k < n; ++k) {
-        caekf_scalar_t piv = A_(w, n, k, k);
-        if (piv < -tol) {
+    for (i = 0; i < n; ++i) { /* w <- a's upper triangle; every variance finite and >= 0 */
+        const caekf_scalar_t aii = A_(a, n, i, i);
+        if (!(aii >= 0) || !CAEKF_ISFINITE(aii)) {
             return CAEKF_LA_NOT_PSD;
         }
-        if (piv <= tol) {
+        for (j = i; j < n; ++j) {
+            A_(w, n, i, j) = A_(a, n, i, j);
+        }
+    }
+    /* Outer-product LDL^T on the upper triangle, judged as on the correlation form D^-1/2 A D^-1/2
+     * (D = diag A; independent of the state scaling) without forming it: the form's pivot k is
+     * w_kk / a_kk and its coupling left in row i is w_ki / sqrt(a_kk a_ii). A zero variance then needs
+     * a zero row. */
+    for (k = 0; k < n; ++k) {
+        const caekf_scalar_t *wk = w + k * n;
+        const caekf_scalar_t piv = wk[k], t = tol * A_(a, n, k, k);
+        if (piv < -t) {
+            return CAEKF_LA_NOT_PSD;
+        }
+        if (piv <= t) {
             /* Zero pivot: a PSD matrix has no coupling left in this direction; |w_ik|^2 <= w_ii w_kk. */
             for (i = k + 1; i < n; ++i) {
-                if (CAEKF_FABS(A_(w, n, i, k)) > CAEKF_SQRT(tol * caekf_max(A_(w, n, i, i), tol))) {
+                const caekf_scalar_t wii = A_(w, n, i, i), tii = tol * A_(a, n, i, i);
+                if (wk[i] * wk[i] > t * caekf_max(wii, tii)) {
                     return CAEKF_LA_NOT_PSD;
                 }
             }
             continue;
         }
         for (i = k + 1; i < n; ++i) {
-            caekf_scalar_t *wij = w + i * n + k + 1, *const wii = w + i * n + i;
-            const caekf_scalar_t *wjk = w + (k + 1) * n + k; /* column k from row k + 1 */
-            const caekf_scalar_t l = wij[-1] / piv;
-            do { /* j = k + 1 .. i */
-                *wij -= l * *wjk;
-                wjk += n;
-            } while (wij++ != wii);
+            caekf_scalar_t *wij = w + i * n + i;
+            const caekf_scalar_t *wkj = wk + i, *const wk_end = wk + n;
+            const caekf_scalar_t l = *wkj / piv;
+            do { /* j = i .. n - 1 */
+                *wij++ -= l * *wkj++;
+            } while (wkj != wk_end);
         }
     }
     return CAEKF_LA_OK;

@@ -52,9 +52,9 @@ void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t 
 caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c, caekf_scalar_t rel_tol,
                                      caekf_scalar_t inv[3]);
 
-/* Positive-semidefiniteness test: LDL^T of the correlation form D^-1/2 A D^-1/2 (scale invariant);
- * pivots within tol of zero count as zero (such directions must then have no coupling left). Reads
- * the upper triangle of the symmetric a only. */
+/* Positive-semidefiniteness test: LDL^T of a, its pivots and couplings judged as those of the correlation
+ * form D^-1/2 A D^-1/2 (scale invariant, D = diag a); pivots within tol of zero count as zero (such
+ * directions must then have no coupling left). Reads the upper triangle of the symmetric a only. */
 caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *work);
 
 /* Cyclic Jacobi eigen-decomposition of a symmetric matrix: on return a's diagonal holds the

@@ -117,8 +117,12 @@ int caekf_model_slr_law(const caekf_model_t *m, int c)
 /* Eqs. (16)-(17) generalised: f = gamma delta^n (1 + lambda d delta/dt) while delta > 0, never pulling
  * (a Hunt-Crossley factor below 0 gives f = 0 and no derivatives). gamma is the state's; n, lambda and
  * the gap are the state's when estimated, else the model's. */
-void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
+/* caekf_model_contact; without `tangents` a statistically linearised contact gets its force and penetration
+ * only (a Newton update that does not build the Newton matrix reads nothing else). */
+CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out,
+                                  int tangents)
 {
+    (void)tangents; /* read only where contacts are linearised statistically */
     const int i = CAEKF_CONTACT_I(m, c), j = CAEKF_CONTACT_J(m, c), nq = CAEKF_DIM_NQ(m);
     const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
@@ -151,8 +155,10 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
          * regression slopes of the force on the states, Stein's lemma): the tangents of a contact whose
          * penetration is uncertain are neither the stiff ones of the predicted penetration nor zero
          * on the open side of eq. (21). */
-        caekf_scalar_t e, e1, dn = 0, dn1 = 0;
-        slr_moments(d, m->slr_s[c], n, &e, &e1);
+        caekf_scalar_t e = 0, e1 = 0, dn = 0, dn1 = 0;
+        if (tangents) {
+            slr_moments(d, m->slr_s[c], n, &e, &e1);
+        }
         if (d > 0) {
             power_law(d, n, &dn, &dn1);
         }
@@ -192,6 +198,19 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
         }
     }
 }
+
+void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
+{
+    contact_law(m, c, x, out, 1);
+}
+
+#if CAEKF_HAS_SUBSTEPS
+/* The force of contact c at x without the statistically linearised tangents. */
+static void contact_force(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
+{
+    contact_law(m, c, x, out, 0);
+}
+#endif
 
 /* Written into its callers in a build sized for one backward-Euler step per sample (on the step's path: the
  * Newton matrix and F), a function elsewhere (less flash where the step has more paths). */
@@ -573,7 +592,8 @@ static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar
 
 CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
                          const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
-                         int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0)
+                         int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0,
+                         const caekf_newton_lu_t *first)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
@@ -585,6 +605,9 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
     caekf_scalar_t *const r = work + 2 * CAEKF_NQ, *const mag = work + 3 * CAEKF_NQ; /* each iterate's */
     int it, i;
     int result = 1;
+#if !CAEKF_HAS_SUBSTEPS
+    (void)first; /* no substeps: every update builds its own matrix */
+#endif
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
@@ -610,9 +633,22 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         int piv[CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t rmax = 0, magmax = 0;
+#if CAEKF_HAS_SUBSTEPS
+        /* The first update takes the given LU (the Jacobian at the step's start): the contacts' forces
+         * only, unless the bound stops the loop here (x_k's contacts are then these, tangents and all). */
+        const int chord = it == 0 && first != 0 && max_iter > 0;
+        for (i = 0; i < nc; ++i) {
+            if (chord) {
+                contact_force(m, i, xk, &ct[i]);
+            } else {
+                caekf_model_contact(m, i, xk, &ct[i]);
+            }
+        }
+#else
         for (i = 0; i < nc; ++i) {
             caekf_model_contact(m, i, xk, &ct[i]);
         }
+#endif
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
         if (CAEKF_METHOD_TRAP(m)) {
@@ -641,7 +677,16 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         if (it == max_iter) {
             break; /* bound reached: x_k keeps the last iterate */
         }
-        if (any_contact(ct, nc)) { /* contact: the tangents change A; else the constant LU */
+#if CAEKF_HAS_SUBSTEPS
+        if (chord) {
+            if (first->constant) {
+                solve(m->A0_lu, nq, m->A0_piv, r, 1, 1);
+            } else {
+                solve(first->lu, nq, first->piv, r, 1, 1);
+            }
+        } else
+#endif
+            if (any_contact(ct, nc)) { /* contact: the tangents change A; else the constant LU */
             if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
                 result = 2;
                 break;
@@ -665,7 +710,7 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
                        int *iters, caekf_scalar_t work[4 * CAEKF_NQ])
 {
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
-    return NEWTON_CT(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0);
+    return NEWTON_CT(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
 }
 
 /* Right-hand sides of the linearised step, A dv_k = -(dg/dx_{k-1}) dx_{k-1}, one column per component of
@@ -770,23 +815,31 @@ void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAE
 #endif
 }
 
+#if CAEKF_HAS_SUBSTEPS
+int caekf_model_newton_lu(const caekf_model_t *m, const caekf_contact_t *ct, caekf_newton_lu_t *lu)
+{
+    const int nq = CAEKF_DIM_NQ(m);
+    lu->constant = !any_contact(ct, CAEKF_DIM_NC(m));
+    return lu->constant ? 0 : factor(lu->lu, nq, lu->piv, newton_matrix(m, ct, lu->lu));
+}
+#endif
+
 CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], caekf_newton_lu_t *lu)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
-    int piv[CAEKF_NQ];
     const int closed = any_contact(ct, nc), closed0 = CAEKF_METHOD_TRAP(m) ? any_contact(ct0, nc) : 0;
+    lu->constant = !closed;
     if (!closed && !closed0) { /* linear step: the constant F */
         caekf_model_free_transition_v(m, fv);
         return 0;
     }
-    if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
+    if (closed && factor(lu->lu, nq, lu->piv, newton_matrix(m, ct, lu->lu)) != 0) {
         return -1;
     }
     transition_rhs(m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0, fv); /* solved in place */
     if (closed) {
-        solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
+        solve(lu->lu, nq, lu->piv, &fv[0][0], n, CAEKF_N);
     } else { /* trapezoidal, closed only at the step's start: A is A0 */
         solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
     }
@@ -797,10 +850,11 @@ int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *c
                                 caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1];
+    caekf_newton_lu_t lu;
     if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);
     }
-    return TRANSITION_CT(m, ct, ct0, fv);
+    return TRANSITION_CT(m, ct, ct0, fv, &lu);
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],

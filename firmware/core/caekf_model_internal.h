@@ -107,15 +107,20 @@ int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *c
 int caekf_model_newton_ct(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
                           const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
                           int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct,
-                          const caekf_contact_t *ct0);
+                          const caekf_contact_t *ct0, const caekf_newton_lu_t *first);
+
+/* The LU of the Newton matrix at the contacts ct (constant: no contact on, A0's). Returns -1 when it is
+ * singular. */
+int caekf_model_newton_lu(const caekf_model_t *m, const caekf_contact_t *ct, caekf_newton_lu_t *lu);
 
 /* caekf_model_any_contact keeping the contacts at x in ct (x NULL: ct holds them already, only the test).
  * The step passes them on instead of evaluating them again at the same state (the same results). */
 int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct);
 
-/* caekf_model_transition_v from the contacts at x_k (ct) and, for the trapezoidal rule, at x_{k-1} (ct0). */
+/* caekf_model_transition_v from the contacts at x_k (ct) and, for the trapezoidal rule, at x_{k-1} (ct0);
+ * the Newton matrix's LU at x_k is left in lu (the next substep's first update takes it). */
 int caekf_model_transition_ct(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
-                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], caekf_newton_lu_t *lu);
 #endif
 
 /* The v-rows of the constant contact-free F (nq x n): model_init's fv0, or recomputed by the same

@@ -252,6 +252,7 @@ static void check_contacts_passed_on(double delta, double delta_prev)
     caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], xk_ct[CAEKF_N], work[4 * CAEKF_NQ];
     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], fv_ct[CAEKF_NQ][CAEKF_N];
     caekf_contact_t ct0[CAEKF_MAX_CONTACTS], ct[CAEKF_MAX_CONTACTS], c;
+    caekf_newton_lu_t lu;
     int it = -1, it_ct = -2, pass;
     make_state(xp, delta_prev);
     xp[5] = (caekf_scalar_t)(delta > delta_prev ? 1.5e-3 : -1.5e-3);
@@ -261,7 +262,7 @@ static void check_contacts_passed_on(double delta, double delta_prev)
                                           (caekf_scalar_t)(CAEKF_EPS * 256), xk, &it, work);
         TEST_ASSERT_EQUAL_INT(st, caekf_model_newton_ct(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER,
                                                         (caekf_scalar_t)(CAEKF_EPS * 256), xk_ct, &it_ct, work, ct,
-                                                        pass == 0 ? ct0 : 0));
+                                                        pass == 0 ? ct0 : 0, 0));
         TEST_ASSERT_EQUAL_INT(it, it_ct);
         TEST_ASSERT_EQUAL_MEMORY(xk, xk_ct, N * sizeof xk[0]);
     }
@@ -271,7 +272,7 @@ static void check_contacts_passed_on(double delta, double delta_prev)
     make_state(xk, delta);
     caekf_model_contact(&model, 0, xk, &ct[0]);
     TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_v(&model, xk, xp, fv));
-    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_ct(&model, ct, ct0, fv_ct));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_ct(&model, ct, ct0, fv_ct, &lu));
     for (it = 0; it < PAPER_NQ; ++it) { /* the mechanism's rows and columns (the capacity's tail is unused) */
         TEST_ASSERT_EQUAL_MEMORY(fv[it], fv_ct[it], N * sizeof fv[0][0]);
     }
@@ -338,6 +339,65 @@ static void test_substep_product_is_the_product_of_the_substep_maps(void)
     }
 }
 #endif
+
+/* Simplified Newton in the substeps: the first update takes the LU it is given. With the LU at the initial
+ * guess it is plain Newton's first update bit for bit; with the one at the step's start (what the substeps
+ * give) it converges to plain Newton's x_k within the tolerance, and leaves the contacts at x_k with their
+ * tangents (the next map reads them) and, through the map, the LU at x_k. */
+static void test_first_update_takes_the_given_lu(void)
+{
+    caekf_scalar_t xp[CAEKF_N], xg[CAEKF_N], xk[CAEKF_N], xk_lu[CAEKF_N], work[4 * CAEKF_NQ];
+    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N];
+    caekf_contact_t ct0[CAEKF_MAX_CONTACTS], ctg[CAEKF_MAX_CONTACTS], ct[CAEKF_MAX_CONTACTS], c;
+    caekf_newton_lu_t at_start, at_guess, at_end, kept;
+    const caekf_scalar_t rtol = (caekf_scalar_t)(CAEKF_EPS * 256);
+    int it = -1, it_lu = -2, i;
+#if CAEKF_HAS_SLR
+    model.slr_s[0] = (caekf_scalar_t)1e-6; /* statistically linearised: the tangents cost their own work */
+#endif
+    make_state(xp, 1.5e-6);
+    xp[5] = (caekf_scalar_t)2e-3; /* closing further: the Jacobian moves over the step */
+    for (i = 0; i < N; ++i) {     /* Newton's initial guess: v_k = v_{k-1} */
+        xg[i] = xp[i];
+    }
+    for (i = 0; i < PAPER_NQ; ++i) {
+        xg[i] = CAEKF_METHOD_TRAP(&model) ? xp[i] + model.hs * (xp[PAPER_NQ + i] + xp[PAPER_NQ + i])
+                                          : xp[i] + model.p.dt * xp[PAPER_NQ + i];
+    }
+    caekf_model_contact(&model, 0, xp, &ct0[0]);
+    caekf_model_contact(&model, 0, xg, &ctg[0]);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_newton_lu(&model, ct0, &at_start));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_newton_lu(&model, ctg, &at_guess));
+    TEST_ASSERT_FALSE(at_start.constant);
+    /* one update: with the guess's LU, plain Newton's; with the start's, another */
+    (void)caekf_model_newton_ct(&model, xp, u_prev, u_now, 1, rtol, xk, &it, work, ct, ct0, 0);
+    (void)caekf_model_newton_ct(&model, xp, u_prev, u_now, 1, rtol, xk_lu, &it_lu, work, ct, ct0, &at_guess);
+    TEST_ASSERT_EQUAL_MEMORY(xk, xk_lu, N * sizeof xk[0]);
+    (void)caekf_model_newton_ct(&model, xp, u_prev, u_now, 1, rtol, xk_lu, &it_lu, work, ct, ct0, &at_start);
+    TEST_ASSERT_FALSE(memcmp(xk, xk_lu, PAPER_N * sizeof xk[0]) == 0);
+    caekf_model_contact(&model, 0, xk_lu, &c); /* the bound stops at x_1: its contacts with their tangents */
+    TEST_ASSERT_EQUAL_MEMORY(&c, &ct[0], sizeof c);
+    /* to convergence */
+    TEST_ASSERT_EQUAL_INT(
+        0, caekf_model_newton_ct(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER, rtol, xk, &it, work, ct, ct0, 0));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_newton_ct(&model, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER, rtol, xk_lu,
+                                                   &it_lu, work, ct, ct0, &at_start));
+    TEST_ASSERT_TRUE(it_lu >= 1);
+    for (i = 0; i < 2 * PAPER_NQ; ++i) {
+        TEST_ASSERT_DOUBLE_WITHIN(1e3 * (double)CAEKF_EPS * fabs((double)xk[i]) + 1e-30, (double)xk[i],
+                                  (double)xk_lu[i]);
+    }
+    caekf_model_contact(&model, 0, xk_lu, &c);
+    TEST_ASSERT_EQUAL_MEMORY(&c, &ct[0], sizeof c);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_transition_ct(&model, ct, ct0, fv, &kept));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_newton_lu(&model, ct, &at_end));
+    TEST_ASSERT_EQUAL_INT(at_end.constant, kept.constant);
+    TEST_ASSERT_EQUAL_MEMORY(at_end.lu, kept.lu, PAPER_NQ * PAPER_NQ * sizeof kept.lu[0]);
+    TEST_ASSERT_EQUAL_MEMORY(at_end.piv, kept.piv, PAPER_NQ * sizeof kept.piv[0]);
+#if CAEKF_HAS_SLR
+    model.slr_s[0] = 0;
+#endif
+}
 
 static void test_substeps_pass_their_contacts_on_bit_for_bit(void)
 {
@@ -429,11 +489,13 @@ int main(void)
 #if CAEKF_HAS_SUBSTEPS /* the substeps' entry points, with either rule */
     discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
     RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+    RUN_TEST(test_first_update_takes_the_given_lu);
 #if CAEKF_MODEL_ORACLES
     RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
 #endif
     discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
     RUN_TEST(test_substeps_pass_their_contacts_on_bit_for_bit);
+    RUN_TEST(test_first_update_takes_the_given_lu);
 #if CAEKF_MODEL_ORACLES
     RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
 #endif

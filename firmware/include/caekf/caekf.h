@@ -168,6 +168,7 @@ typedef struct {
     caekf_scalar_t fq[CAEKF_NQ][CAEKF_N]; /* step work: q-rows of F after substeps (else implied by fv) */
     /* step work: the contacts at a substep's start and at its end (the next one's start), off the stack */
     caekf_contact_t sub_ct[2][CAEKF_MAX_CONTACTS];
+    caekf_newton_lu_t sub_lu; /* step work: the Newton matrix's LU at a substep's start */
 #endif
     caekf_fv_pattern_t fv_pattern;  /* fv's rows, compacted to their nonzeros: their columns */
     uint8_t fv_const;               /* fv holds the constant contact-free F (kept across steps) */

@@ -172,6 +172,14 @@ typedef struct {
 #endif
 } caekf_contact_t;
 
+/* The LU of a substep's Newton matrix at its end, which the next substep's first Newton update takes
+ * (the Jacobian at that substep's start: one factorisation less per substep). */
+typedef struct {
+    caekf_scalar_t lu[CAEKF_NQ * CAEKF_NQ];
+    int piv[CAEKF_NQ];
+    int constant; /* no contact on: A0's LU (the model's) */
+} caekf_newton_lu_t;
+
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
 

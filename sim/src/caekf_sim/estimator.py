@@ -382,7 +382,10 @@ class AugmentedEKF:
         ub = a
         for j in range(1, steps + 1):
             ua, ub = ub, (b if j == steps else a + (b - a) * j / steps)
-            q, v, it, conv = sub.solve(xa[:nq], xa[nq:nx], ub, self.gammas_of(gammas), ua)
+            # the first Newton update of each substep takes the Jacobian at the substep's start (the C core
+            # keeps it factorised from the previous substep's map)
+            J_start = sub.jacobian(xa[:nq], self.gammas_of(gammas), xa[nq:nx])
+            q, v, it, conv = sub.solve(xa[:nq], xa[nq:nx], ub, self.gammas_of(gammas), ua, J_start)
             iters += it
             ok = ok and conv
             F = self.transition_matrix(q, gammas, v, xa, substep=True) @ F

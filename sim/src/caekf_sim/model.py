@@ -262,24 +262,29 @@ class StepSolver:
         return self.force(q_prev, v_prev, u_prev, gamma) if self.trapezoidal else None
 
     def solve(
-        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any, u_prev: Any = None
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any, u_prev: Any = None,
+        J_first: "np.ndarray | None" = None,
     ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
         """One step: returns (q_k, v_k, Newton iterations, converged). u_prev: the trapezoidal rule's inputs
-        at the step's start (None: u)."""
+        at the step's start (None: u). J_first: the Jacobian the first Newton update takes (a substep's
+        start's; None: the initial guess's, plain Newton)."""
         start = self.step_start(q_prev, v_prev, u if u_prev is None else u_prev, gamma)
-        if not self.any_on(self.positions(q_prev, v_prev, v_prev), gamma):
+        first_linear = (J_first is self.J0 if J_first is not None
+                        else not self.any_on(self.positions(q_prev, v_prev, v_prev), gamma))
+        if first_linear:
             v = self.linear_velocity(q_prev, v_prev, u, start)
             q = self.positions(q_prev, v_prev, v)
             if all(d <= 0.0 for d in self.penetrations(q)):
                 return q, v, 1, True
-        return self.newton(q_prev, v_prev, u, gamma, u_prev, start)
+        return self.newton(q_prev, v_prev, u, gamma, u_prev, start, J_first)
 
     def newton(
         self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any, u_prev: Any = None,
-        start: "Tuple[np.ndarray, np.ndarray] | None" = None,
+        start: "Tuple[np.ndarray, np.ndarray] | None" = None, J_first: "np.ndarray | None" = None,
     ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
-        """Plain Newton on the step's residual from v_{k-1}; bounded iterations. u_prev as for `solve`
-        (start: its G_0, when already computed).
+        """Newton on the step's residual from v_{k-1}; bounded iterations. u_prev as for `solve` (start: its
+        G_0, when already computed); the first update takes J_first when given, every other the Jacobian
+        at its iterate.
 
         Returns the last iterate and the number of linear solves done when it gives up.
         """
@@ -293,7 +298,10 @@ class StepSolver:
                 return self.positions(q_prev, v_prev, v), v, it, True
             if it == self.max_iter:
                 break
-            J = self.jacobian(self.positions(q_prev, v_prev, v), gamma, v)
+            if it == 0 and J_first is not None:
+                J = J_first
+            else:
+                J = self.jacobian(self.positions(q_prev, v_prev, v), gamma, v)
             try:
                 v = v - np.linalg.solve(J, r)
             except np.linalg.LinAlgError:
