@@ -220,17 +220,29 @@ caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_s
     return CAEKF_LA_OK;
 }
 
-caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *w)
+/* The full PSD test lies on the worst step of a build sized for substeps (a contact step that also runs
+ * it): written out there for the state's n, CAEKF_PSD_WRITTEN_OUT_N (tests/unit/test_psd_written_out.c sets
+ * it to check that instance). Elsewhere a loop (the one-step build keeps its text). */
+#if !defined(CAEKF_PSD_WRITTEN_OUT_N) && CAEKF_SIZED && CAEKF_HAS_SUBSTEPS
+#define CAEKF_PSD_WRITTEN_OUT_N (2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS)
+#endif
+#if defined(CAEKF_PSD_WRITTEN_OUT_N) && defined(__GNUC__) && !defined(__clang__)
+#define PSD_UNROLL _Pragma("GCC unroll 16")
+#else
+#define PSD_UNROLL
+#endif
+
+/* caekf_psd_check for a valid n. */
+CAEKF_HOT_INLINE caekf_la_status_t psd_ldl(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *w)
 {
     int i, j, k;
-    if (!size_ok(n)) {
-        return CAEKF_LA_BAD_SIZE;
-    }
+    PSD_UNROLL
     for (i = 0; i < n; ++i) { /* w <- a's upper triangle; every variance finite and >= 0 */
         const caekf_scalar_t aii = A_(a, n, i, i);
         if (!(aii >= 0) || !CAEKF_ISFINITE(aii)) {
             return CAEKF_LA_NOT_PSD;
         }
+        PSD_UNROLL
         for (j = i; j < n; ++j) {
             A_(w, n, i, j) = A_(a, n, i, j);
         }
@@ -239,6 +251,7 @@ caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t
      * (D = diag A; independent of the state scaling) without forming it: the form's pivot k is
      * w_kk / a_kk and its coupling left in row i is w_ki / sqrt(a_kk a_ii). A zero variance then needs
      * a zero row. */
+    PSD_UNROLL
     for (k = 0; k < n; ++k) {
         const caekf_scalar_t *wk = w + k * n;
         const caekf_scalar_t piv = wk[k], t = tol * A_(a, n, k, k);
@@ -246,25 +259,40 @@ caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t
             return CAEKF_LA_NOT_PSD;
         }
         if (piv <= t) {
-            /* Zero pivot: a PSD matrix has no coupling left in this direction; |w_ik|^2 <= w_ii w_kk. */
+            /* Zero pivot: a PSD matrix has no coupling left in this direction; |w_ik|^2 <= w_ii w_kk (not
+             * squared: a tiny coupling of a zero variance would underflow). */
             for (i = k + 1; i < n; ++i) {
                 const caekf_scalar_t wii = A_(w, n, i, i), tii = tol * A_(a, n, i, i);
-                if (wk[i] * wk[i] > t * caekf_max(wii, tii)) {
+                if (CAEKF_FABS(wk[i]) > CAEKF_SQRT(t * caekf_max(wii, tii))) {
                     return CAEKF_LA_NOT_PSD;
                 }
             }
             continue;
         }
+        PSD_UNROLL
         for (i = k + 1; i < n; ++i) {
-            caekf_scalar_t *wij = w + i * n + i;
-            const caekf_scalar_t *wkj = wk + i, *const wk_end = wk + n;
-            const caekf_scalar_t l = *wkj / piv;
-            do { /* j = i .. n - 1 */
-                *wij++ -= l * *wkj++;
-            } while (wkj != wk_end);
+            caekf_scalar_t *wi = w + i * n;
+            const caekf_scalar_t l = wk[i] / piv;
+            PSD_UNROLL
+            for (j = i; j < n; ++j) {
+                wi[j] -= l * wk[j];
+            }
         }
     }
     return CAEKF_LA_OK;
+}
+
+caekf_la_status_t caekf_psd_check(const caekf_scalar_t *a, int n, caekf_scalar_t tol, caekf_scalar_t *w)
+{
+    if (!size_ok(n)) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+#ifdef CAEKF_PSD_WRITTEN_OUT_N
+    if (n == CAEKF_PSD_WRITTEN_OUT_N) {
+        return psd_ldl(a, CAEKF_PSD_WRITTEN_OUT_N, tol, w);
+    }
+#endif
+    return psd_ldl(a, n, tol, w);
 }
 
 /* Plane rotation of two strided vectors: x <- c x - s y, y <- s x + c y. */
