@@ -303,10 +303,9 @@ static int all_finite(const caekf_scalar_t *v, int n)
 /* The product of the substep maps, F <- F_j F, one column j at a time: column j of the product so far
  * (its q-rows pq and v-rows pv) is read once and then overwritten, and nothing else reads it. The v-rows
  * of F_j (fj, dense in contact) give the new v-rows
- *   vnew_ij = [j a parameter column] fj_ij + sum_k (fj_ik pq_k + fj_i,nq+k pv_k)   (k ascending; the
- *   product's parameter rows are identity rows), and its q-rows [I, c2 I, 0] + hs fj the new q-rows
- *   pq_i + (c2 pv_i + hs vnew_ij): the operations, in their order, of the plain triple loop. This one: a
- * parameter column j. */
+ *   vnew_ij = [j a parameter column] fj_ij + sum_k (fj_ik pq_k + fj_i,nq+k pv_k)   (the product's
+ *   parameter rows are identity rows), one multiply-accumulate per term, and its q-rows
+ *   [I, c2 I, 0] + hs fj the new q-rows pq_i + (c2 pv_i + hs vnew_ij). This one: a parameter column j. */
 CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
                                      caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
                                      caekf_scalar_t c2)
@@ -324,14 +323,16 @@ CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf
         caekf_scalar_t acc = f[j]; /* a parameter column: the product's parameter rows are identity rows */
         CAEKF_UNROLL_SIZED
         for (k = 0; k < nq; ++k) {
-            acc += f[k] * pq[k] + f[nq + k] * pv[k];
+            acc += f[k] * pq[k];
+            acc += f[nq + k] * pv[k];
         }
         fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
         fv[i][j] = acc;
     }
 }
 
-/* Two q- or v-columns j, j + 1 at once: F_j's row is read once for both (the same operations). */
+/* Two q- or v-columns j, j + 1 at once: F_j's row is read once for both (the same operations; the sums
+ * start from their first term). */
 CAEKF_HOT_INLINE void substep_columns2(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
                                        caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
                                        caekf_scalar_t c2)
@@ -348,12 +349,16 @@ CAEKF_HOT_INLINE void substep_columns2(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], cae
     CAEKF_UNROLL_SIZED
     for (i = 0; i < nq; ++i) {
         const caekf_scalar_t *f = fj[i];
-        caekf_scalar_t acc = 0, acc1 = 0;
+        caekf_scalar_t acc = f[0] * pq[0], acc1 = f[0] * pq1[0];
+        acc += f[nq] * pv[0];
+        acc1 += f[nq] * pv1[0];
         CAEKF_UNROLL_SIZED
-        for (k = 0; k < nq; ++k) {
+        for (k = 1; k < nq; ++k) {
             const caekf_scalar_t a = f[k], b = f[nq + k];
-            acc += a * pq[k] + b * pv[k];
-            acc1 += a * pq1[k] + b * pv1[k];
+            acc += a * pq[k];
+            acc1 += a * pq1[k];
+            acc += b * pv[k];
+            acc1 += b * pv1[k];
         }
         fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
         fv[i][j] = acc;
@@ -375,10 +380,9 @@ static void substep_product(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t
     }
 }
 
-/* The first substep's map F_1 as the product: substep_product from the identity, bit for bit (finite
- * values) in the q- and v-columns: a term with an identity entry 0 adds a zero, which leaves a sum
- * unchanged except that -0 becomes +0 (x + 0), and a term with an identity entry 1 is the value itself.
- * The parameter columns (where such zeros decide a sign of zero) take the general operations. */
+/* The first substep's map F_1 as the product: substep_product from the identity, whose q- and v-columns
+ * are F_j's own entries (every other term is a product with an identity entry 0; only a zero's sign can
+ * differ). The parameter columns take the general operations. */
 static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
                               caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs, caekf_scalar_t c2)
 {
@@ -389,9 +393,9 @@ static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar
         const caekf_scalar_t *f = fj[i];
         CAEKF_UNROLL_SIZED
         for (j = 0; j < 2 * nq; ++j) {
-            const caekf_scalar_t v = f[j] + 0;
+            const caekf_scalar_t v = f[j];
             fv[i][j] = v;
-            fq[i][j] = j == i ? 1 + hs * v : j == nq + i ? 0 + (c2 + hs * v) : hs * v + 0;
+            fq[i][j] = j == i ? 1 + hs * v : j == nq + i ? c2 + hs * v : hs * v;
         }
         for (j = 2 * nq; j < n; ++j) { /* the identity's parameter columns */
             fq[i][j] = 0;

@@ -188,6 +188,12 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
         caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
         if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
+#if CAEKF_HAS_SUBSTEPS
+            if (FQ_GIVEN(fq)) { /* the q-rows are Fq P (below) */
+                f_row_dense(f, P, tv, n);
+                continue;
+            }
+#endif
             fp_row_dense(f, P, pi, tq, tv, c, n);
             continue;
         }
