@@ -139,20 +139,73 @@ NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t 
 }
 
 #if CAEKF_HAS_SUBSTEPS
-/* t[j] = f . P_j (P symmetric) for a dense row f of F (the product of substep maps); f is held (in
- * registers when sized) across the rows of P. */
-NOINLINE static void f_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, caekf_scalar_t *t, int n)
+/* tf[j] = f . P_j and tg[j] = g . P_j (P symmetric) for two dense rows f, g of F (the product of substep
+ * maps): each entry of P is read once for both; f and g are held (in registers when sized) across the
+ * rows of P. */
+NOINLINE static void f_rows2_dense(const caekf_scalar_t *f, const caekf_scalar_t *g, const caekf_scalar_t *P,
+                                   caekf_scalar_t *tf, caekf_scalar_t *tg, int n)
 {
 #if CAEKF_SIZED
-    caekf_scalar_t fr[CAEKF_N];
+    caekf_scalar_t fr[CAEKF_N], gr[CAEKF_N];
     copy_row(fr, f, n);
+    copy_row(gr, g, n);
 #else
-    const caekf_scalar_t *const fr = f;
+    const caekf_scalar_t *const fr = f, *const gr = g;
 #endif
     const caekf_scalar_t *pj = P;
-    int j;
+    int j, k;
     for (j = 0; j < n; ++j, pj += n) {
-        t[j] = dot(fr, pj, n);
+        caekf_scalar_t sf = fr[0] * pj[0], sg = gr[0] * pj[0];
+#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 32
+#endif
+        for (k = 1; k < n; ++k) {
+            sf += fr[k] * pj[k];
+            sg += gr[k] * pj[k];
+        }
+        tf[j] = sf;
+        tg[j] = sg;
+    }
+}
+#endif
+
+#if CAEKF_HAS_SUBSTEPS
+/* After substeps (every row of F dense): the x-block's upper triangle of T F^T + Q in place, with
+ * F = [Fq; Fv] and T = F P: rows a and a + 1 of T are held (in registers when sized) against each row
+ * b >= a of F, so each row of F is read once per pair. Row a of T only feeds row a of P-; the gamma columns
+ * are T's. Off-diagonal entries are flushed as they are final. */
+NOINLINE static void tf_upper_dense(caekf_scalar_t *T, caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                                    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag, int nq, int n)
+{
+    const int nx = 2 * nq;
+    int a, b, k;
+    for (a = 0; a < nx; a += 2) { /* nx is even */
+        caekf_scalar_t ta[CAEKF_N], tb[CAEKF_N];
+        caekf_scalar_t *const ra = T + a * n, *const rb = ra + n;
+        CAEKF_UNROLL_SIZED
+        for (k = 0; k < n; ++k) {
+            ta[k] = ra[k];
+            tb[k] = rb[k];
+        }
+        for (b = a; b < nx; ++b) {
+            const caekf_scalar_t *const f = b < nq ? fq[b] : fv[b - nq];
+            caekf_scalar_t sa = ta[0] * f[0], sb = tb[0] * f[0];
+            CAEKF_UNROLL_SIZED
+            for (k = 1; k < n; ++k) {
+                sa += ta[k] * f[k];
+                sb += tb[k] * f[k];
+            }
+            ra[b] = b == a ? sa + q_diag[a] : flush(sa);
+            if (b == a + 1) {
+                rb[b] = sb + q_diag[b];
+            } else if (b > a + 1) {
+                rb[b] = flush(sb);
+            }
+        }
+        for (k = nx; k < n; ++k) {
+            ra[k] = flush(ra[k]);
+            rb[k] = flush(rb[k]);
+        }
     }
 }
 #endif
@@ -180,53 +233,48 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
 {
     const int nq = DIM_NQ(d), n = DIM_N(d), nx = 2 * nq;
     const unsigned char *cnt = pat->nnz;
-    caekf_scalar_t w[CAEKF_NQ], wq[CAEKF_NQ];
+    caekf_scalar_t w[CAEKF_NQ];
     const int all_dense = pat->dense;
     int i, j, k;
-    for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
-        const unsigned char *idx = pat->nz[i];
-        const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
-        caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
-        if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
 #if CAEKF_HAS_SUBSTEPS
-            if (FQ_GIVEN(fq)) { /* the q-rows are Fq P (below) */
-                f_row_dense(f, P, tv, n);
+    if (FQ_GIVEN(fq)) { /* after substeps (every row dense): T = F P, q-row i and v-row i at once */
+        for (i = 0; i < nq; ++i) {
+            f_rows2_dense(fq[i], fv[i], P, T + i * n, T + (nq + i) * n, n);
+        }
+    } else
+#endif
+        for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
+            const unsigned char *idx = pat->nz[i];
+            const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
+            caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
+            if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
+                fp_row_dense(f, P, pi, tq, tv, c, n);
                 continue;
             }
-#endif
-            fp_row_dense(f, P, pi, tq, tv, c, n);
-            continue;
-        }
-        if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
-            const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
-            const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+            if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
+                const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
+                const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+                for (j = 0; j < n; ++j, pj += n) {
+                    caekf_scalar_t s = 0;
+                    s += f0 * pj[i0];
+                    s += f1 * pj[i1];
+                    s += f2 * pj[i2];
+                    s += f3 * pj[i3];
+                    tv[j] = s;
+                    tq[j] = pi[j] + c * s;
+                }
+                continue;
+            }
             for (j = 0; j < n; ++j, pj += n) {
                 caekf_scalar_t s = 0;
-                s += f0 * pj[i0];
-                s += f1 * pj[i1];
-                s += f2 * pj[i2];
-                s += f3 * pj[i3];
+                for (k = 0; k < cnt[i]; ++k) {
+                    s += f[k] * pj[idx[k]];
+                }
                 tv[j] = s;
                 tq[j] = pi[j] + c * s;
             }
-            continue;
         }
-        for (j = 0; j < n; ++j, pj += n) {
-            caekf_scalar_t s = 0;
-            for (k = 0; k < cnt[i]; ++k) {
-                s += f[k] * pj[idx[k]];
-            }
-            tv[j] = s;
-            tq[j] = pi[j] + c * s;
-        }
-    }
-    if (FQ_GIVEN(fq)) { /* dense q-rows: T_q = Fq P */
-#if CAEKF_HAS_SUBSTEPS
-        for (i = 0; i < nq; ++i) {
-            f_row_dense(fq[i], P, T + i * n, n);
-        }
-#endif
-    } else if (C2_GIVEN(c2)) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
+    if (!FQ_GIVEN(fq) && C2_GIVEN(c2)) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
         for (i = 0; i < nq; ++i) {
             const caekf_scalar_t *pv = P + (nq + i) * n;
             caekf_scalar_t *tq = T + i * n;
@@ -238,7 +286,17 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     /* Upper triangle of T F^T + Q row by row, in place: row i only reads row i of T. w = T_i Fv^T
      * gives the v-columns; a q-row's q-columns are T_q + c w; the gamma columns are T's. Off-diagonal
      * entries are flushed as they are final. */
-    for (i = 0; i < nx; ++i) {
+#if CAEKF_HAS_SUBSTEPS
+    if (FQ_GIVEN(fq)) {
+        tf_upper_dense(T, fq, fv, q_diag, nq, n);
+        i = nx; /* the x-block is done */
+    } else {
+        i = 0;
+    }
+#else
+    i = 0;
+#endif
+    for (; i < nx; ++i) {
         caekf_scalar_t *t = T + i * n;
         caekf_scalar_t dd;
         const int j0 = i < nq ? 0 : i - nq;
@@ -263,16 +321,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             }
             w[j] = s;
         }
-        if (i < nq && FQ_GIVEN(fq)) { /* q-columns T_i Fq_j^T, all read before any is written */
-            for (j = i; j < nq; ++j) {
-                wq[j] = dot(t, fq[j], n);
-            }
-            dd = wq[i];
-            for (j = i + 1; j < nq; ++j) {
-                t[j] = flush(wq[j]);
-            }
-            j = nq;
-        } else if (i < nq) {
+        if (i < nq) {
             dd = t[i] + c * w[i];
             if (C2_GIVEN(c2)) { /* T's v-columns are still T's here: they are overwritten below */
                 dd += c2 * t[nq + i];
