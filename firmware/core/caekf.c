@@ -300,113 +300,9 @@ static int all_finite(const caekf_scalar_t *v, int n)
 }
 
 #if CAEKF_HAS_SUBSTEPS
-/* The product of the substep maps, F <- F_j F, one column j at a time: column j of the product so far
- * (its q-rows pq and v-rows pv) is read once and then overwritten, and nothing else reads it. The v-rows
- * of F_j (fj, dense in contact) give the new v-rows
- *   vnew_ij = [j a parameter column] fj_ij + sum_k (fj_ik pq_k + fj_i,nq+k pv_k)   (the product's
- *   parameter rows are identity rows), one multiply-accumulate per term, and its q-rows
- *   [I, c2 I, 0] + hs fj the new q-rows pq_i + (c2 pv_i + hs vnew_ij). This one: a parameter column j. */
-CAEKF_HOT_INLINE void substep_column(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                                     caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
-                                     caekf_scalar_t c2)
-{
-    caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ];
-    int i, k;
-    CAEKF_UNROLL_SIZED
-    for (k = 0; k < nq; ++k) {
-        pq[k] = fq[k][j];
-        pv[k] = fv[k][j];
-    }
-    CAEKF_UNROLL_SIZED
-    for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t *f = fj[i];
-        caekf_scalar_t acc = f[j]; /* a parameter column: the product's parameter rows are identity rows */
-        CAEKF_UNROLL_SIZED
-        for (k = 0; k < nq; ++k) {
-            acc += f[k] * pq[k];
-            acc += f[nq + k] * pv[k];
-        }
-        fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
-        fv[i][j] = acc;
-    }
-}
-
-/* Two q- or v-columns j, j + 1 at once: F_j's row is read once for both (the same operations; the sums
- * start from their first term). */
-CAEKF_HOT_INLINE void substep_columns2(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                                       caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j, int nq, caekf_scalar_t hs,
-                                       caekf_scalar_t c2)
-{
-    caekf_scalar_t pq[CAEKF_NQ], pv[CAEKF_NQ], pq1[CAEKF_NQ], pv1[CAEKF_NQ];
-    int i, k;
-    CAEKF_UNROLL_SIZED
-    for (k = 0; k < nq; ++k) {
-        pq[k] = fq[k][j];
-        pv[k] = fv[k][j];
-        pq1[k] = fq[k][j + 1];
-        pv1[k] = fv[k][j + 1];
-    }
-    CAEKF_UNROLL_SIZED
-    for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t *f = fj[i];
-        caekf_scalar_t acc = f[0] * pq[0], acc1 = f[0] * pq1[0];
-        acc += f[nq] * pv[0];
-        acc1 += f[nq] * pv1[0];
-        CAEKF_UNROLL_SIZED
-        for (k = 1; k < nq; ++k) {
-            const caekf_scalar_t a = f[k], b = f[nq + k];
-            acc += a * pq[k];
-            acc1 += a * pq1[k];
-            acc += b * pv[k];
-            acc1 += b * pv1[k];
-        }
-        fq[i][j] = pq[i] + (c2 * pv[i] + hs * acc);
-        fv[i][j] = acc;
-        fq[i][j + 1] = pq1[i] + (c2 * pv1[i] + hs * acc1);
-        fv[i][j + 1] = acc1;
-    }
-}
-
-static void substep_product(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                            caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n, caekf_scalar_t hs,
-                            caekf_scalar_t c2)
-{
-    int j;
-    for (j = j0; j < 2 * nq; j += 2) { /* the q- and v-columns (2 nq of them, j0 is 0 or 2 nq), two at a time */
-        substep_columns2(fj, fq, fv, j, nq, hs, c2);
-    }
-    for (j = j0 > 2 * nq ? j0 : 2 * nq; j < n; ++j) { /* the parameter columns */
-        substep_column(fj, fq, fv, j, nq, hs, c2);
-    }
-}
-
-/* The first substep's map F_1 as the product: substep_product from the identity, whose q- and v-columns
- * are F_j's own entries (every other term is a product with an identity entry 0; only a zero's sign can
- * differ). The parameter columns take the general operations. */
-static void substep_first_map(caekf_scalar_t fj[CAEKF_NQ][CAEKF_N], caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int nq, int n, caekf_scalar_t hs, caekf_scalar_t c2)
-{
-    int i, j;
-    CAEKF_UNROLL_SIZED /* sized: the identity's pattern folds away */
-        for (i = 0; i < nq; ++i)
-    {
-        const caekf_scalar_t *f = fj[i];
-        CAEKF_UNROLL_SIZED
-        for (j = 0; j < 2 * nq; ++j) {
-            const caekf_scalar_t v = f[j];
-            fv[i][j] = v;
-            fq[i][j] = j == i ? 1 + hs * v : j == nq + i ? c2 + hs * v : hs * v;
-        }
-        for (j = 2 * nq; j < n; ++j) { /* the identity's parameter columns */
-            fq[i][j] = 0;
-            fv[i][j] = 0;
-        }
-    }
-    substep_product(fj, fq, fv, 2 * nq, nq, n, hs, c2);
-}
-
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
- * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows); F's gamma rows
+ * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows), each map applied
+ * without forming it (caekf_model_substep_map); F's gamma rows
  * stay identity rows. The contacts at x_{k-1} are in sub_ct[1] (advance evaluated them; the sub-model's
  * contacts are the model's), those at x_k- are left in sub_ct[(substeps + 1) & 1]. Returns 0, 1 when a
  * Newton solve did not converge, -1 on a singular matrix. */
@@ -414,15 +310,20 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
 {
     const caekf_model_t *m = &est->sub_model;
     const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
-    const caekf_scalar_t hs = m->hs, c2 = m->p.dt - m->hs;
     /* P_work is free until the covariance prediction: it holds each substep's start and inputs, off the
      * stack (the substeps' Newton solve is the deepest call of a step) */
     caekf_scalar_t *xa = est->P_work, *ua = est->P_work + CAEKF_N, *ub = ua + CAEKF_MAX_INPUTS;
-    /* scratch: the Newton work, then F_j's v-rows (fj) */
-    caekf_scalar_t(*fj)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])est->scratch.m;
-    int i, step, result = 0;
+    /* scratch: the Newton work, then the map's right-hand sides */
+    caekf_scalar_t(*w)[CAEKF_N] = (caekf_scalar_t(*)[CAEKF_N])est->scratch.m;
+    int i, j, step, result = 0;
     for (i = 0; i < n; ++i) {
         xa[i] = X_PREV(est)[i];
+    }
+    for (i = 0; i < nq; ++i) { /* F = I, accumulated map by map */
+        for (j = 0; j < n; ++j) {
+            est->fq[i][j] = j == i ? 1 : 0;
+            est->fv[i][j] = j == nq + i ? 1 : 0;
+        }
     }
     for (i = 0; i < nu; ++i) {
         ub[i] = u0[i];
@@ -445,13 +346,8 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
             result = 1;
         }
         *iters += it;
-        if (caekf_model_transition_ct(m, ct, ct0, fj, &est->sub_lu) != 0) {
+        if (caekf_model_substep_map(m, ct, ct0, est->fq, est->fv, &est->sub_lu, w) != 0) {
             return -1;
-        }
-        if (step == 1) {
-            substep_first_map(fj, est->fq, est->fv, nq, n, hs, c2);
-        } else {
-            substep_product(fj, est->fq, est->fv, 0, nq, n, hs, c2);
         }
         for (i = 0; i < n; ++i) {
             xa[i] = est->x_pred[i];
@@ -636,10 +532,9 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
-#if CAEKF_ONE_STEP_BE
-/* The commit of a step in a build sized for one backward-Euler step per sample (the paper's presets): z,
- * and P from P_work's upper triangle, filling the lower one; the sizes are constants, and the copy is
- * written out (no loop overhead per entry). */
+#if CAEKF_SIZED
+/* The commit of a step in a sized build: z, and P from P_work's upper triangle, filling the lower one; the
+ * sizes are constants, and the copy is written out (no loop overhead per entry). */
 static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 {
     const int n = CAEKF_DIM_N(&est->model);
@@ -865,7 +760,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
-#if CAEKF_ONE_STEP_BE
+#if CAEKF_SIZED
     commit_sized(est, z);
 #else
     for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */

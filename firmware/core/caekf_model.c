@@ -824,6 +824,101 @@ int caekf_model_newton_lu(const caekf_model_t *m, const caekf_contact_t *ct, cae
 }
 #endif
 
+#if CAEKF_HAS_SUBSTEPS
+/* The nonzero columns of K's and C's row i: the build's pattern (constants) or the model's. */
+#if CAEKF_FIXED_LINKS
+#define ROW_NNZ(m, i) ((void)(m), link_nnz[i])
+#define ROW_NZ(m, i, k) ((void)(m), link_nz[i][k])
+#else
+#define ROW_NNZ(m, i) ((m)->nnz[i])
+#define ROW_NZ(m, i, k) ((m)->nz[i][k])
+#endif
+
+/* S <- F_j S for the substep's map F_j, without forming F_j: its v-rows are A^-1 R with R the right-hand
+ * sides of transition_rhs, and R's v-columns are kq M/hs - A (+ the rate tangents' change, trapezoidal), so
+ *   v-rows of F_j S = A^-1 W - [trapezoidal] S_v,  W = Q S_q + kq M/hs S_v + (r - r0) b b^T S_v + P E,
+ * with Q = -(kq K + the contacts' tangents) (kq = 2 trapezoidal, 1 backward Euler), P E the parameter
+ * columns, and the q-rows S_q + c2 S_v + hs (v-rows) = S_q + hs A^-1 W (c2 = hs trapezoidal, 0 backward
+ * Euler). A is the Newton matrix at x_k, whose LU is left in lu. w: n columns of nq rows of scratch. */
+int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
+                            caekf_scalar_t sq[CAEKF_NQ][CAEKF_N], caekf_scalar_t sv[CAEKF_NQ][CAEKF_N],
+                            caekf_newton_lu_t *lu, caekf_scalar_t w[CAEKF_NQ][CAEKF_N])
+{
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m), trap = CAEKF_METHOD_TRAP(m);
+    const caekf_scalar_t hs = m->hs, kq = trap ? 2 : 1;
+    int i, j, k, c;
+    if (caekf_model_newton_lu(m, ct, lu) != 0) {
+        return -1;
+    }
+    UNROLL_STEP
+    for (i = 0; i < nq; ++i) { /* the links: kq M/hs S_v - kq K S_q */
+        const caekf_scalar_t mi = kq * m->m_dt[i];
+        caekf_scalar_t kk[CAEKF_NQ];
+        UNROLL_STEP
+        for (k = 0; k < ROW_NNZ(m, i); ++k) {
+            kk[k] = kq * m->K[i][ROW_NZ(m, i, k)];
+        }
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < n; ++j) {
+            caekf_scalar_t acc = mi * sv[i][j];
+            UNROLL_STEP
+            for (k = 0; k < ROW_NNZ(m, i); ++k) {
+                /* cppcheck-suppress uninitvar ; kk is written above for every k of this loop */
+                acc -= kk[k] * sq[ROW_NZ(m, i, k)][j];
+            }
+            w[i][j] = acc;
+        }
+    }
+    for (c = 0; c < nc; ++c) { /* the contacts' tangents at either end, and their parameter columns */
+        const int a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
+        const int on = CONTACT_ON(ct[c]), on0 = trap && CONTACT_ON(ct0[c]);
+        caekf_scalar_t dq, dr;
+        if (!on && !on0) {
+            continue;
+        }
+        dq = (on ? ct[c].dfc_ddelta : 0) + (on0 ? ct0[c].dfc_ddelta : 0);
+        dr = trap ? (on ? ct[c].dfc_drate : 0) - (on0 ? ct0[c].dfc_drate : 0) : 0;
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < n; ++j) {
+            const caekf_scalar_t dqj = (a >= 0 ? sq[a][j] : 0) - (b >= 0 ? sq[b][j] : 0);
+            const caekf_scalar_t dvj = (a >= 0 ? sv[a][j] : 0) - (b >= 0 ? sv[b][j] : 0);
+            const caekf_scalar_t t = dr * dvj - dq * dqj;
+            if (a >= 0) {
+                w[a][j] += t;
+            }
+            if (b >= 0) {
+                w[b][j] -= t;
+            }
+        }
+        if (on) {
+            add_param_columns(m, c, &ct[c], -1, &w[0][0]);
+        }
+        if (on0) {
+            add_param_columns(m, c, &ct0[c], -1, &w[0][0]);
+        }
+    }
+    if (lu->constant) {
+        solve(m->A0_lu, nq, m->A0_piv, &w[0][0], n, CAEKF_N);
+    } else {
+        solve(lu->lu, nq, lu->piv, &w[0][0], n, CAEKF_N);
+    }
+    UNROLL_STEP
+    for (i = 0; i < nq; ++i) {
+        CAEKF_UNROLL_SIZED
+        for (j = 0; j < n; ++j) {
+            if (trap) { /* c2 = hs: S_q + hs (S_v + A^-1 W - S_v) */
+                sq[i][j] += hs * w[i][j];
+                sv[i][j] = w[i][j] - sv[i][j];
+            } else { /* c2 = 0 */
+                sq[i][j] += hs * w[i][j];
+                sv[i][j] = w[i][j];
+            }
+        }
+    }
+    return 0;
+}
+#endif
+
 CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], caekf_newton_lu_t *lu)
 {

@@ -109,6 +109,13 @@ int caekf_model_newton_ct(const caekf_model_t *m, const caekf_scalar_t xprev[CAE
                           int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct,
                           const caekf_contact_t *ct0, const caekf_newton_lu_t *first);
 
+/* S <- F_j S (sq, sv: S's q- and v-rows; its parameter rows are identity rows) for the substep map F_j
+ * from the contacts at its end (ct) and, trapezoidal, its start (ct0), without forming F_j; the Newton
+ * matrix's LU at the end is left in lu. w: scratch of nq rows. Returns -1 on a singular matrix. */
+int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
+                            caekf_scalar_t sq[CAEKF_NQ][CAEKF_N], caekf_scalar_t sv[CAEKF_NQ][CAEKF_N],
+                            caekf_newton_lu_t *lu, caekf_scalar_t w[CAEKF_NQ][CAEKF_N]);
+
 /* The LU of the Newton matrix at the contacts ct (constant: no contact on, A0's). Returns -1 when it is
  * singular. */
 int caekf_model_newton_lu(const caekf_model_t *m, const caekf_contact_t *ct, caekf_newton_lu_t *lu);
