@@ -189,6 +189,7 @@ NOINLINE static void tf_upper_dense(caekf_scalar_t *T, caekf_scalar_t fq[CAEKF_N
         }
         for (b = a; b < nx; ++b) {
             const caekf_scalar_t *const f = b < nq ? fq[b] : fv[b - nq];
+            /* cppcheck-suppress uninitvar ; ta and tb are copied above for every k < n (n >= 1) */
             caekf_scalar_t sa = ta[0] * f[0], sb = tb[0] * f[0];
             CAEKF_UNROLL_SIZED
             for (k = 1; k < n; ++k) {
