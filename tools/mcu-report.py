@@ -48,6 +48,15 @@ GOAL_ICOUNT, GOAL_TEXT, GOAL_RAM, GOAL_STACK = 8000, 10752, 2048, 512  # 10.5 KB
 GOAL_ICOUNT_DEFAULT = 16000  # issue 14: the default estimator, < 10 % of 1 ms at 168 MHz
 
 
+def default_method():
+    """The recommended default's method, as the schema's defaults give it (one source: settings.toml)."""
+    import tomllib
+    with open(os.path.join(ROOT, "sim", "src", "caekf_sim", "schema", "settings.toml"), "rb") as f:
+        default = {s["name"]: s.get("default") for s in tomllib.load(f)["setting"]}
+    return (f"{default['discretisation']}, {default['contact_substeps']} contact substeps, contact_slr_p "
+            f"{default['contact_slr_p']}")
+
+
 def sh(cmd, **kw):
     return subprocess.run(cmd, check=True, capture_output=True, text=True, **kw).stdout
 
@@ -383,8 +392,7 @@ def main():
                          ic["lib"][0] if "lib" in ic else "same",
                          ic.get("sizeof_caekf_t") or "same", goal])
     if rows:
-        table("Instructions per caekf_step, the recommended default (trapezoidal, 4 contact substeps, statistically "
-              "linearised contacts) and the joint "
+        table(f"Instructions per caekf_step, the recommended default ({default_method()}) and the joint "
               "four-parameter step (ln gamma, n, lambda, gap: sim/scenarios/paper-joint.toml); reference scenario, "
               "60,000 steps; constructed worst case: the full PSD test of P on every step",
               ["target", "opt", "estimator", "build", "min", "median", "max", "constructed worst case",
