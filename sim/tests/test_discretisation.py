@@ -16,6 +16,7 @@ from caekf_sim.experiments import EXPERIMENTS, experiment_config, scenario_confi
 from caekf_sim.mechanism import Mechanism, contact_values
 from caekf_sim.model import BACKWARD_EULER, TRAPEZOIDAL, StepSolver
 from caekf_sim.scenario import default_scenario_path, load_scenario
+from caekf_sim.schema import setting_of
 from mechanism_support import FIVE, Sc, assert_matches_finite_differences
 
 # Two bodies on a line, body 1 tied to the ground, lightly damped (modes at 5 and 17 rad/s: omega dt small at
@@ -205,9 +206,12 @@ def test_substeps_only_while_a_contact_is_closed():
 
 
 def test_contact_substeps_setting_from_the_schema():
-    """The scenario's contact_substeps (schema default 4) reaches scenario_config; the paper's presets run 1."""
+    """The scenario's contact_substeps (the schema's default, more than 1) reaches scenario_config; the paper's
+    presets run 1."""
     sc = load_scenario(default_scenario_path())
-    assert scenario_config(sc).contact_substeps == sc.contact_substeps == 4
+    default = setting_of("contact_substeps").default
+    assert default > 1
+    assert scenario_config(sc).contact_substeps == sc.contact_substeps == default
     assert scenario_config(sc.replace(contact_substeps=2)).contact_substeps == 2
     assert scenario_config(sc, "switched").contact_substeps == 1
     assert all(cfg.contact_substeps == 1 for cfg in EXPERIMENTS.values())
