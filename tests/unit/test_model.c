@@ -24,6 +24,7 @@ static const double fd_step[N] = {1e-9, 1e-9, 1e-9, 1e-9, 1e-7, 1e-7, 1e-7, 1e-7
 
 static caekf_model_t model;
 static int discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER; /* of the tests being run */
+static double contact_lambda = 0; /* Hunt-Crossley damping of the substep product's test [s/m] */
 static const caekf_scalar_t u_prev[1] = {(caekf_scalar_t)0.2}, u_now[1] = {(caekf_scalar_t)0.3};
 
 void setUp(void)
@@ -281,7 +282,8 @@ static void check_contacts_passed_on(double delta, double delta_prev)
 #if CAEKF_MODEL_ORACLES
 /* After a step in contact with 4 substeps, the estimator's F (fq, fv: its q- and v-rows, scaled) is the
  * product F_4 F_3 F_2 F_1 of the substep maps, each the reference F of eq. (10) at the substep's solution
- * (the product here in double, plain loops). */
+ * (the product here in double, plain loops), with an elastic contact and a damped one (whose rate
+ * tangents at a map's two ends differ). */
 static void test_substep_product_is_the_product_of_the_substep_maps(void)
 {
     static caekf_t est;
@@ -295,6 +297,7 @@ static void test_substep_product_is_the_product_of_the_substep_maps(void)
     paper_settings(&s, EXP_SWITCHED);
     s.model.discretisation = discretisation;
     s.contact_substeps = 4;
+    s.model.contact_lambda[0] = (caekf_scalar_t)contact_lambda;
     s.q0[0] = (caekf_scalar_t)1.2e-3;
     s.q0[1] = (caekf_scalar_t)(1.0e-3 + 3e-6); /* body 2 into body 3: the contact is closed at the start */
     s.v0[1] = (caekf_scalar_t)1e-3;
@@ -498,6 +501,11 @@ int main(void)
     RUN_TEST(test_first_update_takes_the_given_lu);
 #if CAEKF_MODEL_ORACLES
     RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+    contact_lambda = 300; /* a damped contact: the map's rate tangents at both ends */
+    RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+    discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
+    RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+    contact_lambda = 0;
 #endif
 #endif
     return UNITY_END();
