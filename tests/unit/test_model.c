@@ -24,7 +24,9 @@ static const double fd_step[N] = {1e-9, 1e-9, 1e-9, 1e-9, 1e-7, 1e-7, 1e-7, 1e-7
 
 static caekf_model_t model;
 static int discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER; /* of the tests being run */
+#if CAEKF_HAS_SUBSTEPS && CAEKF_MODEL_ORACLES
 static double contact_lambda = 0; /* Hunt-Crossley damping of the substep product's test [s/m] */
+#endif
 static const caekf_scalar_t u_prev[1] = {(caekf_scalar_t)0.2}, u_now[1] = {(caekf_scalar_t)0.3};
 
 void setUp(void)
