@@ -397,7 +397,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         if (closed) {
         est->fv_const = 0;
 #if CAEKF_HAS_SUBSTEPS /* the trapezoidal rule's contacts at x_{k-1}: advance's, in sub_ct[1] */
-        if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv, &est->sub_lu) != 0) {
+        if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv) != 0) {
             return -1;
         }
 #else

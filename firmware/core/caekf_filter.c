@@ -290,14 +290,9 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
 #if CAEKF_HAS_SUBSTEPS
     if (FQ_GIVEN(fq)) {
         tf_upper_dense(T, fq, fv, q_diag, nq, n);
-        i = nx; /* the x-block is done */
-    } else {
-        i = 0;
     }
-#else
-    i = 0;
 #endif
-    for (; i < nx; ++i) {
+    for (i = FQ_GIVEN(fq) ? nx : 0; i < nx; ++i) { /* after substeps the x-block is done */
         caekf_scalar_t *t = T + i * n;
         caekf_scalar_t dd;
         const int j0 = i < nq ? 0 : i - nq;

@@ -578,6 +578,18 @@ static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar
 #endif
 }
 
+#if CAEKF_HAS_SUBSTEPS
+/* solve with a kept LU: A0's (a constant one) or its own */
+static void solve_lu(const caekf_model_t *m, const caekf_newton_lu_t *lu, caekf_scalar_t *b, int nrhs, int ldb)
+{
+    if (lu->constant) {
+        solve(m->A0_lu, CAEKF_DIM_NQ(m), m->A0_piv, b, nrhs, ldb);
+    } else {
+        solve(lu->lu, CAEKF_DIM_NQ(m), lu->piv, b, nrhs, ldb);
+    }
+}
+#endif
+
 /* caekf_model_newton_ct and caekf_model_transition_ct are the substeps' entry points (caekf_model_internal.h);
  * without substeps they are this file's own, so that the one-step path keeps its calls as they are. */
 #if CAEKF_HAS_SUBSTEPS
@@ -679,11 +691,7 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         }
 #if CAEKF_HAS_SUBSTEPS
         if (chord) {
-            if (first->constant) {
-                solve(m->A0_lu, nq, m->A0_piv, r, 1, 1);
-            } else {
-                solve(first->lu, nq, first->piv, r, 1, 1);
-            }
+            solve_lu(m, first, r, 1, 1);
         } else
 #endif
             if (any_contact(ct, nc)) { /* contact: the tangents change A; else the constant LU */
@@ -897,22 +905,13 @@ int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, c
             add_param_columns(m, c, &ct0[c], -1, &w[0][0]);
         }
     }
-    if (lu->constant) {
-        solve(m->A0_lu, nq, m->A0_piv, &w[0][0], n, CAEKF_N);
-    } else {
-        solve(lu->lu, nq, lu->piv, &w[0][0], n, CAEKF_N);
-    }
+    solve_lu(m, lu, &w[0][0], n, CAEKF_N);
     UNROLL_STEP
     for (i = 0; i < nq; ++i) {
         CAEKF_UNROLL_SIZED
-        for (j = 0; j < n; ++j) {
-            if (trap) { /* c2 = hs: S_q + hs (S_v + A^-1 W - S_v) */
-                sq[i][j] += hs * w[i][j];
-                sv[i][j] = w[i][j] - sv[i][j];
-            } else { /* c2 = 0 */
-                sq[i][j] += hs * w[i][j];
-                sv[i][j] = w[i][j];
-            }
+        for (j = 0; j < n; ++j) { /* trapezoidal c2 = hs: S_q + hs (S_v + A^-1 W - S_v); backward Euler c2 = 0 */
+            sq[i][j] += hs * w[i][j];
+            sv[i][j] = trap ? w[i][j] - sv[i][j] : w[i][j];
         }
     }
     return 0;
@@ -920,21 +919,22 @@ int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, c
 #endif
 
 CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], caekf_newton_lu_t *lu)
+                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
+    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
+    int piv[CAEKF_NQ];
     const int closed = any_contact(ct, nc), closed0 = CAEKF_METHOD_TRAP(m) ? any_contact(ct0, nc) : 0;
-    lu->constant = !closed;
     if (!closed && !closed0) { /* linear step: the constant F */
         caekf_model_free_transition_v(m, fv);
         return 0;
     }
-    if (closed && factor(lu->lu, nq, lu->piv, newton_matrix(m, ct, lu->lu)) != 0) {
+    if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
     transition_rhs(m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0, fv); /* solved in place */
     if (closed) {
-        solve(lu->lu, nq, lu->piv, &fv[0][0], n, CAEKF_N);
+        solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
     } else { /* trapezoidal, closed only at the step's start: A is A0 */
         solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
     }
@@ -945,11 +945,10 @@ int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *c
                                 caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     caekf_contact_t ct0[CAEKF_MAX_CONTACTS + 1];
-    caekf_newton_lu_t lu;
     if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);
     }
-    return TRANSITION_CT(m, ct, ct0, fv, &lu);
+    return TRANSITION_CT(m, ct, ct0, fv);
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],

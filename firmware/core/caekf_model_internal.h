@@ -124,10 +124,9 @@ int caekf_model_newton_lu(const caekf_model_t *m, const caekf_contact_t *ct, cae
  * The step passes them on instead of evaluating them again at the same state (the same results). */
 int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct);
 
-/* caekf_model_transition_v from the contacts at x_k (ct) and, for the trapezoidal rule, at x_{k-1} (ct0);
- * the Newton matrix's LU at x_k is left in lu (the next substep's first update takes it). */
+/* caekf_model_transition_v from the contacts at x_k (ct) and, for the trapezoidal rule, at x_{k-1} (ct0). */
 int caekf_model_transition_ct(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
-                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], caekf_newton_lu_t *lu);
+                              caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 #endif
 
 /* The v-rows of the constant contact-free F (nq x n): model_init's fv0, or recomputed by the same
