@@ -52,6 +52,28 @@ def test_generated_c_tables_follow_the_schema(tmp_path):
     assert f"caekf_setting_ranges[{len(ints)}][2]" in table  # each distinct integer range once
 
 
+def test_the_settings_c_types_are_generated_and_declared_nowhere_else():
+    """caekf_settings_t and caekf_model_params_t have exactly one member per wire setting, of its storage
+    type and capacity, and no hand-written header declares them (adding a setting is the schema entry and
+    its use in the filter)."""
+    import re
+
+    types = codegen.c_core(schema.SCHEMA)["caekf/caekf_settings_types.h"]
+    model = types.split("typedef struct {")[1].split("} caekf_model_params_t;")[0]
+    rest = types.split("} caekf_model_params_t;")[1].split("} caekf_settings_t;")[0]
+    decl = re.compile(r"^    (caekf_scalar_t|int) (\w+)(?:\[CAEKF_MAX_(\w+)\])?;", re.M)
+    members = {("model." if body is model else "") + m[1]: (m[0], m[2]) for body in (model, rest)
+               for m in decl.findall(body)}
+    want = {s.field: ("caekf_scalar_t" if s.type == "real" else "int", (s.capacity or "").upper())
+            for s in schema.SCHEMA.wire}
+    assert members == want
+    for v in schema.SCHEMA.by_name("mode").values:
+        assert f"CAEKF_MODE_{v.upper()} = {schema.SCHEMA.by_name('mode').values.index(v)}" in types
+    for header in (REPO / "firmware").rglob("*.h"):
+        text = header.read_text()
+        assert "} caekf_settings_t;" not in text and "} caekf_model_params_t;" not in text, header
+
+
 def test_shortest_decimal_round_trips():
     for v in (1e-3, 7.5e7, 2.5e7, -1.5e-3, 1000.0, 0.0, 123456789.0, 1e-9):
         m, e = codegen.shortest_decimal(v)

@@ -51,81 +51,9 @@ enum {
 };
 #define CAEKF_FLAG_COUNT 12
 
-typedef enum { CAEKF_MODE_CANONICAL = 0, CAEKF_MODE_SWITCHED = 1 } caekf_mode_t;
-
-/* How the switched filter treats the gamma cross-covariance while contact is inactive. */
-typedef enum {
-    CAEKF_SWITCHOFF_CONSISTENT = 0, /* Schmidt "consider" update of P_x,gamma; P stays PSD (default) */
-    CAEKF_SWITCHOFF_PAPER = 1       /* eqs. 23-27 read literally: P_x,gamma frozen (P may turn indefinite) */
-} caekf_switchoff_t;
-
-typedef enum { CAEKF_COV_STANDARD = 0, CAEKF_COV_JOSEPH = 1 } caekf_cov_update_t;
-
-typedef struct {
-    caekf_model_params_t model;
-
-    /* Initial estimate and its standard deviations (P0 diagonal). All sigma0 must be > 0: they also
-     * set the internal state scaling that keeps P well conditioned in float. */
-    caekf_scalar_t q0[CAEKF_MAX_BODIES];
-    caekf_scalar_t v0[CAEKF_MAX_BODIES];
-    caekf_scalar_t gamma0[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t sigma_gamma0[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t sigma_q0, sigma_v0;
-
-    /* Process noise std per step (Q diagonal) and measurement noise std (R diagonal). */
-    caekf_scalar_t sigma_qx_q, sigma_qx_v;
-    caekf_scalar_t sigma_q_gamma[CAEKF_MAX_CONTACTS]; /* Q_gamma = q_gamma_scale * sigma_q_gamma^2 */
-    caekf_scalar_t q_gamma_scale;                     /* 1 for Sec. 4.1, 1000 for Sec. 4.2 */
-    caekf_scalar_t sigma_r;                           /* > 0: position sensors */
-    caekf_scalar_t sigma_rv;                          /* velocity sensors (> 0 when there is one) */
-
-    /* Enumerated settings are stored as int (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t), so
-     * the settings table addresses them the same way whatever size a compiler gives an enum. */
-    int mode;               /* caekf_mode_t */
-    int switchoff;          /* caekf_switchoff_t */
-    int cov_update;         /* caekf_cov_update_t */
-    int constraint_enabled; /* gamma_min <= gamma (<= gamma_max) by perfect measurement (eqs. 28-30) */
-    caekf_scalar_t gamma_min[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t gamma_max[CAEKF_MAX_CONTACTS]; /* 0: no upper bound */
-
-    /* The contact law's other parameters, when model.contact_estimate_* makes them states: initial
-     * estimate, P0 standard deviation (> 0; also the internal scale), process noise std per step, and
-     * bounds (enforced by perfect measurements whenever the parameter is estimated; a maximum of 0 is
-     * none). docs/contact-law.md. */
-    caekf_scalar_t n0[CAEKF_MAX_CONTACTS], lambda0[CAEKF_MAX_CONTACTS], gap0[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t sigma_n0[CAEKF_MAX_CONTACTS], sigma_lambda0[CAEKF_MAX_CONTACTS], sigma_gap0[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t sigma_q_n[CAEKF_MAX_CONTACTS], sigma_q_lambda[CAEKF_MAX_CONTACTS], sigma_q_gap[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t n_min[CAEKF_MAX_CONTACTS], n_max[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t lambda_min[CAEKF_MAX_CONTACTS], lambda_max[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t gap_min[CAEKF_MAX_CONTACTS], gap_max[CAEKF_MAX_CONTACTS];
-    int cov_repair_enabled; /* repair P when it loses PSD (always flagged); default on */
-    int psd_check_period;   /* full PSD test every this many steps (1..1000; a cheap 2x2-minor
-                                    * screen runs every step and triggers the full test at once) */
-
-    /* Innovation gate on the gamma correction (0: off). A step whose normalised innovation squared
-     * (chi-square, 2 degrees of freedom for a consistent filter) exceeds it still corrects q and v but
-     * holds gamma, as a consider state (flag GAMMA_GATED). Such innovations mean the linearisation that
-     * maps them onto gamma is void, e.g. the first measurements after a gap during contact. */
-    caekf_scalar_t gamma_gate_nis;
-
-    /* While a contact is closed at either end of a step, the model integrates the step in this many
-     * substeps of dt/contact_substeps (inputs linear in between) and F is the product of their maps:
-     * an impact lasting a few samples is then resolved. 1: one step of dt always. */
-    int contact_substeps;
-
-    /* The Gaussian second-order term of a closed contact's force as process noise on the velocities
-     * (docs/contact-law.md): only for laws nonlinear in their states (gamma_log, estimated n, lambda, gap). */
-    int law_second_order;
-
-    /* Statistically linearised contacts (0: off, the paper's switch). > 0: an elastic contact's tangents
-     * in delta and gamma (F, eq. 10) are the law's expected over the penetration's distribution
-     * N(delta, s^2), s^2 = b^T P_qq b from P_{k-1}, and the contact is active (eq. 21) while
-     * P(delta > 0) > contact_slr_p. */
-    caekf_scalar_t contact_slr_p;
-
-    int newton_max_iter;        /* 1..CAEKF_NEWTON_MAX_ITER */
-    caekf_scalar_t newton_rtol; /* residual tolerance relative to the size of the equation's terms */
-} caekf_settings_t;
+/* caekf_settings_t (the model first, then the estimator's settings) and the enums of its settings
+ * (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t) are generated from the settings schema into
+ * caekf/caekf_settings_types.h (docs/settings.md lists them). */
 
 /* What one step did. */
 typedef struct {

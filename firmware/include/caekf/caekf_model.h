@@ -12,48 +12,15 @@
 #include <stdint.h>
 
 #include "caekf/caekf_config.h"
+#include "caekf/caekf_settings_types.h" /* generated from the settings schema at build time */
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* Sensor kinds (caekf_model_params_t.sensor_kind). */
-typedef enum { CAEKF_SENSOR_POSITION = 0, CAEKF_SENSOR_VELOCITY = 1 } caekf_sensor_kind_t;
-
-/* How the continuous model becomes the step map x_{k-1} -> x_k (caekf_model_params_t.discretisation).
- * Both are implicit and Newton-solved. Backward Euler is the paper's eq. (19): first order, and it damps
- * the mechanism's modes numerically by a factor that grows with (omega dt)^2, an error gamma then
- * absorbs. The trapezoidal rule weighs both ends of the step equally: second order, no numerical
- * damping, the same cost (one nq x nq solve per Newton iteration). */
-typedef enum { CAEKF_DISCRETISATION_BACKWARD_EULER = 0, CAEKF_DISCRETISATION_TRAPEZOIDAL = 1 } caekf_discretisation_t;
-
-/* The mechanism. Plain data, so a const instance can live in flash. Body numbers are 1-based, 0 is the
- * ground; only the first `bodies`, `springs`, ... elements of each array are in use. */
-typedef struct {
-    caekf_scalar_t dt; /* step [s] */
-    int bodies;
-    caekf_scalar_t m[CAEKF_MAX_BODIES]; /* masses [kg] */
-    int springs;
-    int spring_a[CAEKF_MAX_SPRINGS], spring_b[CAEKF_MAX_SPRINGS]; /* link ends */
-    caekf_scalar_t spring_k[CAEKF_MAX_SPRINGS];                   /* [N/m] */
-    caekf_scalar_t spring_c[CAEKF_MAX_SPRINGS];                   /* [N s/m] */
-    int inputs;
-    int input_body[CAEKF_MAX_INPUTS];
-    int sensors;
-    int sensor_body[CAEKF_MAX_SENSORS];
-    int sensor_kind[CAEKF_MAX_SENSORS]; /* caekf_sensor_kind_t */
-    int contacts;
-    int contact_a[CAEKF_MAX_CONTACTS], contact_b[CAEKF_MAX_CONTACTS];
-    caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS];    /* [m] */
-    caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];      /* exponent, >= 1 */
-    caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS]; /* Hunt-Crossley damping [s/m] */
-    /* 1: the law parameter is a state (estimated, after the gammas) and the value above is unused. */
-    int contact_estimate_n[CAEKF_MAX_CONTACTS];
-    int contact_estimate_lambda[CAEKF_MAX_CONTACTS];
-    int contact_estimate_gap[CAEKF_MAX_CONTACTS];
-    int discretisation; /* caekf_discretisation_t */
-    int gamma_log;      /* 1: the gamma states hold ln gamma (the law takes exp of them) */
-} caekf_model_params_t;
+/* caekf_model_params_t and the enums of its settings (caekf_sensor_kind_t, caekf_discretisation_t) are
+ * generated from the settings schema (caekf/caekf_settings_types.h), like every setting. The two
+ * discretisations: docs/discretisation.md. */
 
 /* A contact's law parameters besides gamma (index into caekf_model_t.law_state). */
 enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT = 3 };

@@ -421,6 +421,48 @@ def pair_ok(s: "Setting") -> int:
 COMPILED_IN = {"contact_slr_p": "CAEKF_HAS_SLR"}
 
 
+def _c_comment(text: str) -> str:
+    """A schema doc as a C comment (no comment terminator inside)."""
+    return "/* " + text.replace("*/", "* /") + " */"
+
+
+def c_types(schema: Schema) -> str:
+    """caekf/caekf_settings_types.h: the settings' C types, caekf_model_params_t (the settings whose field
+    is model.<name>) and caekf_settings_t (the model, then the others), members in parameter-id order, and
+    the enums of the enumerated settings. Nothing else declares a setting: the table's offsetof() and the
+    filter's uses are checked against these members by the compiler."""
+    lines = [f"/* {GENERATED}. */", "#ifndef CAEKF_SETTINGS_TYPES_H", "#define CAEKF_SETTINGS_TYPES_H", "",
+             '#include "caekf/caekf_config.h"', ""]
+    for s in schema.wire:
+        if s.type == "enum":
+            ctype, prefix = C_ENUMS[s.name]
+            values = ", ".join(f"{prefix}{_macro(v)} = {i}" for i, v in enumerate(s.values))
+            lines += [_c_comment(f"{s.name}: {s.doc}"), f"typedef enum {{ {values} }} {ctype};", ""]
+
+    def member(s: Setting, name: str) -> str:
+        # Enums and bools are stored as int, so the table addresses them alike whatever size a compiler
+        # gives an enum.
+        ctype = "caekf_scalar_t" if s.type == "real" else "int"
+        dim = f"[CAEKF_MAX_{_macro(s.capacity)}]" if s.capacity is not None else ""
+        unit = f" [{s.unit}]" if s.unit else ""
+        enum = f" ({C_ENUMS[s.name][0]})" if s.type == "enum" else ""
+        return f"    {ctype} {name}{dim}; {_c_comment(s.doc + unit + enum)}"
+
+    model = [s for s in schema.wire if s.field.startswith("model.")]
+    rest = [s for s in schema.wire if not s.field.startswith("model.")]
+    if any("." in s.field for s in rest) or any(s.field.count(".") != 1 for s in model):
+        raise SchemaError("a setting's field is a member of caekf_settings_t or of its model")
+    lines += ["/* The mechanism and the step method. Plain data, so a const instance can live in flash. Body numbers",
+              " * are 1-based, 0 is the ground; only the first `bodies`, `springs`, ... elements of each array are",
+              " * in use. */", "typedef struct {"]
+    lines += [member(s, s.field.split(".", 1)[1]) for s in model]
+    lines += ["} caekf_model_params_t;", "", "/* Every setting of the estimator: the model first. */", "typedef struct {",
+              "    caekf_model_params_t model;"]
+    lines += [member(s, s.field) for s in rest]
+    lines += ["} caekf_settings_t;", "", "#endif", ""]
+    return "\n".join(lines)
+
+
 def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> Dict[str, str]:
     wire = schema.wire
     h = [f"/* {GENERATED}. */", "#ifndef CAEKF_SETTINGS_SCHEMA_H", "#define CAEKF_SETTINGS_SCHEMA_H", "",
@@ -440,11 +482,6 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
           f"#define CAEKF_SETTING_KIND_COUNT {1 + len(CAPACITIES)}u", "",
           "#endif", ""]
     c = [f"/* {GENERATED}. */", '#include "caekf/caekf.h"', "", "#include <stddef.h>", ""]
-    for s in wire:
-        if s.type == "enum":
-            enum = C_ENUMS[s.name][1]
-            cond = " && ".join(f"{enum}{_macro(v)} == {i}" for i, v in enumerate(s.values))
-            c.append(f"CAEKF_STATIC_ASSERT({cond}, enum_{s.name}_matches_schema);")
     # The table is compact (4 bytes a setting, caekf_setting_row_t): what settings share is said once, by
     # the kind of their elements (one element, or an array over a capacity: its wire count, stored count
     # and in-use count) and by the integer ranges; ids are dense, so a row's id is the sum of the counts
@@ -543,6 +580,7 @@ const char *caekf_param_key(unsigned param_id)
 }
 """]
     return {"caekf/caekf_settings_schema.h": "\n".join(h), "caekf_settings_table.c": "\n".join(c),
+            "caekf/caekf_settings_types.h": c_types(schema),
             "caekf_settings_names.c": "\n".join(n), "caekf/caekf_capacity.h": c_capacity(schema, mechanism, preset)}
 
 
