@@ -12,8 +12,8 @@ is Nelder-Mead over log10 of the chosen standard deviations (scipy.optimize), ea
 `caekf_sim.run` per record (the whole loop in C).
 
 Any mechanism (docs/mechanism.md): the searched settings are the noise standard deviations the
-mechanism uses (settings_adapter.tunable_noise: sigma_qx_q, sigma_qx_v, sigma_r, sigma_rv and every
-contact's contact{i}_sigma_q_gamma, as the schema names them), or a chosen subset.
+mechanism uses (settings_adapter.tunable_noise: the schema's noise settings that are standard
+deviations, per contact where they are per contact), or a chosen subset.
 
 Consistency is reported as the NIS statistics of a chi-square with one degree of freedom per sensor (d):
 the mean NIS (d for a consistent filter; its 95 % band for N steps is chi2(d N)/N) and the fraction of

@@ -190,9 +190,8 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--holdout", type=Path, nargs="*", default=[], metavar="CSV_OR_LOG",
                    help="held-out runs for the before/after report (*.log: candump, else CSV)")
     p.add_argument("--params", default=None,
-                   help="noise settings to tune, comma-separated scenario keys (default: every noise std the "
-                        "mechanism uses and sets > 0: sigma_qx_q, sigma_qx_v, sigma_r, sigma_rv, "
-                        "contact<i>_sigma_q_gamma)")
+                   help="noise settings to tune, comma-separated scenario keys (default: every noise standard "
+                        "deviation of the schema, kind noise, that the mechanism uses and sets > 0)")
     p.add_argument("--experiment", default="switched",
                    help="experiment whose settings the runs use (default switched)")
     p.add_argument("--precision", choices=["double", "float"], default="double",
