@@ -2,6 +2,8 @@
  * Sec. 3.3), and the accessors that translate the scaled internal state into physical units. */
 #include "caekf/caekf.h"
 
+#include <stddef.h>
+
 #include "caekf_filter.h"
 #include "caekf_model_internal.h"
 #include "caekf_linalg.h"
@@ -15,6 +17,8 @@ CAEKF_STATIC_ASSERT(CAEKF_NP <= 32, parameter_bounds_fit_a_word);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEKF_N >= 4 * CAEKF_NQ,
                     scratch_holds_the_newton_and_substep_work);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
+CAEKF_STATIC_ASSERT(CAEKF_GAMMA_LIVE == 0, init_zeroes_the_policies_to_live);
+CAEKF_STATIC_ASSERT(offsetof(caekf_t, cfg) == 0, init_zeroes_what_follows_the_settings);
 
 /* x_{k-1}, step work: in P_work, which is free until the covariance prediction, when the step has no
  * substeps (they keep their start there); else in the instance. */
@@ -164,7 +168,7 @@ static void apply_bounds(caekf_t *est, caekf_scalar_t *z, uint32_t *flags)
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
 {
     const caekf_model_params_t *mp;
-    int i, j, nq, nc, n;
+    int i, nq, nc, n;
     if (est == 0 || s == 0) {
         return CAEKF_ERR_NULL;
     }
@@ -173,7 +177,14 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     if (caekf_settings_validate(s, 0) != CAEKF_OK) {
         return CAEKF_ERR_SETTINGS;
     }
-    est->cfg = *s;
+    est->cfg = *s; /* first: s may be the instance's own settings */
+    {              /* the rest of the instance zero (every buffer and flag), then what is not: one loop, less flash */
+        unsigned char *bytes = (unsigned char *)est;
+        size_t k;
+        for (k = offsetof(caekf_t, model); k < sizeof *est; ++k) {
+            bytes[k] = 0;
+        }
+    }
     (void)caekf_model_init(&est->model, mp);
 #if CAEKF_HAS_SUBSTEPS
     if (s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
@@ -189,17 +200,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     n = est->model.n;
     for (i = 0; i < CAEKF_N; ++i) {
         est->scale[i] = 1;
-        est->z[i] = 0;
-        est->q_diag[i] = 0;
-        X_PREV(est)[i] = 0;
-        est->x_pred[i] = 0;
     }
-#if !CAEKF_ONE_STEP_BE
-    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
-        est->u_prev[i] = 0;
-    }
-    est->u_prev_known = 0;
-#endif
     for (i = 0; i < nq; ++i) {
         est->scale[i] = s->sigma_q0;
         est->scale[nq + i] = s->sigma_v0;
@@ -208,10 +209,6 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         /* Ratios before squaring: float would underflow on (1e-9)^2 / (1e-6)^2 done the other way. */
         est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
         est->q_diag[nq + i] = sq(s->sigma_qx_v / s->sigma_v0);
-    }
-    est->bound_lo = est->bound_hi = 0;
-    for (i = 0; i < CAEKF_NP_STORE; ++i) {
-        est->lo_scaled[i] = est->hi_scaled[i] = 0;
     }
     for (i = 0; i < nc; ++i) {
         const int g = 2 * nq + i;
@@ -249,7 +246,6 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     est->dims.n = n;
     est->dims.ny = mp->sensors;
     for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
-        est->dims.h[i] = 0;
         est->dims.r[i] = 1;
     }
     for (i = 0; i < mp->sensors; ++i) {
@@ -257,22 +253,10 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
         est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
     }
-    for (i = 0; i < CAEKF_NP_STORE; ++i) {
-        est->dims.policy[i] = CAEKF_GAMMA_LIVE;
-    }
-    for (i = 0; i < CAEKF_N * CAEKF_N; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
-        est->P[i] = 0;
-        est->P_work[i] = 0;
-        est->scratch.m[i] = 0;
-    }
-    for (i = 0; i < n; ++i) {
-        for (j = 0; j < n; ++j) {
-            est->P[i * n + j] = (i == j) ? 1 : 0;
-        }
+    for (i = 0; i < n; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
+        est->P[i * n + i] = 1;
     }
     load_fv0(est);
-    est->step_count = 0;
-    est->last_flags = 0;
     est->init_magic = INIT_MAGIC;
     return CAEKF_OK;
 }
@@ -532,7 +516,7 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
-#if CAEKF_SIZED
+#if CAEKF_SIZED && !CAEKF_ONE_STEP_BE
 /* The commit of a step in a sized build: z, and P from P_work's upper triangle, filling the lower one; the
  * sizes are constants, and the copy is written out (no loop overhead per entry). */
 static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
@@ -760,7 +744,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         st = CAEKF_ERR_NUMERIC;
         goto done;
     }
-#if CAEKF_SIZED
+#if CAEKF_SIZED && !CAEKF_ONE_STEP_BE
     commit_sized(est, z);
 #else
     for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */

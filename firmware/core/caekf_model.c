@@ -20,9 +20,10 @@ static const unsigned char link_nz[CAEKF_SIZED_BODIES][CAEKF_SIZED_LINK_WIDTH] =
 #define NOINLINE
 #endif
 
-/* The loops of the step path (the Newton solve, its matrix, F's right-hand sides), written out where the build's sizes are constants and the step
- * runs them many times (CAEKF_FIXED_LINKS); the one-step build keeps its loops (and its figures). */
-#if CAEKF_FIXED_LINKS
+/* The loops of the step path (the Newton solve, its matrix, F's right-hand sides), written out where the
+ * build's sizes are constants and the step runs them many times (substeps or the trapezoidal rule); the
+ * one-step build keeps these loops (less flash; its inner loops over the links' pattern are written out). */
+#if CAEKF_FIXED_LINKS && !CAEKF_ONE_STEP_BE
 #define UNROLL_STEP CAEKF_UNROLL_SIZED
 #else
 #define UNROLL_STEP
@@ -1037,7 +1038,9 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         m->m_dt[i] = p->m[i] / m->hs;
     }
     for (i = 0; i < nq; ++i) {
+#if !CAEKF_FIXED_LINKS
         m->nnz[i] = 0;
+#endif
         for (j = 0; j < nq; ++j) {
             const caekf_scalar_t a = a0_entry(m, i, j);
 #if !CAEKF_ONE_STEP_BE
@@ -1048,9 +1051,11 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
             }
 #endif
             m->A0_lu[i * nq + j] = a;
+#if !CAEKF_FIXED_LINKS
             if (m->K[i][j] != 0 || m->C[i][j] != 0) {
                 m->nz[i][m->nnz[i]++] = (unsigned char)j;
             }
+#endif
         }
     }
     /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */

@@ -76,10 +76,10 @@ typedef double caekf_scalar_t;
  * instance. */
 #define CAEKF_ONE_STEP_BE (!CAEKF_HAS_SUBSTEPS && !CAEKF_HAS_TRAPEZOIDAL)
 /* The links' ends fixed at build time (CAEKF_SIZED_SPRING_A/B and their pattern of K and C, generated from
- * the sized scenario; settings with other ends are refused): the step path of a build that substeps or
- * takes the trapezoidal rule evaluates the residual many times a step and is written for that pattern.
- * The one-backward-Euler-step build (the paper's presets) keeps the run-time pattern and its figures. */
-#define CAEKF_FIXED_LINKS (CAEKF_SIZED_METHOD && !CAEKF_ONE_STEP_BE)
+ * the sized scenario; settings with other ends are refused) in every build sized for one configuration:
+ * the residual, the Newton matrix and F are written for that pattern, without index loads (the same
+ * operations in the same order, so the same bits). */
+#define CAEKF_FIXED_LINKS (CAEKF_SIZED_METHOD)
 /* Statistically linearised contacts (setting contact_slr_p > 0): a run-time choice of the estimator, or
  * in a build sized for one configuration part of its method (CAEKF_SIZED_SLR, generated): compiled in and
  * required there when the configuration has them, else left out and the setting refused. */

@@ -73,10 +73,12 @@ typedef struct {
     int trap;           /* trapezoidal: the step's start enters the rows */
 #endif
     caekf_scalar_t m_dt[CAEKF_NQ]; /* M / hs (diagonal) */
+#if !CAEKF_FIXED_LINKS             /* else the build's constant pattern */
     /* Row i of K and C is nonzero in columns nz[i][0 .. nnz[i]-1] (ascending): the residual skips the
      * structural zeros, which change no sum. */
     unsigned char nz[CAEKF_NQ][CAEKF_NQ];
     unsigned char nnz[CAEKF_NQ];
+#endif
     /* A0 = M/hs + C + hs K, the Newton matrix without contact, packed nq x nq. Without contact the step
      * is linear: A0's LU and the v-rows of F are constants, computed once by the same code the contact
      * path runs, so using them changes no bit of the result (CAEKF_ONE_STEP_BE: A0 is kept as its upper
