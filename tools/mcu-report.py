@@ -26,7 +26,10 @@ which needs the host-double preset's test data, see tests/target/Replay.cmake):
   * with --breakdown N: instructions per function (the N largest) inside the median step, the max
     step and the worst-case step (one more QEMU run each, plugin option profile_interval); for the
     default and the joint step, the median and max steps and the constructed worst case's step (in
-    target_replay_default_worst).
+    target_replay_default_worst);
+  * for a preset sized for one configuration (cortex-m4f), the same figures for an 8-body, 2-contact
+    mechanism (tests/target/chain8.toml, its own truth record): the preset's step in build/<preset>-chain8,
+    the recommended default's in build/<preset>-chain8-default.
 Goals checked (Cortex-M4F, -Os): worst case <= 8000 instructions/step, library text <= 10.5 KB (the
 estimator library: the settings' names live in <core>_names), static RAM + one instance <= 2 KB,
 stack <= 512 B (the paper's presets); the recommended default's worst case (max, constructed) <= 16000
@@ -234,6 +237,31 @@ def stack_static(bdir, image="target_replay"):
     return res
 
 
+# An 8-body, 2-contact mechanism (issue 10: the paper's figures for such a build as well): the same
+# preset sized for it, its own truth record replayed.
+CHAIN8 = os.path.join(ROOT, "tests", "target", "chain8.toml")
+
+
+def report_chain8(preset, bdir, args):
+    """The paper's presets' figures (their step method and the switched-highq-constrained preset) for a
+    build sized for tests/target/chain8.toml, replaying that mechanism's truth (build/<preset>-chain8)."""
+    cdir = bdir + "-chain8"
+    if not args.no_build:
+        extra = [f"-DCAEKF_MECHANISM={CHAIN8}", f"-DCAEKF_SCENARIO={CHAIN8}"]
+        build(preset, cdir, extra, ["target_replay", "qemu_icount_plugin"])
+    image = os.path.join(cdir, "tests", "target", "target_replay.elf")
+    if not os.path.exists(image):
+        return None
+    ic = icount(cdir, preset)
+    ic["build"] = os.path.relpath(cdir, ROOT)
+    ic["lib"] = size_of(os.path.join(cdir, "firmware", "core", "libcaekf_core.a"))
+    ic["sizeof_caekf_t"] = symbol_size(image, "est")
+    st = stack_static(cdir)
+    ic["stack_static"] = st.get("caekf_step", {}).get("worst")
+    ic["stack_static_init"] = st.get("caekf_init", {}).get("worst")
+    return ic
+
+
 def report_preset(preset, args, o2):
     bdir = os.path.join(ROOT, "build", preset + ("-o2" if o2 else ""))
     if not args.no_build:
@@ -271,6 +299,8 @@ def report_preset(preset, args, o2):
         if not o2:
             joint = os.path.join(ROOT, "sim", "scenarios", "paper-joint.toml")
             variants.append(("joint", "-joint", [f"-DCAEKF_MECHANISM={joint}", f"-DCAEKF_SCENARIO={joint}"]))
+            chain8 = [f"-DCAEKF_MECHANISM={CHAIN8}", f"-DCAEKF_SCENARIO={CHAIN8}"]
+            variants.append(("chain8", "-chain8-default", chain8))
         for label, suffix, vextra in variants:
             ddir = bdir + suffix
             if not args.no_build:
@@ -304,6 +334,8 @@ def report_preset(preset, args, o2):
                         "target_replay_default_worst"))
             if label == "default":
                 r["lib_default"] = ic["lib"]
+        if not o2:
+            r["chain8"] = report_chain8(preset, bdir, args)
     r["stack_static"] = stack_static(bdir)
     if args.breakdown:
         ic = r["icount"]
@@ -378,7 +410,7 @@ def main():
     print("\n".join(notes))
     rows = []
     for r in results:
-        for label in ("default", "joint"):
+        for label in ("default", "joint", "chain8"):
             ic = r.get("icount_" + label)
             if not ic:
                 continue
@@ -392,12 +424,28 @@ def main():
                          ic["lib"][0] if "lib" in ic else "same",
                          ic.get("sizeof_caekf_t") or "same", goal])
     if rows:
-        table(f"Instructions per caekf_step, the recommended default ({default_method()}) and the joint "
-              "four-parameter step (ln gamma, n, lambda, gap: sim/scenarios/paper-joint.toml); reference scenario, "
-              "60,000 steps; constructed worst case: the full PSD test of P on every step",
+        table(f"Instructions per caekf_step, the recommended default ({default_method()}), the joint "
+              "four-parameter step (ln gamma, n, lambda, gap: sim/scenarios/paper-joint.toml) and the default on the "
+              "8-body, 2-contact chain (tests/target/chain8.toml, its own truth); 60,000 steps; constructed worst "
+              "case: the full PSD test of P on every step",
               ["target", "opt", "estimator", "build", "min", "median", "max", "constructed worst case",
                "Newton iterations max", "caekf_step stack static / painted", "lib text", "sizeof(caekf_t)",
                f"worst <= {GOAL_ICOUNT_DEFAULT}"], rows)
+    rows = []
+    for r in results:
+        ic = r.get("chain8")
+        if ic:
+            wc = ic.get("worst_case")
+            rows.append([r["preset"], ic["build"], ic["min"], ic["median"], f"{ic['max']} (step {ic['max_step']})",
+                         f"{wc} ({ic['worst_case_iters']} it, {ic['worst_case_steps']} steps)" if wc else "n/a",
+                         ic["lib"][0], ic["sizeof_caekf_t"],
+                         f"{ic['stack_static']} / {ic['stack_measured'].get('steps')}",
+                         f"{ic['stack_static_init']} / {ic['stack_measured'].get('init')}"])
+    if rows:
+        table("The paper's presets' figures for an 8-body, 2-contact build (tests/target/chain8.toml, its own "
+              "truth, switched-highq-constrained, 60,000 steps)",
+              ["target", "build", "min", "median", "max", "worst case: contact+constraint, max Newton", "lib text",
+               "sizeof(caekf_t)", "caekf_step stack static / painted", "caekf_init stack static / painted"], rows)
     for r, key, what in [(r, key, what) for r in results for key, what in
                          (("breakdown", ""), ("breakdown_default", " (the default)"), ("breakdown_joint", " (joint)"))]:
         bd = r.get(key)

@@ -2,7 +2,8 @@
 #
 # Needs host test data, like the unit tests do in the cross builds: made by the host tools this build makes
 # (cmake/HostTools.cmake; or those of CAEKF_HOST_BUILD_DIR):
-#   CAEKF_REPLAY_TRUTH_BIN   caekf-truth --bin record of the reference scenario
+#   CAEKF_REPLAY_TRUTH_BIN   caekf-truth --bin record of the reference scenario (CAEKF_SCENARIO: any
+#                            mechanism; its CSV's header gives the record's columns)
 #   CAEKF_HOST_REPLAY        the host caekf-replay (double), for the reference trajectory
 # Tests:
 #   target_replay            runs the image, compares with the host: Cortex-M7 (double) every
@@ -43,8 +44,9 @@ set(_gen "${CMAKE_CURRENT_BINARY_DIR}/replay_data")
 add_custom_command(
     OUTPUT "${_gen}/replay_inputs.bin" "${_gen}/replay_inputs.S"
     COMMAND "${Python3_EXECUTABLE}" "${_dir}/gen_replay_data.py"
-            --truth-bin "${CAEKF_REPLAY_TRUTH_BIN}" --scalar "${CAEKF_SCALAR}" --out-dir "${_gen}"
-    DEPENDS "${_dir}/gen_replay_data.py" "${CAEKF_REPLAY_TRUTH_BIN}"
+            --truth-bin "${CAEKF_REPLAY_TRUTH_BIN}" --truth-csv "${CAEKF_REPLAY_TRUTH_CSV}"
+            --scalar "${CAEKF_SCALAR}" --out-dir "${_gen}"
+    DEPENDS "${_dir}/gen_replay_data.py" "${CAEKF_REPLAY_TRUTH_BIN}" "${CAEKF_REPLAY_TRUTH_CSV}"
     COMMENT "Embedding the reference scenario's inputs (${CAEKF_SCALAR}) for target_replay"
     VERBATIM)
 set_source_files_properties("${_gen}/replay_inputs.S" PROPERTIES OBJECT_DEPENDS "${_gen}/replay_inputs.bin")

@@ -4,12 +4,13 @@
  * REPLAY_PSD_CHECK_PERIOD 1 the full PSD test of P runs on every step (target_replay_default_worst: every
  * contact step then also pays for it, the constructed worst case of tools/mcu-report.py).
  *
- * Inputs: u, y1, y4 of every step (from caekf-truth, generated on the host), embedded as const data
- * in flash by replay_inputs.S (.incbin of a file written by gen_replay_data.py), in the build's
- * scalar type: 60,000 steps x 3 x 8 B = 1.44 MB (double, Cortex-M7) or 720 KB (float, Cortex-M4F),
- * within the 4 MB of the MPS2's SSRAM1. The settings are the schema's defaults, the scenario's values
- * and the preset's, from the fixture generated from the schema and paper.toml (caekf_fixture_settings.h,
- * the unit tests' too): no scenario parser on the target.
+ * Inputs: the inputs and the measurements of every step (u, y1, y4 for the paper's mechanism; any
+ * mechanism's: CAEKF_SCENARIO), from caekf-truth on the host, embedded as const data in flash by
+ * replay_inputs.S (.incbin of a file written by gen_replay_data.py), in the build's scalar type: for the
+ * paper 60,000 steps x 3 x 8 B = 1.44 MB (double, Cortex-M7) or 720 KB (float, Cortex-M4F), within the
+ * 4 MB of the MPS2's SSRAM1. The settings are the schema's defaults, the scenario's values and the
+ * preset's, from the fixture generated from the schema and the scenario (caekf_fixture_settings.h, the
+ * unit tests' too): no scenario parser on the target.
  *
  * Each caekf_step() is bracketed by caekf_mark_begin()/caekf_mark_end() for tools/qemu-icount.
  * The stack is painted before caekf_init() and again before the first step; the high-water marks
@@ -41,7 +42,7 @@
 #ifndef REPLAY_PRESET
 #define REPLAY_PRESET CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED
 #endif
-extern const caekf_scalar_t caekf_replay_inputs[]; /* u, y1, y4 per step */
+extern const caekf_scalar_t caekf_replay_inputs[]; /* the inputs, then the measurements, per step */
 extern const caekf_scalar_t caekf_replay_inputs_end[];
 
 typedef struct {
@@ -111,7 +112,7 @@ int main(void)
     caekf_report_t rep;
     caekf_setting_error_t err;
     const char *bad;
-    uint32_t steps = (uint32_t)((size_t)(caekf_replay_inputs_end - caekf_replay_inputs) / 3u);
+    uint32_t steps, width;
     uint32_t k, n_snap = 0u, rejected = 0u, flags_seen = 0u;
     int iters_max = 0;
     uintptr_t top;
@@ -119,6 +120,9 @@ int main(void)
     caekf_scalar_t gamma = 0;
     caekf_status_t st;
 
+    replay_settings(&s);
+    width = (uint32_t)(s.model.inputs + s.model.sensors); /* counts within the capacity: validated below */
+    steps = width > 0u ? (uint32_t)((size_t)(caekf_replay_inputs_end - caekf_replay_inputs) / width) : 0u;
     caekf_console_puts("replay: mcu=" CAEKF_REPLAY_MCU " scalar=" CAEKF_SCALAR_NAME " steps=");
     caekf_console_put_u32(steps);
     caekf_console_puts(" preset=");
@@ -133,7 +137,6 @@ int main(void)
         return 2;
     }
 
-    replay_settings(&s);
     if (caekf_settings_validate(&s, &err) != CAEKF_OK) {
         bad = caekf_param_key(err.param_id);
         caekf_console_puts("replay: settings refused: ");
@@ -152,13 +155,10 @@ int main(void)
 
     top = caekf_stack_paint();
     for (k = 0u; k < steps; ++k) {
-        const caekf_scalar_t *in = &caekf_replay_inputs[3u * k];
-        caekf_scalar_t y[CAEKF_MAX_SENSORS];
+        const caekf_scalar_t *in = &caekf_replay_inputs[width * k];
         uint32_t cls;
-        y[0] = in[1];
-        y[1] = in[2];
         caekf_mark_begin();
-        st = caekf_step(&est, (const caekf_scalar_t[]){in[0]}, y, &rep);
+        st = caekf_step(&est, in, in + s.model.inputs, &rep);
         caekf_mark_end();
         cls = (rep.flags & 0x1FFu) | ((uint32_t)(rep.newton_iters > 31 ? 31 : rep.newton_iters) << 9);
         if (st != CAEKF_OK) {

@@ -26,6 +26,11 @@
  *                            Derived from it: CAEKF_HAS_SUBSTEPS, CAEKF_HAS_TRAPEZOIDAL, CAEKF_ONE_STEP_BE.
  *   CAEKF_MODEL_ORACLES      1: the library has the model's reference residual, Jacobians and full F (test
  *                            oracles the estimator never calls). Default: 1, 0 with CAEKF_SIZED_METHOD.
+ *   CAEKF_PSD_WRITTEN_OUT_MAX_N  a build sized for substeps writes the full PSD test of P out for its
+ *                            state's n (the same operations, a third of the instructions) when n is at most
+ *                            this (default 12: the paper's 9, its whole contact law's 12). Its text grows
+ *                            as n^3: at n = 18 (8 bodies, 2 contacts) 26 KB for 2 % of the worst step, so a
+ *                            larger state keeps the loop.
  *
  */
 #ifndef CAEKF_CONFIG_H
@@ -97,6 +102,9 @@ typedef double caekf_scalar_t;
 #define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_NP)
 /* Arrays with one element per estimated parameter: at least one (C has no empty arrays). */
 #define CAEKF_NP_STORE (CAEKF_NP > 0 ? CAEKF_NP : 1)
+#ifndef CAEKF_PSD_WRITTEN_OUT_MAX_N
+#define CAEKF_PSD_WRITTEN_OUT_MAX_N 12
+#endif
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]
