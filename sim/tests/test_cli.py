@@ -61,7 +61,7 @@ def test_observability_command_confirms_both_claims(capsys):
 
 def test_estimate_discretisation_in_both_engines(tmp_path: Path):
     """--discretisation reaches the C settings and the numpy config alike: the engines agree with the
-    trapezoidal rule, which moves the states off the preset's backward Euler."""
+    trapezoidal rule, which moves the states off the switched preset's backward Euler."""
     t = tmp_path / "truth.csv"
     assert main(["truth", "--t-end", "0.5", "--out", str(t)]) == 0
     runs = {}
@@ -69,7 +69,8 @@ def test_estimate_discretisation_in_both_engines(tmp_path: Path):
         for disc in ("trapezoidal", None):
             e = tmp_path / f"{engine}-{disc}.csv"
             extra = ["--discretisation", disc] if disc else []
-            assert main(["estimate", "--measurements", str(t), "--engine", engine, "--out", str(e)] + extra) == 0
+            assert main(["estimate", "--measurements", str(t), "--engine", engine, "--experiment", "switched",
+                         "--out", str(e)] + extra) == 0
             runs[engine, disc] = read_result_csv(e).x
     np.testing.assert_allclose(runs["c", "trapezoidal"], runs["numpy", "trapezoidal"], rtol=1e-8, atol=1e-15)
     np.testing.assert_allclose(runs["c", None], runs["numpy", None], rtol=1e-8, atol=1e-15)
@@ -101,3 +102,29 @@ def test_estimate_contact_substeps_in_both_engines(tmp_path: Path):
     assert np.count_nonzero(np4.newton_iters != c4.newton_iters) <= len(c4.t) // 100
     assert np.max(np.abs(c4.x[:, 8] / c1.x[:, 8] - 1)) > 1e-2
     assert c4.newton_iters.sum() > 1.5 * c1.newton_iters.sum()
+
+
+def test_estimate_runs_any_mechanism_as_caekf_replay_does(tmp_path: Path):
+    """`caekf-sim estimate` reads the scenario's own measurement columns (the valve: t,u,y1,yv1, a velocity
+    sensor) and without --experiment runs the recommended estimator, as caekf-replay does: the same
+    numbers, column by column; the numpy engine follows to 1e-8 in gamma."""
+    from test_binding import read_csv, tool
+
+    import subprocess
+
+    scenario = Path(__file__).resolve().parents[2] / "sim" / "scenarios" / "valve.toml"
+    t = tmp_path / "truth.csv"
+    assert main(["truth", "--scenario", str(scenario), "--t-end", "4", "--out", str(t)]) == 0
+    est, ref = tmp_path / "est.csv", tmp_path / "replay.csv"
+    assert main(["estimate", "--scenario", str(scenario), "--measurements", str(t), "--out", str(est)]) == 0
+    subprocess.run([str(tool("caekf-replay", "double")), "--scenario", str(scenario), "--in", str(t), "--out",
+                    str(ref)], check=True)
+    mine, theirs = read_csv(est), read_csv(ref)
+    assert list(mine) == [c for c in theirs if c in mine] and {"q2", "v2", "gamma", "p_gg", "flags"} <= set(mine)
+    for column, values in mine.items():
+        np.testing.assert_array_equal(values, theirs[column], err_msg=column)
+    assert np.count_nonzero(mine["flags"].astype(int) & fl.CONTACT_ACTIVE) > 100
+    ours = tmp_path / "numpy.csv"
+    assert main(["estimate", "--scenario", str(scenario), "--measurements", str(t), "--engine", "numpy",
+                 "--out", str(ours)]) == 0
+    np.testing.assert_allclose(read_csv(ours)["gamma"], mine["gamma"], rtol=1e-8, atol=0)

@@ -192,8 +192,3 @@ def read_candump(path: PathLike, dt: float, run: Optional[int] = None) -> Measur
         raise MeasurementError(f"{p}: no run {run}: the log has {len(records)} (--run 1..{len(records)})")
     r = records[run - 1]
     return Measurements(r.name, r.t, r.u, r.y)
-
-
-def read_measurements(path: PathLike, dt: float, candump: bool = False, run: Optional[int] = None) -> Measurements:
-    return read_candump(path, dt, run) if candump else read_measurements_csv(path, dt)
-

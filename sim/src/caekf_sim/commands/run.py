@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 from pathlib import Path
@@ -11,13 +12,14 @@ from typing import Any, Dict
 
 from ..cli import UsageError
 from ..estimator import EstimateResult
-from ..experiments import EXPERIMENTS, experiment_config, format_table, run_experiment, summarize
+from ..experiments import (DEFAULT, EXPERIMENTS, experiment_config, format_table, run_experiment, scenario_config,
+                           summarize)
 from ..mechanism import Mechanism, read_input_csv
 from ..model import DISCRETISATIONS
 from ..results import write_result_csv
 from ..truth import (CONTINUOUS, TRUTH_METHODS, contact_episodes, simulate,
                      write_truth_csv)
-from ..measurements import MeasurementError, Measurements, read_measurements
+from ..measurements import MeasurementError, Measurements, columns_of, read_candump, read_measurements_csv
 from ..outputs import atomic_output, check_output_dir, check_output_file, write_text_atomic
 from ..plots import PLOT_FORMATS
 from . import add_progress_arg, add_scenario_arg, scenario_from_args, want_progress
@@ -34,17 +36,20 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "held) instead of the scenario's sines")
     p.set_defaults(func=cmd_truth)
 
-    p = sub.add_parser("estimate", help="run the estimator over measurements: a t,u,y1,y4 CSV or a candump log")
+    p = sub.add_parser("estimate", help="run the estimator over measurements: a CSV (t, the inputs, the sensors: "
+                                        "t,u,y1,y4 for the paper) or a candump log")
     add_scenario_arg(p)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--measurements", type=Path, metavar="CSV",
-                     help="t,u,y1,y4 CSV at the scenario's dt (more columns allowed, e.g. a truth CSV; empty y1 "
-                          "and y4: a lost sample)")
+                     help="CSV at the scenario's dt with t, the mechanism's inputs (u, or u1..) and one column per "
+                          "sensor (y<body>, yv<body>): t,u,y1,y4 for the paper (more columns allowed, e.g. a truth "
+                          "CSV; every sensor empty: a lost sample)")
     src.add_argument("--candump", type=Path, metavar="LOG", help="candump -L log of the bus (decoded with the DBC)")
     p.add_argument("--run", type=int, default=None, metavar="N",
                    help="run N (1..) of a log holding several (one per configuration)")
-    p.add_argument("--experiment", choices=sorted(EXPERIMENTS), default="switched",
-                   help="preset of the estimator (default switched)")
+    p.add_argument("--experiment", choices=sorted(EXPERIMENTS) + [DEFAULT], default=DEFAULT,
+                   help="preset of the estimator (default: none, the recommended estimator with the scenario's "
+                        "settings, as caekf-replay runs without --experiment)")
     p.add_argument("--engine", choices=["c", "numpy"], default="c",
                    help="the shipped C estimator through the binding (default) or the numpy reference")
     p.add_argument("--precision", choices=["double", "float"], default="double", help="C engine's scalar")
@@ -52,7 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="switch-off variant (default: consistent)")
     p.add_argument("--joseph", action="store_true", help="Joseph-form covariance updates")
     p.add_argument("--discretisation", choices=DISCRETISATIONS, default=None,
-                   help="the filter's step map (default: the preset's, backward Euler for the paper's experiments)")
+                   help="the filter's step map (default: the preset's, backward Euler for the paper's experiments, "
+                        "else the scenario's)")
     p.add_argument("--contact-substeps", type=int, choices=range(1, 9), default=None, metavar="S",
                    help="model substeps per step while a contact is closed, 1..8 (default: the preset's, 1 for the "
                         "paper's experiments)")
@@ -100,8 +106,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     check_output_file(args.out)
     if args.run is not None and args.candump is None:
         raise UsageError("--run selects a run of a --candump log")
-    meas = read_measurements(args.candump or args.measurements, sc.dt, candump=args.candump is not None,
-                             run=args.run)
+    meas = (read_candump(args.candump, sc.dt, args.run) if args.candump is not None
+            else read_measurements_csv(args.measurements, sc.dt, columns_of(sc)))
     overrides: Dict[str, Any] = {}
     if args.variant:
         overrides["switch_variant" if args.engine == "numpy" else "switchoff"] = args.variant
@@ -130,7 +136,7 @@ def estimate_c(sc: Any, meas: Measurements, experiment: str, precision: str = "d
     the columns of caekf-replay's output (p_norm, the gamma variance, flags, Newton iterations)."""
     from ..binding import Estimator
 
-    est = Estimator(sc, precision, experiment, **(overrides or {}))
+    est = Estimator(sc, precision, None if experiment == DEFAULT else experiment, **(overrides or {}))
     n = len(meas.t)
     bar = None
     if progress:
@@ -148,11 +154,14 @@ def estimate_c(sc: Any, meas: Measurements, experiment: str, precision: str = "d
         bar.close()
     wall = time.perf_counter() - t0
     pd = np.concatenate([r.P_diag for r in parts])
+    ig, nc = parts[0].gamma_index, int(parts[0].settings.contacts)  # the gammas, then the law parameters
+    law = tuple(parts[0].law)
     return EstimateResult(
         t=np.concatenate([r.t for r in parts]), x=np.concatenate([r.x for r in parts]),
-        p_norm=np.concatenate([r.p_norm for r in parts]), p_gg=pd[:, 8],
+        p_norm=np.concatenate([r.p_norm for r in parts]), p_gg=pd[:, ig] if nc else np.zeros(n),
         flags=np.concatenate([r.flags for r in parts]).astype(np.int64),
-        newton_iters=np.concatenate([r.newton_iters for r in parts]).astype(np.int64), wall_time=wall)
+        newton_iters=np.concatenate([r.newton_iters for r in parts]).astype(np.int64), wall_time=wall,
+        n_contacts=nc, p_ggs=pd[:, ig:ig + nc], n_law=len(law), law_names=law)
 
 
 def _estimate_numpy(sc: Any, meas: Measurements, experiment: str, overrides: Dict[str, Any],
@@ -160,10 +169,10 @@ def _estimate_numpy(sc: Any, meas: Measurements, experiment: str, overrides: Dic
     from ..estimator import run_estimator
 
     if np.isnan(meas.y).any():
-        raise MeasurementError(f"{meas.name}: lost samples (empty y1, y4): the numpy engine needs every "
+        raise MeasurementError(f"{meas.name}: lost samples (empty sensor columns): the numpy engine needs every "
                                "measurement (use --engine c)")
-    return run_estimator(sc, experiment_config(experiment, **overrides), meas.t, meas.u, meas.y, keep_P=False,
-                         progress=progress)
+    cfg = scenario_config(sc) if experiment == DEFAULT else experiment_config(experiment)
+    return run_estimator(sc, replace(cfg, **overrides), meas.t, meas.u, meas.y, keep_P=False, progress=progress)
 
 
 def cmd_experiments(args: argparse.Namespace) -> int:
