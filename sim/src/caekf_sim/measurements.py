@@ -1,15 +1,16 @@
-"""Measurements in: a `t,u,y1,y4` CSV or a candump log of the bus, checked like caekf-replay checks them.
+"""Measurements in: a CSV or a candump log of the bus, checked like caekf-replay checks them.
 
-A measurement CSV has a header whose columns include t, u, y1 and y4 (any others, e.g. a truth CSV's
-q1..q4, v1..v4, delta, are read too) and numeric rows with the header's column count. Empty y1 and y4 in
-a row mean a lost measurement (NaN: the estimator bridges it with caekf_predict); one of them empty is an
+A measurement CSV has a header whose columns include t, the mechanism's inputs (u, or u1..) and one
+column per sensor (y<body>, yv<body>): t,u,y1,y4 for the paper (any others, e.g. a truth CSV's q1..q4,
+v1..v4, delta, are read too), and numeric rows with the header's column count. Every sensor empty in a
+row means a lost measurement (NaN: the estimator bridges it with caekf_predict); some of them empty is an
 error. t must increase strictly, by the scenario's dt within DT_TOL, and there are at most MAX_ROWS rows:
 the rules of host/common/csv.h, whose constants a test compares with these. Every refusal is one line,
 "FILE:LINE: rule" (MeasurementError, a ValueError: exit 3); a missing or unreadable file is an OSError
 with the same kind of message (exit 4).
 
 A candump -L log of the bus is decoded through the DBC (caekf_sim.tune.read_candump_records, cantools):
-one run per configuration the bench sent.
+the frames of the scenario's mechanism, one run per configuration the bench sent.
 """
 from __future__ import annotations
 
@@ -166,7 +167,7 @@ def read_measurements_csv(path: PathLike, dt: float, columns: Optional[Tuple[Seq
     return Measurements(p.name, arr["t"], u, y, truth)
 
 
-def read_candump(path: PathLike, dt: float, run: Optional[int] = None) -> Measurements:
+def read_candump(path: PathLike, dt: float, run: Optional[int] = None, sc: Any = None) -> Measurements:
     """One run of a candump -L log of the bus (decoded with the DBC): the only one, or number `run` (1..)."""
     from .tune import read_candump_records
 
@@ -178,7 +179,7 @@ def read_candump(path: PathLike, dt: float, run: Optional[int] = None) -> Measur
         raise ImportError(f"reading a candump log needs python-can and cantools ({exc}): "
                            "pip install 'caekf-sim[hil]'") from None
     try:
-        records = read_candump_records(p, dt)
+        records = read_candump_records(p, dt, sc=sc)
     except UnicodeDecodeError:
         raise MeasurementError(f"{p}: not a candump -L log (bytes that are not text)") from None
     except (ValueError, IndexError) as exc:

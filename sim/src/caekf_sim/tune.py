@@ -80,21 +80,36 @@ def read_record_csv(path: PathLike, sc: Optional[Scenario] = None) -> Record:
     return Record(path.name, data[:, 0], u, np.ascontiguousarray(data[:, 1 + ni:]))
 
 
-def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = None) -> List[Record]:
-    """Records of a candump -L log of the bench: what the bench sent per STEP (u, y1, y4).
+def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = None, sc: Optional[Scenario] = None
+                         ) -> List[Record]:
+    """Records of a candump -L log of the bench: what the bench sent per STEP (the inputs and the sensors).
 
-    One record per configuration (a CTRL_RESET the bench sent starts the next). Frames with a bad E2E CRC
-    are dropped; a step without both y frames is a lost measurement (NaN), a step without u holds the last
-    u (as the firmware does). t = step * dt, the step counter unwrapped from its 16 bits.
+    The frames are those of scenario `sc`'s mechanism (bench.profiles.mechanism_profile: BENCH_U, BENCH_U2,
+    BENCH_Y1, BENCH_Y4, BENCH_S3_POS, .., BENCH_S<s>_VEL); default and for the paper's mechanism BENCH_U,
+    BENCH_Y1 and BENCH_Y4, or BENCH_YP of the production profile. One record per configuration (a CTRL_RESET
+    the bench sent starts the next). Frames with a bad E2E CRC are dropped; a step without every sensor's
+    frame is a lost measurement (NaN), a step without an input holds its last value (as the firmware does).
+    t = step * dt, the step counter unwrapped from its 16 bits.
     """
     from .bench.buslog import read_log
     from .bench.codec import Codec
     from .bench.e2e import crc_ok
+    from .bench.profiles import DIAGNOSTICS, INPUT_KEYS, SENSOR_KEYS, mechanism_profile
 
+    profile = DIAGNOSTICS
+    if sc is not None:
+        from .mechanism import Mechanism
+
+        profile = mechanism_profile(Mechanism.from_scenario(sc))
+    signals: Dict[str, Tuple[Tuple[str, str], ...]] = dict(profile.inputs)  # frame -> (signal, step key)
+    if profile is DIAGNOSTICS:  # the paper's mechanism: its production profile's one frame of both sensors
+        signals["BENCH_YP"] = (("Y1", "y1"), ("Y4", "y4"))
+    keys = {k for sigs in signals.values() for _, k in sigs}
+    in_keys = [k for k in INPUT_KEYS if k in keys]
+    y_keys = [k for k in SENSOR_KEYS if k in keys]
     codec = Codec(dbc) if dbc else Codec()
     frames = read_log(path, codec.from_estimator_ids)
-    ids = {codec.messages[n].frame_id: n for n in ("BENCH_U", "BENCH_Y1", "BENCH_Y4", "BENCH_YP", "CTRL_RESET")
-           if n in codec.messages}
+    ids = {codec.messages[n].frame_id: n for n in (*signals, "CTRL_RESET") if n in codec.messages}
     data_id = {fid: codec.messages[n].data_id for fid, n in ids.items()}
     segments: List[List[Tuple[str, bytes]]] = [[]]
     for f in frames:
@@ -118,26 +133,27 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
             else:  # unwrap the 16-bit counter (steps move by less than half its range)
                 base += (wire - last + 0x8000) % 0x10000 - 0x8000
             last = wire
-            sigs = {"BENCH_U": ("U",), "BENCH_Y1": ("Y1",), "BENCH_Y4": ("Y4",), "BENCH_YP": ("Y1", "Y4")}[name]
-            for sig in sigs:
-                steps.setdefault(base, {})[sig] = float(vals[sig][0])
+            for sig, key in signals[name]:
+                steps.setdefault(base, {})[key] = float(vals[sig][0])
         ks = np.array(sorted(steps))
         k0 = ks[0]
         n = int(ks[-1] - k0 + 1)
-        u = np.full(n, np.nan)
-        y = np.full((n, 2), np.nan)
+        u = np.full((n, len(in_keys)), np.nan)
+        y = np.full((n, len(y_keys)), np.nan)
         for k, v in steps.items():
             j = k - k0
-            u[j] = v.get("U", np.nan)
-            if "Y1" in v and "Y4" in v:
-                y[j] = (v["Y1"], v["Y4"])
-        # hold the last known u over steps whose BENCH_U was lost
-        idx = np.where(np.isfinite(u), np.arange(n), 0)
-        np.maximum.accumulate(idx, out=idx)
-        u = np.where(np.isfinite(u[idx]), u[idx], 0.0)
-        out.append(Record(f"{Path(path).name}#{i + 1}", (k0 + np.arange(n)) * dt, u, y))
+            u[j] = [v.get(key, np.nan) for key in in_keys]
+            if all(key in v for key in y_keys):
+                y[j] = [v[key] for key in y_keys]
+        # hold the last known value of each input over steps whose frame was lost
+        idx = np.where(np.isfinite(u), np.arange(n)[:, None], 0)
+        np.maximum.accumulate(idx, axis=0, out=idx)
+        held = np.take_along_axis(u, idx, axis=0)
+        u = np.where(np.isfinite(held), held, 0.0)
+        out.append(Record(f"{Path(path).name}#{i + 1}", (k0 + np.arange(n)) * dt,
+                          u[:, 0].copy() if len(in_keys) == 1 else u, y))
     if not out:
-        raise ValueError(f"{path}: no BENCH_U/BENCH_Y1/BENCH_Y4/BENCH_YP frames")
+        raise ValueError(f"{path}: no {'/'.join(signals)} frames")
     return out
 
 

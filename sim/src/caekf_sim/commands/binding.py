@@ -185,8 +185,8 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
                    help="recorded runs to tune on: CSVs with the mechanism's columns (t, the inputs, one column per "
                         "sensor: t,u,y1,y4 for the paper; extra columns ignored; empty y = lost sample)")
     p.add_argument("--candump", type=Path, nargs="*", default=[], metavar="LOG",
-                   help="candump -L logs of the CAN bench (one run per configuration in each log; the paper's "
-                        "mechanism)")
+                   help="candump -L logs of the CAN bench (one run per configuration in each log; the "
+                        "scenario's mechanism)")
     p.add_argument("--holdout", type=Path, nargs="*", default=[], metavar="CSV_OR_LOG",
                    help="held-out runs for the before/after report (*.log: candump, else CSV)")
     p.add_argument("--params", default=None,
@@ -223,15 +223,10 @@ def _records(paths, sc):
 
 
 def _candump_records(path, sc):
-    """The bench's records of a candump log: its frames carry the paper's u, y1, y4."""
-    from ..binding import paper_mismatch
+    """The bench's records of a candump log: the frames of the scenario's mechanism (its inputs and sensors)."""
     from ..tune import read_candump_records
 
-    diff = paper_mismatch(sc)
-    if diff is not None:
-        raise UsageError(f"{path}: a candump log of the bench carries the paper's mechanism's u, y1, y4; "
-                         f"this scenario differs: {diff}")
-    return read_candump_records(path, sc.dt)
+    return read_candump_records(path, sc.dt, sc=sc)
 
 
 def cmd_tune(args: argparse.Namespace) -> int:

@@ -106,7 +106,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     check_output_file(args.out)
     if args.run is not None and args.candump is None:
         raise UsageError("--run selects a run of a --candump log")
-    meas = (read_candump(args.candump, sc.dt, args.run) if args.candump is not None
+    meas = (read_candump(args.candump, sc.dt, args.run, sc) if args.candump is not None
             else read_measurements_csv(args.measurements, sc.dt, columns_of(sc)))
     overrides: Dict[str, Any] = {}
     if args.variant:
