@@ -42,11 +42,17 @@ def _pyplot():
     return plt
 
 
+def _episodes(truth: Truth) -> List[Tuple[float, float]]:
+    """The truth's contact episodes, any contact closed (the deepest penetration over the contacts), merging
+    the short initial bounces."""
+    return contact_episodes(truth.t, truth.deltas.max(axis=1), merge_gap=0.1)
+
+
 def _shade_contact(ax, truth: Optional[Truth]) -> None:
     """Grey bands where the truth is in contact (merging the short initial bounces); none without truth."""
     if truth is None:
         return
-    for i, (a, b) in enumerate(contact_episodes(truth.t, truth.delta, merge_gap=0.1)):
+    for i, (a, b) in enumerate(_episodes(truth)):
         ax.axvspan(a, b, color="0.9", zorder=0, label="contact (truth)" if i == 0 else None)
 
 
@@ -94,7 +100,7 @@ def fig5_q2(
     """
     plt = _pyplot()
     if windows is None:
-        starts = [a for a, _ in contact_episodes(truth.t, truth.delta, merge_gap=0.1)][:2]
+        starts = [a for a, _ in _episodes(truth)][:2]
         windows = [(round(a) - 1.0, round(a) + 3.0) for a in starts]
     fig, axes = plt.subplots(2, len(windows), figsize=(6 * len(windows), 6.5), sharex="col",
                              gridspec_kw={"height_ratios": [3, 2]}, squeeze=False)
@@ -135,7 +141,7 @@ def fig6_constrained(
     un, co = res["switched-highq"], res["switched-highq-constrained"]
     views = [("a", (float(co.t[0]), float(co.t[-1])))]
     if detail is None and truth is not None:
-        episodes = contact_episodes(truth.t, truth.delta, merge_gap=0.1)
+        episodes = _episodes(truth)
         if episodes:
             detail = (episodes[0][0] - 0.2, episodes[0][0] + 1.5)
     if detail is not None:
@@ -229,9 +235,11 @@ def make_all_from_files(
 
 def plot_runs(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: float, out: PathLike) -> Path:
     """One figure of any set of runs (estimate CSVs by label): gamma, the norm of P, and with the truth the
-    position error of body 2; contact bands and the reference gamma when known. Format from out's suffix."""
+    position error of body 2 (of body 1 in a one-body mechanism); contact bands (any contact closed) and the
+    reference gamma when known. Format from out's suffix."""
     plt = _pyplot()
     with_truth = truth is not None
+    body = min(1, truth.q.shape[1] - 1) if truth is not None else 1  # body 2's error (body 1 when alone)
     fig, axes = plt.subplots(3 if with_truth else 2, 1, figsize=(9, 8.5 if with_truth else 6), sharex=True)
     cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax in axes:
@@ -241,7 +249,7 @@ def plot_runs(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_tru
         axes[0].plot(r.t, r.gamma, color=color, lw=1.0, label=label)
         axes[1].semilogy(r.t, r.p_norm, color=color, lw=1.0, label=label)
         if truth is not None:
-            err = r.x[:, 1] - np.interp(r.t, truth.t, truth.q[:, 1])
+            err = r.x[:, body] - np.interp(r.t, truth.t, truth.q[:, body])
             axes[2].plot(r.t, 1e6 * err, color=color, lw=0.8, label=label)
     if np.isfinite(gamma_true):
         axes[0].axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
@@ -249,7 +257,7 @@ def plot_runs(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_tru
     axes[0].set_title("contact stiffness estimate" + ("" if len(runs) == 1 else f"s of {len(runs)} runs"))
     axes[1].set_ylabel(r"$\|\mathbf{P}\|_2$")
     if truth is not None:
-        axes[2].set_ylabel(r"$\hat q_2 - q_2$ [$\mu$m]")
+        axes[2].set_ylabel(rf"$\hat q_{body + 1} - q_{body + 1}$ [$\mu$m]")
     axes[-1].set_xlabel("time [s]")
     for ax in axes:
         ax.grid(True, alpha=0.4)

@@ -8,7 +8,7 @@ from typing import Any, Dict, List, Tuple
 import numpy as np
 
 from ..cli import UsageError
-from ..measurements import MeasurementError, read_measurements_csv
+from ..measurements import MeasurementError, check_input_file
 from ..outputs import check_output_dir, check_output_file
 from ..plots import PLOT_FORMATS
 from ..results import read_result_csv
@@ -89,9 +89,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
         check_output_dir(args.outdir)
     truth = None
     if args.truth is not None:
-        truth = read_measurements_csv(args.truth, sc.dt).truth
-        if truth is None:
-            raise MeasurementError(f"{args.truth}: not a truth CSV (no q1..q4, v1..v4, delta columns)")
+        check_input_file(args.truth)
+        try:
+            truth = read_truth_csv(args.truth)  # any mechanism's columns, by name
+        except ValueError:
+            raise MeasurementError(f"{args.truth}: not a truth CSV (no t, q1.., v1.., delta columns: caekf-truth "
+                                   "writes them)") from None
     if args.runs:
         labels = args.label or [p.stem for p in args.runs]
         runs = {lab: read_result_csv(p) for lab, p in zip(labels, args.runs)}
@@ -117,6 +120,12 @@ def cmd_observability(args: argparse.Namespace) -> int:
         return _observability_run(args, sc)
     if args.csv is not None or args.png is not None or args.prior or args.contact is not None:
         raise UsageError("--contact, --prior, --csv and --png go with --params or --crb")
+    from ..binding import paper_mismatch
+
+    diff = paper_mismatch(sc)
+    if diff is not None:  # the paper's two claims are about its own chain and sensors
+        raise UsageError(f"observability without --params tests the paper's claims on its mechanism, and this "
+                         f"scenario's differs ({diff}): give --params or --crb for this mechanism's rank test")
     res = analyse(sc, penetration=args.penetration)
     print(format_report(res))
     both = ("q1", "q4")
