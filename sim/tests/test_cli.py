@@ -152,3 +152,7 @@ def test_observability_names_why_the_papers_claims_need_its_mechanism(capsys):
     assert main(["observability", "--scenario", str(scenario)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bodies = 6 (the paper's chain has 4)" in err[0] and "--params" in err[0]
+    # FilterPy's check is the paper's canonical AEKF: the same one line, not an array error
+    assert main(["filterpy-check", "--scenario", str(scenario)]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "filterpy-check" in err[0] and "bodies = 6 (the paper's chain has 4)" in err[0]

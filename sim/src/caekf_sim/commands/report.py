@@ -201,7 +201,10 @@ def _observability_run(args: argparse.Namespace, sc: Any) -> int:
 def cmd_filterpy(args: argparse.Namespace) -> int:
     from ..filterpy_check import check
 
+    from ..binding import require_paper_mechanism
+
     sc = scenario_from_args(args)
+    require_paper_mechanism(sc, "filterpy-check (the paper's canonical AEKF against FilterPy's EKF)")
     res = check(sc, simulate(sc))
     for form, a in res.items():
         print(f"FilterPy vs numpy canonical ({form} form): state rel {a.state_rel:.2e}, "
