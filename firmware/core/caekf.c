@@ -178,7 +178,8 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         return CAEKF_ERR_SETTINGS;
     }
     est->cfg = *s; /* first: s may be the instance's own settings */
-    {              /* the rest of the instance zero (every buffer and flag), then what is not: one loop, less flash */
+    /* The rest of the instance zero (every buffer and flag), then what is not: one loop, less flash. */
+    {
         unsigned char *bytes = (unsigned char *)est;
         size_t k;
         for (k = offsetof(caekf_t, model); k < sizeof *est; ++k) {
@@ -517,8 +518,9 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
 }
 
 #if CAEKF_SIZED && !CAEKF_ONE_STEP_BE
-/* The commit of a step in a sized build: z, and P from P_work's upper triangle, filling the lower one; the
- * sizes are constants, and the copy is written out (no loop overhead per entry). */
+/* The commit of a step in a sized build with substeps or the trapezoidal rule: z, and P from P_work's upper
+ * triangle, filling the lower one; the sizes are constants, and the copy is written out (no loop overhead
+ * per entry). The one-step build's loop below costs 127 instructions more and 652 B less. */
 static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
 {
     const int n = CAEKF_DIM_N(&est->model);

@@ -384,6 +384,25 @@ static void test_predict_only_moves_the_model_not_gamma(void)
     TEST_ASSERT_TRUE(EST_P(&est, 0, 0) > EST_P(&copy, 0, 0)); /* and its uncertainty grew by Q */
 }
 
+/* caekf_init determines every byte of the instance after the settings: an instance that has run into
+ * contact (every work buffer dirty) and one of other garbage come out of init identical to a fresh one, so
+ * no stale value can leak into the next run. */
+static void test_init_leaves_nothing_of_what_was_there(void)
+{
+    static caekf_t fresh;
+    run_into_contact();
+    memset(&fresh, 0xA5, sizeof fresh);
+    memset(&copy, 0x5A, sizeof copy);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &good)); /* over the run's state */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&fresh, &good));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&copy, &good));
+    TEST_ASSERT_TRUE_MESSAGE(memcmp(&fresh, &copy, sizeof fresh) == 0, "init left bytes of the garbage");
+    TEST_ASSERT_TRUE_MESSAGE(memcmp(&fresh, &est, sizeof fresh) == 0, "init left bytes of the last run");
+    /* the instance's own settings as the argument: the same instance again */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&copy, &copy.cfg));
+    TEST_ASSERT_TRUE(memcmp(&fresh, &copy, sizeof fresh) == 0);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -403,5 +422,6 @@ int main(void)
     RUN_TEST(test_set_by_id_reaches_every_element);
     RUN_TEST(test_the_compact_table_decodes_every_row);
     RUN_TEST(test_predict_only_moves_the_model_not_gamma);
+    RUN_TEST(test_init_leaves_nothing_of_what_was_there);
     return UNITY_END();
 }
