@@ -242,24 +242,34 @@ def stack_static(bdir, image="target_replay"):
 CHAIN8 = os.path.join(ROOT, "tests", "target", "chain8.toml")
 
 
+def sized_for(scenario):
+    """CMake options of a build sized for a scenario's mechanism and replaying that scenario's truth."""
+    return [f"-DCAEKF_MECHANISM={scenario}", f"-DCAEKF_SCENARIO={scenario}"]
+
+
+def measure(ddir, preset, image):
+    """One replay image's instructions per step, with its build's library text, instance and static stack;
+    None when the build has no such image."""
+    path = os.path.join(ddir, "tests", "target", image + ".elf")
+    if not os.path.exists(path):
+        return None
+    ic = icount(ddir, preset, image)
+    ic["build"] = os.path.relpath(ddir, ROOT)
+    ic["lib"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
+    ic["sizeof_caekf_t"] = symbol_size(path, "est")
+    st = stack_static(ddir, image)
+    ic["stack_static"] = st.get("caekf_step", {}).get("worst")
+    ic["stack_static_init"] = st.get("caekf_init", {}).get("worst")
+    return ic
+
+
 def report_chain8(preset, bdir, args):
     """The paper's presets' figures (their step method and the switched-highq-constrained preset) for a
     build sized for tests/target/chain8.toml, replaying that mechanism's truth (build/<preset>-chain8)."""
     cdir = bdir + "-chain8"
     if not args.no_build:
-        extra = [f"-DCAEKF_MECHANISM={CHAIN8}", f"-DCAEKF_SCENARIO={CHAIN8}"]
-        build(preset, cdir, extra, ["target_replay", "qemu_icount_plugin"])
-    image = os.path.join(cdir, "tests", "target", "target_replay.elf")
-    if not os.path.exists(image):
-        return None
-    ic = icount(cdir, preset)
-    ic["build"] = os.path.relpath(cdir, ROOT)
-    ic["lib"] = size_of(os.path.join(cdir, "firmware", "core", "libcaekf_core.a"))
-    ic["sizeof_caekf_t"] = symbol_size(image, "est")
-    st = stack_static(cdir)
-    ic["stack_static"] = st.get("caekf_step", {}).get("worst")
-    ic["stack_static_init"] = st.get("caekf_init", {}).get("worst")
-    return ic
+        build(preset, cdir, sized_for(CHAIN8), ["target_replay", "qemu_icount_plugin"])
+    return measure(cdir, preset, "target_replay")
 
 
 def report_preset(preset, args, o2):
@@ -295,34 +305,30 @@ def report_preset(preset, args, o2):
         # (CAEKF_MECHANISM_PRESET=default, build/<preset>[-o2]-default), and the joint four-parameter
         # step's from the same mechanism estimating its whole contact law (sim/scenarios/paper-joint.toml,
         # build/<preset>[-o2]-joint; -Os only).
-        variants = [("default", "-default", [])]
+        # (label, build folder suffix, CMake options, whether the paper's truth is its truth: a variant with
+        # its own mechanism must not take the host test data of the preset's build)
+        variants = [("default", "-default", [], True)]
         if not o2:
-            joint = os.path.join(ROOT, "sim", "scenarios", "paper-joint.toml")
-            variants.append(("joint", "-joint", [f"-DCAEKF_MECHANISM={joint}", f"-DCAEKF_SCENARIO={joint}"]))
-            chain8 = [f"-DCAEKF_MECHANISM={CHAIN8}", f"-DCAEKF_SCENARIO={CHAIN8}"]
-            variants.append(("chain8", "-chain8-default", chain8))
-        for label, suffix, vextra in variants:
+            variants.append(("joint", "-joint", sized_for(os.path.join(ROOT, "sim", "scenarios", "paper-joint.toml")),
+                             True))
+            variants.append(("chain8", "-chain8-default", sized_for(CHAIN8), False))
+        for label, suffix, vextra, paper_truth in variants:
             ddir = bdir + suffix
             if not args.no_build:
                 extra = ["-DCAEKF_MECHANISM_PRESET=default", *vextra]
                 if o2:
                     extra += ["-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS_RELEASE=-O2 -g -DNDEBUG"]
-                for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR"):
+                for key in ("CAEKF_HOST_BUILD_DIR", "CAEKF_TESTDATA_DIR") if paper_truth else ():
                     v = cache_value(os.path.join(ROOT, "build", preset), key)
                     if v:
                         extra.append(f"-D{key}={v}")
                 build(preset, ddir, extra, ["target_replay_default", "target_replay_default_worst",
                                             "qemu_icount_plugin"])
-            image = os.path.join(ddir, "tests", "target", "target_replay_default.elf")
-            if not os.path.exists(image):
+            ic = measure(ddir, preset, "target_replay_default")
+            if ic is None:
                 continue
-            ic = icount(ddir, preset, "target_replay_default")
-            ic["build"] = os.path.relpath(ddir, ROOT)
             if os.path.exists(os.path.join(ddir, "tests", "target", "target_replay_default_worst.elf")):
                 ic["constructed"] = icount(ddir, preset, "target_replay_default_worst")
-            ic["lib"] = size_of(os.path.join(ddir, "firmware", "core", "libcaekf_core.a"))
-            ic["sizeof_caekf_t"] = symbol_size(image, "est")
-            ic["stack_static"] = stack_static(ddir, "target_replay_default").get("caekf_step", {}).get("worst")
             r["icount_" + label] = ic
             if args.breakdown:
                 r["breakdown_" + label] = breakdown(ddir, preset, [("median", ic["median_step"]),
