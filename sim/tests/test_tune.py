@@ -88,6 +88,32 @@ def test_tune_errors_are_one_line(tmp_path, capsys):
     assert err.count("\n") == 1 and "none.csv" in err
 
 
+def test_candump_log_of_the_production_profile_unwraps_its_8_bit_counter(tmp_path):
+    """The production profile's BENCH_YP counts steps mod 2^8 beside BENCH_U's 2^16: over 600 steps every
+    measurement comes back at its own step (a 16-bit unwrap of the 8-bit counter lost 344 of them)."""
+    pytest.importorskip("can")
+    from caekf_sim.bench.buslog import write_journal
+    from caekf_sim.bench.codec import Codec, make_records
+
+    codec = Codec()
+    n = 600
+    steps = np.arange(n)
+    rng = np.random.default_rng(7)
+    pu = codec.pack("BENCH_U", {"STEP": steps, "U": rng.normal(0, 2, n)}, counters=steps)
+    pyp = codec.pack("BENCH_YP", {"STEP": steps, "Y1": rng.normal(0, 1e-4, n), "Y4": rng.normal(0, 1e-4, n)},
+                     counters=steps)
+    journal = []
+    for k in range(n):
+        for name, payload in (("BENCH_U", pu), ("BENCH_YP", pyp)):
+            journal.append((k * 1e-3, 0, make_records(codec.messages[name].frame_id, payload[k][None]).tobytes()))
+    log = tmp_path / "bus.log"
+    write_journal(journal, log, "vcan0", 1000.0)
+    (rec,) = read_candump_records(log, 1e-3)
+    ys = codec.unpack("BENCH_YP", pyp)
+    np.testing.assert_array_equal(rec.y, np.column_stack([ys["Y1"], ys["Y4"]]))
+    np.testing.assert_array_equal(rec.u, codec.unpack("BENCH_U", pu)["U"])
+
+
 def test_candump_log_of_any_mechanism_gives_its_inputs_and_sensors(tmp_path):
     """The shuttle's frames (2 inputs, a velocity sensor among 4: mechanism_profile) come back as its u (n, 2)
     and y (n, 4): a lost input frame holds that input's last value, a lost sensor frame loses the step's

@@ -94,7 +94,7 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
     from .bench.buslog import read_log
     from .bench.codec import Codec
     from .bench.e2e import crc_ok
-    from .bench.profiles import DIAGNOSTICS, INPUT_KEYS, SENSOR_KEYS, mechanism_profile
+    from .bench.profiles import DIAGNOSTICS, INPUT_KEYS, SENSOR_KEYS, mechanism_profile, production
 
     profile = DIAGNOSTICS
     if sc is not None:
@@ -102,8 +102,8 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
 
         profile = mechanism_profile(Mechanism.from_scenario(sc))
     signals: Dict[str, Tuple[Tuple[str, str], ...]] = dict(profile.inputs)  # frame -> (signal, step key)
-    if profile is DIAGNOSTICS:  # the paper's mechanism: its production profile's one frame of both sensors
-        signals["BENCH_YP"] = (("Y1", "y1"), ("Y4", "y4"))
+    if profile is DIAGNOSTICS:  # the paper's mechanism: its production profile's frames too (BENCH_YP)
+        signals.update(production().inputs)
     keys = {k for sigs in signals.values() for _, k in sigs}
     in_keys = [k for k in INPUT_KEYS if k in keys]
     y_keys = [k for k in SENSOR_KEYS if k in keys]
@@ -124,15 +124,15 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
     out: List[Record] = []
     for i, seg in enumerate(s for s in segments if s):
         steps: Dict[int, Dict[str, float]] = {}
-        last, base = None, 0
+        base = None
         for name, data in seg:
             vals = codec.unpack(name, np.frombuffer(data, dtype=np.uint8))
             wire = int(vals["STEP"][0])
-            if last is None:
+            if base is None:
                 base = wire
-            else:  # unwrap the 16-bit counter (steps move by less than half its range)
-                base += (wire - last + 0x8000) % 0x10000 - 0x8000
-            last = wire
+            else:  # unwrap the frame's counter (16 bits, BENCH_YP's 8) to the step nearest the last one
+                mod = 1 << codec.messages[name].signals["STEP"].length
+                base += (wire - base + mod // 2) % mod - mod // 2
             for sig, key in signals[name]:
                 steps.setdefault(base, {})[key] = float(vals[sig][0])
         ks = np.array(sorted(steps))
