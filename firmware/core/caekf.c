@@ -269,7 +269,7 @@ static caekf_gamma_policy_t gamma_policy(const caekf_settings_t *cfg, int contac
     if (cfg->mode == CAEKF_MODE_CANONICAL || contact_active) {
         return CAEKF_GAMMA_LIVE;
     }
-    return cfg->switchoff == CAEKF_SWITCHOFF_PAPER ? CAEKF_GAMMA_FROZEN_PAPER : CAEKF_GAMMA_FROZEN_SCHMIDT;
+    return CAEKF_METHOD_SWITCHOFF(cfg) == CAEKF_SWITCHOFF_PAPER ? CAEKF_GAMMA_FROZEN_PAPER : CAEKF_GAMMA_FROZEN_SCHMIDT;
 }
 
 /* Every value finite: v * 0 is 0 for finite v, NaN otherwise. */
@@ -443,7 +443,7 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     f = ct.fc;
     gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     nn = CAEKF_METHOD_CONTACT_N(m, c);
-    lambda = m->p.contact_lambda[c];
+    lambda = CAEKF_METHOD_LAMBDA(m, c);
     idx[k] = 2 * nq + c;
     kind[k++] = -1;
 #if CAEKF_HAS_LAW_PARAMS
@@ -865,7 +865,7 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
     }
     p = &est->model.p;
     law[CAEKF_LAW_N] = CAEKF_METHOD_CONTACT_N(&est->model, c);
-    law[CAEKF_LAW_LAMBDA] = p->contact_lambda[c];
+    law[CAEKF_LAW_LAMBDA] = CAEKF_METHOD_LAMBDA(&est->model, c);
     law[CAEKF_LAW_GAP] = p->contact_gap[c];
 #if CAEKF_HAS_LAW_PARAMS
     for (k = 0; k < CAEKF_LAW_COUNT; ++k) {

@@ -25,6 +25,15 @@
 #else
 #define SIZED_N(n) (n)
 #endif
+/* The covariance correction's form and the gammas' switch-off: the sized configuration's (CAEKF_SIZED_METHOD,
+ * so the other form's code folds away), the caller's otherwise. */
+#if CAEKF_SIZED_METHOD
+#define JOSEPH_FORM(joseph) ((void)(joseph), CAEKF_SIZED_COV_UPDATE == CAEKF_COV_JOSEPH)
+#define FROZEN_PAPER(policy) (CAEKF_SIZED_SWITCHOFF == CAEKF_SWITCHOFF_PAPER && (policy) == CAEKF_GAMMA_FROZEN_PAPER)
+#else
+#define JOSEPH_FORM(joseph) (joseph)
+#define FROZEN_PAPER(policy) ((policy) == CAEKF_GAMMA_FROZEN_PAPER)
+#endif
 /* Substeps' q-rows of F and the trapezoidal rule's c2: never given where the build cannot run them. */
 #if CAEKF_HAS_SUBSTEPS
 #define FQ_GIVEN(fq) ((fq) != 0)
@@ -350,7 +359,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
         }
         if (policy == CAEKF_GAMMA_LIVE) {
             AT(T, n, i, i) += q_diag[i];
-        } else if (policy == CAEKF_GAMMA_FROZEN_PAPER) {
+        } else if (FROZEN_PAPER(policy)) {
             for (j = 0; j <= i; ++j) { /* eqs. (23)-(24): only P_xx propagates */
                 AT(T, n, j, i) = AT(P, n, j, i);
             }
@@ -459,7 +468,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         const int policy = d->policy[i - nx];
         live[i] = (unsigned char)(policy == CAEKF_GAMMA_LIVE);
         /* Eq. (27), paper switch-off: only P_xx is corrected, the gamma's row and column are left. */
-        skip[i] = (unsigned char)(policy == CAEKF_GAMMA_FROZEN_PAPER);
+        skip[i] = (unsigned char)FROZEN_PAPER(policy);
         any_live |= live[i];
         any_skip |= skip[i];
     }
@@ -503,7 +512,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
             z[i] += dz;
         }
     }
-    if (!joseph) {
+    if (!JOSEPH_FORM(joseph)) {
         /* Eq. (15) on the upper triangle: P+ = P - G (H P). With a gamma's gain zeroed, its row of this
          * product would stay stale; the upper triangle alone gives the Schmidt result
          * P_xg <- (I - G_x H_x) P_xg, P_gg unchanged. */

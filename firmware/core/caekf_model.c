@@ -108,7 +108,7 @@ int caekf_model_slr_law(const caekf_model_t *m, int c)
         return 0;
     }
 #endif
-    return m->p.contact_lambda[c] == 0;
+    return CAEKF_METHOD_LAMBDA(m, c) == 0;
 }
 #define CONTACT_ON(c) ((c).delta > 0 || (c).dfc_ddelta != 0) /* closed, or an uncertain contact's tangents */
 #else
@@ -126,7 +126,7 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
     (void)tangents; /* read only where contacts are linearised statistically */
     const int i = CAEKF_CONTACT_I(m, c), j = CAEKF_CONTACT_J(m, c), nq = CAEKF_DIM_NQ(m);
     const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
-    caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = m->p.contact_lambda[c], gap = m->p.contact_gap[c], d;
+    caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = CAEKF_METHOD_LAMBDA(m, c), gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
 #if CAEKF_HAS_LAW_PARAMS
     const unsigned char *law = m->law_state[c];
@@ -989,7 +989,9 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 #ifndef CAEKF_SIZED_CONTACT_N
         m->p.contact_n[i] = p->contact_n[i];
 #endif
+#if CAEKF_HAS_DAMPING
         m->p.contact_lambda[i] = p->contact_lambda[i];
+#endif
     }
 #if !CAEKF_SIZED_METHOD
     m->p.gamma_log = p->gamma_log;

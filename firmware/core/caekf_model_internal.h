@@ -52,6 +52,18 @@ static const signed char caekf_sized_contact_a[] = CAEKF_SIZED_CONTACT_A,
 #define CAEKF_PARAMS_GAMMA_LOG(p) ((p)->gamma_log)
 #endif
 #define CAEKF_METHOD_GAMMA_LOG(m) CAEKF_PARAMS_GAMMA_LOG(&(m)->p) /* of a model */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_METHOD_SWITCHOFF(cfg) ((void)(cfg), CAEKF_SIZED_SWITCHOFF)
+#else
+#define CAEKF_METHOD_SWITCHOFF(cfg) ((cfg)->switchoff)
+#endif
+/* Contact c's Hunt-Crossley lambda (the setting; an estimated one is a state): 0 where no contact of the
+ * build is damped (CAEKF_HAS_DAMPING). */
+#if CAEKF_HAS_DAMPING
+#define CAEKF_METHOD_LAMBDA(m, c) ((m)->p.contact_lambda[c])
+#else
+#define CAEKF_METHOD_LAMBDA(m, c) ((void)(m), (void)(c), (caekf_scalar_t)0)
+#endif
 #ifdef CAEKF_SIZED_CONTACT_N
 #define CAEKF_METHOD_CONTACT_N(m, c) ((void)(m), (void)(c), (caekf_scalar_t)CAEKF_SIZED_CONTACT_N)
 #else

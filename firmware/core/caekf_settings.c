@@ -451,13 +451,22 @@ static int first_unsized_method(const caekf_model_params_t *m, const caekf_setti
         return (int)CAEKF_PARAM_CONTACT_SLR_P;
     }
 #endif
-#ifdef CAEKF_SIZED_CONTACT_N
+    if (s != 0 && s->cov_update != CAEKF_SIZED_COV_UPDATE) {
+        return (int)CAEKF_PARAM_COV_UPDATE;
+    }
+    if (s != 0 && s->switchoff != CAEKF_SIZED_SWITCHOFF) {
+        return (int)CAEKF_PARAM_SWITCHOFF;
+    }
     for (i = 0; i < (unsigned)m->contacts; ++i) {
+#ifdef CAEKF_SIZED_CONTACT_N
         if (m->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
             return (int)(CAEKF_PARAM_CONTACT_N + i);
         }
-    }
 #endif
+        if (!CAEKF_HAS_DAMPING && m->contact_lambda[i] != 0) { /* the build's laws are elastic */
+            return (int)(CAEKF_PARAM_CONTACT_LAMBDA + i);
+        }
+    }
 #if CAEKF_FIXED_LINKS
     {
         static const int sized_a[] = CAEKF_SIZED_SPRING_A, sized_b[] = CAEKF_SIZED_SPRING_B;

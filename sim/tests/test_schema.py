@@ -138,10 +138,19 @@ def test_the_default_configuration_sizes_a_build_for_the_recommended_estimator()
     assert "#define CAEKF_SIZED_LINK_NZ {{0, 1}, {0, 1}, {2, 3}, {2, 3}}" in cap
     assert "#define CAEKF_SIZED_CONTACT_A {2}" in cap and "#define CAEKF_SIZED_CONTACT_B {3}" in cap
     for preset in ("canonical", "switched", "switched-highq", "switched-highq-constrained"):
-        assert "#define CAEKF_SIZED_SLR 0" in codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", preset)
+        paper = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper.toml", preset)
+        assert "#define CAEKF_SIZED_SLR 0" in paper
+        # the standard covariance form, the consistent switch-off, no damping in paper.toml's contact
+        for name, macro in (("cov_update", "COV_UPDATE"), ("switchoff", "SWITCHOFF")):
+            st = schema.SCHEMA.by_name(name)
+            assert f"#define CAEKF_SIZED_{macro} {st.values.index(st.default)}" in paper
+        assert "#define CAEKF_SIZED_DAMPED 0" in paper
+    # damped: a nonzero lambda (valve.toml), or lambda estimated over an undamped truth (paper-joint.toml)
+    assert "#define CAEKF_SIZED_DAMPED 1" in codegen.c_capacity(schema.SCHEMA, SCENARIOS / "valve.toml", "default")
     cap = codegen.c_capacity(schema.SCHEMA, SCENARIOS / "paper-joint.toml", "default")
     assert "#define CAEKF_SIZED_LAW_PARAMS 3" in cap and "#define CAEKF_MAX_LAW_PARAMS 3" in cap
     assert "#define CAEKF_SIZED_GAMMA_LOG 1" in cap and "CAEKF_SIZED_CONTACT_N" not in cap
+    assert "#define CAEKF_SIZED_DAMPED 1" in cap
     # the fixture of a scenario whose file name is no C identifier, and its name-independent alias
     fixture = codegen.c_fixture(schema.SCHEMA, SCENARIOS / "paper-joint.toml")["caekf_fixture_settings.h"]
     assert "caekf_paper_joint_params[] = {" in fixture

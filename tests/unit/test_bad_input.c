@@ -199,6 +199,8 @@ static void test_a_method_sized_build_refuses_other_methods(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_DISCRETISATION, b.model.discretisation);
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_CONTACT_SUBSTEPS, b.contact_substeps);
     TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_GAMMA_LOG, b.model.gamma_log);
+    TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_COV_UPDATE, b.cov_update);
+    TEST_ASSERT_EQUAL_INT(CAEKF_SIZED_SWITCHOFF, b.switchoff);
     b = good;
     /* statistically linearised contacts: required where sized with them, refused where compiled out */
     b.contact_slr_p = CAEKF_SIZED_SLR ? 0 : (caekf_scalar_t)0.01;
@@ -222,6 +224,26 @@ static void test_a_method_sized_build_refuses_other_methods(void)
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
     TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_GAMMA_LOG, err.param_id);
     TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+    /* the covariance form and the switch-off: the sized configuration's (its defaults) only */
+    b = good;
+    b.cov_update = 1 - CAEKF_SIZED_COV_UPDATE;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_COV_UPDATE, err.param_id);
+    b = good;
+    b.switchoff = 1 - CAEKF_SIZED_SWITCHOFF;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_SWITCHOFF, err.param_id);
+#if !CAEKF_HAS_DAMPING
+    /* an undamped scenario's build has the elastic law only: a damped contact is refused, by the model too */
+    b = good;
+    b.model.contact_lambda[CAEKF_SIZED_CONTACTS - 1] = 1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+    TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_UNSUPPORTED, err.reason);
+    TEST_ASSERT_EQUAL_UINT(CAEKF_PARAM_CONTACT_LAMBDA + CAEKF_SIZED_CONTACTS - 1, err.param_id);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+#endif
 #ifdef CAEKF_SIZED_CONTACT_N
     b = good;
     b.model.contact_n[0] = (caekf_scalar_t)CAEKF_SIZED_CONTACT_N + 1;

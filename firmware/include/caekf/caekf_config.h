@@ -18,12 +18,16 @@
  *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
  *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
  *                            CAEKF_SIZED_DISCRETISATION, CAEKF_SIZED_CONTACT_SUBSTEPS, CAEKF_SIZED_SLR
- *                            (statistically linearised contacts: contact_slr_p > 0) and, when every contact
- *                            has the same exponent, CAEKF_SIZED_CONTACT_N. The code of other methods
- *                            compiles out (the trapezoidal rule, the substeps and their model, pow for an
- *                            exponent of 1.5 or 1); settings asking for another are refused
- *                            (CAEKF_SETTING_UNSUPPORTED) and the schema's defaults are the fixed values.
- *                            Derived from it: CAEKF_HAS_SUBSTEPS, CAEKF_HAS_TRAPEZOIDAL, CAEKF_ONE_STEP_BE.
+ *                            (statistically linearised contacts: contact_slr_p > 0), the covariance
+ *                            correction's form CAEKF_SIZED_COV_UPDATE, the gammas' switch-off
+ *                            CAEKF_SIZED_SWITCHOFF, whether any contact is damped CAEKF_SIZED_DAMPED
+ *                            (contact_lambda nonzero or estimated) and, when every contact has the same
+ *                            exponent, CAEKF_SIZED_CONTACT_N. The code of other methods compiles out (the
+ *                            trapezoidal rule, the substeps and their model, the other covariance form and
+ *                            switch-off, the damped law, pow for an exponent of 1.5 or 1); settings asking
+ *                            for another are refused (CAEKF_SETTING_UNSUPPORTED) and the schema's defaults
+ *                            are the fixed values. Derived from it: CAEKF_HAS_SUBSTEPS,
+ *                            CAEKF_HAS_TRAPEZOIDAL, CAEKF_ONE_STEP_BE, CAEKF_HAS_SLR, CAEKF_HAS_DAMPING.
  *   CAEKF_MODEL_ORACLES      1: the library has the model's reference residual, Jacobians and full F (test
  *                            oracles the estimator never calls). Default: 1, 0 with CAEKF_SIZED_METHOD.
  *   CAEKF_PSD_WRITTEN_OUT_MAX_N  a build sized for substeps writes the full PSD test of P out for its
@@ -92,6 +96,14 @@ typedef double caekf_scalar_t;
 #define CAEKF_HAS_SLR CAEKF_SIZED_SLR
 #else
 #define CAEKF_HAS_SLR 1
+#endif
+/* Hunt-Crossley damping in the contacts' law (a contact_lambda nonzero, or lambda estimated): compiled in,
+ * or in a build sized for one configuration only where its scenario has it (CAEKF_SIZED_DAMPED, generated),
+ * else the law is elastic and a nonzero contact_lambda is refused. */
+#if CAEKF_SIZED_METHOD
+#define CAEKF_HAS_DAMPING CAEKF_SIZED_DAMPED
+#else
+#define CAEKF_HAS_DAMPING 1
 #endif
 
 /* Model dimensions. */

@@ -50,7 +50,9 @@ typedef struct {
 #ifndef CAEKF_SIZED_CONTACT_N /* else the sized exponent */
     caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];
 #endif
+#if CAEKF_HAS_DAMPING /* else every contact's law is elastic */
     caekf_scalar_t contact_lambda[CAEKF_MAX_CONTACTS];
+#endif
 #if !CAEKF_SIZED_METHOD /* else the sized method's */
     int gamma_log;
 #endif

@@ -281,7 +281,7 @@ LAW_PARAMS = ("n", "lambda", "gap")
 
 # The step method a build sized for one configuration fixes (CAEKF_SIZED_METHOD): these settings, as the
 # scenario and the preset give them (or their defaults), become compile-time constants.
-METHOD = ("discretisation", "contact_substeps", "contact_n", "gamma_log", "contact_slr_p")
+METHOD = ("discretisation", "contact_substeps", "contact_n", "gamma_log", "contact_slr_p", "cov_update", "switchoff")
 
 
 # The configuration name of no preset: the schema's defaults under the scenario, i.e. the recommended
@@ -314,6 +314,20 @@ def sized_method(schema: Schema, mechanism: Path, preset: str, contacts: int) ->
         if vals and all(v == vals[0] for v in vals):
             out[name] = vals[0]
     return out
+
+
+def sized_damped(schema: Schema, mechanism: Path, preset: str, contacts: int) -> bool:
+    """Whether any contact of the scenario under the preset has Hunt-Crossley damping: a nonzero lambda,
+    or lambda estimated. A build sized for one without any runs the elastic law only (CAEKF_HAS_DAMPING)."""
+    given = read_scenario_values(schema, mechanism, wire_only=False)
+    values = preset_values(schema, preset)
+
+    def value(name: str, i: int) -> float:
+        s = schema.by_name(name)
+        key = s.keys[i]
+        return float(values.get(key, values.get(name, given.get(key, s.default_value(index=i)))))
+
+    return any(value("contact_lambda", i) != 0 or value("estimate_lambda", i) != 0 for i in range(contacts))
 
 
 def c_sized_links(schema: Schema, given: Dict[str, float], counts: Dict[str, int]) -> List[str]:
@@ -387,6 +401,11 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
             lines.append(f"#define CAEKF_SIZED_CONTACT_N {_c_double(method['contact_n'])}")
         # Statistically linearised contacts or not is part of the method (their threshold stays a setting).
         lines.append(f"#define CAEKF_SIZED_SLR {int(method['contact_slr_p'] > 0)} /* contact_slr_p > 0 */")
+        # The covariance correction's form and the gammas' switch-off: the other one compiles out.
+        lines += [f"#define CAEKF_SIZED_COV_UPDATE {int(method['cov_update'])}",
+                  f"#define CAEKF_SIZED_SWITCHOFF {int(method['switchoff'])}",
+                  f"#define CAEKF_SIZED_DAMPED {int(sized_damped(schema, mechanism, preset, counts['contacts']))}"
+                  " /* a contact's lambda nonzero or estimated */"]
     else:
         lines.append("#define CAEKF_SIZED_METHOD 0 /* the step method is a run-time setting */")
     lines.append("")
@@ -550,7 +569,8 @@ def c_core(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[st
                 c += [guard, f"        {lhs} = {expr};", "    }"]
     # A build sized for one configuration (CAEKF_SIZED_METHOD) runs one step method: its defaults.
     fixed = {"discretisation": "CAEKF_SIZED_DISCRETISATION", "contact_substeps": "CAEKF_SIZED_CONTACT_SUBSTEPS",
-             "gamma_log": "CAEKF_SIZED_GAMMA_LOG"}
+             "gamma_log": "CAEKF_SIZED_GAMMA_LOG", "cov_update": "CAEKF_SIZED_COV_UPDATE",
+             "switchoff": "CAEKF_SIZED_SWITCHOFF"}
     c += ["#if CAEKF_SIZED_METHOD"]
     c += [f"    s->{schema.by_name(k).field} = {v};" for k, v in fixed.items()]
     c += ["#ifdef CAEKF_SIZED_CONTACT_N", "    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {",
