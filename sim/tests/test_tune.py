@@ -82,6 +82,37 @@ def test_tune_command_writes_a_scenario_the_c_tools_read(recorded, tmp_path, cap
     assert p.returncode == 0, p.stderr
 
 
+def test_tune_command_tunes_the_recommended_estimator_unless_told(recorded, tmp_path, monkeypatch, capsys):
+    """Without --experiment, tune runs the estimator estimate and caekf-replay run without it (no preset:
+    the recommended one with the scenario's settings); with it, that preset."""
+    import caekf_sim.tune as tune_module
+
+    sc, (train, _) = recorded
+    path = tmp_path / "run.csv"
+    with open(path, "w") as f:
+        f.write("t,u,y1,y4\n")
+        for k in range(len(train)):
+            f.write(f"{train.t[k]:.17g},{train.u[k]:.17g},{train.y[k, 0]:.17g},{train.y[k, 1]:.17g}\n")
+    scen = tmp_path / "s.toml"
+    from caekf_sim.settings_adapter import scenario_toml
+
+    scen.write_text(scenario_toml(sc))
+    seen = []
+    real = tune_module.settings_for
+
+    def spy(sc_, experiment=None, *args, **kw):
+        seen.append(experiment)
+        return real(sc_, experiment, *args, **kw)
+
+    monkeypatch.setattr(tune_module, "settings_for", spy)
+    for extra, want in (([], None), (["--experiment", "switched"], "switched")):
+        seen.clear()
+        assert main(["tune", "--scenario", str(scen), "--runs", str(path), "--params", "sigma_r",
+                     "--max-evals", "2"] + extra) == 0
+        assert seen and set(seen) == {want}
+    capsys.readouterr()
+
+
 def test_tune_errors_are_one_line(tmp_path, capsys):
     assert main(["tune", "--runs", str(tmp_path / "none.csv")]) == 4  # I/O (the exit-code table)
     err = capsys.readouterr().err

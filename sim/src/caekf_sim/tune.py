@@ -222,7 +222,7 @@ def consistency(results: Sequence, gamma_true: Union[None, float, Sequence[float
     )
 
 
-def run_records(sc: Scenario, records: Sequence[Record], experiment: str = "switched",
+def run_records(sc: Scenario, records: Sequence[Record], experiment: Optional[str] = None,
                 precision: str = "double", log_det_s: bool = True, **overrides) -> List:
     s = settings_for(sc, experiment, precision, **overrides)
     return [run(s, r.u, r.y, t=r.t, p_diag=False, log_det_s=log_det_s) for r in records]
@@ -243,11 +243,12 @@ class TuneResult:
 
 
 def tune(sc: Scenario, records: Sequence[Record], params: Optional[Sequence[str]] = None,
-         holdout: Sequence[Record] = (), experiment: str = "switched", precision: str = "double",
+         holdout: Sequence[Record] = (), experiment: Optional[str] = None, precision: str = "double",
          gamma_true: Union[None, float, Sequence[float]] = None, burn_in_s: float = 0.5, max_evals: int = 400,
          decades: float = 4.0, **overrides) -> TuneResult:
     """Maximum-likelihood noise for `params` (scenario keys of TUNABLE_NOISE or their aliases; default:
-    tunable_noise(sc), every noise std the mechanism uses) over `records`, any mechanism.
+    tunable_noise(sc), every noise std the mechanism uses) over `records`, any mechanism, for the estimator
+    `experiment` (a preset; None: the recommended one with the scenario's settings).
 
     The search starts from the scenario's values and stays within `decades` orders of magnitude of
     them. `gamma_true` (default: the scenario's gamma of every contact) is only used for the reported

@@ -21,6 +21,7 @@ from typing import Any, Dict, List
 
 
 from ..cli import UsageError
+from ..experiments import DEFAULT, EXPERIMENTS
 from ..outputs import check_output_file, write_text_atomic
 from . import add_scenario_arg, scenario_from_args
 
@@ -192,8 +193,9 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--params", default=None,
                    help="noise settings to tune, comma-separated scenario keys (default: every noise standard "
                         "deviation of the schema, kind noise, that the mechanism uses and sets > 0)")
-    p.add_argument("--experiment", default="switched",
-                   help="experiment whose settings the runs use (default switched)")
+    p.add_argument("--experiment", choices=sorted(EXPERIMENTS) + [DEFAULT], default=DEFAULT,
+                   help="preset of the estimator tuned (default: none, the recommended estimator with the "
+                        "scenario's settings, as estimate and caekf-replay run it)")
     p.add_argument("--precision", choices=["double", "float"], default="double",
                    help="scalar type of the C estimator tuned (default double)")
     p.add_argument("--gamma-true", type=float, default=None,
@@ -249,8 +251,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_file(args.out)
     t0 = time.perf_counter()
-    res = tune(sc, records, params, holdout, args.experiment, args.precision, args.gamma_true, args.burn_in,
-               args.max_evals)
+    res = tune(sc, records, params, holdout, None if args.experiment == DEFAULT else args.experiment,
+               args.precision, args.gamma_true, args.burn_in, args.max_evals)
     print(f"tuned {', '.join(params)} on {len(records)} run(s), {sum(len(r) for r in records)} samples, "
           f"{args.experiment} {args.precision}, in {time.perf_counter() - t0:.1f} s"
           + (f"; {len(holdout)} held-out run(s)" if holdout else ""))
