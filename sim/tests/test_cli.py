@@ -135,10 +135,25 @@ def test_plot_and_experiments_figures_of_a_two_contact_mechanism(tmp_path: Path)
     while any contact is closed, body 2's error) and the experiments' Figs 3-6."""
     scenario = Path(__file__).resolve().parents[2] / "sim" / "scenarios" / "shuttle.toml"
     t, est, fig = tmp_path / "truth.csv", tmp_path / "est.csv", tmp_path / "run.png"
-    assert main(["truth", "--scenario", str(scenario), "--t-end", "3", "--out", str(t)]) == 0
+    assert main(["truth", "--scenario", str(scenario), "--t-end", "7", "--out", str(t)]) == 0  # both contacts close
     assert main(["estimate", "--scenario", str(scenario), "--measurements", str(t), "--out", str(est)]) == 0
     assert main(["plot", str(est), "--scenario", str(scenario), "--truth", str(t), "--out", str(fig)]) == 0
     assert fig.stat().st_size > 10_000
+    # each contact's gamma in a panel of its own, with its own reference and its own contact bands
+    from caekf_sim.mechanism import contact_values
+    from caekf_sim.plots import run_figure
+    from caekf_sim.scenario import load_scenario
+
+    sc, res, truth = load_scenario(scenario), read_result_csv(est), read_truth_csv(t)
+    refs = contact_values(sc, "gamma", 2)
+    axes = run_figure({"est": res}, truth, refs, contact_values(sc, "n", 2)).axes
+    assert len(axes) == 2 + 2  # two gammas, the norm of P, body 2's error
+    for c in range(2):
+        lines = axes[c].get_lines()
+        np.testing.assert_array_equal(lines[0].get_ydata(), res.gammas[:, c])
+        assert lines[-1].get_ydata()[0] == refs[c] and f"gamma_{c + 1}" in axes[c].get_ylabel()
+        bands = [p for p in axes[c].patches]
+        assert any(p.get_label() == f"contact {c + 1} (truth)" for p in bands)
     out = tmp_path / "experiments"
     assert main(["experiments", "--scenario", str(scenario), "--t-end", "2", "--outdir", str(out), "--plots",
                  "--no-progress"]) == 0

@@ -3,7 +3,7 @@ experiments, and `plot_runs` for any run or set of runs, with or without the tru
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -233,33 +233,58 @@ def make_all_from_files(
     return make_all(load_results(results_dir), read_truth_csv(truth_csv), gamma_true, gamma_min, outdir)
 
 
-def plot_runs(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: float, out: PathLike) -> Path:
-    """One figure of any set of runs (estimate CSVs by label): gamma, the norm of P, and with the truth the
-    position error of body 2 (of body 1 in a one-body mechanism); contact bands (any contact closed) and the
-    reference gamma when known. Format from out's suffix."""
+def _gamma_unit(n: float) -> str:
+    """The unit of a contact's gamma for the exponent n of its law: N/m^n."""
+    return "N/m" if n == 1 else f"N/m$^{{{n:g}}}$"
+
+
+def run_figure(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: Union[float, Sequence[float]],
+               exponents: Sequence[float] = (1.5,)):
+    """The figure of plot_runs (matplotlib Figure): one gamma panel per contact (the most any run has; the
+    reference gamma_true[c] where finite, contact c's own bands with the truth), the norm of P, and with the
+    truth the position error of body 2 (of body 1 in a one-body mechanism), shaded while any contact is
+    closed."""
     plt = _pyplot()
+    refs = np.atleast_1d(np.asarray(gamma_true, dtype=float))
+    nc = max(r.n_contacts for r in runs.values())
     with_truth = truth is not None
     body = min(1, truth.q.shape[1] - 1) if truth is not None else 1  # body 2's error (body 1 when alone)
-    fig, axes = plt.subplots(3 if with_truth else 2, 1, figsize=(9, 8.5 if with_truth else 6), sharex=True)
+    rows = nc + (2 if with_truth else 1)
+    fig, axes = plt.subplots(rows, 1, figsize=(9, 2.8 * rows), sharex=True)
     cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax in axes:
+    for c in range(nc):
+        if truth is not None and c < truth.deltas.shape[1]:  # contact c's own episodes
+            eps = contact_episodes(truth.t, truth.deltas[:, c], merge_gap=0.1)
+            for i, (a, b) in enumerate(eps):
+                axes[c].axvspan(a, b, color="0.9", zorder=0, label=f"contact {c + 1} (truth)" if i == 0 else None)
+    for ax in axes[nc:]:
         _shade_contact(ax, truth)
     for i, (label, r) in enumerate(runs.items()):
         color = cycle[i % len(cycle)]
-        axes[0].plot(r.t, r.gamma, color=color, lw=1.0, label=label)
-        axes[1].semilogy(r.t, r.p_norm, color=color, lw=1.0, label=label)
+        for c in range(r.n_contacts):
+            axes[c].plot(r.t, r.gammas[:, c], color=color, lw=1.0, label=label)
+        axes[nc].semilogy(r.t, r.p_norm, color=color, lw=1.0, label=label)
         if truth is not None:
             err = r.x[:, body] - np.interp(r.t, truth.t, truth.q[:, body])
-            axes[2].plot(r.t, 1e6 * err, color=color, lw=0.8, label=label)
-    if np.isfinite(gamma_true):
-        axes[0].axhline(gamma_true, color=COLORS["truth"], lw=1.2, label=r"reference $\gamma$")
-    axes[0].set_ylabel(r"$\hat\gamma$ [N/m$^{1.5}$]")
-    axes[0].set_title("contact stiffness estimate" + ("" if len(runs) == 1 else f"s of {len(runs)} runs"))
-    axes[1].set_ylabel(r"$\|\mathbf{P}\|_2$")
+            axes[nc + 1].plot(r.t, 1e6 * err, color=color, lw=0.8, label=label)
+    for c in range(nc):
+        sym = r"\gamma" if nc == 1 else rf"\gamma_{c + 1}"
+        if c < len(refs) and np.isfinite(refs[c]):
+            axes[c].axhline(refs[c], color=COLORS["truth"], lw=1.2, label=rf"reference ${sym}$")
+        axes[c].set_ylabel(rf"$\hat{sym}$ [{_gamma_unit(exponents[min(c, len(exponents) - 1)])}]")
+        axes[c].legend(loc="best", fontsize=8)
+    axes[0].set_title(("contact stiffness estimate" if nc == 1 else f"stiffness estimates of {nc} contacts")
+                      + ("" if len(runs) == 1 else f", {len(runs)} runs"))
+    axes[nc].set_ylabel(r"$\|\mathbf{P}\|_2$")
     if truth is not None:
-        axes[2].set_ylabel(rf"$\hat q_{body + 1} - q_{body + 1}$ [$\mu$m]")
+        axes[nc + 1].set_ylabel(rf"$\hat q_{body + 1} - q_{body + 1}$ [$\mu$m]")
     axes[-1].set_xlabel("time [s]")
     for ax in axes:
         ax.grid(True, alpha=0.4)
-    axes[0].legend(loc="best", fontsize=8)
-    return _save(fig, Path(out))
+    return fig
+
+
+def plot_runs(runs: Dict[str, EstimateResult], truth: Optional[Truth], gamma_true: Union[float, Sequence[float]],
+              out: PathLike, exponents: Sequence[float] = (1.5,)) -> Path:
+    """One figure of any set of runs (estimate CSVs by label), run_figure's; format from out's suffix."""
+    return _save(run_figure(runs, truth, gamma_true, exponents), Path(out))

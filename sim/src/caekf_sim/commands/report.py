@@ -69,6 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    from ..mechanism import contact_values
     from ..plots import EXPERIMENT_FILES, load_results, make_all, plot_runs
 
     if bool(args.runs) == (args.results_dir is not None):
@@ -98,7 +99,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
     if args.runs:
         labels = args.label or [p.stem for p in args.runs]
         runs = {lab: read_result_csv(p) for lab, p in zip(labels, args.runs)}
-        print(f"wrote {plot_runs(runs, truth, sc.gamma, args.out)}")
+        nc = int(sc.contacts)
+        refs, exponents = contact_values(sc, "gamma", nc).tolist(), contact_values(sc, "n", nc).tolist()
+        print(f"wrote {plot_runs(runs, truth, refs, args.out, exponents)}")
         return 0
     d: Path = args.results_dir
     if not d.is_dir():
