@@ -56,7 +56,8 @@ def main() -> int:
     est_cpu = sum(r["estimate_s"] for r in local)
     t_end = fam.runs[0].scenario.t_end
     print(f"{'where':<28} {'runs':>5} {'t_end s':>7} {'wall s':>8} {'truth cpu s':>11} {'estimator cpu s':>15}")
-    print(f"{'local pool (all cores)':<28} {len(fam.runs):>5} {t_end:>7g} {t_local:>8.1f} {truth_cpu:>11.1f} {est_cpu:>15.1f}")
+    print(f"{'local pool (all cores)':<28} {len(fam.runs):>5} {t_end:>7g} {t_local:>8.1f} {truth_cpu:>11.1f} "
+          f"{est_cpu:>15.1f}")
     print(f"{'Dask LocalCluster, 2 workers':<28} {len(fam.runs):>5} {t_end:>7g} {t_dask:>8.1f} {'':>11} {'':>15}")
     print(f"ratio dask/local {t_dask / t_local:.2f}; tables equal row for row: {same(local, dask_rows)}")
     return 0

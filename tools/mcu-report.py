@@ -486,8 +486,8 @@ def main():
         ms = r["icount"]["stack_measured"]
         worst = max(st.get("caekf_step", {}).get("worst", 0), st.get("caekf_init", {}).get("worst", 0))
         goal = ok(max(worst, ms.get("steps", 0), ms.get("init", 0)), GOAL_STACK) if r["preset"] == "cortex-m4f" else "-"
-        rows.append([r["preset"], r["opt"], st.get("caekf_step", {}).get("worst"), st.get("caekf_init", {}).get("worst"),
-                     ms.get("steps"), ms.get("init"), goal])
+        rows.append([r["preset"], r["opt"], st.get("caekf_step", {}).get("worst"),
+                     st.get("caekf_init", {}).get("worst"), ms.get("steps"), ms.get("init"), goal])
     table("Stack (bytes)", ["target", "opt", "caekf_step -fstack-usage worst", "caekf_init -fstack-usage worst",
                             "caekf_step measured (painting)", "caekf_init measured", f"<= {GOAL_STACK}"], rows)
     for r in results:

@@ -44,14 +44,16 @@ stage_host_asan()   { run_preset host-asan; }
 # C static analysis: cppcheck over firmware/ and host/ (tools/lint-c.sh), with the flags of the host-double
 # build (configured and built here if needed: the generated settings headers are included); the C layout
 # (tools/format-c.py --check: clang-format with .clang-format over firmware/, host/, tests/; --apply fixes
-# it); then ruff and mypy on sim/ (their configuration and pinned versions: sim/pyproject.toml). Zero
+# it); then ruff on sim/ and on the Python of tools/ and tests/, and mypy on sim/ (their configuration and
+# pinned versions: sim/pyproject.toml). Zero
 # findings, or an inline suppression that says why.
 stage_lint() {
     cmake --preset host-double
     cmake --build --preset host-double --parallel "$JOBS"
     tools/lint-c.sh "$REPO/build/host-double"
     "$VENV_PY" tools/format-c.py --check
-    ( cd sim && "$VENV_PY" -m ruff check src tests && "$VENV_PY" -m mypy )
+    ( cd sim && "$VENV_PY" -m ruff check src tests && "$VENV_PY" -m ruff check --config pyproject.toml ../tools ../tests &&
+        "$VENV_PY" -m mypy )
 }
 
 # MCU targets: every Unity suite and the replay image under QEMU (the presets build the host tools that make

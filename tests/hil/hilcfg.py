@@ -5,6 +5,8 @@ import os
 from pathlib import Path
 from typing import List
 
+from caekf_sim.schema import preset_names
+
 REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("CAEKF_BUILD_DIR", REPO / "build" / "host-double"))
 HOST_BIN = BUILD / "host" / "caekf_host" / "caekf-host"
@@ -17,7 +19,6 @@ HOST_STEP_TIMEOUT_MS = os.environ.get("CAEKF_HIL_STEP_TIMEOUT_MS", "1000")  # se
 # in diagnostics (test_hil_fd.py aside), test_hil_experiments.py, test_hil_bad_traffic.py and the fault matrix in
 # production, and test_hil_bad_traffic.py, the fault matrix and test_hil_fd.py in fd.
 PROFILE = os.environ.get("CAEKF_HIL_PROFILE", "diagnostics")
-from caekf_sim.schema import preset_names
 
 EXPERIMENTS = tuple(preset_names())  # the paper's four experiments: presets of the settings schema
 

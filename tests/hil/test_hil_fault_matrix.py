@@ -40,7 +40,6 @@ The table is printed and written to <out>/fault-matrix.txt (tools/fault-matrix.s
 """
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -490,9 +489,11 @@ def _table(fr, m):
     rec = m["recovery"]
     s, d = _fmt_rec(rec.get("reorder"))
     rows.append(["reordered pair", f"{n['reorder']} (3 steps lost each)",
-                 f"RX_COUNTER_JUMP {3 * fr['inputs_per_step']} each, STEPS_SKIPPED +{h['STEPS_SKIPPED']} (incl. silence), "
-                 + (f"{m['gap_flagged']} {fr['closing']} with STEP_GAP (one per run of lost steps; episodes that touch merge)"
-                  if fr["gap_every_step"] else "STEP_GAP on EST_PAGE page 10 only in this profile"), s, d])
+                 f"RX_COUNTER_JUMP {3 * fr['inputs_per_step']} each, STEPS_SKIPPED +{h['STEPS_SKIPPED']} "
+                 "(incl. silence), "
+                 + (f"{m['gap_flagged']} {fr['closing']} with STEP_GAP (one per run of lost steps; episodes that "
+                    "touch merge)" if fr["gap_every_step"] else "STEP_GAP on EST_PAGE page 10 only in this profile"),
+                 s, d])
     s, d = _fmt_rec(rec.get("silence"))
     rows.append([f"bus silence {SILENCE_LEN} steps", f"{n['silence']} episodes ({n['silence'] * SILENCE_LEN} steps)",
                  "STEPS_SKIPPED +100 each, STEP_GAP on the next estimate (bridged: 100 prediction-only steps); "
@@ -517,10 +518,10 @@ def _table(fr, m):
     w = m["whole"]
     agree += (f"\nwhole run vs undisturbed (caekf-replay on all {ROWS} inputs, no faults): equal (<= half an LSB) "
               f"up to row {w['first']}, max |dq| {w['max_dq']:.1e} m, max |dg|/g {w['max_dg']:.1e}; at the end "
-              f"(t = {ROWS * 1e-3:.1f} s) |dq| {w['final_dq']:.1e} m, |dg|/g {w['final_dg']:.1e} (gamma {w['g_run']:.4g} "
-              f"vs {w['g_und']:.4g} N/m^1.5)")
-    return (f"[{PROFILE}] fault matrix: switched experiment, rows 0..{ROWS} ({ROWS * 1e-3:.1f} s, first contact 12.8 s), "
-            f"lockstep, {fr['elapsed']:.1f} s on the bus\n" + format_table(hdr, rows)
+              f"(t = {ROWS * 1e-3:.1f} s) |dq| {w['final_dq']:.1e} m, |dg|/g {w['final_dg']:.1e} "
+              f"(gamma {w['g_run']:.4g} vs {w['g_und']:.4g} N/m^1.5)")
+    return (f"[{PROFILE}] fault matrix: switched experiment, rows 0..{ROWS} ({ROWS * 1e-3:.1f} s, "
+            f"first contact 12.8 s), lockstep, {fr['elapsed']:.1f} s on the bus\n" + format_table(hdr, rows)
             + "\n" + agree + "\nconfig validation over CAN (estimator keeps its configuration):\n" + vt
             + "\nEST_HEALTH deltas: " + ", ".join(f"{k}={v}" for k, v in fr["h"].items() if v))
 
@@ -574,7 +575,6 @@ def test_fault_matrix_config_validation(fault_run, matrix):
 def test_fault_matrix_recovers(fault_run, matrix):
     """Every sampled destructive episode with room to recover gets back to the run without it and stays,
     the bus silence in contact included; the whole run ends where the undisturbed one does."""
-    fr = fault_run
     rec = matrix["recovery"]
     judged = []
     for kind, items in rec.items():

@@ -479,7 +479,8 @@ def test_fd_out_frame(db, dump):
                  NEWTON_ITERS=rng.randrange(256), STEP_STATUS=rng.randrange(-128, 128))
         cases.append(c)
     cmd = [f"enc_fd_out {c['STEP']} " + " ".join(repr(c[n]) for n in names)
-           + f" {c['P_NORM']!r} {c['P_GAMMA_GAMMA']!r} {c['FLAGS']} {c['NEWTON_ITERS']} {c['STEP_STATUS']}" for c in cases]
+           + f" {c['P_NORM']!r} {c['P_GAMMA_GAMMA']!r} {c['FLAGS']} {c['NEWTON_ITERS']} {c['STEP_STATUS']}"
+           for c in cases]
     assert dump.run(cmd) == [f"0 {encode(db, 'EST_FD', c)}" for c in cases]
     for line, c in zip(dump.run([f"dec_fd_out {encode(db, 'EST_FD', c)}" for c in cases]), cases):
         f = line.split()
