@@ -188,6 +188,23 @@ def test_candump_log_of_any_mechanism_gives_its_inputs_and_sensors(tmp_path):
     np.testing.assert_array_equal(rec.y, y_want)
     out = tmp_path / "est.csv"
     assert main(["estimate", "--scenario", str(shuttle), "--candump", str(log), "--out", str(out)]) == 0
+    assert main(["tune", "--scenario", str(shuttle), "--candump", str(log), "--params", "sigma_r",
+                 "--max-evals", "2"]) == 0
+
+
+@pytest.mark.parametrize("content, code, words", [(None, 4, "no such file"), (b"\xff\xfe\x00", 3, "not a candump"),
+                                                   (b"(0.1) vcan0 zz#\n", 3, "not a candump")])
+def test_tune_refuses_a_bad_candump_log_in_one_line(tmp_path, capsys, content, code, words):
+    """tune --candump reads a log as estimate --candump does: a missing file, bytes that are not text or
+    lines that are not candump's are one line each naming the file (exit 4 and 3), not the decoder's
+    bare message."""
+    pytest.importorskip("can")
+    log = tmp_path / "bus.log"
+    if content is not None:
+        log.write_bytes(content)
+    assert main(["tune", "--candump", str(log), "--max-evals", "2"]) == code
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(log) in err and words in err.lower(), err
 
 
 def test_candump_log_gives_the_runs_the_bench_sent(tmp_path):

@@ -167,8 +167,9 @@ def read_measurements_csv(path: PathLike, dt: float, columns: Optional[Tuple[Seq
     return Measurements(p.name, arr["t"], u, y, truth)
 
 
-def read_candump(path: PathLike, dt: float, run: Optional[int] = None, sc: Any = None) -> Measurements:
-    """One run of a candump -L log of the bus (decoded with the DBC): the only one, or number `run` (1..)."""
+def read_candump_runs(path: PathLike, dt: float, sc: Any = None) -> List[Any]:
+    """Every run of a candump -L log of the bus (decoded with the DBC: caekf_sim.tune.Record, one per
+    configuration the bench sent), with the refusals of this module: one line each."""
     from .tune import read_candump_records
 
     p = check_input_file(path)
@@ -184,6 +185,13 @@ def read_candump(path: PathLike, dt: float, run: Optional[int] = None, sc: Any =
         raise MeasurementError(f"{p}: not a candump -L log (bytes that are not text)") from None
     except (ValueError, IndexError) as exc:
         raise MeasurementError(f"{p}: not a candump -L log of the bench: {exc}") from None
+    return records
+
+
+def read_candump(path: PathLike, dt: float, run: Optional[int] = None, sc: Any = None) -> Measurements:
+    """One run of a candump -L log of the bus (decoded with the DBC): the only one, or number `run` (1..)."""
+    p = Path(path)
+    records = read_candump_runs(p, dt, sc)
     if run is None:
         if len(records) > 1:
             raise MeasurementError(f"{p}: {len(records)} runs in the log (one per configuration): choose one "

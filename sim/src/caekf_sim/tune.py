@@ -89,7 +89,7 @@ def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = No
     BENCH_Y1 and BENCH_Y4, or BENCH_YP of the production profile. One record per configuration (a CTRL_RESET
     the bench sent starts the next). Frames with a bad E2E CRC are dropped; a step without every sensor's
     frame is a lost measurement (NaN), a step without an input holds its last value (as the firmware does).
-    t = step * dt, the step counter unwrapped from its 16 bits.
+    t = step * dt, each frame's step counter unwrapped by its own width (16 bits, BENCH_YP's 8).
     """
     from .bench.buslog import read_log
     from .bench.codec import Codec

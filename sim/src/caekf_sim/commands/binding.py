@@ -210,28 +210,22 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
 def _records(paths, sc):
     """Records of CSVs with the mechanism's columns (checked like caekf-replay checks them:
     caekf_sim.measurements) and *.log candump logs."""
-    from ..measurements import check_input_file, columns_of, read_measurements_csv
+    from ..measurements import check_input_file, columns_of, read_candump_runs, read_measurements_csv
     from ..tune import Record
 
     out = []
     for path in paths:
         check_input_file(path)
         if str(path).endswith(".log"):
-            out += _candump_records(path, sc)
+            out += read_candump_runs(path, sc.dt, sc)
         else:
             m = read_measurements_csv(path, sc.dt, columns_of(sc))
             out.append(Record(m.name, m.t, m.u, m.y))
     return out
 
 
-def _candump_records(path, sc):
-    """The bench's records of a candump log: the frames of the scenario's mechanism (its inputs and sensors)."""
-    from ..tune import read_candump_records
-
-    return read_candump_records(path, sc.dt, sc=sc)
-
-
 def cmd_tune(args: argparse.Namespace) -> int:
+    from ..measurements import read_candump_runs
     from ..settings_adapter import scenario_toml
     from ..settings_adapter import tunable_noise
     from ..tune import report_text, tune
@@ -241,10 +235,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
     params = list(tunable_noise(sc)) if args.params is None else \
         [p.strip() for p in args.params.split(",") if p.strip()]
     records = _records(args.runs, sc)
-    for log in args.candump:
-        if not log.is_file():
-            raise FileNotFoundError(f"no such file: {log}")
-        records += _candump_records(log, sc)
+    for log in args.candump:  # the scenario's mechanism's frames
+        records += read_candump_runs(log, sc.dt, sc)
     if not records:
         raise UsageError("nothing to tune on: give --runs CSV... and/or --candump LOG...")
     holdout = _records(args.holdout, sc)
