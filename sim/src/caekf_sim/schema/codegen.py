@@ -316,20 +316,6 @@ def sized_method(schema: Schema, mechanism: Path, preset: str, contacts: int) ->
     return out
 
 
-def sized_damped(schema: Schema, mechanism: Path, preset: str, contacts: int) -> bool:
-    """Whether any contact of the scenario under the preset has Hunt-Crossley damping: a nonzero lambda,
-    or lambda estimated. A build sized for one without any runs the elastic law only (CAEKF_HAS_DAMPING)."""
-    given = read_scenario_values(schema, mechanism, wire_only=False)
-    values = preset_values(schema, preset)
-
-    def value(name: str, i: int) -> float:
-        s = schema.by_name(name)
-        key = s.keys[i]
-        return float(values.get(key, values.get(name, given.get(key, s.default_value(index=i)))))
-
-    return any(value("contact_lambda", i) != 0 or value("estimate_lambda", i) != 0 for i in range(contacts))
-
-
 def c_sized_links(schema: Schema, given: Dict[str, float], counts: Dict[str, int]) -> List[str]:
     """The scenario's links (spring_a, spring_b) and the pattern they give K and C: row i's columns j,
     ascending, where a link couples bodies i and j (its diagonal included; ground ends drop out); the
@@ -387,6 +373,11 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
                  for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS}
         law = sum(flags.values())
         lines.append(f"#define CAEKF_SIZED_LAW_PARAMS {law} /* estimated n, lambda and gap */")
+        # Hunt-Crossley damping in any contact: a nonzero lambda, or lambda estimated (CAEKF_HAS_DAMPING).
+        lam = schema.by_name("contact_lambda")
+        damped = any(flags[f"contact{i + 1}_estimate_lambda"] or
+                     float(pv.get(key, given.get(key, lam.default_value(index=i)))) != 0
+                     for i, key in enumerate(lam.keys[:counts["contacts"]]))
         lines += c_sized_links(schema, given, counts)
     if mechanism is not None and preset:
         method = sized_method(schema, mechanism, preset, counts["contacts"])
@@ -404,8 +395,7 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
         # The covariance correction's form and the gammas' switch-off: the other one compiles out.
         lines += [f"#define CAEKF_SIZED_COV_UPDATE {int(method['cov_update'])}",
                   f"#define CAEKF_SIZED_SWITCHOFF {int(method['switchoff'])}",
-                  f"#define CAEKF_SIZED_DAMPED {int(sized_damped(schema, mechanism, preset, counts['contacts']))}"
-                  " /* a contact's lambda nonzero or estimated */"]
+                  f"#define CAEKF_SIZED_DAMPED {int(damped)} /* a contact's lambda nonzero or estimated */"]
     else:
         lines.append("#define CAEKF_SIZED_METHOD 0 /* the step method is a run-time setting */")
     lines.append("")
