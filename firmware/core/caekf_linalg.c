@@ -4,13 +4,13 @@
 
 #include <stdint.h>
 
+static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0);
+
 #define A_(m, n, i, j) ((m)[(i) * (n) + (j)])
 
 CAEKF_STATIC_ASSERT(CAEKF_LA_MAX_N <= 32, zero_variances_fit_a_word);
 
 static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
-
-static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t tol, int k0);
 
 #if CAEKF_LA_GENERAL_LU
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol)
@@ -72,6 +72,7 @@ static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], cae
     return CAEKF_LA_OK;
 }
 
+#if CAEKF_LA_LU4
 /* Step k of the 4 x 4 elimination for row i (k < i): l = a_ik / a_kk, then a_ij -= l a_kj for j = 3 .. k + 1,
  * each entry once (the general loop's operations). */
 CAEKF_HOT_INLINE void lu4_eliminate(caekf_scalar_t *a, int k, int i)
@@ -129,13 +130,13 @@ caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scal
     return CAEKF_LA_OK;
 }
 
-#if CAEKF_LA_GENERAL_LU
-caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
+#endif
+
+#if CAEKF_LA_DENSE_SOLVE
+/* The solve with the factors of caekf_lu_factor_from, sizes checked by the caller. */
+static void lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
 {
     int i, j, c;
-    if (!size_ok(n) || nrhs < 1 || ldb < nrhs) {
-        return CAEKF_LA_BAD_SIZE;
-    }
     for (c = 0; c < nrhs; ++c) { /* column by column: each column sees the same operations */
         caekf_scalar_t *x = b + c;
         for (i = 0; i < n; ++i) {
@@ -156,10 +157,21 @@ caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[
             x[i * ldb] *= inv_d;
         }
     }
+}
+#endif
+
+#if CAEKF_LA_GENERAL_LU
+caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
+{
+    if (!size_ok(n) || nrhs < 1 || ldb < nrhs) {
+        return CAEKF_LA_BAD_SIZE;
+    }
+    lu_solve(lu, n, piv, b, nrhs, ldb);
     return CAEKF_LA_OK;
 }
 #endif
 
+#if CAEKF_LA_LU4
 /* The 4x4 solve the model runs on every step: the same operations in the same order as
  * caekf_lu_solve (bit for bit the same results), with the size fixed so that the factors stay in
  * registers across the columns. */
@@ -206,6 +218,83 @@ void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t 
         b[3 * ldb + c] = x3;
     }
 }
+
+#endif
+
+#if CAEKF_FIXED_LINKS
+/* The Newton matrix's pattern in its LU without exchanges (generated from the sized mechanism): row k's
+ * columns right of the diagonal, which are also column k's rows below it (the pattern is symmetric), and
+ * row i's columns left of it. The loops over them are written out (constant bounds and columns). */
+static const unsigned char lu_upper_nnz[CAEKF_SIZED_BODIES] = CAEKF_SIZED_LU_UPPER_NNZ;
+static const unsigned char lu_upper[CAEKF_SIZED_BODIES][CAEKF_SIZED_LU_UPPER_WIDTH] = CAEKF_SIZED_LU_UPPER_NZ;
+static const unsigned char lu_lower_nnz[CAEKF_SIZED_BODIES] = CAEKF_SIZED_LU_LOWER_NNZ;
+static const unsigned char lu_lower[CAEKF_SIZED_BODIES][CAEKF_SIZED_LU_LOWER_WIDTH] = CAEKF_SIZED_LU_LOWER_NZ;
+
+caekf_la_status_t caekf_lu_factor_sized(caekf_scalar_t *a, int piv[], caekf_scalar_t tol)
+{
+    enum { n = CAEKF_SIZED_BODIES };
+    int k, s, t;
+    CAEKF_UNROLL_SIZED
+    for (k = 0; k < n; ++k) {
+        const caekf_scalar_t *const ak = a + k * n;
+        const caekf_scalar_t best = CAEKF_FABS(ak[k]);
+        CAEKF_UNROLL_SIZED
+        for (s = 0; s < lu_upper_nnz[k]; ++s) { /* partial pivoting would exchange: the dense loop from here */
+            if (CAEKF_FABS(a[lu_upper[k][s] * n + k]) > best) {
+                return lu_factor_from(a, n, piv, tol, k);
+            }
+        }
+        if (!(best > tol)) { /* also refuses a NaN pivot */
+            return CAEKF_LA_SINGULAR;
+        }
+        piv[k] = k;
+        CAEKF_UNROLL_SIZED
+        for (s = 0; s < lu_upper_nnz[k]; ++s) {
+            caekf_scalar_t *const ai = a + lu_upper[k][s] * n;
+            const caekf_scalar_t l = ai[k] / ak[k];
+            ai[k] = l;
+            CAEKF_UNROLL_SIZED
+            for (t = 0; t < lu_upper_nnz[k]; ++t) {
+                ai[lu_upper[k][t]] -= l * ak[lu_upper[k][t]];
+            }
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
+void caekf_lu_solve_sized(const caekf_scalar_t *lu, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
+{
+    enum { n = CAEKF_SIZED_BODIES };
+    caekf_scalar_t inv_d[n]; /* each column's 1 / u_ii, computed once */
+    int i, s, c;
+    CAEKF_UNROLL_SIZED
+    for (i = 0; i < n; ++i) {
+        if (piv[i] != i) {
+            lu_solve(lu, n, piv, b, nrhs, ldb);
+            return;
+        }
+        inv_d[i] = (caekf_scalar_t)1 / lu[i * n + i];
+    }
+    for (c = 0; c < nrhs; ++c) {
+        caekf_scalar_t *const x = b + c;
+        CAEKF_UNROLL_SIZED
+        for (i = 1; i < n; ++i) { /* forward: L has a unit diagonal */
+            CAEKF_UNROLL_SIZED
+            for (s = 0; s < lu_lower_nnz[i]; ++s) {
+                x[i * ldb] -= lu[i * n + lu_lower[i][s]] * x[lu_lower[i][s] * ldb];
+            }
+        }
+        CAEKF_UNROLL_SIZED
+        for (i = n - 1; i >= 0; --i) { /* backward */
+            CAEKF_UNROLL_SIZED
+            for (s = 0; s < lu_upper_nnz[i]; ++s) {
+                x[i * ldb] -= lu[i * n + lu_upper[i][s]] * x[lu_upper[i][s] * ldb];
+            }
+            x[i * ldb] *= inv_d[i];
+        }
+    }
+}
+#endif
 
 caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_scalar_t c, caekf_scalar_t rel_tol,
                                      caekf_scalar_t inv[3])

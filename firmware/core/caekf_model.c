@@ -552,10 +552,14 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     return LU_REL_TOL * amax;
 }
 
-/* LU of A with the threshold; the 4-body kernels are the same operations, unrolled. */
+/* LU of A with the threshold: over the Newton matrix's pattern where the build fixes the links, else the
+ * 4-body kernels where they apply; each the general LU's operations. */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
-#if CAEKF_LA_GENERAL_LU
+#if CAEKF_FIXED_LINKS
+    (void)nq;
+    return caekf_lu_factor_sized(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
+#elif CAEKF_LA_GENERAL_LU
     return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK
                ? 0
                : -1;
@@ -567,7 +571,10 @@ static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
 {
-#if CAEKF_LA_GENERAL_LU
+#if CAEKF_FIXED_LINKS
+    (void)nq;
+    caekf_lu_solve_sized(lu, piv, b, nrhs, ldb);
+#elif CAEKF_LA_GENERAL_LU
     if (CAEKF_DIM_IS4(nq)) {
         caekf_lu4_solve(lu, piv, b, nrhs, ldb);
     } else {

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "caekf_linalg.h"
+#include "caekf_math.h"
 #include "unity.h"
 
 #if CAEKF_USE_FLOAT
@@ -56,6 +57,7 @@ static void test_lu_refuses_singular_and_nan(void)
 
 #endif
 
+#if CAEKF_LA_LU4
 /* The written-out 4 x 4 kernel: solves, and refuses a singular or NaN matrix, at every step. */
 static void test_lu4_solves_and_refuses(void)
 {
@@ -84,7 +86,9 @@ static void test_lu4_solves_and_refuses(void)
     }
 }
 
-#if CAEKF_LA_GENERAL_LU
+#endif
+
+#if CAEKF_LA_GENERAL_LU && CAEKF_LA_LU4
 /* The 4 x 4 kernel is the general LU bit for bit: factors, pivots and the matrix left behind, also when
  * an exchange hands over to the general loop at step 0, 1 or 2 or a step refuses. */
 static void test_lu4_is_the_general_lu(void)
@@ -111,6 +115,149 @@ static void test_lu4_is_the_general_lu(void)
             TEST_ASSERT_EQUAL_INT_ARRAY(pa, pb, 4);
         }
     }
+}
+#endif
+
+#if CAEKF_FIXED_LINKS
+/* Whether (i, j) lies in the Newton matrix's pattern with its fill-in (the generated tables). */
+static int in_lu_pattern(int i, int j)
+{
+    static const unsigned char upper_nnz[] = CAEKF_SIZED_LU_UPPER_NNZ, lower_nnz[] = CAEKF_SIZED_LU_LOWER_NNZ;
+    static const unsigned char upper[][CAEKF_SIZED_LU_UPPER_WIDTH] = CAEKF_SIZED_LU_UPPER_NZ;
+    static const unsigned char lower[][CAEKF_SIZED_LU_LOWER_WIDTH] = CAEKF_SIZED_LU_LOWER_NZ;
+    int s;
+    for (s = 0; s < upper_nnz[i]; ++s) {
+        if (upper[i][s] == j) {
+            return 1;
+        }
+    }
+    for (s = 0; s < lower_nnz[i]; ++s) {
+        if (lower[i][s] == j) {
+            return 1;
+        }
+    }
+    return i == j;
+}
+
+/* The oracle: the textbook LU with partial pivoting (first strictly largest pivot, refused unless above
+ * tol) and its solve, in the order caekf_lu_factor and caekf_lu_solve document. */
+static int ref_lu(caekf_scalar_t *a, int n, int *piv, caekf_scalar_t tol)
+{
+    int i, j, k;
+    for (k = 0; k < n; ++k) {
+        int p = k;
+        for (i = k + 1; i < n; ++i) {
+            if (fabs((double)a[i * n + k]) > fabs((double)a[p * n + k])) {
+                p = i;
+            }
+        }
+        if (!(fabs((double)a[p * n + k]) > (double)tol)) {
+            return CAEKF_LA_SINGULAR;
+        }
+        piv[k] = p;
+        for (j = 0; j < n; ++j) {
+            const caekf_scalar_t t = a[k * n + j];
+            a[k * n + j] = a[p * n + j];
+            a[p * n + j] = t;
+        }
+        for (i = k + 1; i < n; ++i) {
+            a[i * n + k] /= a[k * n + k];
+            for (j = k + 1; j < n; ++j) {
+                a[i * n + j] -= a[i * n + k] * a[k * n + j];
+            }
+        }
+    }
+    return CAEKF_LA_OK;
+}
+
+static void ref_solve(const caekf_scalar_t *lu, int n, const int *piv, caekf_scalar_t *b, int nrhs)
+{
+    int i, j, c;
+    for (c = 0; c < nrhs; ++c) {
+        for (i = 0; i < n; ++i) {
+            const caekf_scalar_t t = b[i * nrhs + c];
+            b[i * nrhs + c] = b[piv[i] * nrhs + c];
+            b[piv[i] * nrhs + c] = t;
+        }
+        for (i = 1; i < n; ++i) {
+            for (j = 0; j < i; ++j) {
+                b[i * nrhs + c] -= lu[i * n + j] * b[j * nrhs + c];
+            }
+        }
+        for (i = n - 1; i >= 0; --i) {
+            const caekf_scalar_t inv_d = (caekf_scalar_t)1 / lu[i * n + i];
+            for (j = i + 1; j < n; ++j) {
+                b[i * nrhs + c] -= lu[i * n + j] * b[j * nrhs + c];
+            }
+            b[i * nrhs + c] *= inv_d;
+        }
+    }
+}
+
+/* Equal values, a zero of either sign equal to the other, NaN to NaN. */
+static int same_value(caekf_scalar_t a, caekf_scalar_t b) { return a == b || (a != a && b != b); }
+
+/* The LU over the pattern is the dense LU bit for bit (to a zero's sign): factors, pivots and solves of
+ * random matrices with the pattern, diagonally dominant (no exchange) or not (the dense loop takes over at
+ * an exchange), and refusals. */
+static void test_lu_sized_is_the_dense_lu(void)
+{
+    enum { n = CAEKF_SIZED_BODIES };
+    unsigned seed = 12345u;
+    int trial, exchanged = 0, plain = 0, refused = 0;
+    for (trial = 0; trial < 400; ++trial) {
+        caekf_scalar_t a[n * n], b[n * n], ra_[n * 3], rb_[n * 3], amax = 0;
+        int pa[n], pb[n], i, j, sa, sb;
+        for (i = 0; i < n; ++i) {
+            for (j = 0; j < n; ++j) {
+                seed = seed * 1103515245u + 12345u;
+                a[i * n + j] = in_lu_pattern(i, j) ? (caekf_scalar_t)((int)(seed >> 16 & 0x7fff) - 16384) / 4096 : 0;
+            }
+            if (trial % 3 == 0) { /* diagonally dominant */
+                a[i * n + i] += (caekf_scalar_t)(8 * n);
+            }
+            if (trial % 40 == 1 && i == n - 1) { /* a zero pivot at the last step */
+                for (j = 0; j < n; ++j) {
+                    a[i * n + j] = 0;
+                }
+            }
+            if (trial % 40 == 2 && i == n / 2) {
+                a[i * n + i] = (caekf_scalar_t)NAN;
+            }
+        }
+        for (i = 0; i < n * n; ++i) {
+            b[i] = a[i];
+            amax = caekf_max(amax, CAEKF_FABS(a[i]));
+        }
+        for (i = 0; i < n * 3; ++i) {
+            ra_[i] = rb_[i] = (caekf_scalar_t)(i % 7) - 3;
+        }
+        sa = ref_lu(a, n, pa, amax * CAEKF_EPS * 16);
+        sb = caekf_lu_factor_sized(b, pb, amax * CAEKF_EPS * 16);
+        TEST_ASSERT_EQUAL_INT(sa, sb);
+        for (i = 0; i < n * n; ++i) {
+            TEST_ASSERT_TRUE(same_value(a[i], b[i]));
+        }
+        if (sa != CAEKF_LA_OK) {
+            ++refused;
+            continue;
+        }
+        TEST_ASSERT_EQUAL_INT_ARRAY(pa, pb, n);
+        j = 1; /* whether the LU kept the rows in order */
+        for (i = 0; i < n; ++i) {
+            j &= pa[i] == i;
+        }
+        exchanged += !j;
+        plain += j;
+        ref_solve(a, n, pa, ra_, 3);
+        caekf_lu_solve_sized(b, pb, rb_, 3, 3);
+        for (i = 0; i < n * 3; ++i) {
+            TEST_ASSERT_TRUE(same_value(ra_[i], rb_[i]));
+        }
+    }
+    TEST_ASSERT_TRUE(plain > 100); /* both paths and the refusals were taken */
+    TEST_ASSERT_TRUE(n < 2 || exchanged > 10);
+    TEST_ASSERT_TRUE(refused >= 10);
 }
 #endif
 
@@ -216,9 +363,16 @@ static void test_eigen_norm_and_repair(void)
 int main(void)
 {
     UNITY_BEGIN();
+#if CAEKF_LA_LU4
     RUN_TEST(test_lu4_solves_and_refuses);
-#if CAEKF_LA_GENERAL_LU
+#endif
+#if CAEKF_FIXED_LINKS
+    RUN_TEST(test_lu_sized_is_the_dense_lu);
+#endif
+#if CAEKF_LA_GENERAL_LU && CAEKF_LA_LU4
     RUN_TEST(test_lu4_is_the_general_lu);
+#endif
+#if CAEKF_LA_GENERAL_LU
     RUN_TEST(test_lu_solves_several_rhs_with_pivoting);
     RUN_TEST(test_lu_refuses_singular_and_nan);
 #endif

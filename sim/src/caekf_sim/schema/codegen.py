@@ -333,18 +333,37 @@ def c_sized_links(schema: Schema, given: Dict[str, float], counts: Dict[str, int
             for j in (a, b):
                 if i > 0 and j > 0 and j - 1 not in rows[i - 1]:
                     rows[i - 1].append(j - 1)
-    width = max([len(r) for r in rows] + [1])
-    nz = ", ".join("{" + ", ".join(str(j) for j in sorted(r) + [0] * (width - len(r))) + "}" for r in rows)
 
     def arr(v: List[int]) -> str:
         return "{" + ", ".join(str(x) for x in (v or [0])) + "}"
+
+    def table(name: str, pattern: List[List[int]], doc: str) -> List[str]:
+        width = max([len(r) for r in pattern] + [1])
+        nz = ", ".join("{" + ", ".join(str(j) for j in sorted(r) + [0] * (width - len(r))) + "}" for r in pattern)
+        return [f"#define CAEKF_SIZED_{name}_NNZ {arr([len(r) for r in pattern])} /* {doc} */",
+                f"#define CAEKF_SIZED_{name}_WIDTH {width}", f"#define CAEKF_SIZED_{name}_NZ {{{nz}}}"]
+
+    # The Newton matrix M/hs + C + hs K_t: K and C's pattern, the diagonal and the contacts' couplings. Its
+    # LU without row exchanges fills in, step k, every pair of k's later neighbours (symmetric, so row k's
+    # later columns are column k's later rows too).
+    lu = [set(r) | {i} for i, r in enumerate(rows)]
+    for a, b in zip(ends["contact_a"], ends["contact_b"]):
+        if a > 0 and b > 0:
+            lu[a - 1].add(b - 1)
+            lu[b - 1].add(a - 1)
+    for k in range(nq):
+        later = [j for j in lu[k] if j > k]
+        for i in later:
+            lu[i].update(later)
     return [f"#define CAEKF_SIZED_SPRING_A {arr(ends['spring_a'])} /* the links' ends */",
             f"#define CAEKF_SIZED_SPRING_B {arr(ends['spring_b'])}",
-            f"#define CAEKF_SIZED_LINK_NNZ {arr([len(r) for r in rows])} /* K and C's pattern, row by row */",
-            f"#define CAEKF_SIZED_LINK_WIDTH {width}",
-            f"#define CAEKF_SIZED_LINK_NZ {{{nz}}}",
+            *table("LINK", rows, "K and C's pattern, row by row"),
             f"#define CAEKF_SIZED_CONTACT_A {arr(ends['contact_a'])} /* the contacts' ends */",
-            f"#define CAEKF_SIZED_CONTACT_B {arr(ends['contact_b'])}"]
+            f"#define CAEKF_SIZED_CONTACT_B {arr(ends['contact_b'])}",
+            *table("LU_UPPER", [[j for j in r if j > i] for i, r in enumerate(lu)],
+                   "the Newton matrix's LU without exchanges: U's columns right of the diagonal, row by row"),
+            *table("LU_LOWER", [[j for j in r if j < i] for i, r in enumerate(lu)],
+                   "and L's left of it")]
 
 
 def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> str:
