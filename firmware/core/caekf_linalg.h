@@ -18,10 +18,11 @@ typedef enum {
     CAEKF_LA_NOT_PSD = 3
 } caekf_la_status_t;
 
-/* The LU of any size. A sized build whose Newton matrix is 4 x 4 and whose innovation covariance is 2 x 2
- * runs the fixed-size kernels and closed forms only, and leaves it out. */
+/* The LU of any size. A sized build whose innovation covariance is 2 x 2 and whose Newton matrix is 4 x 4
+ * or factored over its pattern (CAEKF_FIXED_LINKS) runs the fixed-size kernels and closed forms only, and
+ * leaves it out. */
 #if CAEKF_SIZED
-#define CAEKF_LA_GENERAL_LU (CAEKF_SIZED_BODIES != 4 || CAEKF_SIZED_SENSORS != 2)
+#define CAEKF_LA_GENERAL_LU (CAEKF_SIZED_SENSORS != 2 || (CAEKF_SIZED_BODIES != 4 && !CAEKF_FIXED_LINKS))
 #else
 #define CAEKF_LA_GENERAL_LU 1
 #endif
