@@ -7,6 +7,10 @@
 #                                                            step method fixed too)
 #   caekf_codegen(<target> c-host    <outdir>)              scenario reader table and presets
 #   caekf_codegen(<target> c-fixture <outdir> <scenario>)   a scenario's values for tests
+#   caekf_codegen_dbc(<target> <outdir>)                    the C of the CAN database (caekf.dbc): the wire
+#                                                            enumerations in <outdir>/include (public), cantools'
+#                                                            pack/unpack and the message table in <outdir>/src
+#                                                            (sim/src/caekf_sim/codegen.py)
 #
 # <target> is a custom target that the consumers add as a dependency.
 include_guard(GLOBAL)
@@ -50,6 +54,27 @@ function(caekf_codegen target kind outdir)
         COMMAND "${CAEKF_PYTHON}" "${CAEKF_CODEGEN}" ${kind} "${outdir}" ${args}
         DEPENDS ${deps}
         COMMENT "Generating ${kind} from the settings schema"
+        VERBATIM)
+    add_custom_target(${target} DEPENDS ${outputs})
+endfunction()
+
+# The DBC's generator needs cantools, which the project's venv has (tools/bootstrap.sh makes it).
+set(CAEKF_DBC "${_caekf_repo}/firmware/protocol/caekf.dbc")
+set(CAEKF_DBC_CODEGEN "${_caekf_repo}/sim/src/caekf_sim/codegen.py")
+
+function(caekf_codegen_dbc target outdir)
+    execute_process(COMMAND "${CAEKF_PYTHON}" -c "import cantools" RESULT_VARIABLE _rc OUTPUT_QUIET ERROR_QUIET)
+    if(NOT _rc EQUAL 0)
+        message(FATAL_ERROR "the CAN codec is generated from caekf.dbc by cantools, which ${CAEKF_PYTHON} lacks: "
+                            "run tools/bootstrap.sh first (it makes .venv)")
+    endif()
+    set(outputs "${outdir}/src/caekf_can.c" "${outdir}/src/caekf_can.h" "${outdir}/src/caekf_proto_frames_table.h"
+                "${outdir}/include/caekf/caekf_proto_frames.h")
+    add_custom_command(
+        OUTPUT ${outputs}
+        COMMAND "${CAEKF_PYTHON}" "${CAEKF_DBC_CODEGEN}" "${outdir}" "${CAEKF_DBC}"
+        DEPENDS "${CAEKF_DBC}" "${CAEKF_DBC_CODEGEN}"
+        COMMENT "Generating the C of caekf.dbc"
         VERBATIM)
     add_custom_target(${target} DEPENDS ${outputs})
 endfunction()

@@ -28,6 +28,10 @@ foreach(dir firmware/protocol firmware/app)
                 DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}" FILES_MATCHING PATTERN "*.h")
     endif()
 endforeach()
+if(TARGET caekf_protocol) # generated from the DBC: caekf_proto_frames.h
+    install(DIRECTORY "${PROJECT_BINARY_DIR}/generated/protocol/include/caekf" DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}"
+            FILES_MATCHING PATTERN "*.h")
+endif()
 if(EXISTS "${PROJECT_SOURCE_DIR}/firmware/protocol/caekf.dbc")
     install(FILES "${PROJECT_SOURCE_DIR}/firmware/protocol/caekf.dbc" DESTINATION "${CMAKE_INSTALL_DATADIR}/caekf")
 endif()

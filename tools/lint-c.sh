@@ -26,10 +26,10 @@ for e in json.load(open(src)):
 port = os.path.join(repo, "firmware/port/cortex-m")
 incs = [os.path.join(repo, p) for p in ("firmware/include", "firmware/port/cortex-m", "firmware/port/cortex-m/can",
                                         "firmware/app/include", "firmware/protocol/include")]
-gen = os.path.join(os.path.dirname(src), "generated/core")
+gen = [os.path.join(os.path.dirname(src), "generated", g) for g in ("core", "protocol/include")]
 for f in sorted(glob.glob(os.path.join(port, "**/*.c"), recursive=True)):
     if f not in seen:
-        cmd = ["cc", "-std=c99", "-DCAEKF_USE_FLOAT=1", "-D__ARM_ARCH=7"] + ["-I" + i for i in incs + [gen]] + ["-c", f]
+        cmd = ["cc", "-std=c99", "-DCAEKF_USE_FLOAT=1", "-D__ARM_ARCH=7"] + ["-I" + i for i in incs + gen] + ["-c", f]
         out.append({"directory": repo, "command": " ".join(cmd), "file": f})
 json.dump(out, open(dst, "w"), indent=1)
 print(f"lint-c: cppcheck over {len(out)} files of firmware/ and host/")

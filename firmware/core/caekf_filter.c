@@ -107,37 +107,31 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
     return s;
 }
 
-#if CAEKF_SIZED
-/* r = a (n values), written out in a sized build so that r can live in registers. */
-CAEKF_HOT_INLINE void copy_row(caekf_scalar_t *r, const caekf_scalar_t *a, int n)
+/* The row a, to be held across dot products: copied into buf where the build knows n (written out, so
+ * that the copy lives in registers), else a itself (a copy of unknown length would not stay there). */
+CAEKF_HOT_INLINE const caekf_scalar_t *held_row(caekf_scalar_t *buf, const caekf_scalar_t *a, int n)
 {
+#if CAEKF_SIZED
     int k;
-#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
-#pragma GCC unroll 32
-#endif
+    CAEKF_UNROLL_SIZED
     for (k = 0; k < n; ++k) {
-        r[k] = a[k];
+        buf[k] = a[k];
     }
-}
-#endif
-
-#if defined(__GNUC__)
-#define NOINLINE __attribute__((noinline))
+    return buf;
 #else
-#define NOINLINE
+    (void)buf;
+    (void)n;
+    return a;
 #endif
+}
 
 /* A dense row f of Fv times P: tv[j] = f . P_j (P symmetric), tq[j] = P_ij + c tv[j]; f is held (in
  * registers when sized) across the rows of P. */
-NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, const caekf_scalar_t *pi,
-                                  caekf_scalar_t *tq, caekf_scalar_t *tv, caekf_scalar_t c, int n)
+CAEKF_NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t *P, const caekf_scalar_t *pi,
+                                        caekf_scalar_t *tq, caekf_scalar_t *tv, caekf_scalar_t c, int n)
 {
-#if CAEKF_SIZED
-    caekf_scalar_t fr[CAEKF_N];
-    copy_row(fr, f, n);
-#else
-    const caekf_scalar_t *const fr = f; /* n unknown: a copy would not stay in registers */
-#endif
+    caekf_scalar_t buf[CAEKF_N];
+    const caekf_scalar_t *const fr = held_row(buf, f, n);
     const caekf_scalar_t *pj = P;
     int j;
     for (j = 0; j < n; ++j, pj += n) {
@@ -151,16 +145,11 @@ NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_scalar_t 
 /* tf[j] = f . P_j and tg[j] = g . P_j (P symmetric) for two dense rows f, g of F (the product of substep
  * maps): each entry of P is read once for both; f and g are held (in registers when sized) across the
  * rows of P. */
-NOINLINE static void f_rows2_dense(const caekf_scalar_t *f, const caekf_scalar_t *g, const caekf_scalar_t *P,
-                                   caekf_scalar_t *tf, caekf_scalar_t *tg, int n)
+CAEKF_NOINLINE static void f_rows2_dense(const caekf_scalar_t *f, const caekf_scalar_t *g, const caekf_scalar_t *P,
+                                         caekf_scalar_t *tf, caekf_scalar_t *tg, int n)
 {
-#if CAEKF_SIZED
-    caekf_scalar_t fr[CAEKF_N], gr[CAEKF_N];
-    copy_row(fr, f, n);
-    copy_row(gr, g, n);
-#else
-    const caekf_scalar_t *const fr = f, *const gr = g;
-#endif
+    caekf_scalar_t buf_f[CAEKF_N], buf_g[CAEKF_N];
+    const caekf_scalar_t *const fr = held_row(buf_f, f, n), *const gr = held_row(buf_g, g, n);
     const caekf_scalar_t *pj = P;
     int j, k;
     for (j = 0; j < n; ++j, pj += n) {
@@ -183,8 +172,9 @@ NOINLINE static void f_rows2_dense(const caekf_scalar_t *f, const caekf_scalar_t
  * F = [Fq; Fv] and T = F P: rows a and a + 1 of T are held (in registers when sized) against each row
  * b >= a of F, so each row of F is read once per pair. Row a of T only feeds row a of P-; the gamma columns
  * are T's. Off-diagonal entries are flushed as they are final. */
-NOINLINE static void tf_upper_dense(caekf_scalar_t *T, caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
-                                    caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag, int nq, int n)
+CAEKF_NOINLINE static void tf_upper_dense(caekf_scalar_t *T, caekf_scalar_t fq[CAEKF_NQ][CAEKF_N],
+                                          caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag, int nq,
+                                          int n)
 {
     const int nx = 2 * nq;
     int a, b, k;
@@ -221,15 +211,11 @@ NOINLINE static void tf_upper_dense(caekf_scalar_t *T, caekf_scalar_t fq[CAEKF_N
 #endif
 
 /* w[j] = t . Fv_j for j = j0 .. nq - 1 with every row of Fv dense; t is held (in registers when sized). */
-NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
-                             caekf_scalar_t *w)
+CAEKF_NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
+                                   caekf_scalar_t *w)
 {
-#if CAEKF_SIZED
-    caekf_scalar_t tr[CAEKF_N];
-    copy_row(tr, t, n);
-#else
-    const caekf_scalar_t *const tr = t; /* n unknown: a copy would not stay in registers */
-#endif
+    caekf_scalar_t buf[CAEKF_N];
+    const caekf_scalar_t *const tr = held_row(buf, t, n);
     int j;
     for (j = j0; j < nq; ++j) {
         w[j] = dot(tr, fv[j], n);

@@ -13,13 +13,6 @@ static const unsigned char link_nnz[CAEKF_SIZED_BODIES] = CAEKF_SIZED_LINK_NNZ;
 static const unsigned char link_nz[CAEKF_SIZED_BODIES][CAEKF_SIZED_LINK_WIDTH] = CAEKF_SIZED_LINK_NZ;
 #endif
 
-/* Keeps a function called more than once out of line: inlined copies cost flash on the MCU. */
-#if defined(__GNUC__)
-#define NOINLINE __attribute__((noinline))
-#else
-#define NOINLINE
-#endif
-
 /* The loops of the step path (the Newton solve, its matrix, F's right-hand sides), written out where the
  * build's sizes are constants and the step runs them many times (substeps or the trapezoidal rule); the
  * one-step build keeps these loops (less flash; its inner loops over the links' pattern are written out). */
@@ -366,8 +359,9 @@ int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, ca
 #if CAEKF_MODEL_ORACLES
 /* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
  * the residual with no inertia (v_{k-1} against itself). */
-NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev, const caekf_scalar_t *u_prev,
-                                      caekf_contact_t *ct0, caekf_scalar_t *g0, caekf_scalar_t *mag0)
+CAEKF_NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev,
+                                            const caekf_scalar_t *u_prev, caekf_contact_t *ct0, caekf_scalar_t *g0,
+                                            caekf_scalar_t *mag0)
 {
     contacts_at(m, xprev, ct0);
     momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
@@ -968,7 +962,7 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
 }
 
 /* Adds value to the link matrix entries of link (a, b) (body numbers, 0 = ground). */
-NOINLINE static void add_link(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], int a, int b, caekf_scalar_t value)
+CAEKF_NOINLINE static void add_link(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], int a, int b, caekf_scalar_t value)
 {
     add_contact_block(&out[0][0], CAEKF_NQ, a - 1, b - 1, value);
 }

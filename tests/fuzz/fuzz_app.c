@@ -52,18 +52,37 @@ enum {
     OP_COUNT
 };
 
-/* caekf.dbc, independently of the codec's table (cross-checked once). */
-static const uint16_t k_can_id[CAEKF_MSG_COUNT] = {
-    0x0C0, 0x0C1, 0x0C2, 0x100, 0x101, 0x102, 0x0C8, 0x0C9, 0x180, 0x181, 0x182, 0x183, 0x184, 0x185,
-    0x186, 0x187, 0x188, 0x189, 0x18A, 0x18B, 0x103, 0x190, 0x191, 0x104, 0x192, 0x105, 0x106, 0x107,
-    0x108, 0x109, 0x10A, 0x10B, 0x193, 0x194, 0x195, 0x196, 0x197, 0x198, 0x199, 0x19A, 0x19B, 0x19C};
-static int is_bench_msg(unsigned m)
-{
-    return m <= (unsigned)CAEKF_MSG_BENCH_Y4 || m == (unsigned)CAEKF_MSG_BENCH_YP ||
-           m == (unsigned)CAEKF_MSG_BENCH_FD ||
-           (m >= (unsigned)CAEKF_MSG_BENCH_U2 && m <= (unsigned)CAEKF_MSG_BENCH_S4_VEL);
-}
-static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (k_can_id[m] & 0xFFu)); }
+/* The DBC's CAN IDs and senders, written here independently of the generated table (by message, whatever
+ * the enumeration's order). */
+static const struct {
+    uint16_t can_id;
+    uint8_t from_bench;
+} k_msg[CAEKF_MSG_COUNT] = {
+    [CAEKF_MSG_CTRL_RESET] = {0x0C0, 1},      [CAEKF_MSG_CTRL_PARAM] = {0x0C1, 1},
+    [CAEKF_MSG_CTRL_STATUS_REQ] = {0x0C2, 1}, [CAEKF_MSG_BENCH_U] = {0x100, 1},
+    [CAEKF_MSG_BENCH_Y1] = {0x101, 1},        [CAEKF_MSG_BENCH_Y4] = {0x102, 1},
+    [CAEKF_MSG_EST_ACK] = {0x0C8, 0},         [CAEKF_MSG_EST_HEALTH] = {0x0C9, 0},
+    [CAEKF_MSG_EST_GAMMA] = {0x180, 0},       [CAEKF_MSG_EST_Q1] = {0x181, 0},
+    [CAEKF_MSG_EST_Q2] = {0x182, 0},          [CAEKF_MSG_EST_Q3] = {0x183, 0},
+    [CAEKF_MSG_EST_Q4] = {0x184, 0},          [CAEKF_MSG_EST_V1] = {0x185, 0},
+    [CAEKF_MSG_EST_V2] = {0x186, 0},          [CAEKF_MSG_EST_V3] = {0x187, 0},
+    [CAEKF_MSG_EST_V4] = {0x188, 0},          [CAEKF_MSG_EST_P_NORM] = {0x189, 0},
+    [CAEKF_MSG_EST_P_GG] = {0x18A, 0},        [CAEKF_MSG_EST_STEP] = {0x18B, 0},
+    [CAEKF_MSG_BENCH_YP] = {0x103, 1},        [CAEKF_MSG_EST_PROD] = {0x190, 0},
+    [CAEKF_MSG_EST_PAGE] = {0x191, 0},        [CAEKF_MSG_BENCH_FD] = {0x104, 1},
+    [CAEKF_MSG_EST_FD] = {0x192, 0},          [CAEKF_MSG_BENCH_U2] = {0x105, 1},
+    [CAEKF_MSG_BENCH_S3_POS] = {0x106, 1},    [CAEKF_MSG_BENCH_S4_POS] = {0x107, 1},
+    [CAEKF_MSG_BENCH_S1_VEL] = {0x108, 1},    [CAEKF_MSG_BENCH_S2_VEL] = {0x109, 1},
+    [CAEKF_MSG_BENCH_S3_VEL] = {0x10A, 1},    [CAEKF_MSG_BENCH_S4_VEL] = {0x10B, 1},
+    [CAEKF_MSG_EST_Q5] = {0x193, 0},          [CAEKF_MSG_EST_Q6] = {0x194, 0},
+    [CAEKF_MSG_EST_Q7] = {0x195, 0},          [CAEKF_MSG_EST_Q8] = {0x196, 0},
+    [CAEKF_MSG_EST_V5] = {0x197, 0},          [CAEKF_MSG_EST_V6] = {0x198, 0},
+    [CAEKF_MSG_EST_V7] = {0x199, 0},          [CAEKF_MSG_EST_V8] = {0x19A, 0},
+    [CAEKF_MSG_EST_GAMMA2] = {0x19B, 0},      [CAEKF_MSG_EST_P_GG2] = {0x19C, 0},
+};
+static uint16_t can_id_of(unsigned m) { return k_msg[m].can_id; }
+static int is_bench_msg(unsigned m) { return k_msg[m].from_bench; }
+static uint16_t data_id_of(unsigned m) { return (uint16_t)(0xCA00u | (can_id_of(m) & 0xFFu)); }
 
 /* ---- bits and CRC (own implementation) -------------------------------------------------------- */
 
@@ -718,7 +737,7 @@ static void model_rx(const caekf_can_frame_t *f, uint32_t now)
     unsigned m;
     uint8_t ctr;
     for (m = 0; m < NMSG; ++m) {
-        if ((uint32_t)k_can_id[m] == f->id) {
+        if ((uint32_t)can_id_of(m) == f->id) {
             break;
         }
     }
@@ -821,7 +840,7 @@ static void check_tx(void)
         const expect_t *e = &M.exp[i];
         const unsigned m = e->msg;
         const uint8_t ctr = (uint8_t)(f->data[1] & 0x0Fu);
-        FZ_CHECK(f->id == k_can_id[m], "frame sent in the expected order");
+        FZ_CHECK(f->id == can_id_of(m), "frame sent in the expected order");
         FZ_CHECK(f->dlc == 8u, "DLC 8");
         FZ_CHECK(crc8_j1850(data_id_of(m), f->data) == f->data[0], "CRC of a sent frame");
         FZ_CHECK(!M.tx_seen[m] || ctr == M.tx_next[m], "alive counter +1 per frame of a message");
@@ -919,7 +938,7 @@ static void drain(void)
 static void send_sealed(unsigned msg, uint8_t data[8], int counter)
 {
     caekf_can_frame_t f;
-    f.id = k_can_id[msg];
+    f.id = can_id_of(msg);
     f.dlc = 8;
     if (counter < 0) {
         counter = H.bench_ctr[msg];
@@ -1088,7 +1107,7 @@ static void run_ops(fz_reader_t *r)
                                                  0x0C0u | CAEKF_CAN_ID_EXT_FLAG, 0x100u | CAEKF_CAN_ID_EXT_FLAG};
                 // clang-format on
                 const unsigned k = sel % (NMSG + (unsigned)(sizeof extra / sizeof extra[0]));
-                f.id = (k < NMSG) ? k_can_id[k] : extra[k - NMSG];
+                f.id = (k < NMSG) ? can_id_of(k) : extra[k - NMSG];
             } else {
                 f.id = fz_u32(r);
             }
@@ -1186,7 +1205,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
     for (i = 0; i < NMSG; ++i) {
         const caekf_msg_info_t *info;
-        FZ_CHECK(caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->can_id == k_can_id[i] &&
+        FZ_CHECK(caekf_proto_msg_info((caekf_msg_t)i, &info) == CAEKF_PROTO_OK && info->can_id == can_id_of(i) &&
                      info->data_id == data_id_of(i) && (info->dir == CAEKF_DIR_TO_ESTIMATOR) == is_bench_msg(i),
                  "message table as in caekf.dbc");
     }

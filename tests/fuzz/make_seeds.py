@@ -171,23 +171,21 @@ def frames_seeds():
     import numpy as np
 
     _, codec, _, _ = _sim()
+    order = _msg_order()
     s = {}
     for name, m in sorted(codec.messages.items()):
         cols = {sig: np.array([0]) for sig in m.signals if sig not in ("E2E_CRC", "E2E_COUNTER")}
         payload = codec.pack(name, cols, counters=np.array([3]))[0].tobytes()
-        s["msg-%s" % name.lower()] = bytes([_msg_index(name), 3]) + payload
-    s["all-ones"] = b"".join(bytes([i, 15]) + b"\xff" * 8 for i in range(len(MSG_ORDER)))
+        s["msg-%s" % name.lower()] = bytes([order.index(name), 3]) + payload
+    s["all-ones"] = b"".join(bytes([i, 15]) + b"\xff" * 8 for i in range(len(order)))
     return s
 
 
-# caekf_msg_t order (firmware/protocol/include/caekf/caekf_proto.h): the index byte of a fuzz_frames record
-MSG_ORDER = ("CTRL_RESET", "CTRL_PARAM", "CTRL_STATUS_REQ", "BENCH_U", "BENCH_Y1", "BENCH_Y4", "EST_ACK",
-             "EST_HEALTH", "EST_GAMMA", "EST_Q1", "EST_Q2", "EST_Q3", "EST_Q4", "EST_V1", "EST_V2", "EST_V3",
-             "EST_V4", "EST_P_NORM", "EST_P_GG", "EST_STEP", "BENCH_YP", "EST_PROD", "EST_PAGE")
+def _msg_order():
+    """caekf_msg_t's order, the index byte of a fuzz_frames record: the DBC's (the C is generated from it)."""
+    from caekf_sim import codegen
 
-
-def _msg_index(name):
-    return MSG_ORDER.index(name)
+    return [m.name for m in codegen.load().messages]
 
 
 # ---- fuzz_app ------------------------------------------------------------------------------------------

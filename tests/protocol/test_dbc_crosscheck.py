@@ -1,4 +1,5 @@
-"""Cross-check: the hand-written C codec (firmware/protocol) against cantools' reading of caekf.dbc.
+"""Cross-check: the C codec (firmware/protocol, on the C that sim/src/caekf_sim/codegen.py generates from
+caekf.dbc at build time) against cantools' reading of caekf.dbc.
 
 Every frame layout, scaling, ID, E2E data ID and name table is compared by encoding the same values
 on both sides (byte for byte) and decoding each side's payloads with the other."""
@@ -11,8 +12,6 @@ import pytest
 
 from e2e_ref import crc8_sae_j1850, crc16_ccitt_false, e2e_crc, seal, seal_fd, to_mantissa_exp10
 
-LAYOUT = {"RESET": 0, "PARAM": 1, "STATUS_REQ": 2, "ACK": 3, "HEALTH": 4, "INT36": 5, "FLOAT32": 6, "STEP": 7,
-          "YP": 8, "PROD": 9, "PAGE": 10, "FD_IN": 11, "FD_OUT": 12}
 E2E = ("E2E_CRC", "E2E_COUNTER")
 RNG_SEED = 20240611
 
@@ -32,17 +31,10 @@ def value_signal(msg):
     return sigs[0]
 
 
-def dbc_layout(msg):
-    names = [s.name for s in msg.signals]
-    if msg.name == "EST_STEP":
-        return LAYOUT["STEP"]
-    special = {"BENCH_YP": "YP", "EST_PROD": "PROD", "EST_PAGE": "PAGE", "BENCH_FD": "FD_IN", "EST_FD": "FD_OUT"}
-    if msg.name in special:
-        return LAYOUT[special[msg.name]]
-    if msg.name.startswith(("BENCH_", "EST_")) and "STEP" in names:
-        return LAYOUT["FLOAT32"] if value_signal(msg).is_float else LAYOUT["INT36"]
-    return LAYOUT[{"CTRL_RESET": "RESET", "CTRL_PARAM": "PARAM", "CTRL_STATUS_REQ": "STATUS_REQ",
-                   "EST_ACK": "ACK", "EST_HEALTH": "HEALTH"}[msg.name]]
+def dbc_layout(db, msg):
+    """The message's CaekfLayout attribute: (its index, as caekf_layout_t numbers it, and its name)."""
+    index = int(msg.dbc.attributes["CaekfLayout"].value)
+    return index, db.dbc.attribute_definitions["CaekfLayout"].choices[index]
 
 
 def encode(db, name, values, scaling=True):
@@ -72,13 +64,14 @@ def test_ids_data_ids_dlc_direction_layout_and_lsb_match(db, dump):
         assert row["data_id"] == msg.dbc.attributes["E2E_DataID"].value, msg.name
         data_ids.add(row["data_id"])
         assert row["dir"] == (0 if msg.senders == ["BENCH"] else 1), msg.name
-        assert row["layout"] == dbc_layout(msg), msg.name
-        if row["layout"] == LAYOUT["INT36"]:
+        index, layout = dbc_layout(db, msg)
+        assert row["layout"] == index, msg.name
+        if layout in ("INT36", "FLOAT32"):  # the generic value codec's frames: STEP and one value
             sig = value_signal(msg)
-            assert (sig.start, sig.length, sig.is_signed, sig.offset) == (28, 36, True, 0)
-            assert row["lsb"] == sig.scale, msg.name
-        if row["layout"] == LAYOUT["YP"]:
-            assert {s.scale for s in msg.signals if s.name in ("Y1", "Y4")} == {row["lsb"]}, msg.name
+            want = (28, 36, True, 0, False) if layout == "INT36" else (32, 32, True, 0, True)
+            assert (sig.start, sig.length, sig.is_signed, sig.offset, sig.is_float) == want, msg.name
+            assert (msg.get_signal_by_name("STEP").start, msg.get_signal_by_name("STEP").length) == (12, 16)
+        assert row["lsb"] == (value_signal(msg).scale if layout == "INT36" else 0.0), msg.name
     assert len(data_ids) == len(db.messages), "E2E data IDs must be unique"
 
 
@@ -190,7 +183,7 @@ def test_value_frames_encode_identically(db, dump, kind):
     rng = random.Random(RNG_SEED + 2)
     cmds, expected = [], []
     for msg in db.messages:
-        if dbc_layout(msg) != LAYOUT[kind]:
+        if dbc_layout(db, msg)[1] != kind:
             continue
         sig = value_signal(msg)
         values = int36_values(sig, rng) if kind == "INT36" else float_values(rng)
@@ -209,7 +202,7 @@ def test_value_frames_decode_identically(db, dump, kind):
     rng = random.Random(RNG_SEED + 3)
     cmds, expected = [], []
     for msg in db.messages:
-        if dbc_layout(msg) != LAYOUT[kind]:
+        if dbc_layout(db, msg)[1] != kind:
             continue
         sig = value_signal(msg)
         for _ in range(300):
@@ -424,14 +417,20 @@ def test_param_exponent_beyond_exact_range_is_refused(dump):
     assert dump.one("param_value 0 -23 1").split()[0] == "-3"
 
 
-def test_generated_c_codec_is_current():
-    """firmware/protocol/gen is what `caekf-sim gen-c` makes of the DBC today (CI fails when stale)."""
-    pytest.importorskip("cantools")
+def test_generator_refuses_a_value_frame_the_codec_cannot_read(tmp_path):
+    """The generic value codec assumes STEP 12|16 and the value at 28|36 (INT36) or 32|32 float (FLOAT32): a
+    DBC whose message breaks that fails the build's generation with a message naming it."""
     from caekf_sim import codegen
 
-    bad = codegen.stale()
-    assert not bad, (f"firmware/protocol/gen/{', '.join(bad)} stale: the DBC or cantools changed; "
-                     "run `caekf-sim gen-c` and commit the result")
+    text = codegen.default_dbc().read_text(encoding="utf-8")
+    assert codegen.main([str(tmp_path / "ok")]) == 0
+    for old, new, name in ((" SG_ Y1 : 28|36@1- (1e-12,0)", " SG_ Y1 : 28|32@1- (1e-12,0)", "BENCH_Y1"),
+                           (' BA_ "CaekfLayout" BO_ 256 6;', ' BA_ "CaekfLayout" BO_ 256 5;', "BENCH_U")):
+        assert old.strip() in text, old
+        bad = tmp_path / f"{name}.dbc"
+        bad.write_text(text.replace(old.strip(), new.strip(), 1), encoding="utf-8")
+        with pytest.raises(ValueError, match=name):
+            codegen.generate(bad)
 
 
 # --- CAN FD profile frames: C (generated pack/unpack + scaling, CRC-16 seal) against cantools --------------

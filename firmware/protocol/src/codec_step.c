@@ -1,5 +1,5 @@
 /* Codec of the per-step frames (BENCH_U/U2/Y1/Y4/S*_POS/S*_VEL, EST_* value frames, EST_STEP) on the C pack/unpack that
- * cantools generates from caekf.dbc (firmware/protocol/gen, `caekf-sim gen-c`): the bit layout comes
+ * cantools generates from caekf.dbc at build time (sim/src/caekf_sim/codegen.py): the bit layout comes
  * from the DBC only. Here: cantools' scaling (round half to even of value / LSB, float32 bit patterns),
  * range clipping, and the refusal of non-finite inputs; the E2E layer seals the frames afterwards. */
 #include <stddef.h>
@@ -8,6 +8,7 @@
 #include "bitfield.h"
 #include "caekf/caekf_proto.h"
 #include "caekf_can.h"
+#include "caekf_proto_frames_table.h" /* CAEKF_VALUE_MESSAGES: generated from caekf.dbc */
 
 static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **info)
 {
@@ -21,40 +22,6 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
     return CAEKF_PROTO_OK;
 }
 
-/* One case per value message: its generated struct, pack/unpack and value field. */
-#define VALUE_MESSAGES(X)                                 \
-    X(CAEKF_MSG_BENCH_U, bench_u, u, float)               \
-    X(CAEKF_MSG_BENCH_Y1, bench_y1, y1, int)              \
-    X(CAEKF_MSG_BENCH_Y4, bench_y4, y4, int)              \
-    X(CAEKF_MSG_EST_GAMMA, est_gamma, gamma, float)       \
-    X(CAEKF_MSG_EST_Q1, est_q1, q1, int)                  \
-    X(CAEKF_MSG_EST_Q2, est_q2, q2, int)                  \
-    X(CAEKF_MSG_EST_Q3, est_q3, q3, int)                  \
-    X(CAEKF_MSG_EST_Q4, est_q4, q4, int)                  \
-    X(CAEKF_MSG_EST_V1, est_v1, v1, int)                  \
-    X(CAEKF_MSG_EST_V2, est_v2, v2, int)                  \
-    X(CAEKF_MSG_EST_V3, est_v3, v3, int)                  \
-    X(CAEKF_MSG_EST_V4, est_v4, v4, int)                  \
-    X(CAEKF_MSG_EST_P_NORM, est_p_norm, p_norm, float)    \
-    X(CAEKF_MSG_EST_P_GG, est_p_gg, p_gamma_gamma, float) \
-    X(CAEKF_MSG_BENCH_U2, bench_u2, u2, float)            \
-    X(CAEKF_MSG_BENCH_S3_POS, bench_s3_pos, s3_pos, int)  \
-    X(CAEKF_MSG_BENCH_S4_POS, bench_s4_pos, s4_pos, int)  \
-    X(CAEKF_MSG_BENCH_S1_VEL, bench_s1_vel, s1_vel, int)  \
-    X(CAEKF_MSG_BENCH_S2_VEL, bench_s2_vel, s2_vel, int)  \
-    X(CAEKF_MSG_BENCH_S3_VEL, bench_s3_vel, s3_vel, int)  \
-    X(CAEKF_MSG_BENCH_S4_VEL, bench_s4_vel, s4_vel, int)  \
-    X(CAEKF_MSG_EST_Q5, est_q5, q5, int)                  \
-    X(CAEKF_MSG_EST_Q6, est_q6, q6, int)                  \
-    X(CAEKF_MSG_EST_Q7, est_q7, q7, int)                  \
-    X(CAEKF_MSG_EST_Q8, est_q8, q8, int)                  \
-    X(CAEKF_MSG_EST_V5, est_v5, v5, int)                  \
-    X(CAEKF_MSG_EST_V6, est_v6, v6, int)                  \
-    X(CAEKF_MSG_EST_V7, est_v7, v7, int)                  \
-    X(CAEKF_MSG_EST_V8, est_v8, v8, int)                  \
-    X(CAEKF_MSG_EST_GAMMA2, est_gamma2, gamma2, float)    \
-    X(CAEKF_MSG_EST_P_GG2, est_p_gg2, p_gamma2_gamma2, float)
-
 /* A value as the generated struct holds it: int64 raw for the scaled signals, the float32 itself
  * (bit pattern copied, so no conversion can alter it) for the float signals. */
 #define SET_int(dst, raw, bits) ((dst) = (raw))
@@ -65,7 +32,7 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
 /* One object for whichever message a call handles: the stack holds the largest struct, not all 31. */
 #define UNION_MEMBER(id, name, field, kind) struct caekf_can_##name##_t name;
 typedef union {
-    VALUE_MESSAGES(UNION_MEMBER)
+    CAEKF_VALUE_MESSAGES(UNION_MEMBER)
 } value_frame_t;
 #undef UNION_MEMBER
 
@@ -79,7 +46,7 @@ static int pack_value(caekf_msg_t msg, uint16_t step, int64_t raw, uint32_t bits
         m.name.step = step;                  \
         SET_##kind(m.name.field, raw, bits); \
         return caekf_can_##name##_pack(data, &m.name, CAEKF_CAN_DLC);
-        VALUE_MESSAGES(PACK_CASE)
+        CAEKF_VALUE_MESSAGES(PACK_CASE)
 #undef PACK_CASE
     default: return -1;
     }
@@ -97,7 +64,7 @@ static int unpack_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint
         *step = m.name.step;                                         \
         GET_##kind(m.name.field, *raw, *bits);                       \
         return r;
-        VALUE_MESSAGES(UNPACK_CASE)
+        CAEKF_VALUE_MESSAGES(UNPACK_CASE)
 #undef UNPACK_CASE
     default: return -1;
     }

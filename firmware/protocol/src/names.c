@@ -2,13 +2,9 @@
 #include <stddef.h>
 
 #include "caekf/caekf_proto.h"
+#include "caekf_proto_frames_table.h" /* generated from caekf.dbc */
 
-static const char *const counter_names[CAEKF_CNT_COUNT] = {
-    "RX_OK",      "RX_UNKNOWN_ID", "RX_BAD_DLC",      "RX_BAD_CRC",       "RX_COUNTER_JUMP", "RX_DUPLICATE",
-    "RX_LOST",    "RX_BAD_VALUE",  "RX_UNCONFIGURED", "RX_LATE",          "RX_REPEATED",     "RX_HAL_ERROR",
-    "STEPS_DONE", "STEPS_FAILED",  "STEPS_TIMED_OUT", "STEPS_SUPERSEDED", "STEPS_SKIPPED",   "TX_FRAMES",
-    "TX_ERRORS",  "TX_SATURATED",  "CFG_ACCEPTED",    "CFG_REFUSED",      "PARAMS_RX",       "STATUS_REQUESTS",
-};
+static const char *const counter_names[CAEKF_CNT_COUNT] = {CAEKF_COUNTER_NAMES};
 
 static caekf_proto_status_t lookup(const char *const *table, unsigned count, unsigned index, const char **name)
 {

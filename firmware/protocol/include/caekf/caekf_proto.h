@@ -11,16 +11,17 @@
 
 #include <stdint.h>
 
+#include "caekf/caekf_proto_frames.h" /* generated from caekf.dbc at build time */
 #include "caekf/caekf_proto_ids.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define CAEKF_CAN_DLC 8u                  /* bytes of a classic frame: every message but the CAN FD profile's */
-#define CAEKF_CAN_FD_MAX_LEN 64u          /* bytes of the longest CAN FD frame */
-#define CAEKF_FD_IN_LEN 20u               /* BENCH_FD */
-#define CAEKF_FD_OUT_LEN 64u              /* EST_FD */
+#define CAEKF_CAN_DLC 8u         /* bytes of a classic frame: every message but the CAN FD profile's */
+#define CAEKF_CAN_FD_MAX_LEN 64u /* bytes of the longest CAN FD frame */
+#define CAEKF_FD_IN_LEN CAEKF_MSG_LEN_BENCH_FD
+#define CAEKF_FD_OUT_LEN CAEKF_MSG_LEN_EST_FD
 #define CAEKF_CAN_ID_EXT_FLAG 0x80000000u /* set by a HAL for 29-bit IDs: never a caekf message */
 
 typedef struct {
@@ -37,73 +38,6 @@ typedef enum {
     CAEKF_PROTO_ERR_VALUE = -3, /* a decoded float is not finite or a field is outside its set */
     CAEKF_PROTO_ERR_RANGE = -4  /* a field to encode is outside its set: nothing written */
 } caekf_proto_status_t;
-
-/* Every message of caekf.dbc. Order is the table order, not the CAN ID order. */
-typedef enum {
-    CAEKF_MSG_CTRL_RESET = 0,
-    CAEKF_MSG_CTRL_PARAM,
-    CAEKF_MSG_CTRL_STATUS_REQ,
-    CAEKF_MSG_BENCH_U,
-    CAEKF_MSG_BENCH_Y1,
-    CAEKF_MSG_BENCH_Y4,
-    CAEKF_MSG_EST_ACK,
-    CAEKF_MSG_EST_HEALTH,
-    CAEKF_MSG_EST_GAMMA,
-    CAEKF_MSG_EST_Q1,
-    CAEKF_MSG_EST_Q2,
-    CAEKF_MSG_EST_Q3,
-    CAEKF_MSG_EST_Q4,
-    CAEKF_MSG_EST_V1,
-    CAEKF_MSG_EST_V2,
-    CAEKF_MSG_EST_V3,
-    CAEKF_MSG_EST_V4,
-    CAEKF_MSG_EST_P_NORM,
-    CAEKF_MSG_EST_P_GG,
-    CAEKF_MSG_EST_STEP,
-    CAEKF_MSG_BENCH_YP, /* production profile: y1 and y4 in one frame */
-    CAEKF_MSG_EST_PROD, /* production profile: the one estimate frame per step */
-    CAEKF_MSG_EST_PAGE, /* production profile: multiplexed pages of the full estimate */
-    CAEKF_MSG_BENCH_FD, /* CAN FD profile: u, y1, y4 in one 20-byte frame */
-    CAEKF_MSG_EST_FD,   /* CAN FD profile: the whole estimate in one 64-byte frame */
-    /* Diagnostics profile, a mechanism's inputs and sensors beyond the paper's u, y1, y4 (sent only when
-     * the mechanism has them): input 2, sensors 3 and 4 as positions, sensors 1..4 as velocities. */
-    CAEKF_MSG_BENCH_U2,
-    CAEKF_MSG_BENCH_S3_POS,
-    CAEKF_MSG_BENCH_S4_POS,
-    CAEKF_MSG_BENCH_S1_VEL,
-    CAEKF_MSG_BENCH_S2_VEL,
-    CAEKF_MSG_BENCH_S3_VEL,
-    CAEKF_MSG_BENCH_S4_VEL,
-    /* Diagnostics profile, a mechanism's bodies 5..8 and contact 2 (sent only when it has them). */
-    CAEKF_MSG_EST_Q5,
-    CAEKF_MSG_EST_Q6,
-    CAEKF_MSG_EST_Q7,
-    CAEKF_MSG_EST_Q8,
-    CAEKF_MSG_EST_V5,
-    CAEKF_MSG_EST_V6,
-    CAEKF_MSG_EST_V7,
-    CAEKF_MSG_EST_V8,
-    CAEKF_MSG_EST_GAMMA2,
-    CAEKF_MSG_EST_P_GG2,
-    CAEKF_MSG_COUNT
-} caekf_msg_t;
-
-/* Payload layouts shared by several messages. */
-typedef enum {
-    CAEKF_LAYOUT_RESET = 0,
-    CAEKF_LAYOUT_PARAM,
-    CAEKF_LAYOUT_STATUS_REQ,
-    CAEKF_LAYOUT_ACK,
-    CAEKF_LAYOUT_HEALTH,
-    CAEKF_LAYOUT_INT36,   /* STEP (16 bits at bit 12) + scaled signed 36-bit value at bit 28 */
-    CAEKF_LAYOUT_FLOAT32, /* STEP (16 bits at bit 12) + IEEE float32 at bit 32 */
-    CAEKF_LAYOUT_STEP,    /* STEP + FLAGS + NEWTON_ITERS + STEP_STATUS */
-    CAEKF_LAYOUT_YP,      /* STEP mod 2^8 + Y1 + Y4 (22-bit scaled) */
-    CAEKF_LAYOUT_PROD,    /* STEP low byte + FLAGS (12 bits) + GAMMA float32 */
-    CAEKF_LAYOUT_PAGE,    /* PAGE (multiplexer) + STEP + one page of the estimate */
-    CAEKF_LAYOUT_FD_IN,   /* CAN FD, 20 bytes: STEP + U float32 + Y1, Y4 (36-bit scaled) */
-    CAEKF_LAYOUT_FD_OUT   /* CAN FD, 64 bytes: STEP + every estimate value + FLAGS, NEWTON_ITERS, STEP_STATUS */
-} caekf_layout_t;
 
 /* Protocol profiles: which frames carry a step. The app sends the estimate frames of its profile;
  * it accepts the input frames of every profile. */

@@ -151,8 +151,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "repeatable")
     p.set_defaults(func=cmd_busload)
 
-    p = sub.add_parser("gen-c", help="C pack/unpack of the DBC (cantools generate_c_source) into firmware/protocol/gen")
-    p.add_argument("--check", action="store_true", help="only compare with the committed files; exit 1 if stale")
+    p = sub.add_parser("gen-c", help="the C of the DBC (cantools pack/unpack, message table, wire enumerations) into "
+                                     "a folder, as the build generates it")
+    p.add_argument("--out", type=Path, required=True, help="the folder (include/ and src/ are made in it)")
     p.set_defaults(func=cmd_gen_c)
 
     p = sub.add_parser("bench", help="steps/s: C estimator, numpy, FilterPy, and HIL lockstep over CAN")
@@ -373,15 +374,7 @@ def cmd_hil_replay_log(args: argparse.Namespace) -> int:
 def cmd_gen_c(args: argparse.Namespace) -> int:
     from .. import codegen
 
-    if args.check:
-        bad = codegen.stale()
-        if bad:
-            print(f"gen-c: firmware/protocol/gen/{', '.join(bad)} stale: the DBC or cantools changed; "
-                  "run caekf-sim gen-c and commit the result")
-            return 1
-        print("gen-c: firmware/protocol/gen is up to date with the DBC")
-        return 0
-    for p in codegen.write():
+    for p in codegen.write(args.out):
         print(f"wrote {p}")
     return 0
 
