@@ -4,9 +4,13 @@
 
 #include "bitfield.h"
 #include "caekf/caekf_proto.h"
-#include "layout.h"
+#include "caekf_proto_frames_table.h" /* the fields' positions: generated from caekf.dbc */
 
 #define EXP10_MAX 22 /* 10^22 is the largest power of ten a double holds exactly */
+/* Every EST_HEALTH page carries its two counters where page 0 has RX_OK and RX_UNKNOWN_ID (the generator
+ * checks it). */
+#define HEALTH_LOWER CAEKF_FIELD_EST_HEALTH_RX_OK
+#define HEALTH_UPPER CAEKF_FIELD_EST_HEALTH_RX_UNKNOWN_ID
 
 caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
@@ -14,8 +18,8 @@ caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_
         return CAEKF_PROTO_ERR_NULL;
     }
     memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_RESET_N_PARAMS, m->n_params);
-    caekf_bits_put(data, F_RESET_TOKEN, m->token);
+    caekf_bits_put(data, CAEKF_FIELD_CTRL_RESET_N_PARAMS, m->n_params);
+    caekf_bits_put(data, CAEKF_FIELD_CTRL_RESET_TOKEN, m->token);
     return CAEKF_PROTO_OK;
 }
 
@@ -24,15 +28,15 @@ caekf_proto_status_t caekf_proto_decode_reset(const uint8_t data[CAEKF_CAN_DLC],
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    m->n_params = (uint8_t)caekf_bits_get(data, F_RESET_N_PARAMS);
-    m->token = (uint8_t)caekf_bits_get(data, F_RESET_TOKEN);
+    m->n_params = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_RESET_N_PARAMS);
+    m->token = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_RESET_TOKEN);
     return CAEKF_PROTO_OK;
 }
 
 caekf_proto_status_t caekf_proto_encode_param(const caekf_msg_param_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
-    const int64_t mant_max = (int64_t)(((uint64_t)1u << (PARAM_MANTISSA_BITS - 1u)) - 1u);
-    const int exp_max = (1 << (PARAM_EXP10_BITS - 1u)) - 1;
+    const int64_t mant_max = (int64_t)(((uint64_t)1u << (CAEKF_BITS_CTRL_PARAM_PARAM_MANTISSA - 1u)) - 1u);
+    const int exp_max = (1 << (CAEKF_BITS_CTRL_PARAM_PARAM_EXP10 - 1u)) - 1;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
@@ -40,9 +44,9 @@ caekf_proto_status_t caekf_proto_encode_param(const caekf_msg_param_t *m, uint8_
         return CAEKF_PROTO_ERR_RANGE;
     }
     memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_PARAM_ID, m->param_id);
-    caekf_bits_put_signed(data, F_PARAM_EXP10, m->exp10);
-    caekf_bits_put_signed(data, F_PARAM_MANTISSA, m->mantissa);
+    caekf_bits_put(data, CAEKF_FIELD_CTRL_PARAM_PARAM_ID, m->param_id);
+    caekf_bits_put_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_EXP10, m->exp10);
+    caekf_bits_put_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_MANTISSA, m->mantissa);
     return CAEKF_PROTO_OK;
 }
 
@@ -51,9 +55,9 @@ caekf_proto_status_t caekf_proto_decode_param(const uint8_t data[CAEKF_CAN_DLC],
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    m->param_id = (uint8_t)caekf_bits_get(data, F_PARAM_ID);
-    m->exp10 = (int8_t)caekf_bits_get_signed(data, F_PARAM_EXP10);
-    m->mantissa = caekf_bits_get_signed(data, F_PARAM_MANTISSA);
+    m->param_id = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_PARAM_PARAM_ID);
+    m->exp10 = (int8_t)caekf_bits_get_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_EXP10);
+    m->mantissa = caekf_bits_get_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_MANTISSA);
     return CAEKF_PROTO_OK;
 }
 
@@ -82,7 +86,7 @@ caekf_proto_status_t caekf_proto_encode_status_req(const caekf_msg_status_req_t 
         return CAEKF_PROTO_ERR_NULL;
     }
     memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_STATUS_REQ_TOKEN, m->token);
+    caekf_bits_put(data, CAEKF_FIELD_CTRL_STATUS_REQ_TOKEN, m->token);
     return CAEKF_PROTO_OK;
 }
 
@@ -91,7 +95,7 @@ caekf_proto_status_t caekf_proto_decode_status_req(const uint8_t data[CAEKF_CAN_
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    m->token = (uint8_t)caekf_bits_get(data, F_STATUS_REQ_TOKEN);
+    m->token = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_STATUS_REQ_TOKEN);
     return CAEKF_PROTO_OK;
 }
 
@@ -101,11 +105,11 @@ caekf_proto_status_t caekf_proto_encode_ack(const caekf_msg_ack_t *m, uint8_t da
         return CAEKF_PROTO_ERR_NULL;
     }
     memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_ACK_TOKEN, m->token);
-    caekf_bits_put_signed(data, F_ACK_STATUS, m->status);
-    caekf_bits_put(data, F_ACK_BAD_PARAM, m->bad_param);
-    caekf_bits_put(data, F_ACK_N_PARAMS_RX, m->n_params_rx);
-    caekf_bits_put(data, F_ACK_STATE, m->state);
+    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_TOKEN, m->token);
+    caekf_bits_put_signed(data, CAEKF_FIELD_EST_ACK_ACK_STATUS, m->status);
+    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_BAD_PARAM, m->bad_param);
+    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_N_PARAMS_RX, m->n_params_rx);
+    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_STATE, m->state);
     return CAEKF_PROTO_OK;
 }
 
@@ -114,11 +118,11 @@ caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], c
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    m->token = (uint8_t)caekf_bits_get(data, F_ACK_TOKEN);
-    m->status = (int8_t)caekf_bits_get_signed(data, F_ACK_STATUS);
-    m->bad_param = (uint8_t)caekf_bits_get(data, F_ACK_BAD_PARAM);
-    m->n_params_rx = (uint8_t)caekf_bits_get(data, F_ACK_N_PARAMS_RX);
-    m->state = (uint8_t)caekf_bits_get(data, F_ACK_STATE);
+    m->token = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_TOKEN);
+    m->status = (int8_t)caekf_bits_get_signed(data, CAEKF_FIELD_EST_ACK_ACK_STATUS);
+    m->bad_param = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_BAD_PARAM);
+    m->n_params_rx = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_N_PARAMS_RX);
+    m->state = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_STATE);
     return CAEKF_PROTO_OK;
 }
 
@@ -131,9 +135,9 @@ caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint
         return CAEKF_PROTO_ERR_RANGE;
     }
     memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, F_HEALTH_PAGE, m->page);
-    caekf_bits_put(data, F_HEALTH_A, m->counter_a & CAEKF_HEALTH_COUNTER_MASK);
-    caekf_bits_put(data, F_HEALTH_B, m->counter_b & CAEKF_HEALTH_COUNTER_MASK);
+    caekf_bits_put(data, CAEKF_FIELD_EST_HEALTH_PAGE, m->page);
+    caekf_bits_put(data, HEALTH_LOWER, m->counter_a & CAEKF_HEALTH_COUNTER_MASK);
+    caekf_bits_put(data, HEALTH_UPPER, m->counter_b & CAEKF_HEALTH_COUNTER_MASK);
     return CAEKF_PROTO_OK;
 }
 
@@ -143,12 +147,12 @@ caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC]
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    page = (uint8_t)caekf_bits_get(data, F_HEALTH_PAGE);
+    page = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_HEALTH_PAGE);
     if (page >= CAEKF_HEALTH_PAGES) {
         return CAEKF_PROTO_ERR_VALUE;
     }
     m->page = page;
-    m->counter_a = (uint32_t)caekf_bits_get(data, F_HEALTH_A);
-    m->counter_b = (uint32_t)caekf_bits_get(data, F_HEALTH_B);
+    m->counter_a = (uint32_t)caekf_bits_get(data, HEALTH_LOWER);
+    m->counter_b = (uint32_t)caekf_bits_get(data, HEALTH_UPPER);
     return CAEKF_PROTO_OK;
 }

@@ -70,6 +70,20 @@ static int unpack_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint
     }
 }
 
+/* An encode's status from the generated pack's result (the bytes written) and whether a value was clipped. */
+static caekf_proto_status_t packed(int written, unsigned len, int clipped)
+{
+    if (written != (int)len) {
+        return CAEKF_PROTO_ERR_MSG;
+    }
+    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+}
+
+/* A decode's status before its fields: its arguments given (else ERR_NULL), then the generated unpack's result
+ * (else ERR_MSG); unpack is only called with the arguments given. */
+#define UNPACKED(m, data, unpack_call) \
+    ((m) == NULL || (data) == NULL ? CAEKF_PROTO_ERR_NULL : (unpack_call) != 0 ? CAEKF_PROTO_ERR_MSG : CAEKF_PROTO_OK)
+
 caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, double value, uint8_t data[CAEKF_CAN_DLC])
 {
     const caekf_msg_info_t *info;
@@ -89,10 +103,7 @@ caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, do
     } else {
         clipped = caekf_float32_bits(value, &bits);
     }
-    if (pack_value(msg, step, raw, bits, data) != (int)CAEKF_CAN_DLC) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+    return packed(pack_value(msg, step, raw, bits, data), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step,
@@ -135,24 +146,20 @@ caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t 
     g.flags = m->flags;
     g.newton_iters = m->newton_iters;
     g.step_status = m->status;
-    return caekf_can_est_step_pack(data, &g, CAEKF_CAN_DLC) == (int)CAEKF_CAN_DLC ? CAEKF_PROTO_OK
-                                                                                  : CAEKF_PROTO_ERR_MSG;
+    return packed(caekf_can_est_step_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_step_t *m)
 {
     struct caekf_can_est_step_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_step_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->step = g.step;
+        m->flags = g.flags;
+        m->newton_iters = g.newton_iters;
+        m->status = g.step_status;
     }
-    if (caekf_can_est_step_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    m->step = g.step;
-    m->flags = g.flags;
-    m->newton_iters = g.newton_iters;
-    m->status = g.step_status;
-    return CAEKF_PROTO_OK;
+    return st;
 }
 
 /* --- production profile ------------------------------------------------------------------------ */
@@ -172,25 +179,19 @@ caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data
     g.step = m->step;
     g.y1 = (int32_t)r1;
     g.y4 = (int32_t)r4;
-    if (caekf_can_bench_yp_pack(data, &g, CAEKF_CAN_DLC) != (int)CAEKF_CAN_DLC) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+    return packed(caekf_can_bench_yp_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_yp(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_yp_t *m)
 {
     struct caekf_can_bench_yp_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_bench_yp_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->step = g.step;
+        m->y1 = (double)g.y1 * CAEKF_YP_LSB; /* as cantools: raw * scale */
+        m->y4 = (double)g.y4 * CAEKF_YP_LSB;
     }
-    if (caekf_can_bench_yp_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    m->step = g.step;
-    m->y1 = (double)g.y1 * CAEKF_YP_LSB; /* as cantools: raw * scale */
-    m->y4 = (double)g.y4 * CAEKF_YP_LSB;
-    return CAEKF_PROTO_OK;
+    return st;
 }
 
 /* float32 of an output value as the generated struct holds it (bit pattern copied). */
@@ -222,31 +223,33 @@ caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t 
     g.step = m->step;
     g.flags = (uint16_t)(m->flags & CAEKF_PROD_FLAGS_MASK);
     clipped = put_f32(&g.gamma, m->gamma);
-    if (caekf_can_est_prod_pack(data, &g, CAEKF_CAN_DLC) != (int)CAEKF_CAN_DLC) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+    return packed(caekf_can_est_prod_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_prod(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_prod_t *m)
 {
     struct caekf_can_est_prod_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_prod_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->step = g.step;
+        m->flags = g.flags;
+        m->gamma = get_f32(&g.gamma);
     }
-    if (caekf_can_est_prod_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    m->step = g.step;
-    m->flags = g.flags;
-    m->gamma = get_f32(&g.gamma);
-    return CAEKF_PROTO_OK;
+    return st;
+}
+
+/* EST_PAGE's float32 value of page p (< CAEKF_PAGE_STEP_INFO) in the generated struct. */
+static float *page_value(struct caekf_can_est_page_t *g, unsigned p)
+{
+    /* cppcheck-suppress constVariable ; the slot is returned for writing */
+    float *const slot[CAEKF_PAGE_STEP_INFO] = {&g->q1, &g->q2, &g->q3, &g->q4,     &g->v1,
+                                               &g->v2, &g->v3, &g->v4, &g->p_norm, &g->p_gamma_gamma};
+    return slot[p];
 }
 
 caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
     struct caekf_can_est_page_t g;
-    float *slot[CAEKF_PAGE_STEP_INFO];
     int clipped = 0;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
@@ -255,16 +258,6 @@ caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t 
         return CAEKF_PROTO_ERR_RANGE;
     }
     memset(&g, 0, sizeof g);
-    slot[0] = &g.q1;
-    slot[1] = &g.q2;
-    slot[2] = &g.q3;
-    slot[3] = &g.q4;
-    slot[4] = &g.v1;
-    slot[5] = &g.v2;
-    slot[6] = &g.v3;
-    slot[7] = &g.v4;
-    slot[8] = &g.p_norm;
-    slot[9] = &g.p_gamma_gamma;
     g.page = m->page;
     g.step = m->step;
     if (m->page == CAEKF_PAGE_STEP_INFO) {
@@ -272,37 +265,21 @@ caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t 
         g.newton_iters = m->info.newton_iters;
         g.step_status = m->info.status;
     } else {
-        clipped = put_f32(slot[m->page], m->value);
+        clipped = put_f32(page_value(&g, m->page), m->value);
     }
-    if (caekf_can_est_page_pack(data, &g, CAEKF_CAN_DLC) != (int)CAEKF_CAN_DLC) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+    return packed(caekf_can_est_page_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_page_t *m)
 {
     struct caekf_can_est_page_t g;
-    const float *slot[CAEKF_PAGE_STEP_INFO];
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    if (caekf_can_est_page_unpack(&g, data, CAEKF_CAN_DLC) != 0) {
-        return CAEKF_PROTO_ERR_MSG;
+    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_page_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st != CAEKF_PROTO_OK) {
+        return st;
     }
     if (g.page >= CAEKF_PAGE_COUNT) {
         return CAEKF_PROTO_ERR_VALUE;
     }
-    slot[0] = &g.q1;
-    slot[1] = &g.q2;
-    slot[2] = &g.q3;
-    slot[3] = &g.q4;
-    slot[4] = &g.v1;
-    slot[5] = &g.v2;
-    slot[6] = &g.v3;
-    slot[7] = &g.v4;
-    slot[8] = &g.p_norm;
-    slot[9] = &g.p_gamma_gamma;
     m->page = g.page;
     m->step = g.step;
     m->value = 0.0;
@@ -315,16 +292,21 @@ caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], 
         m->info.newton_iters = g.newton_iters;
         m->info.status = g.step_status;
     } else {
-        m->value = get_f32(slot[g.page]);
+        m->value = get_f32(page_value(&g, g.page));
     }
     return CAEKF_PROTO_OK;
 }
 
 /* --- CAN FD profile ---------------------------------------------------------------------------- */
 
-#define POS_LSB 1e-12 /* m per LSB of the 36-bit positions, as the diagnostics frames */
-#define VEL_LSB 1e-10 /* m/s per LSB of the 36-bit velocities */
-#define FD_SCALED_BITS 36u
+/* EST_FD's scaled value i (q1..q4, v1..v4) in the generated struct, and its LSB. */
+static int64_t *fd_scaled(struct caekf_can_est_fd_t *g, unsigned i, double *lsb)
+{
+    /* cppcheck-suppress constVariable ; the slot is returned for writing */
+    int64_t *const slot[8] = {&g->q1, &g->q2, &g->q3, &g->q4, &g->v1, &g->v2, &g->v3, &g->v4};
+    *lsb = i < 4u ? CAEKF_SCALE_EST_FD_Q1 : CAEKF_SCALE_EST_FD_V1;
+    return slot[i];
+}
 
 caekf_proto_status_t caekf_proto_encode_fd_in(const caekf_msg_fd_in_t *m, uint8_t data[CAEKF_CAN_FD_MAX_LEN])
 {
@@ -336,12 +318,9 @@ caekf_proto_status_t caekf_proto_encode_fd_in(const caekf_msg_fd_in_t *m, uint8_
     memset(&g, 0, sizeof g);
     g.step = m->step;
     clipped = put_f32(&g.u, m->u);
-    clipped |= caekf_scaled_to_raw(m->y1, POS_LSB, FD_SCALED_BITS, &g.y1);
-    clipped |= caekf_scaled_to_raw(m->y4, POS_LSB, FD_SCALED_BITS, &g.y4);
-    if (caekf_can_bench_fd_pack(data, &g, CAEKF_FD_IN_LEN) != (int)CAEKF_FD_IN_LEN) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+    clipped |= caekf_scaled_to_raw(m->y1, CAEKF_SCALE_BENCH_FD_Y1, CAEKF_BITS_BENCH_FD_Y1, &g.y1);
+    clipped |= caekf_scaled_to_raw(m->y4, CAEKF_SCALE_BENCH_FD_Y4, CAEKF_BITS_BENCH_FD_Y4, &g.y4);
+    return packed(caekf_can_bench_fd_pack(data, &g, CAEKF_FD_IN_LEN), CAEKF_FD_IN_LEN, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_in_t *m)
@@ -349,11 +328,9 @@ caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MA
     struct caekf_can_bench_fd_t g;
     uint32_t bits;
     double u = 0.0;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    if (caekf_can_bench_fd_unpack(&g, data, CAEKF_FD_IN_LEN) != 0) {
-        return CAEKF_PROTO_ERR_MSG;
+    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_bench_fd_unpack(&g, data, CAEKF_FD_IN_LEN));
+    if (st != CAEKF_PROTO_OK) {
+        return st;
     }
     memcpy(&bits, &g.u, sizeof bits);
     if (caekf_float32_value(bits, &u) != 0) {
@@ -361,31 +338,24 @@ caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MA
     }
     m->step = g.step;
     m->u = u;
-    m->y1 = (double)g.y1 * POS_LSB; /* as cantools: raw * scale */
-    m->y4 = (double)g.y4 * POS_LSB;
+    m->y1 = (double)g.y1 * CAEKF_SCALE_BENCH_FD_Y1; /* as cantools: raw * scale */
+    m->y4 = (double)g.y4 * CAEKF_SCALE_BENCH_FD_Y4;
     return CAEKF_PROTO_OK;
 }
 
 caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint8_t data[CAEKF_CAN_FD_MAX_LEN])
 {
     struct caekf_can_est_fd_t g;
-    int64_t *scaled[8];
     int clipped = 0;
     unsigned i;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
     memset(&g, 0, sizeof g);
-    scaled[0] = &g.q1;
-    scaled[1] = &g.q2;
-    scaled[2] = &g.q3;
-    scaled[3] = &g.q4;
-    scaled[4] = &g.v1;
-    scaled[5] = &g.v2;
-    scaled[6] = &g.v3;
-    scaled[7] = &g.v4;
     for (i = 0; i < 8u; i++) {
-        clipped |= caekf_scaled_to_raw(m->x[i], i < 4u ? POS_LSB : VEL_LSB, FD_SCALED_BITS, scaled[i]);
+        double lsb;
+        int64_t *const raw = fd_scaled(&g, i, &lsb);
+        clipped |= caekf_scaled_to_raw(m->x[i], lsb, CAEKF_BITS_EST_FD_Q1, raw);
     }
     clipped |= put_f32(&g.gamma, m->x[8]);
     clipped |= put_f32(&g.p_norm, m->p_norm);
@@ -394,33 +364,21 @@ caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint
     g.flags = m->info.flags;
     g.newton_iters = m->info.newton_iters;
     g.step_status = m->info.status;
-    if (caekf_can_est_fd_pack(data, &g, CAEKF_FD_OUT_LEN) != (int)CAEKF_FD_OUT_LEN) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
+    return packed(caekf_can_est_fd_pack(data, &g, CAEKF_FD_OUT_LEN), CAEKF_FD_OUT_LEN, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_fd_out(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_out_t *m)
 {
     struct caekf_can_est_fd_t g;
-    const int64_t *scaled[8];
     unsigned i;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_fd_unpack(&g, data, CAEKF_FD_OUT_LEN));
+    if (st != CAEKF_PROTO_OK) {
+        return st;
     }
-    if (caekf_can_est_fd_unpack(&g, data, CAEKF_FD_OUT_LEN) != 0) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    scaled[0] = &g.q1;
-    scaled[1] = &g.q2;
-    scaled[2] = &g.q3;
-    scaled[3] = &g.q4;
-    scaled[4] = &g.v1;
-    scaled[5] = &g.v2;
-    scaled[6] = &g.v3;
-    scaled[7] = &g.v4;
     for (i = 0; i < 8u; i++) {
-        m->x[i] = (double)*scaled[i] * (i < 4u ? POS_LSB : VEL_LSB);
+        double lsb;
+        const int64_t raw = *fd_scaled(&g, i, &lsb);
+        m->x[i] = (double)raw * lsb;
     }
     m->x[8] = get_f32(&g.gamma);
     m->p_norm = get_f32(&g.p_norm);

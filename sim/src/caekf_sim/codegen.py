@@ -91,11 +91,20 @@ def value_signal(msg: Any) -> Any:
     return next(s for s in msg.signals if s.name not in E2E_SIGNALS + ("STEP",))
 
 
+# The layouts whose codec places the fields itself (the control frames): the fields' positions are generated.
+HAND_PLACED = ("RESET", "PARAM", "STATUS_REQ", "ACK", "HEALTH")
+
+
 def counters(db: Any) -> List[str]:
-    """EST_HEALTH's counters in id order: page p carries counters 2p (the lower field) and 2p + 1."""
+    """EST_HEALTH's counters in id order: page p carries counters 2p (the lower field) and 2p + 1. Every page
+    has its two at page 0's positions (the codec reads them there), checked."""
     health = db.get_message_by_name("EST_HEALTH")
-    return [name for _, _, name in sorted((s.multiplexer_ids[0], s.start, s.name)
-                                          for s in health.signals if s.multiplexer_ids)]
+    fields = sorted((s.multiplexer_ids[0], s.start, s.length, s.name) for s in health.signals if s.multiplexer_ids)
+    pages = [fields[i:i + 2] for i in range(0, len(fields), 2)]
+    for k, page in enumerate(pages):
+        if [f[0] for f in page] != [k, k] or [f[1:3] for f in page] != [f[1:3] for f in pages[0]]:
+            raise ValueError(f"EST_HEALTH: page {k} does not carry two counters at page 0's positions")
+    return [f[3] for f in fields]
 
 
 def _comment(text: str) -> str:
@@ -123,7 +132,17 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
     h += ["} caekf_ack_status_t;", "",
           "/* EST_HEALTH's counters: page p carries counters 2p and 2p + 1. */", "typedef enum {"]
     h += [f"    CAEKF_CNT_{n} = {i}," for i, n in enumerate(cnt)]
-    h += ["    CAEKF_CNT_COUNT", "} caekf_counter_id_t;", "", "#endif", ""]
+    h += ["    CAEKF_CNT_COUNT", "} caekf_counter_id_t;", ""]
+    yp, prod = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1"), db.get_message_by_name("EST_PROD")
+    page = db.get_message_by_name("EST_PAGE")
+    h += ["/* The production profile's frames. */",
+          f"#define CAEKF_YP_LSB {float(yp.scale)!r} /* BENCH_YP.Y1 and Y4's LSB (m) */",
+          f"#define CAEKF_YP_BITS {yp.length}u /* and their width */",
+          f"#define CAEKF_PROD_FLAGS_MASK 0x{(1 << prod.get_signal_by_name('FLAGS').length) - 1:04X}u"
+          " /* EST_PROD.FLAGS: the estimator's flag bits it carries */",
+          f"#define CAEKF_PAGE_COUNT {int(page.get_signal_by_name('PAGE').maximum) + 1}u /* EST_PAGE's pages */",
+          f"#define CAEKF_PAGE_STEP_INFO {page.get_signal_by_name('FLAGS').multiplexer_ids[0]}u"
+          " /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */", "", "#endif", ""]
 
     rows, values = [], []
     for m in msgs:
@@ -143,7 +162,21 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
     t += [f'    "{n}", \\' for n in cnt] + ["", ""]
     t += ["/* X(message, its name in the cantools code, its value signal's, int (INT36) or float (FLOAT32)) for",
           " * every generic value frame. */", "#define CAEKF_VALUE_MESSAGES(X) \\"]
-    t += values + ["", "", "#endif", ""]
+    t += values + ["", ""]
+    t += ["/* Each signal's length (CAEKF_BITS_<MESSAGE>_<SIGNAL>) and a scaled one's LSB (CAEKF_SCALE_..); the",
+          " * (start bit, length) of the signals of the frames whose codec places its fields itself, the control",
+          " * frames (CAEKF_FIELD_..). */"]
+    for m in msgs:
+        hand = layout_of(m, names) in HAND_PLACED
+        for s in m.signals:
+            if s.name in E2E_SIGNALS or (s.multiplexer_ids and s.multiplexer_ids[0] != 0 and hand):
+                continue
+            t.append(f"#define CAEKF_BITS_{m.name}_{s.name} {s.length}u")
+            if s.scale != 1:
+                t.append(f"#define CAEKF_SCALE_{m.name}_{s.name} {float(s.scale)!r}")
+            if hand:
+                t.append(f"#define CAEKF_FIELD_{m.name}_{s.name} {s.start}u, {s.length}u")
+    t += ["", "#endif", ""]
     return {FRAMES_HEADER: "\n".join(h), FRAMES_TABLE: "\n".join(t)}
 
 

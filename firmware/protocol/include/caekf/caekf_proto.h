@@ -144,11 +144,8 @@ caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint
 caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m);
 
 /* Production profile frames. */
-#define CAEKF_YP_LSB 1e-9             /* m per LSB of BENCH_YP.Y1/Y4 (22-bit signed) */
-#define CAEKF_YP_BITS 22u             /* width of BENCH_YP.Y1/Y4 */
-#define CAEKF_PROD_FLAGS_MASK 0x0FFFu /* EST_PROD.FLAGS: the estimator's flag bits 0..11 */
-#define CAEKF_PAGE_COUNT 11u          /* EST_PAGE pages 0..10 */
-#define CAEKF_PAGE_STEP_INFO 10u      /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */
+/* CAEKF_YP_LSB, CAEKF_YP_BITS, CAEKF_PROD_FLAGS_MASK, CAEKF_PAGE_COUNT, CAEKF_PAGE_STEP_INFO: generated from the
+ * DBC (caekf/caekf_proto_frames.h). */
 
 typedef struct {
     uint8_t step;  /* STEP modulo 2^8 (the app unwraps it against BENCH_U's 16-bit STEP) */
