@@ -163,7 +163,8 @@ def settings_seeds():
     s["refusals"] = bytes([0]) + param(len(ids), 1.0) + param(ids["newton_max_iter"], 2.5) + \
         param(ids["sigma_r"], exp10=23, mant=1) + param(ids["sigma_r"], 0.0) + param(ids["m2"], -1.0)
     s["extremes"] = bytes([0]) + param(ids["contact1_sigma_gamma0"], exp10=-22, mant=1) + \
-        param(ids["contact1_gamma0"], exp10=22, mant=2**37 - 1) + param(ids["contact1_gamma_min"], exp10=22, mant=-(2**37))
+        param(ids["contact1_gamma0"], exp10=22, mant=2**37 - 1) + \
+        param(ids["contact1_gamma_min"], exp10=22, mant=-(2**37))
     return s
 
 
