@@ -123,7 +123,8 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
          "/* Every message of the DBC, in its order. */", "typedef enum {"]
     h += [f"    CAEKF_MSG_{m.name} = {i},{_comment(m.comment or m.name)}" for i, m in enumerate(msgs)]
     h += ["    CAEKF_MSG_COUNT", "} caekf_msg_t;", "",
-          "/* The codecs' payload layouts (the messages' CaekfLayout attribute). */", "typedef enum {"]
+          "/* The codecs' payload layouts (the messages' CaekfLayout attribute; what each carries: the frame map in",
+          " * firmware/protocol/README.md). */", "typedef enum {"]
     h += [f"    CAEKF_LAYOUT_{n} = {i}," for i, n in enumerate(names)]
     h += ["} caekf_layout_t;", "", "/* Each message's payload bytes. */"]
     h += [f"#define CAEKF_MSG_LEN_{m.name} {m.length}u" for m in msgs]
@@ -132,7 +133,10 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
     h += ["} caekf_ack_status_t;", "",
           "/* EST_HEALTH's counters: page p carries counters 2p and 2p + 1. */", "typedef enum {"]
     h += [f"    CAEKF_CNT_{n} = {i}," for i, n in enumerate(cnt)]
-    h += ["    CAEKF_CNT_COUNT", "} caekf_counter_id_t;", ""]
+    health_bits = db.get_message_by_name("EST_HEALTH").get_signal_by_name(cnt[0]).length
+    h += ["    CAEKF_CNT_COUNT", "} caekf_counter_id_t;",
+          f"#define CAEKF_HEALTH_COUNTER_MASK 0x{(1 << health_bits) - 1:X}u /* counters travel modulo 2^{health_bits} */",
+          ""]
     yp, prod = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1"), db.get_message_by_name("EST_PROD")
     page = db.get_message_by_name("EST_PAGE")
     h += ["/* The production profile's frames. */",

@@ -19,7 +19,6 @@ extern "C" {
 #define CAEKF_ACK_STATE_STAGED 0x02u
 
 #define CAEKF_HEALTH_PAGES (CAEKF_CNT_COUNT / 2)
-#define CAEKF_HEALTH_COUNTER_MASK 0xFFFFFFu /* counters travel modulo 2^24 */
 
 /* EST_STEP.FLAGS: bits 0..11 are the estimator's CAEKF_FLAG_*; the app adds these. */
 #define CAEKF_STEP_FLAG_SATURATED (1u << 12)         /* an output value was clipped to its signal range */
