@@ -112,13 +112,13 @@ def _comment(text: str) -> str:
     return f" /* {first} */"
 
 
-def frames(db: Any, dbc: Path) -> Dict[str, str]:
-    """caekf/caekf_proto_frames.h and caekf_proto_frames_table.h."""
+def frames_header(db: Any, banner: str) -> str:
+    """caekf/caekf_proto_frames.h (public): the wire enumerations, the messages' lengths, the production
+    profile's constants."""
     names = layouts(db)
     msgs = list(db.messages)
     cnt = counters(db)
     ack = db.get_message_by_name("EST_ACK").get_signal_by_name("ACK_STATUS").choices
-    banner = f"/* GENERATED from {dbc.name} by caekf_sim/codegen.py at build time: do not edit. */"
     h = [banner, "#ifndef CAEKF_PROTO_FRAMES_H", "#define CAEKF_PROTO_FRAMES_H", "",
          "/* Every message of the DBC, in its order. */", "typedef enum {"]
     h += [f"    CAEKF_MSG_{m.name} = {i},{_comment(m.comment or m.name)}" for i, m in enumerate(msgs)]
@@ -135,7 +135,8 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
     h += [f"    CAEKF_CNT_{n} = {i}," for i, n in enumerate(cnt)]
     health_bits = db.get_message_by_name("EST_HEALTH").get_signal_by_name(cnt[0]).length
     h += ["    CAEKF_CNT_COUNT", "} caekf_counter_id_t;",
-          f"#define CAEKF_HEALTH_COUNTER_MASK 0x{(1 << health_bits) - 1:X}u /* counters travel modulo 2^{health_bits} */",
+          f"#define CAEKF_HEALTH_COUNTER_MASK 0x{(1 << health_bits) - 1:X}u"
+          f" /* counters travel modulo 2^{health_bits} */",
           ""]
     yp, prod = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1"), db.get_message_by_name("EST_PROD")
     page = db.get_message_by_name("EST_PAGE")
@@ -147,7 +148,14 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
           f"#define CAEKF_PAGE_COUNT {int(page.get_signal_by_name('PAGE').maximum) + 1}u /* EST_PAGE's pages */",
           f"#define CAEKF_PAGE_STEP_INFO {page.get_signal_by_name('FLAGS').multiplexer_ids[0]}u"
           " /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */", "", "#endif", ""]
+    return "\n".join(h)
 
+
+def frames_table(db: Any, banner: str) -> str:
+    """caekf_proto_frames_table.h (the codec's): the message table's rows, the counters' names, the generic
+    value frames, each signal's length and LSB, the control frames' field positions."""
+    names = layouts(db)
+    msgs = list(db.messages)
     rows, values = [], []
     for m in msgs:
         layout = layout_of(m, names)
@@ -163,7 +171,7 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
          "/* caekf_msg_info_t rows in caekf_msg_t order: name, CAN ID, E2E data ID, layout, direction, length, the",
          " * value LSB of an INT36 message. */", "#define CAEKF_MSG_TABLE_ROWS \\"]
     t += rows + ["", "", "/* The counters' names, in caekf_counter_id_t order. */", "#define CAEKF_COUNTER_NAMES \\"]
-    t += [f'    "{n}", \\' for n in cnt] + ["", ""]
+    t += [f'    "{n}", \\' for n in counters(db)] + ["", ""]
     t += ["/* X(message, its name in the cantools code, its value signal's, int (INT36) or float (FLOAT32)) for",
           " * every generic value frame. */", "#define CAEKF_VALUE_MESSAGES(X) \\"]
     t += values + ["", ""]
@@ -181,14 +189,15 @@ def frames(db: Any, dbc: Path) -> Dict[str, str]:
             if hand:
                 t.append(f"#define CAEKF_FIELD_{m.name}_{s.name} {s.start}u, {s.length}u")
     t += ["", "#endif", ""]
-    return {FRAMES_HEADER: "\n".join(h), FRAMES_TABLE: "\n".join(t)}
+    return "\n".join(t)
 
 
 def generate(dbc: Optional[Path] = None) -> Dict[str, str]:
     """File name (relative to the output folder) -> text of every generated file."""
     dbc = dbc or default_dbc()
     db = load(dbc)
-    return {**_pack_unpack(db, dbc), **frames(db, dbc)}
+    banner = f"/* GENERATED from {dbc.name} by caekf_sim/codegen.py at build time: do not edit. */"
+    return {**_pack_unpack(db, dbc), FRAMES_HEADER: frames_header(db, banner), FRAMES_TABLE: frames_table(db, banner)}
 
 
 def write(outdir: Path, dbc: Optional[Path] = None) -> List[Path]:
