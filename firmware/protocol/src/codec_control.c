@@ -1,64 +1,68 @@
-/* Codec of the control frames: CTRL_RESET, CTRL_PARAM, CTRL_STATUS_REQ, EST_ACK, EST_HEALTH. */
+/* Codec of the control frames: CTRL_RESET, CTRL_PARAM, CTRL_STATUS_REQ, EST_ACK, EST_HEALTH, on the C pack/unpack
+ * that cantools generates from caekf.dbc at build time; here the ranges the frames refuse. One encode/decode
+ * pair per message, each the same shape (deliberately, as the generated pack/unpack are one per message): the
+ * API struct mapped onto the generated one, the status from codec_status.h. */
 #include <stddef.h>
 #include <string.h>
 
-#include "bitfield.h"
 #include "caekf/caekf_proto.h"
-#include "caekf_proto_frames_table.h" /* the fields' positions: generated from caekf.dbc */
+#include "caekf_can.h"
+#include "caekf_proto_frames_table.h" /* the signals' lengths and the counters' fields: generated from caekf.dbc */
+#include "codec_status.h"
 
 #define EXP10_MAX 22 /* 10^22 is the largest power of ten a double holds exactly */
-/* Every EST_HEALTH page carries its two counters where page 0 has RX_OK and RX_UNKNOWN_ID (the generator
- * checks it). */
-#define HEALTH_LOWER CAEKF_FIELD_EST_HEALTH_RX_OK
-#define HEALTH_UPPER CAEKF_FIELD_EST_HEALTH_RX_UNKNOWN_ID
 
 caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
+    struct caekf_can_ctrl_reset_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, CAEKF_FIELD_CTRL_RESET_N_PARAMS, m->n_params);
-    caekf_bits_put(data, CAEKF_FIELD_CTRL_RESET_TOKEN, m->token);
-    return CAEKF_PROTO_OK;
+    memset(&g, 0, sizeof g);
+    g.n_params = m->n_params;
+    g.token = m->token;
+    return caekf_proto_packed(caekf_can_ctrl_reset_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_reset(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_reset_t *m)
 {
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    struct caekf_can_ctrl_reset_t g;
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_ctrl_reset_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->n_params = g.n_params;
+        m->token = g.token;
     }
-    m->n_params = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_RESET_N_PARAMS);
-    m->token = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_RESET_TOKEN);
-    return CAEKF_PROTO_OK;
+    return st;
 }
 
 caekf_proto_status_t caekf_proto_encode_param(const caekf_msg_param_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
     const int64_t mant_max = (int64_t)(((uint64_t)1u << (CAEKF_BITS_CTRL_PARAM_PARAM_MANTISSA - 1u)) - 1u);
     const int exp_max = (1 << (CAEKF_BITS_CTRL_PARAM_PARAM_EXP10 - 1u)) - 1;
+    struct caekf_can_ctrl_param_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
     if (m->mantissa > mant_max || m->mantissa < -mant_max - 1 || m->exp10 > exp_max || m->exp10 < -exp_max - 1) {
         return CAEKF_PROTO_ERR_RANGE;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, CAEKF_FIELD_CTRL_PARAM_PARAM_ID, m->param_id);
-    caekf_bits_put_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_EXP10, m->exp10);
-    caekf_bits_put_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_MANTISSA, m->mantissa);
-    return CAEKF_PROTO_OK;
+    memset(&g, 0, sizeof g);
+    g.param_id = m->param_id;
+    g.param_exp10 = m->exp10;
+    g.param_mantissa = m->mantissa;
+    return caekf_proto_packed(caekf_can_ctrl_param_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_param(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_param_t *m)
 {
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    struct caekf_can_ctrl_param_t g;
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_ctrl_param_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->param_id = g.param_id;
+        m->exp10 = g.param_exp10;
+        m->mantissa = g.param_mantissa;
     }
-    m->param_id = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_PARAM_PARAM_ID);
-    m->exp10 = (int8_t)caekf_bits_get_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_EXP10);
-    m->mantissa = caekf_bits_get_signed(data, CAEKF_FIELD_CTRL_PARAM_PARAM_MANTISSA);
-    return CAEKF_PROTO_OK;
+    return st;
 }
 
 caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double *value)
@@ -82,77 +86,93 @@ caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double 
 
 caekf_proto_status_t caekf_proto_encode_status_req(const caekf_msg_status_req_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
+    struct caekf_can_ctrl_status_req_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, CAEKF_FIELD_CTRL_STATUS_REQ_TOKEN, m->token);
-    return CAEKF_PROTO_OK;
+    memset(&g, 0, sizeof g);
+    g.token = m->token;
+    return caekf_proto_packed(caekf_can_ctrl_status_req_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_status_req(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_status_req_t *m)
 {
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    struct caekf_can_ctrl_status_req_t g;
+    const caekf_proto_status_t st =
+        CAEKF_PROTO_UNPACKED(m, data, caekf_can_ctrl_status_req_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->token = g.token;
     }
-    m->token = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_CTRL_STATUS_REQ_TOKEN);
-    return CAEKF_PROTO_OK;
+    return st;
 }
 
 caekf_proto_status_t caekf_proto_encode_ack(const caekf_msg_ack_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
+    struct caekf_can_est_ack_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_TOKEN, m->token);
-    caekf_bits_put_signed(data, CAEKF_FIELD_EST_ACK_ACK_STATUS, m->status);
-    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_BAD_PARAM, m->bad_param);
-    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_N_PARAMS_RX, m->n_params_rx);
-    caekf_bits_put(data, CAEKF_FIELD_EST_ACK_STATE, m->state);
-    return CAEKF_PROTO_OK;
+    memset(&g, 0, sizeof g);
+    g.token = m->token;
+    g.ack_status = m->status;
+    g.bad_param = m->bad_param;
+    g.n_params_rx = m->n_params_rx;
+    g.state = m->state;
+    return caekf_proto_packed(caekf_can_est_ack_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_ack_t *m)
 {
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    struct caekf_can_est_ack_t g;
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_ack_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st == CAEKF_PROTO_OK) {
+        m->token = g.token;
+        m->status = g.ack_status;
+        m->bad_param = g.bad_param;
+        m->n_params_rx = g.n_params_rx;
+        m->state = g.state;
     }
-    m->token = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_TOKEN);
-    m->status = (int8_t)caekf_bits_get_signed(data, CAEKF_FIELD_EST_ACK_ACK_STATUS);
-    m->bad_param = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_BAD_PARAM);
-    m->n_params_rx = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_N_PARAMS_RX);
-    m->state = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_ACK_STATE);
-    return CAEKF_PROTO_OK;
+    return st;
+}
+
+/* Counter id's field in the generated EST_HEALTH struct (page id / 2 carries it). */
+static uint32_t *health_counter(struct caekf_can_est_health_t *g, unsigned id)
+{
+#define COUNTER_FIELD(name) &g->name,
+    /* cppcheck-suppress constVariable ; the field is returned for writing */
+    uint32_t *const field[CAEKF_CNT_COUNT] = {CAEKF_COUNTER_FIELDS(COUNTER_FIELD)};
+#undef COUNTER_FIELD
+    return field[id];
 }
 
 caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint8_t data[CAEKF_CAN_DLC])
 {
+    struct caekf_can_est_health_t g;
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
     if (m->page >= CAEKF_HEALTH_PAGES) {
         return CAEKF_PROTO_ERR_RANGE;
     }
-    memset(data, 0, CAEKF_CAN_DLC);
-    caekf_bits_put(data, CAEKF_FIELD_EST_HEALTH_PAGE, m->page);
-    caekf_bits_put(data, HEALTH_LOWER, m->counter_a & CAEKF_HEALTH_COUNTER_MASK);
-    caekf_bits_put(data, HEALTH_UPPER, m->counter_b & CAEKF_HEALTH_COUNTER_MASK);
-    return CAEKF_PROTO_OK;
+    memset(&g, 0, sizeof g);
+    g.page = m->page;
+    *health_counter(&g, 2u * m->page) = m->counter_a & CAEKF_HEALTH_COUNTER_MASK;
+    *health_counter(&g, 2u * m->page + 1u) = m->counter_b & CAEKF_HEALTH_COUNTER_MASK;
+    return caekf_proto_packed(caekf_can_est_health_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m)
 {
-    uint8_t page;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
+    struct caekf_can_est_health_t g;
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_health_unpack(&g, data, CAEKF_CAN_DLC));
+    if (st != CAEKF_PROTO_OK) {
+        return st;
     }
-    page = (uint8_t)caekf_bits_get(data, CAEKF_FIELD_EST_HEALTH_PAGE);
-    if (page >= CAEKF_HEALTH_PAGES) {
+    if (g.page >= CAEKF_HEALTH_PAGES) {
         return CAEKF_PROTO_ERR_VALUE;
     }
-    m->page = page;
-    m->counter_a = (uint32_t)caekf_bits_get(data, HEALTH_LOWER);
-    m->counter_b = (uint32_t)caekf_bits_get(data, HEALTH_UPPER);
+    m->page = g.page;
+    m->counter_a = *health_counter(&g, 2u * g.page);
+    m->counter_b = *health_counter(&g, 2u * g.page + 1u);
     return CAEKF_PROTO_OK;
 }

@@ -1,14 +1,17 @@
 /* Codec of the per-step frames (BENCH_U/U2/Y1/Y4/S*_POS/S*_VEL, EST_* value frames, EST_STEP) on the C pack/unpack that
  * cantools generates from caekf.dbc at build time (sim/src/caekf_sim/codegen.py): the bit layout comes
  * from the DBC only. Here: cantools' scaling (round half to even of value / LSB, float32 bit patterns),
- * range clipping, and the refusal of non-finite inputs; the E2E layer seals the frames afterwards. */
+ * range clipping, and the refusal of non-finite inputs; the E2E layer seals the frames afterwards. The value
+ * frames share one codec (CAEKF_VALUE_MESSAGES); the others have an encode/decode pair each, the same shape
+ * (deliberately, as in codec_control.c). */
 #include <stddef.h>
 #include <string.h>
 
-#include "bitfield.h"
+#include "scaling.h"
 #include "caekf/caekf_proto.h"
 #include "caekf_can.h"
 #include "caekf_proto_frames_table.h" /* CAEKF_VALUE_MESSAGES: generated from caekf.dbc */
+#include "codec_status.h"
 
 static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **info)
 {
@@ -70,20 +73,6 @@ static int unpack_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint
     }
 }
 
-/* An encode's status from the generated pack's result (the bytes written) and whether a value was clipped. */
-static caekf_proto_status_t packed(int written, unsigned len, int clipped)
-{
-    if (written != (int)len) {
-        return CAEKF_PROTO_ERR_MSG;
-    }
-    return clipped ? CAEKF_PROTO_SATURATED : CAEKF_PROTO_OK;
-}
-
-/* A decode's status before its fields: its arguments given (else ERR_NULL), then the generated unpack's result
- * (else ERR_MSG); unpack is only called with the arguments given. */
-#define UNPACKED(m, data, unpack_call) \
-    ((m) == NULL || (data) == NULL ? CAEKF_PROTO_ERR_NULL : (unpack_call) != 0 ? CAEKF_PROTO_ERR_MSG : CAEKF_PROTO_OK)
-
 caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, double value, uint8_t data[CAEKF_CAN_DLC])
 {
     const caekf_msg_info_t *info;
@@ -103,7 +92,7 @@ caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, do
     } else {
         clipped = caekf_float32_bits(value, &bits);
     }
-    return packed(pack_value(msg, step, raw, bits, data), CAEKF_CAN_DLC, clipped);
+    return caekf_proto_packed(pack_value(msg, step, raw, bits, data), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step,
@@ -146,13 +135,13 @@ caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t 
     g.flags = m->flags;
     g.newton_iters = m->newton_iters;
     g.step_status = m->status;
-    return packed(caekf_can_est_step_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
+    return caekf_proto_packed(caekf_can_est_step_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
 }
 
 caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_step_t *m)
 {
     struct caekf_can_est_step_t g;
-    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_step_unpack(&g, data, CAEKF_CAN_DLC));
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_step_unpack(&g, data, CAEKF_CAN_DLC));
     if (st == CAEKF_PROTO_OK) {
         m->step = g.step;
         m->flags = g.flags;
@@ -179,13 +168,13 @@ caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data
     g.step = m->step;
     g.y1 = (int32_t)r1;
     g.y4 = (int32_t)r4;
-    return packed(caekf_can_bench_yp_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
+    return caekf_proto_packed(caekf_can_bench_yp_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_yp(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_yp_t *m)
 {
     struct caekf_can_bench_yp_t g;
-    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_bench_yp_unpack(&g, data, CAEKF_CAN_DLC));
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_bench_yp_unpack(&g, data, CAEKF_CAN_DLC));
     if (st == CAEKF_PROTO_OK) {
         m->step = g.step;
         m->y1 = (double)g.y1 * CAEKF_YP_LSB; /* as cantools: raw * scale */
@@ -223,13 +212,13 @@ caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t 
     g.step = m->step;
     g.flags = (uint16_t)(m->flags & CAEKF_PROD_FLAGS_MASK);
     clipped = put_f32(&g.gamma, m->gamma);
-    return packed(caekf_can_est_prod_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
+    return caekf_proto_packed(caekf_can_est_prod_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_prod(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_prod_t *m)
 {
     struct caekf_can_est_prod_t g;
-    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_prod_unpack(&g, data, CAEKF_CAN_DLC));
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_prod_unpack(&g, data, CAEKF_CAN_DLC));
     if (st == CAEKF_PROTO_OK) {
         m->step = g.step;
         m->flags = g.flags;
@@ -267,13 +256,13 @@ caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t 
     } else {
         clipped = put_f32(page_value(&g, m->page), m->value);
     }
-    return packed(caekf_can_est_page_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
+    return caekf_proto_packed(caekf_can_est_page_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_page_t *m)
 {
     struct caekf_can_est_page_t g;
-    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_page_unpack(&g, data, CAEKF_CAN_DLC));
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_page_unpack(&g, data, CAEKF_CAN_DLC));
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
@@ -320,7 +309,7 @@ caekf_proto_status_t caekf_proto_encode_fd_in(const caekf_msg_fd_in_t *m, uint8_
     clipped = put_f32(&g.u, m->u);
     clipped |= caekf_scaled_to_raw(m->y1, CAEKF_SCALE_BENCH_FD_Y1, CAEKF_BITS_BENCH_FD_Y1, &g.y1);
     clipped |= caekf_scaled_to_raw(m->y4, CAEKF_SCALE_BENCH_FD_Y4, CAEKF_BITS_BENCH_FD_Y4, &g.y4);
-    return packed(caekf_can_bench_fd_pack(data, &g, CAEKF_FD_IN_LEN), CAEKF_FD_IN_LEN, clipped);
+    return caekf_proto_packed(caekf_can_bench_fd_pack(data, &g, CAEKF_FD_IN_LEN), CAEKF_FD_IN_LEN, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_in_t *m)
@@ -328,7 +317,7 @@ caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MA
     struct caekf_can_bench_fd_t g;
     uint32_t bits;
     double u = 0.0;
-    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_bench_fd_unpack(&g, data, CAEKF_FD_IN_LEN));
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_bench_fd_unpack(&g, data, CAEKF_FD_IN_LEN));
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
@@ -364,14 +353,14 @@ caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint
     g.flags = m->info.flags;
     g.newton_iters = m->info.newton_iters;
     g.step_status = m->info.status;
-    return packed(caekf_can_est_fd_pack(data, &g, CAEKF_FD_OUT_LEN), CAEKF_FD_OUT_LEN, clipped);
+    return caekf_proto_packed(caekf_can_est_fd_pack(data, &g, CAEKF_FD_OUT_LEN), CAEKF_FD_OUT_LEN, clipped);
 }
 
 caekf_proto_status_t caekf_proto_decode_fd_out(const uint8_t data[CAEKF_CAN_FD_MAX_LEN], caekf_msg_fd_out_t *m)
 {
     struct caekf_can_est_fd_t g;
     unsigned i;
-    const caekf_proto_status_t st = UNPACKED(m, data, caekf_can_est_fd_unpack(&g, data, CAEKF_FD_OUT_LEN));
+    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_fd_unpack(&g, data, CAEKF_FD_OUT_LEN));
     if (st != CAEKF_PROTO_OK) {
         return st;
     }

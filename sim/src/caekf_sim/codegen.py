@@ -4,7 +4,7 @@
     include/caekf/caekf_proto_frames.h   the message, layout, acknowledgement and counter enumerations and
                                          each message's length (public)
     src/caekf_proto_frames_table.h       the message table's rows, the counters' names and the generic value
-                                         frames (initialisers and an X-macro)
+                                         frames, each signal's length and LSB
 
     python codegen.py OUTDIR [DBC]   (or `caekf-sim gen-c --out OUTDIR`)
 
@@ -91,20 +91,14 @@ def value_signal(msg: Any) -> Any:
     return next(s for s in msg.signals if s.name not in E2E_SIGNALS + ("STEP",))
 
 
-# The layouts whose codec places the fields itself (the control frames): the fields' positions are generated.
-HAND_PLACED = ("RESET", "PARAM", "STATUS_REQ", "ACK", "HEALTH")
-
-
 def counters(db: Any) -> List[str]:
-    """EST_HEALTH's counters in id order: page p carries counters 2p (the lower field) and 2p + 1. Every page
-    has its two at page 0's positions (the codec reads them there), checked."""
+    """EST_HEALTH's counters in id order: page p carries counters 2p (the lower field) and 2p + 1 (checked: two
+    counters on every page, pages 0, 1, ...)."""
     health = db.get_message_by_name("EST_HEALTH")
-    fields = sorted((s.multiplexer_ids[0], s.start, s.length, s.name) for s in health.signals if s.multiplexer_ids)
-    pages = [fields[i:i + 2] for i in range(0, len(fields), 2)]
-    for k, page in enumerate(pages):
-        if [f[0] for f in page] != [k, k] or [f[1:3] for f in page] != [f[1:3] for f in pages[0]]:
-            raise ValueError(f"EST_HEALTH: page {k} does not carry two counters at page 0's positions")
-    return [f[3] for f in fields]
+    fields = sorted((s.multiplexer_ids[0], s.start, s.name) for s in health.signals if s.multiplexer_ids)
+    if [f[0] for f in fields] != [i // 2 for i in range(len(fields))]:
+        raise ValueError("EST_HEALTH: every page 0, 1, ... must carry two counters")
+    return [f[2] for f in fields]
 
 
 def _comment(text: str) -> str:
@@ -151,9 +145,16 @@ def frames_header(db: Any, banner: str) -> str:
     return "\n".join(h)
 
 
+def c_name(name: str) -> str:
+    """A DBC name as cantools' generated C spells it (its struct and field names)."""
+    from cantools.database.can.c_source import camel_to_snake_case
+
+    return str(camel_to_snake_case(name))
+
+
 def frames_table(db: Any, banner: str) -> str:
-    """caekf_proto_frames_table.h (the codec's): the message table's rows, the counters' names, the generic
-    value frames, each signal's length and LSB, the control frames' field positions."""
+    """caekf_proto_frames_table.h (the codec's): the message table's rows, the counters' names and fields, the
+    generic value frames, each signal's length and LSB."""
     names = layouts(db)
     msgs = list(db.messages)
     rows, values = [], []
@@ -166,28 +167,25 @@ def frames_table(db: Any, banner: str) -> str:
                     f"CAEKF_MSG_LEN_{m.name}, {lsb}}}, \\")
         if layout in ("INT36", "FLOAT32"):
             kind = "int" if layout == "INT36" else "float"
-            values.append(f"    X(CAEKF_MSG_{m.name}, {m.name.lower()}, {value_signal(m).name.lower()}, {kind}) \\")
+            values.append(f"    X(CAEKF_MSG_{m.name}, {c_name(m.name)}, {c_name(value_signal(m).name)}, {kind}) \\")
     t = [banner, "#ifndef CAEKF_PROTO_FRAMES_TABLE_H", "#define CAEKF_PROTO_FRAMES_TABLE_H", "",
          "/* caekf_msg_info_t rows in caekf_msg_t order: name, CAN ID, E2E data ID, layout, direction, length, the",
          " * value LSB of an INT36 message. */", "#define CAEKF_MSG_TABLE_ROWS \\"]
     t += rows + ["", "", "/* The counters' names, in caekf_counter_id_t order. */", "#define CAEKF_COUNTER_NAMES \\"]
     t += [f'    "{n}", \\' for n in counters(db)] + ["", ""]
+    t += ["/* X(its field in the generated EST_HEALTH struct) for every counter, in caekf_counter_id_t order. */",
+          "#define CAEKF_COUNTER_FIELDS(X) \\"]
+    t += [f"    X({c_name(n)}) \\" for n in counters(db)] + ["", ""]
     t += ["/* X(message, its name in the cantools code, its value signal's, int (INT36) or float (FLOAT32)) for",
           " * every generic value frame. */", "#define CAEKF_VALUE_MESSAGES(X) \\"]
     t += values + ["", ""]
-    t += ["/* Each signal's length (CAEKF_BITS_<MESSAGE>_<SIGNAL>) and a scaled one's LSB (CAEKF_SCALE_..); the",
-          " * (start bit, length) of the signals of the frames whose codec places its fields itself, the control",
-          " * frames (CAEKF_FIELD_..). */"]
+    t += ["/* Each signal's length (CAEKF_BITS_<MESSAGE>_<SIGNAL>) and a scaled one's LSB (CAEKF_SCALE_..). */"]
     for m in msgs:
-        hand = layout_of(m, names) in HAND_PLACED
         for s in m.signals:
-            if s.name in E2E_SIGNALS or (s.multiplexer_ids and s.multiplexer_ids[0] != 0 and hand):
-                continue
-            t.append(f"#define CAEKF_BITS_{m.name}_{s.name} {s.length}u")
-            if s.scale != 1:
-                t.append(f"#define CAEKF_SCALE_{m.name}_{s.name} {float(s.scale)!r}")
-            if hand:
-                t.append(f"#define CAEKF_FIELD_{m.name}_{s.name} {s.start}u, {s.length}u")
+            if s.name not in E2E_SIGNALS:
+                t.append(f"#define CAEKF_BITS_{m.name}_{s.name} {s.length}u")
+                if s.scale != 1:
+                    t.append(f"#define CAEKF_SCALE_{m.name}_{s.name} {float(s.scale)!r}")
     t += ["", "#endif", ""]
     return "\n".join(t)
 
