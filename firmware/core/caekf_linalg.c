@@ -265,7 +265,7 @@ caekf_la_status_t caekf_lu_factor_sized(caekf_scalar_t *a, int piv[], caekf_scal
 void caekf_lu_solve_sized(const caekf_scalar_t *lu, const int piv[], caekf_scalar_t *b, int nrhs, int ldb)
 {
     enum { n = CAEKF_SIZED_BODIES };
-    caekf_scalar_t inv_d[n]; /* each column's 1 / u_ii, computed once */
+    caekf_scalar_t inv_d[CAEKF_SIZED_BODIES]; /* each column's 1 / u_ii, computed once */
     int i, s, c;
     CAEKF_UNROLL_SIZED
     for (i = 0; i < n; ++i) {

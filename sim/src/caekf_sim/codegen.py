@@ -157,6 +157,7 @@ def frames_table(db: Any, banner: str) -> str:
     generic value frames, each signal's length and LSB."""
     names = layouts(db)
     msgs = list(db.messages)
+    cnt = counters(db)
     rows, values = [], []
     for m in msgs:
         layout = layout_of(m, names)
@@ -172,10 +173,10 @@ def frames_table(db: Any, banner: str) -> str:
          "/* caekf_msg_info_t rows in caekf_msg_t order: name, CAN ID, E2E data ID, layout, direction, length, the",
          " * value LSB of an INT36 message. */", "#define CAEKF_MSG_TABLE_ROWS \\"]
     t += rows + ["", "", "/* The counters' names, in caekf_counter_id_t order. */", "#define CAEKF_COUNTER_NAMES \\"]
-    t += [f'    "{n}", \\' for n in counters(db)] + ["", ""]
+    t += [f'    "{n}", \\' for n in cnt] + ["", ""]
     t += ["/* X(its field in the generated EST_HEALTH struct) for every counter, in caekf_counter_id_t order. */",
           "#define CAEKF_COUNTER_FIELDS(X) \\"]
-    t += [f"    X({c_name(n)}) \\" for n in counters(db)] + ["", ""]
+    t += [f"    X({c_name(n)}) \\" for n in cnt] + ["", ""]
     t += ["/* X(message, its name in the cantools code, its value signal's, int (INT36) or float (FLOAT32)) for",
           " * every generic value frame. */", "#define CAEKF_VALUE_MESSAGES(X) \\"]
     t += values + ["", ""]
