@@ -155,3 +155,28 @@ def test_the_default_configuration_sizes_a_build_for_the_recommended_estimator()
     fixture = codegen.c_fixture(schema.SCHEMA, SCENARIOS / "paper-joint.toml")["caekf_fixture_settings.h"]
     assert "caekf_paper_joint_params[] = {" in fixture
     assert "#define caekf_scenario_params caekf_paper_joint_params" in fixture
+
+
+def test_flags_are_generated_once_and_their_bits_checked(tmp_path):
+    """The [[flag]] entries give the C enum and caekf_flag_name's table; no hand-written C names a flag's bit,
+    and the loader refuses a core bit given twice or out of the dense 0..count-1."""
+    import re
+
+    files = codegen.c_core(schema.SCHEMA)
+    core = sorted(schema.SCHEMA.core_flags, key=lambda f: f.bit)
+    enum = re.findall(r"CAEKF_FLAG_(\w+) = 1u << (\d+)", files["caekf/caekf_flags.h"])
+    assert enum == [(f.name.upper(), str(f.bit)) for f in core]
+    assert f"#define CAEKF_FLAG_COUNT {len(core)}" in files["caekf/caekf_flags.h"]
+    names = files["caekf_settings_names.c"].split("flag_names[CAEKF_FLAG_COUNT] = {")[1].split("};")[0]
+    assert re.findall(r'"(\w+)"', names) == [f.name for f in core]
+    for src in list((REPO / "firmware").rglob("*.[ch]")):
+        assert not re.search(r"CAEKF_FLAG_\w+ = ", src.read_text()), src
+    text = codegen.SCHEMA_PATH.read_text()
+    for old, new, match in (('name = "input_rejected"\nbit = 1\n', 'name = "input_rejected"\nbit = 0\n', "twice"),
+                            ('name = "gamma_gated"\nbit = 11\n', 'name = "gamma_gated"\nbit = 12\n', "dense"),
+                            ('name = "non_finite"\nbit = 16\n', 'name = "non_finite"\nbit = 15\n', "reference")):
+        assert old in text, old
+        p = tmp_path / "s.toml"
+        p.write_text(text.replace(old, new, 1))
+        with pytest.raises(codegen.SchemaError, match=match):
+            codegen.load(p)

@@ -429,7 +429,7 @@ static void model_run_step(void)
     if (M.have_run && M.step != (uint16_t)(M.last_run + 1u)) {
         uint16_t missing = (uint16_t)(M.step - M.last_run - 1u);
         uint16_t k;
-        gap = (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
+        gap = (uint16_t)CAEKF_STEP_FLAGS_STEP_GAP;
         M.cnt[CAEKF_CNT_STEPS_SKIPPED] += missing;
         for (i = 0; i < (unsigned)CAEKF_MAX_INPUTS; ++i) {
             u[i] = (caekf_scalar_t)M.last_u[i];

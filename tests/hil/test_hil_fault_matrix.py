@@ -61,7 +61,6 @@ STORM_LEN = 40
 VALIDATE_ROWS = (3500, 12850)
 RECOVERY_WINDOW = 3000
 MIN_WINDOW = 1000  # rows an episode needs after it for its recovery to be asserted
-GATED = 1 << 11  # CAEKF_FLAG_GAMMA_GATED
 Q_TOL = 1e-7  # practical recovery: positions within sigma_r (1e-7 m) ...
 G_TOL = 1e-2  # ... and gamma within 1 % of the run without the episode
 ND_KINDS = ("bad_crc", "wrong_dlc", "unknown_id", "counter_jump", "duplicate", "nan_inf", "out_of_range")
@@ -232,7 +231,7 @@ def fault_run(bench, sc, inputs):
                 episodes=episodes, storm_acks=storm_acks, acks_in_run=faults.count_acks(bench, rec.chunks),
                 validations=validations, inject_rows=inject_rows, elapsed=elapsed, params=params,
                 yp=faults.duplicate_completes_step(bench), inputs_per_step=len(bench.profile.input_messages),
-                # STEP_GAP is an app flag (bit 13): every step in diagnostics (EST_STEP) and fd (EST_FD); production
+                # STEP_GAP is an app flag (the DBC's): every step in diagnostics (EST_STEP) and fd (EST_FD); production
                 # carries it on EST_PAGE page 10 only (EST_PROD has the estimator's bits 0..11)
                 gap_every_step=_flags_bits(bench) > 13, closing=bench.profile.closing)
 
@@ -323,7 +322,9 @@ COLUMNS = ("q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "gamma", "p_norm", "p
 
 @pytest.fixture(scope="module")
 def matrix(fault_run, binaries, inputs, out_dir, bench):
-    from caekf_sim.bench.results import CORE_FLAG_MASK, value_ratios
+    from caekf_sim import flags
+    from caekf_sim.bench.codec import step_flags
+    from caekf_sim.bench.results import value_ratios
 
     fr = fault_run
     dec = fr["dec"]
@@ -335,11 +336,11 @@ def matrix(fault_run, binaries, inputs, out_dir, bench):
     r = np.where((answered & ~fr["lost"])[:, None], r, 0.0)
     ratio, pr = r[:, :9].max(axis=1), r[:, 9:]
     fl = dec.columns["flags"].astype(np.int64)
-    flags_bad = int(np.sum((fl[answered] & CORE_FLAG_MASK) != (ref_flags[answered] & CORE_FLAG_MASK)))
+    flags_bad = int(np.sum((fl[answered] & flags.CORE_MASK) != (ref_flags[answered] & flags.CORE_MASK)))
     it_rows = answered & dec.carried.get("newton_iters", answered)
     iters_bad = int(np.sum(dec.columns["newton_iters"][it_rows].astype(np.int64)
                            != np.clip(ref_iters[it_rows], 0, 255)))
-    gap_rows = answered & ((fl & (1 << 13)) != 0)
+    gap_rows = answered & ((fl & step_flags()["STEP_GAP"]) != 0)
     gap_flagged = int(gap_rows.sum())
     # STEP_GAP belongs on the first estimate after each run of lost steps (adjacent episodes merge into one
     # run), unless a reset came in between (the app then forgets the step history)
@@ -347,7 +348,7 @@ def matrix(fault_run, binaries, inputs, out_dir, bench):
     after_loss[1:] = fr["lost"][:-1] & ~fr["lost"][1:]
     after_loss[list(fr["seg_starts"])] = False
     gap_expected = after_loss & answered
-    gated = answered & ((fl & GATED) != 0)
+    gated = answered & ((fl & flags.GAMMA_GATED) != 0)
 
     # per destructive episode, sampled: recovery against the counterfactual without it
     rec_rows = {}

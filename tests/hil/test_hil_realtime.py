@@ -19,12 +19,12 @@ import pytest
 from hilcfg import SCENARIO, report
 
 SECONDS = 10.0
-STEP_GAP = 1 << 13
 
 
 @pytest.mark.parametrize("rate_hz", [1000, 500])
 def test_realtime_pacing(bench, sc, inputs, binaries, out_dir, rate_hz):
     from caekf_sim.bench import latency_stats
+    from caekf_sim.bench.codec import step_flags
     from caekf_sim.bench.realtime import format_paced, paced_stats
     from caekf_sim.bench.results import (aligned_result, compare_with_replay, estimated_rows, format_latency,
                                          health_delta, replay_estimated)
@@ -46,7 +46,7 @@ def test_realtime_pacing(bench, sc, inputs, binaries, out_dir, rate_hz):
     got = dec.complete
     for col, v in dec.columns.items():
         assert np.all(np.isfinite(v[got])), col
-    gaps = np.flatnonzero(got & (dec.columns["flags"].astype(np.int64) & STEP_GAP != 0))
+    gaps = np.flatnonzero(got & (dec.columns["flags"].astype(np.int64) & step_flags()["STEP_GAP"] != 0))
     if len(gaps):
         report(f"realtime {rate_hz} Hz: {len(gaps)} step gaps (first at row {gaps[0]}): the replay bridges them "
                "with prediction-only steps as the app does")

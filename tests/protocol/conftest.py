@@ -49,10 +49,14 @@ def dump(tmp_path_factory):
     cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
     if cc is None:
         pytest.skip("no C compiler and CAEKF_PROTO_DUMP not set")
-    out = tmp_path_factory.mktemp("proto_dump") / "caekf_proto_dump"
+    work = tmp_path_factory.mktemp("proto_dump")
+    out = work / "caekf_proto_dump"
     proto = REPO / "firmware" / "protocol"
-    sources = sorted(str(p) for d in ("src", "gen") for p in (proto / d).glob("*.c"))
-    subprocess.run([cc, "-std=c99", "-O1", "-Wall", "-Wextra", "-Werror", "-I", str(proto / "include"),
-                    "-I", str(proto / "gen"), str(Path(__file__).with_name("proto_dump.c")), *sources, "-o", str(out)],
-                   check=True)
+    from caekf_sim import codegen  # the C of caekf.dbc, as the build generates it
+
+    codegen.write(work / "gen")
+    sources = sorted(str(p) for d in (proto / "src", work / "gen" / "src") for p in d.glob("*.c"))
+    includes = [f"-I{d}" for d in (proto / "include", proto / "src", work / "gen" / "include", work / "gen" / "src")]
+    subprocess.run([cc, "-std=c99", "-O1", "-Wall", "-Wextra", "-Werror", *includes,
+                    str(Path(__file__).with_name("proto_dump.c")), *sources, "-o", str(out)], check=True)
     return Dump(str(out))

@@ -488,3 +488,25 @@ def test_fd_out_frame(db, dump):
         assert [float.fromhex(v) for v in f[2:13]] == [ref[n] for n in names + ("P_NORM", "P_GAMMA_GAMMA")]
         assert (int(f[13]), int(f[14]), int(f[15])) == (ref["FLAGS"], ref["NEWTON_ITERS"], ref["STEP_STATUS"])
     assert msg.length == 64
+
+
+def test_named_bits_come_from_the_dbc_and_are_checked(tmp_path):
+    """EST_STEP.FLAGS' application bits and EST_ACK.STATE's bits are the DBC's CaekfBits attribute: the generated
+    header defines them, and a bit given twice or beyond its signal fails the generation naming the signal."""
+    from caekf_sim import codegen
+
+    text = codegen.default_dbc().read_text(encoding="utf-8")
+    header = codegen.generate()[codegen.FRAMES_HEADER]
+    db = codegen.load()
+    for msg, sig, prefix in (("EST_STEP", "FLAGS", "CAEKF_STEP_FLAGS_"), ("EST_ACK", "STATE", "CAEKF_ACK_STATE_")):
+        bits = codegen.named_bits(db.get_message_by_name(msg).get_signal_by_name(sig))
+        assert bits
+        for name, bit in bits.items():
+            assert f"#define {prefix}{name} (1u << {bit})" in header
+    old = 'BA_ "CaekfBits" SG_ 395 FLAGS "12 SATURATED,13 STEP_GAP,14 PNORM_UNAVAILABLE";'
+    assert old in text
+    for new in (old.replace("13 STEP_GAP", "12 STEP_GAP"), old.replace("14 PNORM", "16 PNORM")):
+        bad = tmp_path / "bad.dbc"
+        bad.write_text(text.replace(old, new, 1), encoding="utf-8")
+        with pytest.raises(ValueError, match="FLAGS"):
+            codegen.generate(bad)

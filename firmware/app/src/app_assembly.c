@@ -130,7 +130,7 @@ static void run_step(caekf_app_t *app)
          * (input held), or the time shift against the truth would be blamed on gamma in contact. */
         uint16_t missing = (uint16_t)(step - app->last_run_step - 1u);
         uint16_t k;
-        app_flags |= (uint16_t)CAEKF_STEP_FLAG_STEP_GAP;
+        app_flags |= (uint16_t)CAEKF_STEP_FLAGS_STEP_GAP;
         caekf_app_count(app, CAEKF_CNT_STEPS_SKIPPED, missing);
         for (i = 0; i < (unsigned)CAEKF_MAX_INPUTS; i++) {
             u[i] = (caekf_scalar_t)app->last_u[i];

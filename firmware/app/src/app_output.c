@@ -9,14 +9,17 @@
 
 #include "app_internal.h"
 
-/* The estimator's flags share EST_STEP.FLAGS with the app's bits from 12 up. */
-CAEKF_STATIC_ASSERT(CAEKF_FLAG_COUNT <= 12 && CAEKF_STEP_FLAG_SATURATED == (1u << 12), core_flags_fit_below_app_flags);
+/* The estimator's flags (the schema's) share EST_STEP.FLAGS with the app's named bits (the DBC's) above them,
+ * and EST_PROD.FLAGS carries all of the estimator's. */
+CAEKF_STATIC_ASSERT((CAEKF_STEP_FLAGS_NAMED & ((1u << CAEKF_FLAG_COUNT) - 1u)) == 0u, core_flags_fit_below_app_flags);
+CAEKF_STATIC_ASSERT((((1u << CAEKF_FLAG_COUNT) - 1u) & ~CAEKF_PROD_FLAGS_MASK) == 0u,
+                    production_carries_every_core_flag);
 
 static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double value, uint16_t *app_flags)
 {
     caekf_can_frame_t f;
     if (caekf_proto_encode_value(msg, step, value, f.data) == CAEKF_PROTO_SATURATED) {
-        *app_flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
+        *app_flags |= (uint16_t)CAEKF_STEP_FLAGS_SATURATED;
         caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
     }
     caekf_app_send(app, msg, &f);
@@ -83,7 +86,7 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
     pm.gamma = wire_value(app, x, 2u * WIRE_BODIES);
     if (caekf_proto_encode_prod(&pm, f.data) == CAEKF_PROTO_SATURATED) {
         caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
-        app_flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
+        app_flags |= (uint16_t)CAEKF_STEP_FLAGS_SATURATED;
     }
     caekf_app_send(app, CAEKF_MSG_EST_PROD, &f);
 
@@ -110,7 +113,7 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
         pg.value = wire_p_gg(app);
     } else {
         if (caekf_get_cov_norm2(&app->est, &p_norm) != CAEKF_OK) {
-            app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
+            app_flags |= (uint16_t)CAEKF_STEP_FLAGS_PNORM_UNAVAILABLE;
         }
         pg.info = step_info(step, status, report, app_flags);
     }
@@ -130,7 +133,7 @@ static double full_estimate(caekf_app_t *app, caekf_scalar_t x[CAEKF_N], uint16_
     if (caekf_get_cov_norm2(&app->est, &p_norm) == CAEKF_OK) {
         return (double)p_norm;
     }
-    *app_flags |= (uint16_t)CAEKF_STEP_FLAG_PNORM_UNAVAILABLE;
+    *app_flags |= (uint16_t)CAEKF_STEP_FLAGS_PNORM_UNAVAILABLE;
     return (double)NAN;
 }
 
@@ -151,7 +154,7 @@ static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, cons
     m.info = step_info(step, status, report, app_flags);
     if (caekf_proto_encode_fd_out(&m, f.data) == CAEKF_PROTO_SATURATED) {
         caekf_app_count(app, CAEKF_CNT_TX_SATURATED, 1u);
-        m.info.flags |= (uint16_t)CAEKF_STEP_FLAG_SATURATED;
+        m.info.flags |= (uint16_t)CAEKF_STEP_FLAGS_SATURATED;
         (void)caekf_proto_encode_fd_out(&m, f.data);
     }
     caekf_app_send(app, CAEKF_MSG_EST_FD, &f);

@@ -17,7 +17,8 @@
 
 #include "caekf/caekf_config.h"
 #include "caekf/caekf_model.h"
-#include "caekf/caekf_settings_schema.h" /* generated from the settings schema at build time */
+#include "caekf/caekf_flags.h"           /* generated from the settings schema at build time */
+#include "caekf/caekf_settings_schema.h" /* generated too */
 
 #ifdef __cplusplus
 extern "C" {
@@ -34,22 +35,8 @@ typedef enum {
     CAEKF_ERR_SINGULAR = -6  /* a linear solve met a (numerically) singular matrix */
 } caekf_status_t;
 
-/* Health flags of one step (bit mask, PX4-style). Several may be set at once. */
-enum {
-    CAEKF_FLAG_NEWTON_NOT_CONVERGED = 1u << 0, /* Newton hit its iteration bound or a singular Jacobian */
-    CAEKF_FLAG_INPUT_REJECTED = 1u << 1,       /* non-finite u or y: the step was refused */
-    CAEKF_FLAG_CONSTRAINT_APPLIED = 1u << 2,   /* a parameter left its bounds after correction: eqs. 28-30 */
-    CAEKF_FLAG_CONTACT_ACTIVE = 1u << 3,       /* predicted penetration delta(x_k-) > 0 (eq. 21) */
-    CAEKF_FLAG_COV_REPAIRED = 1u << 4,         /* P had lost positive semidefiniteness and was repaired */
-    CAEKF_FLAG_SINGULAR_INNOVATION = 1u << 5,  /* an innovation covariance was refused as singular */
-    CAEKF_FLAG_CONSTRAINT_CLAMPED = 1u << 6,   /* perfect measurement refused: gamma clamped (fallback) */
-    CAEKF_FLAG_NUMERIC_ROLLBACK = 1u << 7,     /* non-finite result: the step was rolled back */
-    CAEKF_FLAG_GAMMA_FROZEN = 1u << 8,         /* switched mode, contact inactive: gamma frozen */
-    CAEKF_FLAG_COV_INDEFINITE = 1u << 9,       /* P failed the PSD test (repaired only if enabled) */
-    CAEKF_FLAG_NO_MEASUREMENT = 1u << 10,      /* caekf_predict: time update only, no correction */
-    CAEKF_FLAG_GAMMA_GATED = 1u << 11          /* innovation above gamma_gate_nis: gamma held this step */
-};
-#define CAEKF_FLAG_COUNT 12
+/* The health flags of one step, CAEKF_FLAG_* (a bit mask, PX4-style), are generated from the schema
+ * into caekf/caekf_flags.h. */
 
 /* caekf_settings_t (the model first, then the estimator's settings) and the enums of its settings
  * (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t) are generated from the settings schema into
@@ -261,8 +248,8 @@ caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_
  * scratch buffers, hence the non-const instance; the estimate is not changed. */
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2);
 
-/* Names of a status and of a flag bit: in the names library (<core>_names, caekf_names.c) with the
- * settings' names, so the estimator carries no strings. */
+/* Names of a status and of a flag bit: in the names library (<core>_names: caekf_names.c, and the
+ * generated caekf_settings_names.c with the settings' names), so the estimator carries no strings. */
 const char *caekf_status_str(caekf_status_t st);
 const char *caekf_flag_name(unsigned bit_index);
 

@@ -101,6 +101,26 @@ def counters(db: Any) -> List[str]:
     return [f[2] for f in fields]
 
 
+def named_bits(sig: Any) -> Dict[str, int]:
+    """A signal's named bits, its CaekfBits attribute ("12 SATURATED,13 STEP_GAP"): name -> bit (checked: distinct
+    names and bits, within the signal)."""
+    attr = sig.dbc.attributes.get("CaekfBits") if sig.dbc else None
+    bits: Dict[str, int] = {}
+    for item in (attr.value.split(",") if attr is not None and attr.value else []):
+        m = re.fullmatch(r"\s*(\d+)\s+([A-Z][A-Z0-9_]*)\s*", item)
+        if m is None or m.group(2) in bits or int(m.group(1)) in bits.values() or int(m.group(1)) >= sig.length:
+            raise ValueError(f"{sig.name}: CaekfBits item {item!r} is not '<bit> <NAME>', distinct, within "
+                             f"{sig.length} bits")
+        bits[m.group(2)] = int(m.group(1))
+    return bits
+
+
+def _short(msg: Any) -> str:
+    """A message's name in the constants of its signals: EST_STEP -> STEP."""
+    name = str(msg.name)
+    return name[len("EST_"):] if name.startswith("EST_") else name
+
+
 def _comment(text: str) -> str:
     first = text.split(". ")[0].rstrip(".").replace("*/", "* /")
     return f" /* {first} */"
@@ -124,13 +144,24 @@ def frames_header(db: Any, banner: str) -> str:
     h += [f"#define CAEKF_MSG_LEN_{m.name} {m.length}u" for m in msgs]
     h += ["", "/* EST_ACK.ACK_STATUS (its value table). */", "typedef enum {"]
     h += [f"    CAEKF_ACK_{str(name)} = {int(v)}," for v, name in ack.items()]
-    h += ["} caekf_ack_status_t;", "",
-          "/* EST_HEALTH's counters: page p carries counters 2p and 2p + 1. */", "typedef enum {"]
+    h += ["} caekf_ack_status_t;", ""]
+    bad = {str(n): int(v) for v, n in db.get_message_by_name("EST_ACK").get_signal_by_name("BAD_PARAM").choices.items()}
+    h += [f"#define CAEKF_ACK_BAD_PARAM_NONE {bad['NONE']}u /* EST_ACK.BAD_PARAM: no offending setting */", ""]
+    for m in msgs:  # the signals' named bits (their CaekfBits attribute)
+        for sig in m.signals:
+            bits = named_bits(sig)
+            if bits:
+                h.append(f"/* {m.name}.{sig.name}'s named bits (its CaekfBits attribute). */")
+                h += [f"#define CAEKF_{_short(m)}_{sig.name}_{n} (1u << {b})" for n, b in bits.items()]
+                mask = sum(1 << b for b in bits.values())
+                h += [f"#define CAEKF_{_short(m)}_{sig.name}_NAMED 0x{mask:X}u /* all of them */", ""]
+    h += ["/* EST_HEALTH's counters: page p carries counters 2p and 2p + 1. */", "typedef enum {"]
     h += [f"    CAEKF_CNT_{n} = {i}," for i, n in enumerate(cnt)]
     health_bits = db.get_message_by_name("EST_HEALTH").get_signal_by_name(cnt[0]).length
     h += ["    CAEKF_CNT_COUNT", "} caekf_counter_id_t;",
           f"#define CAEKF_HEALTH_COUNTER_MASK 0x{(1 << health_bits) - 1:X}u"
           f" /* counters travel modulo 2^{health_bits} */",
+          f"#define CAEKF_HEALTH_PAGES {len(cnt) // 2}u /* EST_HEALTH's pages */",
           ""]
     yp, prod = db.get_message_by_name("BENCH_YP").get_signal_by_name("Y1"), db.get_message_by_name("EST_PROD")
     page = db.get_message_by_name("EST_PAGE")

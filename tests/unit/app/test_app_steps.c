@@ -202,9 +202,9 @@ static void test_step_gap_is_flagged_and_counted_but_the_16_bit_wrap_is_not_a_ga
     bench_step(&fake, 3, 0.0, 0.0, 0.0);
     fixture_poll_all();
     TEST_ASSERT_EQUAL_UINT32(4, counter(CAEKF_CNT_STEPS_DONE));
-    TEST_ASSERT_EQUAL_HEX16(0, tx_step(1).flags & CAEKF_STEP_FLAG_STEP_GAP);
-    TEST_ASSERT_EQUAL_HEX16(0, tx_step(2).flags & CAEKF_STEP_FLAG_STEP_GAP);
-    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAG_STEP_GAP, tx_step(3).flags & CAEKF_STEP_FLAG_STEP_GAP);
+    TEST_ASSERT_EQUAL_HEX16(0, tx_step(1).flags & CAEKF_STEP_FLAGS_STEP_GAP);
+    TEST_ASSERT_EQUAL_HEX16(0, tx_step(2).flags & CAEKF_STEP_FLAGS_STEP_GAP);
+    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAGS_STEP_GAP, tx_step(3).flags & CAEKF_STEP_FLAGS_STEP_GAP);
     TEST_ASSERT_EQUAL_UINT32(2, counter(CAEKF_CNT_STEPS_SKIPPED));
 }
 
@@ -245,7 +245,7 @@ static void test_step_gap_is_bridged_by_prediction_only_steps(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&ref, x));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&naive, xn));
     TEST_ASSERT_EQUAL_UINT32(5, counter(CAEKF_CNT_STEPS_SKIPPED));
-    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAG_STEP_GAP, tx_step(1).flags & CAEKF_STEP_FLAG_STEP_GAP);
+    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAGS_STEP_GAP, tx_step(1).flags & CAEKF_STEP_FLAGS_STEP_GAP);
     for (k = 0; k < 4; k++) {
         TEST_ASSERT_TRUE(wire(CAEKF_MSG_EST_Q1, (double)x[k]) ==
                          tx_value((caekf_msg_t)(CAEKF_MSG_EST_Q1 + k), 1, NULL));
@@ -368,7 +368,7 @@ static void test_out_of_range_estimate_is_saturated_and_flagged(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_configure(&app, &s, NULL));
     bench_step(&fake, 1, 0.0, 0.0, 0.0);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAG_SATURATED, tx_step(0).flags & CAEKF_STEP_FLAG_SATURATED);
+    TEST_ASSERT_EQUAL_HEX16(CAEKF_STEP_FLAGS_SATURATED, tx_step(0).flags & CAEKF_STEP_FLAGS_SATURATED);
     TEST_ASSERT_TRUE(counter(CAEKF_CNT_TX_SATURATED) >= 1u);
     TEST_ASSERT_TRUE(tx_value(CAEKF_MSG_EST_Q2, 0, NULL) > 0.0343);
 }

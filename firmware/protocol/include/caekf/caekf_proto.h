@@ -12,7 +12,6 @@
 #include <stdint.h>
 
 #include "caekf/caekf_proto_frames.h" /* generated from caekf.dbc at build time */
-#include "caekf/caekf_proto_ids.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -93,7 +92,7 @@ caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t dat
 
 typedef struct {
     uint16_t step;
-    uint16_t flags; /* CAEKF_FLAG_* | CAEKF_STEP_FLAG_* */
+    uint16_t flags; /* CAEKF_FLAG_* | CAEKF_STEP_FLAGS_* */
     uint8_t newton_iters;
     int8_t status; /* caekf_status_t of the step */
 } caekf_msg_step_t;

@@ -13,6 +13,7 @@ the SocketCAN fast path moves them without conversion; the python-can path conve
 """
 from __future__ import annotations
 
+import functools
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +22,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Uni
 import numpy as np
 
 from .. import schema
+from ..codegen import named_bits
 from . import e2e
 
 PathLike = Union[str, Path]
@@ -58,6 +60,12 @@ def default_dbc_path() -> Path:
     (caekf_sim/data/caekf.dbc, sim/CMakeLists.txt)."""
     src = Path(__file__).resolve().parents[4] / "firmware" / "protocol" / "caekf.dbc"
     return src if src.is_file() else Path(__file__).resolve().parents[1] / "data" / "caekf.dbc"
+
+
+@functools.lru_cache(maxsize=1)
+def step_flags() -> Dict[str, int]:
+    """EST_STEP.FLAGS' application bits of the default DBC, name -> mask (Codec.step_flags of any DBC)."""
+    return dict(Codec().step_flags)
 
 
 @dataclass(frozen=True)
@@ -137,6 +145,9 @@ class Codec:
         self.param_ids = self._choices("CTRL_PARAM", "PARAM_ID")
         self.ack_status_names = {v: k for k, v in self._choices("EST_ACK", "ACK_STATUS").items()}
         self.step_status_names = {v: k for k, v in self._choices("EST_STEP", "STEP_STATUS").items()}
+        # EST_STEP.FLAGS' application bits (the DBC's CaekfBits attribute) as name -> mask
+        self.step_flags = {n: 1 << b for n, b in
+                           named_bits(self.db.get_message_by_name("EST_STEP").get_signal_by_name("FLAGS")).items()}
         health = self.db.get_message_by_name("EST_HEALTH")
         pages = sorted((s.multiplexer_ids[0], s.start, s.name) for s in health.signals if s.multiplexer_ids)
         self.counter_names: List[str] = [name for _, _, name in pages]

@@ -12,17 +12,15 @@ import numpy as np
 from .. import flags as fl
 from ..estimator import EstimateResult
 from .bench import Ack, Decoded, RunRecord, StepInputs, latency_stats
-from .codec import Codec
+from .codec import Codec, step_flags
 from .profiles import DIAGNOSTICS, Profile
 
 PathLike = Union[str, Path]
 COUNTER_MOD = 1 << 24
-APP_FLAGS = {1 << 12: "saturated", 1 << 13: "step_gap", 1 << 14: "p_norm_unavailable"}
 # EST_HEALTH counters that mean something went wrong on the bus or in the estimator
 ERROR_COUNTERS = ("RX_UNKNOWN_ID", "RX_BAD_DLC", "RX_BAD_CRC", "RX_COUNTER_JUMP", "RX_DUPLICATE", "RX_LOST",
                   "RX_BAD_VALUE", "RX_UNCONFIGURED", "RX_LATE", "RX_REPEATED", "RX_HAL_ERROR", "STEPS_FAILED",
                   "STEPS_TIMED_OUT", "STEPS_SUPERSEDED", "STEPS_SKIPPED", "TX_ERRORS", "TX_SATURATED")
-CORE_FLAG_MASK = 0x0FFF
 
 
 def estimate_result(dec: Decoded, t: np.ndarray, wall_time: float = float("nan")) -> EstimateResult:
@@ -47,7 +45,7 @@ def health_delta(before: Dict[str, int], after: Dict[str, int]) -> Dict[str, int
 
 
 def describe_flags(bits: int) -> str:
-    names = fl.describe(bits & CORE_FLAG_MASK) + [n for b, n in APP_FLAGS.items() if bits & b]
+    names = fl.describe(bits & fl.CORE_MASK) + [n.lower() for n, b in step_flags().items() if bits & b]
     return ",".join(names) or "-"
 
 
@@ -205,7 +203,6 @@ def run_c_replay(replay_bin: PathLike, scenario: PathLike, in_csv: PathLike, exp
 
 # --- steps the estimator never got: the app bridges them with prediction-only steps ------------------
 
-STEP_GAP = 1 << 13  # app flag on the first estimate after a gap
 MAX_GAP_PREDICT = 1000  # CAEKF_APP_MAX_GAP_PREDICT (firmware/app/include/caekf/caekf_app.h)
 STEP_MOD = 1 << 16
 
@@ -302,7 +299,7 @@ def estimated_rows(dec: Decoded) -> np.ndarray:
     if len(ans) == 0:
         return ans
     est = have.copy()
-    gap = (np.asarray(dec.columns["flags"])[ans].astype(np.int64) & STEP_GAP) != 0
+    gap = (np.asarray(dec.columns["flags"])[ans].astype(np.int64) & step_flags()["STEP_GAP"]) != 0
     for j in range(1, len(ans)):
         a, b = ans[j - 1], ans[j]
         if b > a + 1 and not gap[j]:
@@ -404,8 +401,8 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
         return have if c is None else have & np.asarray(c[:rows], dtype=bool)
 
     fsel, isel = rows_of("flags"), rows_of("newton_iters")
-    fl_can = cols["flags"][:rows][fsel].astype(np.int64) & CORE_FLAG_MASK
-    fl_ref = ref.flags[:rows][fsel] & CORE_FLAG_MASK
+    fl_can = cols["flags"][:rows][fsel].astype(np.int64) & fl.CORE_MASK
+    fl_ref = ref.flags[:rows][fsel] & fl.CORE_MASK
     it_can = cols["newton_iters"][:rows][isel].astype(np.int64)
     it_ref = np.clip(ref.newton_iters[:rows][isel], 0, 255)
     for c in lacking:  # the replay has no such column: every CAN row of it counts as a mismatch

@@ -139,10 +139,31 @@ class Preset:
 
 
 @dataclass(frozen=True)
+class Flag:
+    name: str
+    bit: int
+    doc: str
+    layer: str = "core"  # core: the C estimator's report; reference: the numpy reference filter's only
+
+    @property
+    def mask(self) -> int:
+        return 1 << self.bit
+
+
+FLAG_LAYERS = ("core", "reference")
+WIRE_FLAG_BITS = 16  # EST_STEP.FLAGS: the core's bits below the application's, all within 16
+
+
+@dataclass(frozen=True)
 class Schema:
     settings: Tuple[Setting, ...]
     presets: Tuple[Preset, ...]
     capacity: Dict[str, int] = field(default_factory=dict)
+    flags: Tuple[Flag, ...] = ()
+
+    @property
+    def core_flags(self) -> List[Flag]:
+        return [f for f in self.flags if f.layer == "core"]
 
     def by_name(self, name: str) -> Setting:
         for s in self.settings:
@@ -260,7 +281,33 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
             if not st.check(vals[k]):
                 raise SchemaError(f"preset {pname}: {k} = {v}: {st.rule_text()}")
         presets.append(Preset(name=pname, doc=p["doc"], values=vals))
-    return Schema(settings=tuple(settings), presets=tuple(presets), capacity=capacity)
+    return Schema(settings=tuple(settings), presets=tuple(presets), capacity=capacity,
+                  flags=_load_flags(raw.get("flag", [])))
+
+
+def _load_flags(entries: List[Dict[str, Any]]) -> Tuple[Flag, ...]:
+    """The [[flag]] entries: unique names and bits; the core's dense from bit 0 and within the wire's
+    bits, the reference's above them."""
+    flags: List[Flag] = []
+    for entry in entries:
+        e = dict(entry)
+        f = Flag(name=e.pop("name"), bit=int(e.pop("bit")), doc=e.pop("doc"), layer=e.pop("layer", "core"))
+        if e:
+            raise SchemaError(f"flag {f.name}: unknown attributes {sorted(e)}")
+        if f.layer not in FLAG_LAYERS:
+            raise SchemaError(f"flag {f.name}: unknown layer {f.layer!r}")
+        if not re.fullmatch(r"[a-z][a-z0-9_]*", f.name):
+            raise SchemaError(f"flag {f.name!r}: a name is lower case, digits and _")
+        if any(g.name == f.name or g.bit == f.bit for g in flags):
+            raise SchemaError(f"flag {f.name}: name or bit {f.bit} given twice")
+        if (f.layer == "core") != (0 <= f.bit < WIRE_FLAG_BITS) or f.bit >= 32:
+            raise SchemaError(f"flag {f.name}: bit {f.bit}: the core's bits are 0..{WIRE_FLAG_BITS - 1}, "
+                              f"the reference's {WIRE_FLAG_BITS}..31")
+        flags.append(f)
+    core = sorted(f.bit for f in flags if f.layer == "core")
+    if core != list(range(len(core))):
+        raise SchemaError(f"the core's flag bits must be 0..{len(core) - 1}, dense (got {core})")
+    return tuple(flags)
 
 
 # ---- C --------------------------------------------------------------------------------------------
@@ -608,9 +655,27 @@ const char *caekf_param_key(unsigned param_id)
     return param_id < CAEKF_PARAM_COUNT ? param_keys[param_id] : 0;
 }
 """]
+    core = sorted(schema.core_flags, key=lambda f: f.bit)
+    n += ["static const char *const flag_names[CAEKF_FLAG_COUNT] = {"]
+    n += [f'    "{f.name}",' for f in core] + ["};", "", """const char *caekf_flag_name(unsigned bit_index)
+{
+    return bit_index < CAEKF_FLAG_COUNT ? flag_names[bit_index] : "unknown";
+}
+"""]
     return {"caekf/caekf_settings_schema.h": "\n".join(h), "caekf_settings_table.c": "\n".join(c),
-            "caekf/caekf_settings_types.h": c_types(schema),
+            "caekf/caekf_settings_types.h": c_types(schema), "caekf/caekf_flags.h": c_flags(schema),
             "caekf_settings_names.c": "\n".join(n), "caekf/caekf_capacity.h": c_capacity(schema, mechanism, preset)}
+
+
+def c_flags(schema: Schema) -> str:
+    """The estimator's health flags (caekf_report_t.flags): a bit mask, PX4-style."""
+    core = sorted(schema.core_flags, key=lambda f: f.bit)
+    h = [f"/* {GENERATED}. */", "#ifndef CAEKF_FLAGS_H", "#define CAEKF_FLAGS_H", "",
+         "/* Health flags of one step (caekf_report_t.flags; several may be set at once). */", "enum {"]
+    h += [f"    CAEKF_FLAG_{_macro(f.name)} = 1u << {f.bit}{',' if i + 1 < len(core) else ''} {_c_comment(f.doc)}"
+          for i, f in enumerate(core)]
+    h += ["};", f"#define CAEKF_FLAG_COUNT {len(core)}", "", "#endif", ""]
+    return "\n".join(h)
 
 
 def c_host(schema: Schema) -> Dict[str, str]:
