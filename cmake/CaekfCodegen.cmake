@@ -32,7 +32,7 @@ function(caekf_codegen target kind outdir)
     if(kind STREQUAL "c-core")
         set(outputs "${outdir}/caekf/caekf_settings_schema.h" "${outdir}/caekf_settings_table.c"
                     "${outdir}/caekf_settings_names.c" "${outdir}/caekf/caekf_capacity.h"
-                    "${outdir}/caekf/caekf_settings_types.h" "${outdir}/caekf/caekf_flags.h")
+                    "${outdir}/caekf/caekf_settings_types.h" "${outdir}/caekf/caekf_status.h")
         if(ARGC GREATER 3 AND NOT "${ARGV3}" STREQUAL "")
             set(args "${ARGV3}")
             list(APPEND deps "${ARGV3}")

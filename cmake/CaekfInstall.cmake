@@ -20,7 +20,7 @@ install(TARGETS ${_caekf_installed} EXPORT caekfTargets
         ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}"
         LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}"
         INCLUDES DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
-install(DIRECTORY "${PROJECT_SOURCE_DIR}/firmware/include/caekf" "${PROJECT_BINARY_DIR}/generated/core/caekf" # generated: caekf_settings_schema.h, caekf_settings_types.h, caekf_flags.h
+install(DIRECTORY "${PROJECT_SOURCE_DIR}/firmware/include/caekf" "${PROJECT_BINARY_DIR}/generated/core/caekf" # generated: caekf_settings_schema.h, caekf_settings_types.h, caekf_status.h
         DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}" FILES_MATCHING PATTERN "*.h")
 foreach(dir firmware/protocol firmware/app)
     if(EXISTS "${PROJECT_SOURCE_DIR}/${dir}/include/caekf")

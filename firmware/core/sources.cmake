@@ -11,7 +11,7 @@ set(CAEKF_CORE_SOURCES
 # Names of statuses, flags, settings and keys, and the text of a refusal: for hosts, logs and tools, in a library of their
 # own (<core>_names) so the estimator carries no strings. The text formats with snprintf, which would
 # pull newlib's allocator into an MCU image: hosts only.
-set(CAEKF_NAMES_SOURCES ${CMAKE_CURRENT_LIST_DIR}/caekf_names.c ${CAEKF_GEN_CORE}/caekf_settings_names.c)
+set(CAEKF_NAMES_SOURCES ${CAEKF_GEN_CORE}/caekf_settings_names.c)
 if(NOT CMAKE_CROSSCOMPILING)
     list(APPEND CAEKF_NAMES_SOURCES ${CMAKE_CURRENT_LIST_DIR}/caekf_settings_text.c)
 endif()

@@ -164,9 +164,9 @@ def test_flags_are_generated_once_and_their_bits_checked(tmp_path):
 
     files = codegen.c_core(schema.SCHEMA)
     core = sorted(schema.SCHEMA.core_flags, key=lambda f: f.bit)
-    enum = re.findall(r"CAEKF_FLAG_(\w+) = 1u << (\d+)", files["caekf/caekf_flags.h"])
+    enum = re.findall(r"CAEKF_FLAG_(\w+) = 1u << (\d+)", files["caekf/caekf_status.h"])
     assert enum == [(f.name.upper(), str(f.bit)) for f in core]
-    assert f"#define CAEKF_FLAG_COUNT {len(core)}" in files["caekf/caekf_flags.h"]
+    assert f"#define CAEKF_FLAG_COUNT {len(core)}" in files["caekf/caekf_status.h"]
     names = files["caekf_settings_names.c"].split("flag_names[CAEKF_FLAG_COUNT] = {")[1].split("};")[0]
     assert re.findall(r'"(\w+)"', names) == [f.name for f in core]
     for src in list((REPO / "firmware").rglob("*.[ch]")):
@@ -180,3 +180,27 @@ def test_flags_are_generated_once_and_their_bits_checked(tmp_path):
         p.write_text(text.replace(old, new, 1))
         with pytest.raises(codegen.SchemaError, match=match):
             codegen.load(p)
+
+
+def test_statuses_are_generated_once_into_c_and_the_dbc(tmp_path):
+    """The [[status]] entries give caekf_status_t, caekf_status_str's texts and every STEP_STATUS value table of
+    the DBC (kept by `codegen.py dbc`); the loader refuses a value out of 0, -1, -2, ..."""
+    import re
+
+    files = codegen.c_core(schema.SCHEMA)
+    enum = re.findall(r"CAEKF_(\w+) = (-?\d+)", files["caekf/caekf_status.h"].split("} caekf_status_t;")[0])
+    assert enum == [(st.name, str(st.value)) for st in schema.SCHEMA.statuses]
+    for st in schema.SCHEMA.statuses:
+        assert f'case CAEKF_{st.name}: return "{st.text}";' in files["caekf_settings_names.c"]
+    for src in list((REPO / "firmware").rglob("*.[ch]")):
+        assert not re.search(r"CAEKF_(OK|ERR_\w+) = ", src.read_text()), src
+    tables = re.findall(r"^VAL_ \d+ STEP_STATUS (.*) ;$", DBC.read_text(), flags=re.M)
+    assert len(tables) == 2
+    assert all(t == " ".join(f'{st.value} "{st.name}"' for st in schema.SCHEMA.statuses) for t in tables)
+    text = codegen.SCHEMA_PATH.read_text()
+    old = 'name = "ERR_INPUT"\nvalue = -4\n'
+    assert old in text
+    p = tmp_path / "s.toml"
+    p.write_text(text.replace(old, 'name = "ERR_INPUT"\nvalue = -7\n', 1))
+    with pytest.raises(codegen.SchemaError, match="expected -4"):
+        codegen.load(p)

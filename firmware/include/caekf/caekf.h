@@ -17,28 +17,16 @@
 
 #include "caekf/caekf_config.h"
 #include "caekf/caekf_model.h"
-#include "caekf/caekf_flags.h"           /* generated from the settings schema at build time */
-#include "caekf/caekf_settings_schema.h" /* generated too */
+#include "caekf/caekf_settings_schema.h" /* generated from the settings schema at build time */
+#include "caekf/caekf_status.h"          /* generated too */
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* Status of every public call (errno-like: 0 is success, negative is an error). */
-typedef enum {
-    CAEKF_OK = 0,
-    CAEKF_ERR_NULL = -1,     /* a required pointer was NULL */
-    CAEKF_ERR_SETTINGS = -2, /* settings refused by validation; nothing was changed */
-    CAEKF_ERR_NOT_INIT = -3, /* estimator not initialised */
-    CAEKF_ERR_INPUT = -4,    /* non-finite u or y rejected; state untouched */
-    CAEKF_ERR_NUMERIC = -5,  /* step produced a non-finite value; rolled back, state untouched */
-    CAEKF_ERR_SINGULAR = -6  /* a linear solve met a (numerically) singular matrix */
-} caekf_status_t;
-
-/* The health flags of one step, CAEKF_FLAG_* (a bit mask, PX4-style), are generated from the schema
- * into caekf/caekf_flags.h. */
-
-/* caekf_settings_t (the model first, then the estimator's settings) and the enums of its settings
+/* The status of every call (caekf_status_t: errno-like, 0 success, negative an error) and the health flags of
+ * one step (CAEKF_FLAG_*, a bit mask, PX4-style) are generated from the schema into caekf/caekf_status.h;
+ * caekf_settings_t (the model first, then the estimator's settings) and the enums of its settings
  * (caekf_mode_t, caekf_switchoff_t, caekf_cov_update_t) are generated from the settings schema into
  * caekf/caekf_settings_types.h (docs/settings.md lists them). */
 
@@ -248,8 +236,8 @@ caekf_status_t caekf_get_variances(const caekf_t *est, caekf_scalar_t var[CAEKF_
  * scratch buffers, hence the non-const instance; the estimate is not changed. */
 caekf_status_t caekf_get_cov_norm2(caekf_t *est, caekf_scalar_t *norm2);
 
-/* Names of a status and of a flag bit: in the names library (<core>_names: caekf_names.c, and the
- * generated caekf_settings_names.c with the settings' names), so the estimator carries no strings. */
+/* Names of a status and of a flag bit: in the names library (<core>_names: the generated
+ * caekf_settings_names.c, with the settings' names), so the estimator carries no strings. */
 const char *caekf_status_str(caekf_status_t st);
 const char *caekf_flag_name(unsigned bit_index);
 

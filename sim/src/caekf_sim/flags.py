@@ -1,5 +1,5 @@
 """Per-step health bits of the `flags` column, from the schema's [[flag]] entries (the C core's
-caekf/caekf_flags.h is generated from the same entries).
+caekf/caekf_status.h is generated from the same entries).
 
 Bits this numpy reference never sets (it has no input screening, repair or rollback) keep their C
 meaning, so that CSVs from both sides read the same way. NON_FINITE is the reference's own

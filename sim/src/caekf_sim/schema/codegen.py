@@ -5,6 +5,8 @@ Run by CMake at build time (the outputs live in the build tree and are never edi
 
     codegen.py c-core   OUTDIR [MECH [PRESET]]
                                           caekf/caekf_settings_schema.h, caekf_settings_table.c,
+                                          caekf/caekf_status.h (statuses and flags),
+                                          caekf_settings_names.c (names of settings, flags, statuses),
                                           caekf/caekf_capacity.h (sized for MECH, a scenario, if given;
                                           with PRESET, a preset's name or `default` for
                                           the schema's defaults, also its step method)
@@ -12,9 +14,11 @@ Run by CMake at build time (the outputs live in the build tree and are never edi
                                           reader table, presets)
     codegen.py c-fixture OUTDIR SCENARIO  caekf_fixture_settings.h (a scenario's values as parameter
                                           ids, values and CTRL_PARAM mantissa/exponent, for tests)
-    codegen.py dbc DBC (--check|--write)  the DBC's PARAM_ID value table and range
+    codegen.py dbc DBC (--check|--write)  the DBC's PARAM_ID value table and range, its STEP_STATUS
+                                          value tables (the [[status]] entries)
 
-The committed DBC holds one generated line (VAL_ ... PARAM_ID); `dbc --check` fails when it is stale.
+The committed DBC holds generated lines (VAL_ ... PARAM_ID, VAL_ ... STEP_STATUS); `dbc --check` fails when
+one is stale.
 Standard library only (tomllib; tomli before Python 3.11), so CMake can run it without the venv. The Python
 package reads the schema with the same loader (caekf_sim.schema).
 """
@@ -150,6 +154,14 @@ class Flag:
         return 1 << self.bit
 
 
+@dataclass(frozen=True)
+class Status:
+    name: str  # CAEKF_<name>
+    value: int
+    text: str  # caekf_status_str
+    doc: str
+
+
 FLAG_LAYERS = ("core", "reference")
 WIRE_FLAG_BITS = 16  # EST_STEP.FLAGS: the core's bits below the application's, all within 16
 
@@ -160,6 +172,7 @@ class Schema:
     presets: Tuple[Preset, ...]
     capacity: Dict[str, int] = field(default_factory=dict)
     flags: Tuple[Flag, ...] = ()
+    statuses: Tuple[Status, ...] = ()
 
     @property
     def core_flags(self) -> List[Flag]:
@@ -282,7 +295,24 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
                 raise SchemaError(f"preset {pname}: {k} = {v}: {st.rule_text()}")
         presets.append(Preset(name=pname, doc=p["doc"], values=vals))
     return Schema(settings=tuple(settings), presets=tuple(presets), capacity=capacity,
-                  flags=_load_flags(raw.get("flag", [])))
+                  flags=_load_flags(raw.get("flag", [])), statuses=_load_statuses(raw.get("status", [])))
+
+
+def _load_statuses(entries: List[Dict[str, Any]]) -> Tuple[Status, ...]:
+    """The [[status]] entries: OK = 0 first, then the errors -1, -2, ... (dense), names upper case."""
+    out: List[Status] = []
+    for entry in entries:
+        e = dict(entry)
+        st = Status(name=e.pop("name"), value=int(e.pop("value")), text=e.pop("text"), doc=e.pop("doc"))
+        if e:
+            raise SchemaError(f"status {st.name}: unknown attributes {sorted(e)}")
+        if not re.fullmatch(r"[A-Z][A-Z0-9_]*", st.name) or '"' in st.text:
+            raise SchemaError(f"status {st.name!r}: a name is upper case, digits and _; a text has no quote")
+        if st.value != -len(out) or any(o.name == st.name for o in out):
+            raise SchemaError(f"status {st.name}: value {st.value}, expected {-len(out)} (OK = 0, then -1, -2, ...; "
+                              "names unique)")
+        out.append(st)
+    return tuple(out)
 
 
 def _load_flags(entries: List[Dict[str, Any]]) -> Tuple[Flag, ...]:
@@ -661,17 +691,25 @@ const char *caekf_param_key(unsigned param_id)
 {
     return bit_index < CAEKF_FLAG_COUNT ? flag_names[bit_index] : "unknown";
 }
-"""]
+""", "const char *caekf_status_str(caekf_status_t st)", "{", "    switch (st) {"]
+    n += [f'    case CAEKF_{st.name}: return "{st.text}";' for st in schema.statuses]
+    n += ['    default: return "unknown status";', "    }", "}", ""]
     return {"caekf/caekf_settings_schema.h": "\n".join(h), "caekf_settings_table.c": "\n".join(c),
-            "caekf/caekf_settings_types.h": c_types(schema), "caekf/caekf_flags.h": c_flags(schema),
+            "caekf/caekf_settings_types.h": c_types(schema), "caekf/caekf_status.h": c_status(schema),
             "caekf_settings_names.c": "\n".join(n), "caekf/caekf_capacity.h": c_capacity(schema, mechanism, preset)}
 
 
-def c_flags(schema: Schema) -> str:
-    """The estimator's health flags (caekf_report_t.flags): a bit mask, PX4-style."""
+def c_status(schema: Schema) -> str:
+    """The estimator's status codes (caekf_status_t) and health flags (caekf_report_t.flags, a bit mask,
+    PX4-style)."""
     core = sorted(schema.core_flags, key=lambda f: f.bit)
-    h = [f"/* {GENERATED}. */", "#ifndef CAEKF_FLAGS_H", "#define CAEKF_FLAGS_H", "",
-         "/* Health flags of one step (caekf_report_t.flags; several may be set at once). */", "enum {"]
+    last = len(schema.statuses) - 1
+    h = [f"/* {GENERATED}. */", "#ifndef CAEKF_STATUS_H", "#define CAEKF_STATUS_H", "",
+         "/* Status of every public call (errno-like: 0 is success, negative is an error). */", "typedef enum {"]
+    h += [f"    CAEKF_{st.name} = {st.value}{',' if i < last else ''} {_c_comment(st.doc)}"
+          for i, st in enumerate(schema.statuses)]
+    h += ["} caekf_status_t;", "",
+          "/* Health flags of one step (caekf_report_t.flags; several may be set at once). */", "enum {"]
     h += [f"    CAEKF_FLAG_{_macro(f.name)} = 1u << {f.bit}{',' if i + 1 < len(core) else ''} {_c_comment(f.doc)}"
           for i, f in enumerate(core)]
     h += ["};", f"#define CAEKF_FLAG_COUNT {len(core)}", "", "#endif", ""]
@@ -825,6 +863,11 @@ def dbc_update(schema: Schema, text: str) -> str:
     out, n = re.subn(r"^( SG_ PARAM_ID : \d+\|\d+@1\+ \(1,0\) )\[0\|\d+\]", lambda m: m.group(1) + rng, out, flags=re.M)
     if n != 1:
         raise SchemaError("the DBC has no PARAM_ID signal")
+    statuses = " ".join(f'{st.value} "{st.name}"' for st in schema.statuses)
+    out, n = re.subn(r"^VAL_ (\d+) STEP_STATUS .*;$", lambda m: f"VAL_ {m.group(1)} STEP_STATUS {statuses} ;", out,
+                     flags=re.M)
+    if n == 0:
+        raise SchemaError("the DBC has no 'VAL_ <id> STEP_STATUS' line")
     return out
 
 
