@@ -8,8 +8,9 @@
 #   caekf_codegen(<target> c-host    <outdir>)              scenario reader table and presets
 #   caekf_codegen(<target> c-fixture <outdir> <scenario>)   a scenario's values for tests
 #   caekf_codegen_dbc(<target> <outdir>)                    the C of the CAN database (caekf.dbc): the wire
-#                                                            enumerations in <outdir>/include (public), cantools'
-#                                                            pack/unpack and the message table in <outdir>/src
+#                                                            enumerations and the integer messages' structs in
+#                                                            <outdir>/include (public), cantools' pack/unpack, those
+#                                                            messages' codecs and the message table in <outdir>/src
 #                                                            (sim/src/caekf_sim/codegen.py)
 #
 # <target> is a custom target that the consumers add as a dependency.
@@ -69,7 +70,8 @@ function(caekf_codegen_dbc target outdir)
                             "run tools/bootstrap.sh first (it makes .venv)")
     endif()
     set(outputs "${outdir}/src/caekf_can.c" "${outdir}/src/caekf_can.h" "${outdir}/src/caekf_proto_frames_table.h"
-                "${outdir}/include/caekf/caekf_proto_frames.h")
+                "${outdir}/src/caekf_proto_messages.c" "${outdir}/include/caekf/caekf_proto_frames.h"
+                "${outdir}/include/caekf/caekf_proto_messages.h")
     add_custom_command(
         OUTPUT ${outputs}
         COMMAND "${CAEKF_PYTHON}" "${CAEKF_DBC_CODEGEN}" "${outdir}" "${CAEKF_DBC}"

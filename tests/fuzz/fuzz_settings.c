@@ -29,11 +29,11 @@ static void check_param_value(const caekf_msg_param_t *m)
 {
     double v = 0.0;
     const caekf_proto_status_t st = caekf_proto_param_value(m, &v);
-    const int usable = m->exp10 >= -22 && m->exp10 <= 22;
+    const int usable = m->param_exp10 >= -22 && m->param_exp10 <= 22;
     FZ_CHECK((st == CAEKF_PROTO_OK) == usable, "param_value: OK exactly for |exp10| <= 22");
     if (st == CAEKF_PROTO_OK) {
         char text[64];
-        snprintf(text, sizeof text, "%lde%d", (long)m->mantissa, (int)m->exp10);
+        snprintf(text, sizeof text, "%lde%d", (long)m->param_mantissa, (int)m->param_exp10);
         FZ_CHECK(isfinite(v), "param_value: finite");
         FZ_CHECK(v == strtod(text, NULL), "param_value: the correctly rounded decimal");
     }
@@ -69,7 +69,7 @@ static void set_one(caekf_settings_t *s, const uint8_t payload[CAEKF_CAN_DLC])
     memcpy(again, payload, sizeof again);
     FZ_CHECK(caekf_proto_encode_param(&m, again) == CAEKF_PROTO_OK, "encode_param of a decoded param");
     FZ_CHECK(caekf_proto_decode_param(again, &m2) == CAEKF_PROTO_OK, "decode_param of a re-encoded param");
-    FZ_CHECK(m2.param_id == m.param_id && m2.exp10 == m.exp10 && m2.mantissa == m.mantissa,
+    FZ_CHECK(m2.param_id == m.param_id && m2.param_exp10 == m.param_exp10 && m2.param_mantissa == m.param_mantissa,
              "decode(encode(decode(p))) == decode(p)");
     check_param_value(&m);
     if (caekf_proto_param_value(&m, &v) != CAEKF_PROTO_OK) {

@@ -144,12 +144,12 @@ static int run(char *line)
         m.step = (uint16_t)strtoul(a[1], NULL, 0);
         m.flags = (uint16_t)strtoul(a[2], NULL, 0);
         m.newton_iters = (uint8_t)strtoul(a[3], NULL, 0);
-        m.status = (int8_t)strtol(a[4], NULL, 0);
+        m.step_status = (int8_t)strtol(a[4], NULL, 0);
         print_hex(caekf_proto_encode_step(&m, d), d);
     } else if (strcmp(a[0], "dec_step") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
         caekf_msg_step_t m;
         int st = caekf_proto_decode_step(d, &m);
-        printf("%d %u %u %u %d\n", st, m.step, m.flags, m.newton_iters, m.status);
+        printf("%d %u %u %u %d\n", st, m.step, m.flags, m.newton_iters, m.step_status);
     } else if (strcmp(a[0], "enc_yp") == 0 && n == 4) {
         caekf_msg_yp_t m;
         m.step = (uint8_t)strtoul(a[1], NULL, 0);
@@ -178,12 +178,13 @@ static int run(char *line)
         m.info.step = m.step;
         m.info.flags = (uint16_t)strtoul(a[4], NULL, 0);
         m.info.newton_iters = (uint8_t)strtoul(a[5], NULL, 0);
-        m.info.status = (int8_t)strtol(a[6], NULL, 0);
+        m.info.step_status = (int8_t)strtol(a[6], NULL, 0);
         print_hex(caekf_proto_encode_page(&m, d), d);
     } else if (strcmp(a[0], "dec_page") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
         caekf_msg_page_t m;
         int st = caekf_proto_decode_page(d, &m);
-        printf("%d %u %u %a %u %u %d\n", st, m.page, m.step, m.value, m.info.flags, m.info.newton_iters, m.info.status);
+        printf("%d %u %u %a %u %u %d\n", st, m.page, m.step, m.value, m.info.flags, m.info.newton_iters,
+               m.info.step_status);
     } else if (strcmp(a[0], "enc_reset") == 0 && n == 3) {
         caekf_msg_reset_t m;
         m.n_params = (uint8_t)strtoul(a[1], NULL, 0);
@@ -196,8 +197,8 @@ static int run(char *line)
     } else if ((strcmp(a[0], "enc_param") == 0 || strcmp(a[0], "param_value") == 0) && n == 4) {
         caekf_msg_param_t m;
         m.param_id = (uint8_t)strtoul(a[1], NULL, 0);
-        m.exp10 = (int8_t)strtol(a[2], NULL, 0);
-        m.mantissa = strtoll(a[3], NULL, 0);
+        m.param_exp10 = (int8_t)strtol(a[2], NULL, 0);
+        m.param_mantissa = strtoll(a[3], NULL, 0);
         if (a[0][0] == 'e') {
             print_hex(caekf_proto_encode_param(&m, d), d);
         } else {
@@ -208,7 +209,7 @@ static int run(char *line)
     } else if (strcmp(a[0], "dec_param") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
         caekf_msg_param_t m;
         int st = caekf_proto_decode_param(d, &m);
-        printf("%d %u %d %lld\n", st, m.param_id, m.exp10, (long long)m.mantissa);
+        printf("%d %u %d %lld\n", st, m.param_id, m.param_exp10, (long long)m.param_mantissa);
     } else if (strcmp(a[0], "enc_status_req") == 0 && n == 2) {
         caekf_msg_status_req_t m;
         m.token = (uint8_t)strtoul(a[1], NULL, 0);
@@ -220,7 +221,7 @@ static int run(char *line)
     } else if (strcmp(a[0], "enc_ack") == 0 && n == 6) {
         caekf_msg_ack_t m;
         m.token = (uint8_t)strtoul(a[1], NULL, 0);
-        m.status = (int8_t)strtol(a[2], NULL, 0);
+        m.ack_status = (int8_t)strtol(a[2], NULL, 0);
         m.bad_param = (uint8_t)strtoul(a[3], NULL, 0);
         m.n_params_rx = (uint8_t)strtoul(a[4], NULL, 0);
         m.state = (uint8_t)strtoul(a[5], NULL, 0);
@@ -228,7 +229,7 @@ static int run(char *line)
     } else if (strcmp(a[0], "dec_ack") == 0 && n == 2 && payload_arg(a[1], d) == 0) {
         caekf_msg_ack_t m;
         int st = caekf_proto_decode_ack(d, &m);
-        printf("%d %u %d %u %u %u\n", st, m.token, m.status, m.bad_param, m.n_params_rx, m.state);
+        printf("%d %u %d %u %u %u\n", st, m.token, m.ack_status, m.bad_param, m.n_params_rx, m.state);
     } else if (strcmp(a[0], "enc_health") == 0 && n == 4) {
         caekf_msg_health_t m;
         m.page = (uint8_t)strtoul(a[1], NULL, 0);
@@ -298,7 +299,7 @@ static int run(char *line)
         m.p_gg = strtod(a[12], NULL);
         m.info.flags = (uint16_t)strtoul(a[13], NULL, 0);
         m.info.newton_iters = (uint8_t)strtoul(a[14], NULL, 0);
-        m.info.status = (int8_t)strtol(a[15], NULL, 0);
+        m.info.step_status = (int8_t)strtol(a[15], NULL, 0);
         print_hex_n(caekf_proto_encode_fd_out(&m, fd), fd, CAEKF_FD_OUT_LEN);
     } else if (strcmp(a[0], "dec_fd_out") == 0 && n == 2) {
         caekf_msg_fd_out_t m;
@@ -314,7 +315,7 @@ static int run(char *line)
         for (k = 0; k < 9; k++) {
             printf(" %a", m.x[k]);
         }
-        printf(" %a %a %u %u %d\n", m.p_norm, m.p_gg, m.info.flags, m.info.newton_iters, m.info.status);
+        printf(" %a %a %u %u %d\n", m.p_norm, m.p_gg, m.info.flags, m.info.newton_iters, m.info.step_status);
     } else if (strcmp(a[0], "seal_fd") == 0 && n == 4 && msg_by_name(a[1], &msg) == 0) {
         caekf_can_frame_t f;
         size_t len;

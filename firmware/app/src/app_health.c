@@ -8,7 +8,7 @@ void caekf_app_send_ack(caekf_app_t *app, uint8_t token, int8_t status, uint8_t 
     caekf_msg_ack_t a;
     caekf_can_frame_t f;
     a.token = token;
-    a.status = status;
+    a.ack_status = status;
     a.bad_param = bad_param;
     a.n_params_rx = n_params_rx;
     a.state =

@@ -64,9 +64,9 @@ static caekf_msg_step_t step_info(uint16_t step, caekf_status_t status, const ca
 {
     caekf_msg_step_t s;
     s.step = step;
-    s.flags = (uint16_t)((report->flags & 0x0FFFu) | app_flags);
+    s.flags = (uint16_t)((report->flags & ((1u << CAEKF_FLAG_COUNT) - 1u)) | app_flags);
     s.newton_iters = clamp_iters(report->newton_iters);
-    s.status = (int8_t)status;
+    s.step_status = (int8_t)status;
     return s;
 }
 

@@ -1,7 +1,6 @@
-/* Codec of the control frames: CTRL_RESET, CTRL_PARAM, CTRL_STATUS_REQ, EST_ACK, EST_HEALTH, on the C pack/unpack
- * that cantools generates from caekf.dbc at build time; here the ranges the frames refuse. One encode/decode
- * pair per message, each the same shape (deliberately, as the generated pack/unpack are one per message): the
- * API struct mapped onto the generated one, the status from codec_status.h. */
+/* Codec of the control frames beyond what the DBC generates (caekf_proto_messages.c: CTRL_RESET, CTRL_PARAM,
+ * CTRL_STATUS_REQ, EST_ACK): a CTRL_PARAM's value, and EST_HEALTH's pages of counters, on the C pack/unpack
+ * that cantools generates from caekf.dbc at build time. */
 #include <stddef.h>
 #include <string.h>
 
@@ -12,59 +11,6 @@
 
 #define EXP10_MAX 22 /* 10^22 is the largest power of ten a double holds exactly */
 
-caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_t data[CAEKF_CAN_DLC])
-{
-    struct caekf_can_ctrl_reset_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    memset(&g, 0, sizeof g);
-    g.n_params = m->n_params;
-    g.token = m->token;
-    return caekf_proto_packed(caekf_can_ctrl_reset_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
-}
-
-caekf_proto_status_t caekf_proto_decode_reset(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_reset_t *m)
-{
-    struct caekf_can_ctrl_reset_t g;
-    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_ctrl_reset_unpack(&g, data, CAEKF_CAN_DLC));
-    if (st == CAEKF_PROTO_OK) {
-        m->n_params = g.n_params;
-        m->token = g.token;
-    }
-    return st;
-}
-
-caekf_proto_status_t caekf_proto_encode_param(const caekf_msg_param_t *m, uint8_t data[CAEKF_CAN_DLC])
-{
-    const int64_t mant_max = (int64_t)(((uint64_t)1u << (CAEKF_BITS_CTRL_PARAM_PARAM_MANTISSA - 1u)) - 1u);
-    const int exp_max = (1 << (CAEKF_BITS_CTRL_PARAM_PARAM_EXP10 - 1u)) - 1;
-    struct caekf_can_ctrl_param_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    if (m->mantissa > mant_max || m->mantissa < -mant_max - 1 || m->exp10 > exp_max || m->exp10 < -exp_max - 1) {
-        return CAEKF_PROTO_ERR_RANGE;
-    }
-    memset(&g, 0, sizeof g);
-    g.param_id = m->param_id;
-    g.param_exp10 = m->exp10;
-    g.param_mantissa = m->mantissa;
-    return caekf_proto_packed(caekf_can_ctrl_param_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
-}
-
-caekf_proto_status_t caekf_proto_decode_param(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_param_t *m)
-{
-    struct caekf_can_ctrl_param_t g;
-    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_ctrl_param_unpack(&g, data, CAEKF_CAN_DLC));
-    if (st == CAEKF_PROTO_OK) {
-        m->param_id = g.param_id;
-        m->exp10 = g.param_exp10;
-        m->mantissa = g.param_mantissa;
-    }
-    return st;
-}
-
 caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double *value)
 {
     static const double powers_of_ten[EXP10_MAX + 1] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
@@ -73,66 +19,15 @@ caekf_proto_status_t caekf_proto_param_value(const caekf_msg_param_t *m, double 
     if (m == NULL || value == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    if (m->exp10 > EXP10_MAX || m->exp10 < -EXP10_MAX) {
+    if (m->param_exp10 > EXP10_MAX || m->param_exp10 < -EXP10_MAX) {
         return CAEKF_PROTO_ERR_VALUE;
     }
-    if (m->exp10 >= 0) {
-        *value = (double)m->mantissa * powers_of_ten[m->exp10];
+    if (m->param_exp10 >= 0) {
+        *value = (double)m->param_mantissa * powers_of_ten[m->param_exp10];
     } else {
-        *value = (double)m->mantissa / powers_of_ten[-m->exp10];
+        *value = (double)m->param_mantissa / powers_of_ten[-m->param_exp10];
     }
     return CAEKF_PROTO_OK;
-}
-
-caekf_proto_status_t caekf_proto_encode_status_req(const caekf_msg_status_req_t *m, uint8_t data[CAEKF_CAN_DLC])
-{
-    struct caekf_can_ctrl_status_req_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    memset(&g, 0, sizeof g);
-    g.token = m->token;
-    return caekf_proto_packed(caekf_can_ctrl_status_req_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
-}
-
-caekf_proto_status_t caekf_proto_decode_status_req(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_status_req_t *m)
-{
-    struct caekf_can_ctrl_status_req_t g;
-    const caekf_proto_status_t st =
-        CAEKF_PROTO_UNPACKED(m, data, caekf_can_ctrl_status_req_unpack(&g, data, CAEKF_CAN_DLC));
-    if (st == CAEKF_PROTO_OK) {
-        m->token = g.token;
-    }
-    return st;
-}
-
-caekf_proto_status_t caekf_proto_encode_ack(const caekf_msg_ack_t *m, uint8_t data[CAEKF_CAN_DLC])
-{
-    struct caekf_can_est_ack_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    memset(&g, 0, sizeof g);
-    g.token = m->token;
-    g.ack_status = m->status;
-    g.bad_param = m->bad_param;
-    g.n_params_rx = m->n_params_rx;
-    g.state = m->state;
-    return caekf_proto_packed(caekf_can_est_ack_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
-}
-
-caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_ack_t *m)
-{
-    struct caekf_can_est_ack_t g;
-    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_ack_unpack(&g, data, CAEKF_CAN_DLC));
-    if (st == CAEKF_PROTO_OK) {
-        m->token = g.token;
-        m->status = g.ack_status;
-        m->bad_param = g.bad_param;
-        m->n_params_rx = g.n_params_rx;
-        m->state = g.state;
-    }
-    return st;
 }
 
 /* Counter id's field in the generated EST_HEALTH struct (page id / 2 carries it). */

@@ -1,9 +1,10 @@
-/* Codec of the per-step frames (BENCH_U/U2/Y1/Y4/S*_POS/S*_VEL, EST_* value frames, EST_STEP) on the C pack/unpack that
- * cantools generates from caekf.dbc at build time (sim/src/caekf_sim/codegen.py): the bit layout comes
- * from the DBC only. Here: cantools' scaling (round half to even of value / LSB, float32 bit patterns),
- * range clipping, and the refusal of non-finite inputs; the E2E layer seals the frames afterwards. The value
- * frames share one codec (CAEKF_VALUE_MESSAGES); the others have an encode/decode pair each, the same shape
- * (deliberately, as in codec_control.c). */
+/* Codec of the per-step frames that carry physical values (BENCH_U/U2/Y1/Y4/S*_POS/S*_VEL, the EST_* value
+ * frames, BENCH_YP, EST_PROD, EST_PAGE, BENCH_FD, EST_FD) on the C pack/unpack that cantools generates from
+ * caekf.dbc at build time (sim/src/caekf_sim/codegen.py): the bit layout comes from the DBC only. Here:
+ * cantools' scaling (round half to even of value / LSB, float32 bit patterns), range clipping, and the
+ * refusal of non-finite inputs; the E2E layer seals the frames afterwards. The value frames share one codec
+ * (CAEKF_VALUE_MESSAGES); each of the others maps its own API struct (pages, arrays) onto its signals. EST_STEP's
+ * codec is generated (caekf_proto_messages.c). */
 #include <stddef.h>
 #include <string.h>
 
@@ -124,33 +125,6 @@ caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t dat
     return CAEKF_PROTO_OK;
 }
 
-caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t data[CAEKF_CAN_DLC])
-{
-    struct caekf_can_est_step_t g;
-    if (m == NULL || data == NULL) {
-        return CAEKF_PROTO_ERR_NULL;
-    }
-    memset(&g, 0, sizeof g);
-    g.step = m->step;
-    g.flags = m->flags;
-    g.newton_iters = m->newton_iters;
-    g.step_status = m->status;
-    return caekf_proto_packed(caekf_can_est_step_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);
-}
-
-caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_step_t *m)
-{
-    struct caekf_can_est_step_t g;
-    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_est_step_unpack(&g, data, CAEKF_CAN_DLC));
-    if (st == CAEKF_PROTO_OK) {
-        m->step = g.step;
-        m->flags = g.flags;
-        m->newton_iters = g.newton_iters;
-        m->status = g.step_status;
-    }
-    return st;
-}
-
 /* --- production profile ------------------------------------------------------------------------ */
 
 caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data[CAEKF_CAN_DLC])
@@ -252,7 +226,7 @@ caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t 
     if (m->page == CAEKF_PAGE_STEP_INFO) {
         g.flags = m->info.flags;
         g.newton_iters = m->info.newton_iters;
-        g.step_status = m->info.status;
+        g.step_status = m->info.step_status;
     } else {
         clipped = put_f32(page_value(&g, m->page), m->value);
     }
@@ -275,11 +249,11 @@ caekf_proto_status_t caekf_proto_decode_page(const uint8_t data[CAEKF_CAN_DLC], 
     m->info.step = g.step;
     m->info.flags = 0u;
     m->info.newton_iters = 0u;
-    m->info.status = 0;
+    m->info.step_status = 0;
     if (g.page == CAEKF_PAGE_STEP_INFO) {
         m->info.flags = g.flags;
         m->info.newton_iters = g.newton_iters;
-        m->info.status = g.step_status;
+        m->info.step_status = g.step_status;
     } else {
         m->value = get_f32(page_value(&g, g.page));
     }
@@ -352,7 +326,7 @@ caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint
     g.step = m->step;
     g.flags = m->info.flags;
     g.newton_iters = m->info.newton_iters;
-    g.step_status = m->info.status;
+    g.step_status = m->info.step_status;
     return caekf_proto_packed(caekf_can_est_fd_pack(data, &g, CAEKF_FD_OUT_LEN), CAEKF_FD_OUT_LEN, clipped);
 }
 
@@ -376,6 +350,6 @@ caekf_proto_status_t caekf_proto_decode_fd_out(const uint8_t data[CAEKF_CAN_FD_M
     m->info.step = g.step;
     m->info.flags = g.flags;
     m->info.newton_iters = g.newton_iters;
-    m->info.status = g.step_status;
+    m->info.step_status = g.step_status;
     return CAEKF_PROTO_OK;
 }

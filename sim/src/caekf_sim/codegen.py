@@ -21,13 +21,15 @@ from __future__ import annotations
 import re
 import sys
 from pathlib import Path
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 DATABASE_NAME = "caekf_can"
 HEADER = f"{DATABASE_NAME}.h"
 SOURCE = f"{DATABASE_NAME}.c"
 FRAMES_HEADER = "include/caekf/caekf_proto_frames.h"
 FRAMES_TABLE = "src/caekf_proto_frames_table.h"
+MESSAGES_HEADER = "include/caekf/caekf_proto_messages.h"
+MESSAGES_SOURCE = "src/caekf_proto_messages.c"
 E2E_SIGNALS = ("E2E_CRC", "E2E_COUNTER")
 
 
@@ -121,9 +123,13 @@ def _short(msg: Any) -> str:
     return name[len("EST_"):] if name.startswith("EST_") else name
 
 
+def _sentence(text: str) -> str:
+    """The first sentence of a DBC comment, fit for a C comment."""
+    return text.split(". ")[0].rstrip(".").replace("*/", "* /")
+
+
 def _comment(text: str) -> str:
-    first = text.split(". ")[0].rstrip(".").replace("*/", "* /")
-    return f" /* {first} */"
+    return f" /* {_sentence(text)} */"
 
 
 def frames_header(db: Any, banner: str) -> str:
@@ -222,12 +228,100 @@ def frames_table(db: Any, banner: str) -> str:
     return "\n".join(t)
 
 
+def plain_messages(db: Any) -> List[Any]:
+    """The messages whose API struct is their signals as they are: 8 bytes, not multiplexed, every signal but
+    the E2E ones an unscaled integer, and not a generic value frame (whose codec serves many messages)."""
+    names = layouts(db)
+    return [m for m in db.messages
+            if m.length == 8 and not m.is_multiplexed() and layout_of(m, names) not in ("INT36", "FLOAT32")
+            and all(s.scale == 1 and s.offset == 0 and not s.is_float for s in m.signals)]
+
+
+def api_name(msg: Any) -> str:
+    """A message's name in the API (its struct caekf_msg_<name>_t and codec functions): EST_ACK -> ack."""
+    name = str(msg.name)
+    for prefix in ("CTRL_", "EST_", "BENCH_"):
+        if name.startswith(prefix):
+            name = name[len(prefix):]
+            break
+    return name.lower()
+
+
+def _fields(msg: Any) -> List[Any]:
+    from cantools.database.can.c_source import CodeGenSignal
+
+    return [CodeGenSignal(s) for s in msg.signals if s.name not in E2E_SIGNALS]
+
+
+def _raw_range(f: Any) -> Optional[Tuple[int, int]]:
+    """A field's raw range when its C type holds more (the encoder refuses values outside it), else None."""
+    n = f.signal.length
+    if n == f.type_length:
+        return None
+    return (-(1 << (n - 1)), (1 << (n - 1)) - 1) if f.signal.is_signed else (0, (1 << n) - 1)
+
+
+def _c_int(v: int, type_name: str) -> str:
+    return f"INT64_C({v})" if type_name.endswith("64_t") and type_name[0] == "i" else (
+        f"UINT64_C({v})" if type_name == "uint64_t" else str(v))
+
+
+def messages_header(db: Any, banner: str) -> str:
+    """caekf/caekf_proto_messages.h (public, included by caekf_proto.h): each plain message's API struct, its
+    signals as they are, and its codec's prototypes."""
+    h = [banner, "#ifndef CAEKF_PROTO_MESSAGES_H", "#define CAEKF_PROTO_MESSAGES_H", "",
+         "/* Included by caekf/caekf_proto.h (caekf_proto_status_t, CAEKF_CAN_DLC). The messages whose every signal",
+         " * is an integer as it travels: one struct of their signals each (E2E fields aside, sealed by",
+         " * caekf_proto_seal), encode refusing a value its signal cannot carry (CAEKF_PROTO_ERR_RANGE), decode",
+         " * writing the struct only on success. */", ""]
+    for m in plain_messages(db):
+        a = api_name(m)
+        h += [f"/* {m.name}: {_sentence(m.comment or m.name)}. */", "typedef struct {"]
+        h += [f"    {f.type_name} {f.snake_name};{_comment(f.signal.comment or f.signal.name)}" for f in _fields(m)]
+        h += [f"}} caekf_msg_{a}_t;", "",
+              f"caekf_proto_status_t caekf_proto_encode_{a}(const caekf_msg_{a}_t *m, uint8_t data[CAEKF_CAN_DLC]);",
+              f"caekf_proto_status_t caekf_proto_decode_{a}(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_{a}_t *m);",
+              ""]
+    h += ["#endif", ""]
+    return "\n".join(h)
+
+
+def messages_source(db: Any, banner: str) -> str:
+    """caekf_proto_messages.c: the plain messages' codecs on cantools' pack and unpack."""
+    c = [banner, "#include <stddef.h>", "#include <stdint.h>", "#include <string.h>", "",
+         '#include "caekf/caekf_proto.h"', '#include "caekf_can.h"', '#include "codec_status.h"', ""]
+    for m in plain_messages(db):
+        a, g, fields = api_name(m), c_name(m.name), _fields(m)
+        checks = []
+        for f in fields:
+            r = _raw_range(f)
+            if r is not None:
+                lo = f"m->{f.snake_name} < {_c_int(r[0], f.type_name)} || " if f.signal.is_signed else ""
+                checks.append(f"{lo}m->{f.snake_name} > {_c_int(r[1], f.type_name)}")
+        c += [f"caekf_proto_status_t caekf_proto_encode_{a}(const caekf_msg_{a}_t *m, uint8_t data[CAEKF_CAN_DLC])",
+              "{", f"    struct caekf_can_{g}_t g;", "    if (m == NULL || data == NULL) {",
+              "        return CAEKF_PROTO_ERR_NULL;", "    }"]
+        if checks:
+            c += [f"    if ({' || '.join(checks)}) {{", "        return CAEKF_PROTO_ERR_RANGE;", "    }"]
+        c += ["    memset(&g, 0, sizeof g);"]
+        c += [f"    g.{f.snake_name} = m->{f.snake_name};" for f in fields]
+        c += [f"    return caekf_proto_packed(caekf_can_{g}_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, 0);", "}", "",
+              f"caekf_proto_status_t caekf_proto_decode_{a}(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_{a}_t *m)",
+              "{", f"    struct caekf_can_{g}_t g;",
+              f"    const caekf_proto_status_t st = CAEKF_PROTO_UNPACKED(m, data, caekf_can_{g}_unpack(&g, data, "
+              "CAEKF_CAN_DLC));", "    if (st == CAEKF_PROTO_OK) {"]
+        c += [f"        m->{f.snake_name} = g.{f.snake_name};" for f in fields]
+        c += ["    }", "    return st;", "}", ""]
+    return "\n".join(c)
+
+
 def generate(dbc: Optional[Path] = None) -> Dict[str, str]:
     """File name (relative to the output folder) -> text of every generated file."""
     dbc = dbc or default_dbc()
     db = load(dbc)
     banner = f"/* GENERATED from {dbc.name} by caekf_sim/codegen.py at build time: do not edit. */"
-    return {**_pack_unpack(db, dbc), FRAMES_HEADER: frames_header(db, banner), FRAMES_TABLE: frames_table(db, banner)}
+    return {**_pack_unpack(db, dbc), FRAMES_HEADER: frames_header(db, banner), FRAMES_TABLE: frames_table(db, banner),
+            MESSAGES_HEADER: messages_header(db, banner), MESSAGES_SOURCE: messages_source(db, banner)}
 
 
 def write(outdir: Path, dbc: Optional[Path] = None) -> List[Path]:

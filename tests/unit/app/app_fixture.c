@@ -35,8 +35,8 @@ void fixture_paper_settings(caekf_app_settings_t *s, int preset)
         caekf_msg_param_t p;
         double v;
         p.param_id = caekf_paper_params[i].id;
-        p.exp10 = caekf_paper_params[i].exp10;
-        p.mantissa = caekf_paper_params[i].mantissa;
+        p.param_exp10 = caekf_paper_params[i].exp10;
+        p.param_mantissa = caekf_paper_params[i].mantissa;
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_param_value(&p, &v));
         TEST_ASSERT_TRUE(v == caekf_paper_params[i].value); /* the wire form is exact */
         TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_settings_set(s, caekf_paper_params[i].id, v));

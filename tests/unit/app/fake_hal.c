@@ -83,8 +83,8 @@ void bench_param(fake_hal_t *f, unsigned param_id, int exp10, int64_t mantissa)
     caekf_can_frame_t fr;
     caekf_msg_param_t p;
     p.param_id = (uint8_t)param_id;
-    p.exp10 = (int8_t)exp10;
-    p.mantissa = mantissa;
+    p.param_exp10 = (int8_t)exp10;
+    p.param_mantissa = mantissa;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_param(&p, fr.data));
     bench_send(f, CAEKF_MSG_CTRL_PARAM, &fr);
 }

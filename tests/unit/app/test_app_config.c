@@ -65,7 +65,7 @@ static void test_params_and_reset_configure_the_estimator_exactly(void)
     bench_reset(&fake, n, 42);
     fixture_poll_all();
     a = last_ack();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, a.status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, a.ack_status);
     TEST_ASSERT_EQUAL_UINT8(42, a.token);
     TEST_ASSERT_EQUAL_UINT8(n, a.n_params_rx);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_ACK_BAD_PARAM_NONE, a.bad_param);
@@ -100,7 +100,7 @@ static void test_each_preset_sent_as_params_yields_exactly_its_settings(void)
         bench_reset(&fake, n, p);
         fixture_poll_all();
         a = last_ack();
-        TEST_ASSERT_EQUAL_INT8_MESSAGE(CAEKF_ACK_ACCEPTED, a.status, caekf_fixture_presets[p].name);
+        TEST_ASSERT_EQUAL_INT8_MESSAGE(CAEKF_ACK_ACCEPTED, a.ack_status, caekf_fixture_presets[p].name);
         TEST_ASSERT_EQUAL_UINT8(p, a.token);
         TEST_ASSERT_EQUAL_UINT8(n, a.n_params_rx);
         fixture_paper_settings(&want, (int)p);
@@ -121,12 +121,12 @@ static void test_innovation_gate_is_configured_and_validated_over_can(void)
     bench_param(&fake, CAEKF_PARAM_GAMMA_GATE_NIS, 0, -1); /* a gate must be >= 0 */
     bench_reset(&fake, 1, 5);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_GAMMA_GATE_NIS, last_ack().bad_param);
     bench_param(&fake, CAEKF_PARAM_GAMMA_GATE_NIS, 2, 1);
     bench_reset(&fake, 1, 6);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().ack_status);
     TEST_ASSERT_TRUE(app.est.cfg.gamma_gate_nis == (caekf_scalar_t)100);
 }
 
@@ -142,7 +142,7 @@ static void test_reset_reinitialises_and_forgets_the_step_history(void)
     TEST_ASSERT_TRUE(x[0] != 0); /* the estimate moved */
     bench_reset(&fake, 0, 1);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().ack_status);
     fixture_paper_settings(&paper, CAEKF_FIXTURE_PRESET_SWITCHED);
     s = paper.est;
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&fresh, &s));
@@ -168,7 +168,7 @@ static void test_refused_settings_leave_the_running_configuration_unchanged(void
     bench_reset(&fake, 3, 9);
     fixture_poll_all();
     a = last_ack();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, a.status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, a.ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_SIGMA_R, a.bad_param);
     TEST_ASSERT_EQUAL_UINT8(9, a.token);
     TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_CFG_REFUSED));
@@ -190,12 +190,12 @@ static void test_missing_param_frame_refuses_as_incomplete(void)
     bench_param(&fake, CAEKF_PARAM_GAMMA_MIN, 5, 1);
     bench_reset(&fake, 4, 3);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_INCOMPLETE, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_INCOMPLETE, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(3, last_ack().n_params_rx);
     TEST_ASSERT_EQUAL_MEMORY(&before, &app.est, sizeof before);
     bench_reset(&fake, 3, 4); /* the staged values were spent by the refusal */
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_INCOMPLETE, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_INCOMPLETE, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(0, last_ack().n_params_rx);
 }
 
@@ -209,19 +209,19 @@ static void test_unknown_param_id_or_bad_mode_is_refused_naming_it(void)
     bench_param(&fake, CAEKF_PARAM_COUNT, 0, 1); /* the first id past the schema */
     bench_reset(&fake, 1, 5);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_COUNT, last_ack().bad_param);
 
     bench_param(&fake, CAEKF_PARAM_MODE, -1, 5); /* mode 0.5 */
     bench_reset(&fake, 1, 6);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_MODE, last_ack().bad_param);
 
     bench_param(&fake, CAEKF_PARAM_MODE, 0, 4); /* an integer, but no such mode */
     bench_reset(&fake, 1, 7);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_MODE, last_ack().bad_param);
 
     TEST_ASSERT_EQUAL_UINT32(3, counter(CAEKF_CNT_CFG_REFUSED));
@@ -236,20 +236,20 @@ static void test_bad_param_frames_are_refused_with_their_id(void)
     bench_param(&fake, CAEKF_PARAM_SPRING_K, 3, 2);
     bench_reset(&fake, 2, 6);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(200, last_ack().bad_param);
     TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_RX_BAD_VALUE));
 
     bench_param(&fake, CAEKF_PARAM_NEWTON_MAX_ITER, -1, 25); /* 2.5 iterations */
     bench_reset(&fake, 1, 7);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_NEWTON_MAX_ITER, last_ack().bad_param);
 
     bench_param(&fake, CAEKF_PARAM_DT, 23, 1); /* 10^23 is beyond the exact decimal range */
     bench_reset(&fake, 1, 8);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_DT, last_ack().bad_param);
     TEST_ASSERT_EQUAL_UINT32(2, counter(CAEKF_CNT_RX_BAD_VALUE));
     TEST_ASSERT_EQUAL_UINT32(3, counter(CAEKF_CNT_CFG_REFUSED));
@@ -259,7 +259,7 @@ static void test_reset_without_any_settings_is_refused(void)
 {
     bench_reset(&fake, 0, 10);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_NO_SETTINGS, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_NO_SETTINGS, last_ack().ack_status);
     TEST_ASSERT_EQUAL_HEX8(0, last_ack().state);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_ACK_BAD_PARAM_NONE, last_ack().bad_param);
     TEST_ASSERT_EQUAL_UINT8(0, app.configured);
@@ -276,7 +276,7 @@ static void test_params_stage_on_top_of_the_running_settings(void)
     TEST_ASSERT_TRUE(app.est.cfg.sigma_r == (caekf_scalar_t)1e-7); /* staged, not yet in effect */
     bench_reset(&fake, 1, 11);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().ack_status);
     TEST_ASSERT_TRUE(app.est.cfg.sigma_r == (caekf_scalar_t)2e-7);
     TEST_ASSERT_TRUE(app.est.cfg.gamma0[0] == (caekf_scalar_t)7.5e7);
     TEST_ASSERT_TRUE(app.est.cfg.model.spring_k[0] == (caekf_scalar_t)2e3);
@@ -290,14 +290,14 @@ static void test_constrained_preset_refuses_gamma0_below_gamma_min(void)
     n = 1u + fixture_send_preset(&fake, CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ_CONSTRAINED);
     bench_reset(&fake, n, 12);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_SETTINGS, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_GAMMA0, last_ack().bad_param);
     TEST_ASSERT_EQUAL_INT(0, app.est.cfg.constraint_enabled);
     bench_param(&fake, CAEKF_PARAM_GAMMA0, 5, 1);
     n = 1u + fixture_send_preset(&fake, CAEKF_FIXTURE_PRESET_SWITCHED_HIGHQ); /* unconstrained: fine */
     bench_reset(&fake, n, 13);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_ACCEPTED, last_ack().ack_status);
     TEST_ASSERT_TRUE(app.est.cfg.gamma0[0] < app.est.cfg.gamma_min[0]);
 }
 
@@ -313,7 +313,7 @@ static void test_status_request_answers_with_ack_and_every_health_page(void)
     fake_tx_clear(&fake);
     bench_status_req(&fake, 77);
     fixture_poll_all();
-    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_STATUS, last_ack().status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_STATUS, last_ack().ack_status);
     TEST_ASSERT_EQUAL_UINT8(77, last_ack().token);
     TEST_ASSERT_EQUAL_UINT(1u + CAEKF_HEALTH_PAGES, fake.tx_count);
     TEST_ASSERT_EQUAL_UINT(CAEKF_HEALTH_PAGES, fake_tx_count(&fake, CAEKF_MSG_EST_HEALTH));

@@ -103,7 +103,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
         TEST_ASSERT_TRUE(fake_tx_e2e_ok(&fake, 0));
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_prod(fake.tx[0].data, &pm));
         TEST_ASSERT_EQUAL_UINT8((uint8_t)(step & 0xFFu), pm.step);
-        TEST_ASSERT_EQUAL_HEX16((uint16_t)(rep.flags & 0x0FFFu), pm.flags);
+        TEST_ASSERT_EQUAL_HEX16((uint16_t)(rep.flags & CAEKF_PROD_FLAGS_MASK), pm.flags);
         TEST_ASSERT_TRUE(f32((double)x[2 * ref.model.nq]) == pm.gamma);
         i = fake_tx_find(&fake, CAEKF_MSG_EST_PAGE, 0);
         if ((k % PERIOD) < CAEKF_PAGE_COUNT) {
@@ -122,7 +122,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
             } else {
                 TEST_ASSERT_EQUAL_HEX16((uint16_t)rep.flags, pg.info.flags);
                 TEST_ASSERT_EQUAL_UINT8((uint8_t)rep.newton_iters, pg.info.newton_iters);
-                TEST_ASSERT_EQUAL_INT8(CAEKF_OK, pg.info.status);
+                TEST_ASSERT_EQUAL_INT8(CAEKF_OK, pg.info.step_status);
             }
             pages_seen++;
         } else {
@@ -246,9 +246,9 @@ static void test_fd_profile_one_frame_in_one_frame_out(void)
         want.p_norm = (double)pn;
         want.p_gg = (double)P[2 * ref.model.nq][2 * ref.model.nq];
         want.step = k;
-        want.info.flags = (uint16_t)(rep.flags & 0x0FFFu);
+        want.info.flags = (uint16_t)(rep.flags & ((1u << CAEKF_FLAG_COUNT) - 1u));
         want.info.newton_iters = (uint8_t)rep.newton_iters;
-        want.info.status = CAEKF_OK;
+        want.info.step_status = CAEKF_OK;
         memset(d, 0, sizeof d);
         (void)caekf_proto_encode_fd_out(&want, d);
         (void)caekf_proto_decode_fd_out(d, &want);

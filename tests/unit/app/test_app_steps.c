@@ -78,7 +78,7 @@ static void test_complete_step_sends_twelve_protected_frames_status_last(void)
         }
     }
     TEST_ASSERT_EQUAL_UINT16(7, tx_step(0).step);
-    TEST_ASSERT_EQUAL_INT8(CAEKF_OK, tx_step(0).status);
+    TEST_ASSERT_EQUAL_INT8(CAEKF_OK, tx_step(0).step_status);
     TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_STEPS_DONE));
     TEST_ASSERT_EQUAL_UINT32(12, counter(CAEKF_CNT_TX_FRAMES));
     TEST_ASSERT_EQUAL_UINT32(3, counter(CAEKF_CNT_RX_OK));

@@ -204,8 +204,8 @@ static int preset_param(caekf_mcu_selftest_t *t, unsigned i, caekf_msg_param_t *
         exp10--;
     }
     p->param_id = pr->id[i];
-    p->exp10 = (int8_t)exp10;
-    p->mantissa = (int64_t)m;
+    p->param_exp10 = (int8_t)exp10;
+    p->param_mantissa = (int64_t)m;
     CHECK(t, caekf_proto_param_value(p, &v) == CAEKF_PROTO_OK && v == pr->value[i], "bench: preset value not exact",
           pr->id[i]);
     return 0;
@@ -223,8 +223,8 @@ static int configure(caekf_mcu_selftest_t *t)
     unsigned i, n, acks = 0u;
     for (i = 0u; i < CAEKF_N_PAPER_PARAMS; i++) {
         p.param_id = caekf_paper_params[i].id;
-        p.exp10 = caekf_paper_params[i].exp10;
-        p.mantissa = caekf_paper_params[i].mantissa;
+        p.param_exp10 = caekf_paper_params[i].exp10;
+        p.param_mantissa = caekf_paper_params[i].mantissa;
         if (send_param(t, &p)) {
             return 1;
         }
@@ -250,7 +250,8 @@ static int configure(caekf_mcu_selftest_t *t)
             continue; /* EST_HEALTH bursts may come in between */
         }
         CHECK(t, caekf_proto_decode_ack(out[i].data, &ack) == CAEKF_PROTO_OK, "configure: EST_ACK does not decode", i);
-        CHECK(t, ack.status == (int8_t)CAEKF_ACK_ACCEPTED, "configure: configuration refused (ACK_STATUS)", ack.status);
+        CHECK(t, ack.ack_status == (int8_t)CAEKF_ACK_ACCEPTED, "configure: configuration refused (ACK_STATUS)",
+              ack.ack_status);
         CHECK(t,
               ack.token == SELFTEST_TOKEN && ack.n_params_rx == n_params &&
                   ack.bad_param == (uint8_t)CAEKF_ACK_BAD_PARAM_NONE,
@@ -306,8 +307,8 @@ static int run_step(caekf_mcu_selftest_t *t, uint16_t step)
         if (step_msgs[k] == CAEKF_MSG_EST_STEP) {
             CHECK(t, caekf_proto_decode_step(out[i].data, &sm) == CAEKF_PROTO_OK, "step: EST_STEP does not decode",
                   step);
-            CHECK(t, sm.status >= 0, "step: estimator step status negative", sm.status);
-            t->est_step_status_sum += (uint32_t)sm.status;
+            CHECK(t, sm.step_status >= 0, "step: estimator step status negative", sm.step_status);
+            t->est_step_status_sum += (uint32_t)sm.step_status;
         }
         k++;
     }
@@ -409,7 +410,7 @@ static int check_overrun(caekf_mcu_selftest_t *t)
     for (i = 0u; i < n; i++) {
         caekf_msg_ack_t ack;
         if (out[i].id == 0x0C8u && caekf_proto_decode_ack(out[i].data, &ack) == CAEKF_PROTO_OK &&
-            ack.status == (int8_t)CAEKF_ACK_STATUS) {
+            ack.ack_status == (int8_t)CAEKF_ACK_STATUS) {
             acks++;
         }
     }

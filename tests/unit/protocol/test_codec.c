@@ -130,7 +130,7 @@ static void test_step_frame_roundtrip(void)
     TEST_ASSERT_EQUAL_UINT16(in.step, out.step);
     TEST_ASSERT_EQUAL_HEX16(in.flags, out.flags);
     TEST_ASSERT_EQUAL_UINT8(in.newton_iters, out.newton_iters);
-    TEST_ASSERT_EQUAL_INT8(in.status, out.status);
+    TEST_ASSERT_EQUAL_INT8(in.step_status, out.step_status);
 }
 
 static void test_control_frames_roundtrip(void)
@@ -146,8 +146,8 @@ static void test_control_frames_roundtrip(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_param(&p, d));
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_param(d, &p2));
     TEST_ASSERT_EQUAL_UINT8(p.param_id, p2.param_id);
-    TEST_ASSERT_EQUAL_INT8(p.exp10, p2.exp10);
-    TEST_ASSERT_EQUAL_INT64(p.mantissa, p2.mantissa);
+    TEST_ASSERT_EQUAL_INT8(p.param_exp10, p2.param_exp10);
+    TEST_ASSERT_EQUAL_INT64(p.param_mantissa, p2.param_mantissa);
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_status_req(&q, d));
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_status_req(d, &q2));
     TEST_ASSERT_EQUAL_UINT8(q.token, q2.token);
@@ -161,10 +161,10 @@ static void test_param_fields_out_of_range_are_refused(void)
     caekf_msg_param_t p = {0, 0, 137438953472LL}; /* 2^37: one past the 38-bit field */
     uint8_t d[8];
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_encode_param(&p, d));
-    p.mantissa = 1;
-    p.exp10 = 32;
+    p.param_mantissa = 1;
+    p.param_exp10 = 32;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_encode_param(&p, d));
-    p.exp10 = -33;
+    p.param_exp10 = -33;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_encode_param(&p, d));
 }
 
@@ -174,19 +174,19 @@ static void test_param_value_is_the_correctly_rounded_double(void)
     double v = 0.0;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_param_value(&p, &v));
     assert_same_double(1.0e-3, v);
-    p.mantissa = 75;
-    p.exp10 = 6;
+    p.param_mantissa = 75;
+    p.param_exp10 = 6;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_param_value(&p, &v));
     assert_same_double(7.5e7, v);
-    p.mantissa = 1;
-    p.exp10 = -7;
+    p.param_mantissa = 1;
+    p.param_exp10 = -7;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_param_value(&p, &v));
     assert_same_double(1.0e-7, v);
-    p.mantissa = -314159265359LL / 10;
-    p.exp10 = -10;
+    p.param_mantissa = -314159265359LL / 10;
+    p.param_exp10 = -10;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_param_value(&p, &v));
     assert_same_double(-3.1415926535, v);
-    p.exp10 = 23;
+    p.param_exp10 = 23;
     v = 5.0;
     TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_VALUE, caekf_proto_param_value(&p, &v));
     assert_same_double(5.0, v);

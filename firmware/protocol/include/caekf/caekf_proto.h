@@ -90,36 +90,12 @@ caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, do
 caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t data[CAEKF_CAN_DLC], uint16_t *step,
                                               double *value);
 
-typedef struct {
-    uint16_t step;
-    uint16_t flags; /* CAEKF_FLAG_* | CAEKF_STEP_FLAGS_* */
-    uint8_t newton_iters;
-    int8_t status; /* caekf_status_t of the step */
-} caekf_msg_step_t;
-
-typedef struct {
-    uint8_t n_params;
-    uint8_t token;
-} caekf_msg_reset_t;
-
-/* value = mantissa * 10^exp10 (see caekf_proto_param_value). */
-typedef struct {
-    uint8_t param_id; /* CAEKF_PARAM_* (+ element) */
-    int8_t exp10;     /* 6-bit field: -32..31 on the wire, -22..22 usable */
-    int64_t mantissa; /* 38-bit signed field */
-} caekf_msg_param_t;
-
-typedef struct {
-    uint8_t token;
-} caekf_msg_status_req_t;
-
-typedef struct {
-    uint8_t token;
-    int8_t status;     /* caekf_ack_status_t */
-    uint8_t bad_param; /* CAEKF_PARAM_* (+ element) or CAEKF_ACK_BAD_PARAM_NONE */
-    uint8_t n_params_rx;
-    uint8_t state; /* CAEKF_ACK_STATE_* */
-} caekf_msg_ack_t;
+/* The messages whose signals are integers as they travel (CTRL_RESET, CTRL_PARAM, CTRL_STATUS_REQ, EST_ACK,
+ * EST_STEP): their structs (caekf_msg_<name>_t, one field per signal) and codecs are generated from the DBC.
+ * CTRL_PARAM: value = param_mantissa * 10^param_exp10 (caekf_proto_param_value). EST_ACK.bad_param is a
+ * CAEKF_PARAM_* id (+ element) or CAEKF_ACK_BAD_PARAM_NONE, state the CAEKF_ACK_STATE_* bits; EST_STEP.flags
+ * is CAEKF_FLAG_* | CAEKF_STEP_FLAGS_*, step_status the step's caekf_status_t. */
+#include "caekf/caekf_proto_messages.h" /* generated from caekf.dbc at build time */
 
 typedef struct {
     uint8_t page;       /* 0 .. CAEKF_HEALTH_PAGES-1 */
@@ -127,17 +103,6 @@ typedef struct {
     uint32_t counter_b; /* counter 2*page+1 */
 } caekf_msg_health_t;
 
-caekf_proto_status_t caekf_proto_encode_step(const caekf_msg_step_t *m, uint8_t data[CAEKF_CAN_DLC]);
-caekf_proto_status_t caekf_proto_decode_step(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_step_t *m);
-caekf_proto_status_t caekf_proto_encode_reset(const caekf_msg_reset_t *m, uint8_t data[CAEKF_CAN_DLC]);
-caekf_proto_status_t caekf_proto_decode_reset(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_reset_t *m);
-/* Encode refuses (CAEKF_PROTO_ERR_RANGE) mantissas or exponents that do not fit their fields. */
-caekf_proto_status_t caekf_proto_encode_param(const caekf_msg_param_t *m, uint8_t data[CAEKF_CAN_DLC]);
-caekf_proto_status_t caekf_proto_decode_param(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_param_t *m);
-caekf_proto_status_t caekf_proto_encode_status_req(const caekf_msg_status_req_t *m, uint8_t data[CAEKF_CAN_DLC]);
-caekf_proto_status_t caekf_proto_decode_status_req(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_status_req_t *m);
-caekf_proto_status_t caekf_proto_encode_ack(const caekf_msg_ack_t *m, uint8_t data[CAEKF_CAN_DLC]);
-caekf_proto_status_t caekf_proto_decode_ack(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_ack_t *m);
 /* Encode refuses pages >= CAEKF_HEALTH_PAGES; counters are reduced modulo 2^24. */
 caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint8_t data[CAEKF_CAN_DLC]);
 caekf_proto_status_t caekf_proto_decode_health(const uint8_t data[CAEKF_CAN_DLC], caekf_msg_health_t *m);
