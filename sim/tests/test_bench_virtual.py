@@ -18,7 +18,8 @@ pytest.importorskip("cantools")
 
 from caekf_sim.bench import Bench, latency_stats  # noqa: E402
 from caekf_sim.bench import e2e  # noqa: E402
-from caekf_sim.bench.buslog import read_log, replay_log, segment_results  # noqa: E402
+from caekf_sim.bench.buslog import read_log  # noqa: E402
+from caekf_sim.bench.replay import replay_log, segment_results  # noqa: E402
 from caekf_sim.bench.codec import Codec  # noqa: E402
 from caekf_sim.scenario import default_scenario_path, load_scenario  # noqa: E402
 

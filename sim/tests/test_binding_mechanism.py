@@ -431,20 +431,21 @@ def test_tune_fits_the_noise_of_any_mechanism(general):
     """tune on the 3-body mechanism (a position and a velocity sensor): its default parameters are the noise
     stds this mechanism uses, including sigma_rv; a velocity R 10x too large comes back towards the truth."""
     from caekf_sim.settings_adapter import tunable_noise
-    from caekf_sim.tune import Record, tune
+    from caekf_sim.measurements import Measurements
+    from caekf_sim.tune import tune
 
     noise_q, noise_v = 1e-7, 1e-3  # the velocity noise well above the model error of backward Euler
     sc = general.replace(noise_std=noise_q, noise_std_v=noise_v, sigma_r=noise_q, sigma_rv=noise_v, t_end=3.0)
     assert set(tunable_noise(sc)) == {"sigma_qx_q", "sigma_qx_v", "sigma_r", "sigma_rv", "contact1_sigma_q_gamma"}
     tr = binding.truth(sc)
     mistuned = sc.replace(sigma_rv=10 * noise_v)
-    res = tune(mistuned, [Record("r", tr.t, tr.u, tr.y)], params=["sigma_rv"], max_evals=30)
+    res = tune(mistuned, [Measurements("r", tr.t, tr.u, tr.y)], params=["sigma_rv"], max_evals=30)
     assert res.train_before.dof == 2
     assert res.train_after.nll < res.train_before.nll
     assert abs(np.log10(res.noise_after["sigma_rv"] / noise_v)) < 0.5
     assert res.scenario.replace(sigma_rv=mistuned.sigma_rv) == mistuned  # only sigma_rv changed
     with pytest.raises(ValueError, match="contact2_sigma_q_gamma"):
-        tune(mistuned, [Record("r", tr.t, tr.u, tr.y)], params=["contact2_sigma_q_gamma"])
+        tune(mistuned, [Measurements("r", tr.t, tr.u, tr.y)], params=["contact2_sigma_q_gamma"])
 
 
 def test_tune_command_reads_the_mechanism_columns(general, tmp_path, capsys):

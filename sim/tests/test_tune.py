@@ -12,7 +12,8 @@ from caekf_sim.binding import truth
 from caekf_sim.cli import main
 from caekf_sim.scenario import default_scenario_path, load_scenario
 from caekf_sim.truth import simulate, write_truth_csv
-from caekf_sim.tune import Record, consistency, read_candump_records, read_record_csv, run_records, tune
+from caekf_sim.measurements import Measurements, read_candump_runs, read_measurements_csv
+from caekf_sim.tune import consistency, run_records, tune
 
 NOISE = 1e-6  # measurement noise of the recorded runs [m]
 REPO = Path(__file__).resolve().parents[2]
@@ -25,7 +26,7 @@ def recorded():
     runs = []
     for seed in (11, 12):
         tr = truth(sc.replace(seed=seed))  # caekf-truth's generator, through the binding
-        runs.append(Record(f"seed{seed}", tr.t, tr.u, tr.y))
+        runs.append(Measurements(f"seed{seed}", tr.t, tr.u, tr.y))
     return sc, runs
 
 
@@ -56,7 +57,7 @@ def test_tune_command_writes_a_scenario_the_c_tools_read(recorded, tmp_path, cap
             for k in range(len(rec)):
                 f.write(f"{rec.t[k]:.17g},{rec.u[k]:.17g},{rec.y[k, 0]:.17g},{rec.y[k, 1]:.17g},0\n")
         csvs.append(path)
-    assert np.array_equal(read_record_csv(csvs[0]).y, train.y)
+    assert np.array_equal(read_measurements_csv(csvs[0], sc.dt).y, train.y)
     scen = tmp_path / "mistuned.toml"
     from caekf_sim.settings_adapter import scenario_toml
 
@@ -139,7 +140,7 @@ def test_candump_log_of_the_production_profile_unwraps_its_8_bit_counter(tmp_pat
             journal.append((k * 1e-3, 0, make_records(codec.messages[name].frame_id, payload[k][None]).tobytes()))
     log = tmp_path / "bus.log"
     write_journal(journal, log, "vcan0", 1000.0)
-    (rec,) = read_candump_records(log, 1e-3)
+    (rec,) = read_candump_runs(log, 1e-3)
     ys = codec.unpack("BENCH_YP", pyp)
     np.testing.assert_array_equal(rec.y, np.column_stack([ys["Y1"], ys["Y4"]]))
     np.testing.assert_array_equal(rec.u, codec.unpack("BENCH_U", pu)["U"])
@@ -179,7 +180,7 @@ def test_candump_log_of_any_mechanism_gives_its_inputs_and_sensors(tmp_path):
                             .tobytes()))
     log = tmp_path / "bus.log"
     write_journal(journal, log, "vcan0", 1000.0)
-    (rec,) = read_candump_records(log, 1e-3, sc=sc)
+    (rec,) = read_candump_runs(log, 1e-3, sc)
     u_want = np.column_stack([expect["u"], expect["u2"]])
     u_want[11, 1] = u_want[10, 1]
     assert np.array_equal(rec.u, u_want)
@@ -239,7 +240,7 @@ def test_candump_log_gives_the_runs_the_bench_sent(tmp_path):
             journal.append((k * 1e-3 + 1e-5, 0, make_records(codec.messages[name].frame_id, data[None]).tobytes()))
     log = tmp_path / "bus.log"
     write_journal(journal, log, "vcan0", 1000.0)
-    recs = read_candump_records(log, 1e-3)
+    recs = read_candump_runs(log, 1e-3)
     assert [len(r) for r in recs] == [25, 15]
     u_all = np.concatenate([r.u for r in recs])
     y_all = np.concatenate([r.y for r in recs])
@@ -259,7 +260,7 @@ def test_truth_csv_is_a_record(tmp_path):
     sc = load_scenario(default_scenario_path()).replace(t_end=0.05)
     tr = simulate(sc)
     write_truth_csv(tr, tmp_path / "t.csv")
-    rec = read_record_csv(tmp_path / "t.csv")
+    rec = read_measurements_csv(tmp_path / "t.csv", sc.dt)
     assert np.array_equal(rec.u, tr.u) and np.array_equal(rec.y, tr.y)
 
 

@@ -8,7 +8,8 @@ ROWS = 2000
 
 
 def test_recorded_log_replays_to_the_same_estimates(bench, sc, inputs, out_dir):
-    from caekf_sim.bench.buslog import read_log, replay_log, segment_results
+    from caekf_sim.bench.buslog import read_log
+    from caekf_sim.bench.replay import replay_log, segment_results
     from caekf_sim.cli import main
     from caekf_sim.results import read_result_csv
 

@@ -53,25 +53,6 @@ caekf_app_status_t caekf_app_init(caekf_app_t *app, const caekf_app_hal_t *hal, 
     return CAEKF_APP_OK;
 }
 
-void caekf_app_count(caekf_app_t *app, unsigned counter_id, uint32_t n)
-{
-    if (counter_id < (unsigned)CAEKF_CNT_COUNT) {
-        app->counters[counter_id] += n;
-    }
-}
-
-void caekf_app_send(caekf_app_t *app, caekf_msg_t msg, caekf_can_frame_t *frame)
-{
-    (void)caekf_proto_seal(msg, app->tx_counter[msg], frame);
-    frame->id = (uint32_t)((int32_t)frame->id + app->cfg.id_offset); /* valid: checked at init */
-    app->tx_counter[msg] = (uint8_t)((app->tx_counter[msg] + 1u) & CAEKF_E2E_COUNTER_MASK);
-    if (app->hal.transmit(app->hal.ctx, frame) < 0) {
-        caekf_app_count(app, CAEKF_CNT_TX_ERRORS, 1u);
-    } else {
-        caekf_app_count(app, CAEKF_CNT_TX_FRAMES, 1u);
-    }
-}
-
 /* E2E check of a bench frame; returns 1 when the frame may be used. */
 static int e2e_accept(caekf_app_t *app, caekf_msg_t msg, const caekf_msg_info_t *info, const caekf_can_frame_t *f,
                       uint32_t now_us)
@@ -148,18 +129,6 @@ caekf_app_status_t caekf_app_poll(caekf_app_t *app)
         app->last_status_us = now_us;
         caekf_app_send_health(app);
     }
-    return CAEKF_APP_OK;
-}
-
-caekf_app_status_t caekf_app_counter(const caekf_app_t *app, unsigned counter_id, uint32_t *value)
-{
-    if (app == NULL || value == NULL) {
-        return CAEKF_APP_ERR_NULL;
-    }
-    if (counter_id >= (unsigned)CAEKF_CNT_COUNT) {
-        return CAEKF_APP_ERR_PARAM;
-    }
-    *value = app->counters[counter_id];
     return CAEKF_APP_OK;
 }
 

@@ -3,8 +3,8 @@
 The shipped C estimator, from Python (caekf_sim.binding): Estimator, run, settings_for.
 """
 
-from .binding import BindingError, Estimator, Report, RunResult, SettingsError, run
-from .settings_adapter import Settings, default_settings, settings_for
+from .binding import BindingError, Estimator, Report, RunResult, SettingsError, default_settings, run, settings_for
+from .settings_adapter import Settings
 
 __version__ = "0.1.0"
 

@@ -34,8 +34,9 @@ from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Sequenc
 
 import numpy as np
 
+from . import schema
 from .scenario import PathLike, Scenario, load_scenario
-from .settings_adapter import Settings, check_precision, settings_for
+from .settings_adapter import Settings, check_precision, scenario_dict
 
 if TYPE_CHECKING:
     from .truth import Truth
@@ -91,6 +92,26 @@ def _module(precision: str) -> ModuleType:
     return mod
 
 
+def settings_for(sc: Scenario, experiment: Optional[str] = None, precision: str = "double",
+                 **overrides: Any) -> Settings:
+    """Settings of scenario `sc` with a preset (the paper's canonical, switched, switched-highq,
+    switched-highq-constrained; None: the schema's defaults, the recommended estimator), as caekf-replay
+    builds them: the C function caekf_scenario_settings of the `precision` build, through the binding.
+    `overrides` then change single settings (e.g. gamma_gate_nis=0)."""
+    c = _module(check_precision(precision))
+    # The keys a file would give: a default relative to the build's epsilon stays the build's own.
+    given = dict(schema.wire_values(sc.values()))
+    given.update({k: v for k, v in sc.values().items() if k not in schema.param_ids()})
+    s = Settings(tuple(c.scenario_settings(given, experiment)), precision)
+    return s.replace(**overrides) if overrides else s
+
+
+def default_settings(precision: str = "double", **values: Any) -> Settings:
+    """caekf_settings_default of the `precision` build (zero model: fill it through `values`)."""
+    s = Settings(tuple(_module(check_precision(precision)).settings_default()), precision)
+    return s.replace(**values) if values else s
+
+
 def source_hash(repo: PathLike) -> str:
     """Hash of the C files the modules are built from, as sim/CMakeLists.txt computes it."""
     root = Path(repo)
@@ -122,7 +143,6 @@ def paper_mismatch(sc: Scenario) -> Optional[str]:
     """None when scenario `sc` describes the paper's mechanism (4 bodies chained as in docs/scenario.md,
     the input on body 1, position sensors on bodies 1 and 4, one Hertzian contact 2-3), else its first
     difference, e.g. "bodies = 3 (the paper's chain has 4)"."""
-    from .settings_adapter import scenario_dict
 
     return _module("double").paper_mismatch(scenario_dict(sc))
 
@@ -460,7 +480,6 @@ def truth(sc: Scenario) -> "Truth":
     generator differs: numpy's, not splitmix64). Returns caekf_sim.truth.Truth (t [s], u [N], y [m],
     q [m], v [m/s], delta [m]); a pure function, picklable for process pools and Dask. The C truth
     integrates any mechanism the scenario describes (docs/mechanism.md)."""
-    from .settings_adapter import scenario_dict
     from .truth import Truth
 
     from .mechanism import Mechanism

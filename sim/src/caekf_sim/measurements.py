@@ -9,8 +9,8 @@ the rules of host/common/csv.h, whose constants a test compares with these. Ever
 "FILE:LINE: rule" (MeasurementError, a ValueError: exit 3); a missing or unreadable file is an OSError
 with the same kind of message (exit 4).
 
-A candump -L log of the bus is decoded through the DBC (caekf_sim.tune.read_candump_records, cantools):
-the frames of the scenario's mechanism, one run per configuration the bench sent.
+A candump -L log of the bus is decoded through the DBC (read_candump_runs, cantools): the frames of the
+scenario's mechanism, one run per configuration the bench sent.
 """
 from __future__ import annotations
 
@@ -167,11 +167,85 @@ def read_measurements_csv(path: PathLike, dt: float, columns: Optional[Tuple[Seq
     return Measurements(p.name, arr["t"], u, y, truth)
 
 
-def read_candump_runs(path: PathLike, dt: float, sc: Any = None) -> List[Any]:
-    """Every run of a candump -L log of the bus (decoded with the DBC: caekf_sim.tune.Record, one per
-    configuration the bench sent), with the refusals of this module: one line each."""
-    from .tune import read_candump_records
+def _candump_runs(path: Path, dt: float, sc: Any = None) -> List[Measurements]:
+    """The runs of a candump -L log of the bench: what the bench sent per STEP (the inputs and the sensors).
 
+    The frames are those of scenario `sc`'s mechanism (bench.profiles.mechanism_profile: BENCH_U, BENCH_U2,
+    BENCH_Y1, BENCH_Y4, BENCH_S3_POS, .., BENCH_S<s>_VEL); default and for the paper's mechanism BENCH_U,
+    BENCH_Y1 and BENCH_Y4, or BENCH_YP of the production profile. One record per configuration (a CTRL_RESET
+    the bench sent starts the next). Frames with a bad E2E CRC are dropped; a step without every sensor's
+    frame is a lost measurement (NaN), a step without an input holds its last value (as the firmware does).
+    t = step * dt, each frame's step counter unwrapped by its own width (16 bits, BENCH_YP's 8).
+    """
+    from .bench.buslog import read_log
+    from .bench.codec import Codec
+    from .bench.e2e import crc_ok
+    from .bench.profiles import DIAGNOSTICS, INPUT_KEYS, SENSOR_KEYS, mechanism_profile, production
+
+    profile = DIAGNOSTICS
+    if sc is not None:
+        from .mechanism import Mechanism
+
+        profile = mechanism_profile(Mechanism.from_scenario(sc))
+    signals: Dict[str, Tuple[Tuple[str, str], ...]] = dict(profile.inputs)  # frame -> (signal, step key)
+    if profile is DIAGNOSTICS:  # the paper's mechanism: its production profile's frames too (BENCH_YP)
+        signals.update(production().inputs)
+    keys = {k for sigs in signals.values() for _, k in sigs}
+    in_keys = [k for k in INPUT_KEYS if k in keys]
+    y_keys = [k for k in SENSOR_KEYS if k in keys]
+    codec = Codec()
+    frames = read_log(path, codec.from_estimator_ids)
+    ids = {codec.messages[n].frame_id: n for n in (*signals, "CTRL_RESET") if n in codec.messages}
+    data_id = {fid: codec.messages[n].data_id for fid, n in ids.items()}
+    segments: List[List[Tuple[str, bytes]]] = [[]]
+    for f in frames:
+        if not f.sent_by_bench or f.frame_id not in ids or not crc_ok(data_id[f.frame_id], f.data):
+            continue
+        name: str = ids[f.frame_id]
+        if name == "CTRL_RESET":
+            if segments[-1]:
+                segments.append([])
+            continue
+        segments[-1].append((name, f.data))
+    out: List[Measurements] = []
+    for i, seg in enumerate(s for s in segments if s):
+        steps: Dict[int, Dict[str, float]] = {}
+        base = None
+        for name, data in seg:
+            vals = codec.unpack(name, np.frombuffer(data, dtype=np.uint8))
+            wire = int(vals["STEP"][0])
+            if base is None:
+                base = wire
+            else:  # unwrap the frame's counter (16 bits, BENCH_YP's 8) to the step nearest the last one
+                mod = 1 << codec.messages[name].signals["STEP"].length
+                base += (wire - base + mod // 2) % mod - mod // 2
+            for sig, key in signals[name]:
+                steps.setdefault(base, {})[key] = float(vals[sig][0])
+        ks = np.array(sorted(steps))
+        k0 = ks[0]
+        n = int(ks[-1] - k0 + 1)
+        u = np.full((n, len(in_keys)), np.nan)
+        y = np.full((n, len(y_keys)), np.nan)
+        for k, v in steps.items():
+            j = k - k0
+            u[j] = [v.get(key, np.nan) for key in in_keys]
+            if all(key in v for key in y_keys):
+                y[j] = [v[key] for key in y_keys]
+        # hold the last known value of each input over steps whose frame was lost
+        idx = np.where(np.isfinite(u), np.arange(n)[:, None], 0)
+        np.maximum.accumulate(idx, axis=0, out=idx)
+        held = np.take_along_axis(u, idx, axis=0)
+        u = np.where(np.isfinite(held), held, 0.0)
+        out.append(Measurements(f"{path.name}#{i + 1}", (k0 + np.arange(n)) * dt,
+                          u[:, 0].copy() if len(in_keys) == 1 else u, y))
+    if not out:
+        raise ValueError(f"{path}: no {'/'.join(signals)} frames")
+    return out
+
+
+def read_candump_runs(path: PathLike, dt: float, sc: Any = None) -> List[Measurements]:
+    """Every run of a candump -L log of the bus (decoded with the DBC, one per configuration the bench sent),
+    with the refusals of this module: one line each."""
     p = check_input_file(path)
     try:
         import can  # noqa: F401  (python-can reads the log, cantools the DBC: the [hil] extra)
@@ -180,7 +254,7 @@ def read_candump_runs(path: PathLike, dt: float, sc: Any = None) -> List[Any]:
         raise ImportError(f"reading a candump log needs python-can and cantools ({exc}): "
                            "pip install 'caekf-sim[hil]'") from None
     try:
-        records = read_candump_records(p, dt, sc=sc)
+        records = _candump_runs(p, dt, sc)
     except UnicodeDecodeError:
         raise MeasurementError(f"{p}: not a candump -L log (bytes that are not text)") from None
     except (ValueError, IndexError) as exc:
@@ -199,5 +273,4 @@ def read_candump(path: PathLike, dt: float, run: Optional[int] = None, sc: Any =
         run = 1
     if not 1 <= run <= len(records):
         raise MeasurementError(f"{p}: no run {run}: the log has {len(records)} (--run 1..{len(records)})")
-    r = records[run - 1]
-    return Measurements(r.name, r.t, r.u, r.y)
+    return records[run - 1]

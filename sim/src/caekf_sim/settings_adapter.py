@@ -24,7 +24,8 @@ class Settings:
     """caekf_settings_t of one precision as values by parameter id (SI units, enums as their numbers).
 
     Read a value by its scenario key (``s.gamma0``, ``s.m2``); :meth:`as_dict` gives them all. Build one
-    with :func:`settings_for` (a scenario and an optional preset) or :func:`default_settings`.
+    with caekf_sim.binding's :func:`settings_for` (a scenario and an optional preset) or
+    :func:`default_settings`, which ask the C module.
     ``precision`` records the build the values were made for (``newton_rtol`` defaults to 256 machine
     epsilons of that scalar type).
     """
@@ -79,30 +80,6 @@ def check_precision(precision: str) -> str:
 def scenario_dict(sc: Scenario) -> Dict[str, float]:
     """The scenario as the C struct caekf_scenario_t holds it (all doubles)."""
     return {k: float(v) for k, v in dataclasses.asdict(sc).items()}
-
-
-def settings_for(sc: Scenario, experiment: Optional[str] = None, precision: str = "double",
-                 **overrides: Any) -> Settings:
-    """Settings of scenario `sc` with a preset (the paper's canonical, switched, switched-highq,
-    switched-highq-constrained; None: the schema's defaults, the recommended estimator), as caekf-replay
-    builds them: the C function caekf_scenario_settings of the `precision` build, through the binding.
-    `overrides` then change single settings (e.g. gamma_gate_nis=0)."""
-    from .binding import _module  # the binding imports this module: import here, not at the top
-
-    c = _module(check_precision(precision))
-    # The keys a file would give: a default relative to the build's epsilon stays the build's own.
-    given = dict(schema.wire_values(sc.values()))
-    given.update({k: v for k, v in sc.values().items() if k not in schema.param_ids()})
-    s = Settings(tuple(c.scenario_settings(given, experiment)), precision)
-    return s.replace(**overrides) if overrides else s
-
-
-def default_settings(precision: str = "double", **values: Any) -> Settings:
-    """caekf_settings_default of the `precision` build (zero model: fill it through `values`)."""
-    from .binding import _module
-
-    s = Settings(tuple(_module(check_precision(precision)).settings_default()), precision)
-    return s.replace(**values) if values else s
 
 
 # --- noise tuning (caekf-sim tune) ------------------------------------------------------------------

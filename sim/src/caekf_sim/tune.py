@@ -34,127 +34,15 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .binding import run
+from .binding import run, settings_for
+from .measurements import Measurements
 from .mechanism import contact_values
 from .scenario import Scenario
 from .schema import canonical
-from .settings_adapter import noise_of, scenario_with_noise, settings_for, tunable_noise
+from .settings_adapter import noise_of, scenario_with_noise, tunable_noise
 
 PathLike = Union[str, Path]
 NIS_DOF = 2  # the paper's two position sensors; in general one degree of freedom per sensor
-
-
-@dataclass
-class Record:
-    """One recorded run: inputs [N] ((n,) for one input, else (n, inputs)) and measurements (n, sensors)
-    [m or m/s] per sample; NaN y rows are lost measurements."""
-
-    name: str
-    t: np.ndarray
-    u: np.ndarray
-    y: np.ndarray  # (n, sensors)
-
-    def __len__(self) -> int:
-        return len(self.t)
-
-
-def read_record_csv(path: PathLike, sc: Optional[Scenario] = None) -> Record:
-    """A CSV with the measurement columns of scenario `sc`'s mechanism (default the paper's t,u,y1,y4; the
-    header names the columns; extra ones ignored; empty fields are NaN)."""
-    from .measurements import columns_of
-
-    path = Path(path)
-    ins, sens = (("u",), ("y1", "y4")) if sc is None else columns_of(sc)
-    want = ("t",) + tuple(ins) + tuple(sens)
-    with open(path, encoding="utf-8") as f:
-        header = [c.strip() for c in f.readline().split(",")]
-    missing = [c for c in want if c not in header]
-    if missing:
-        raise ValueError(f"{path}: no column(s) {', '.join(missing)} in the header")
-    cols = [header.index(c) for c in want]
-    data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=cols, ndmin=2, filling_values=np.nan)
-    if data.size == 0:
-        raise ValueError(f"{path}: no rows")
-    ni = len(ins)
-    u = data[:, 1] if ni == 1 else np.ascontiguousarray(data[:, 1:1 + ni])
-    return Record(path.name, data[:, 0], u, np.ascontiguousarray(data[:, 1 + ni:]))
-
-
-def read_candump_records(path: PathLike, dt: float, dbc: Optional[PathLike] = None, sc: Optional[Scenario] = None
-                         ) -> List[Record]:
-    """Records of a candump -L log of the bench: what the bench sent per STEP (the inputs and the sensors).
-
-    The frames are those of scenario `sc`'s mechanism (bench.profiles.mechanism_profile: BENCH_U, BENCH_U2,
-    BENCH_Y1, BENCH_Y4, BENCH_S3_POS, .., BENCH_S<s>_VEL); default and for the paper's mechanism BENCH_U,
-    BENCH_Y1 and BENCH_Y4, or BENCH_YP of the production profile. One record per configuration (a CTRL_RESET
-    the bench sent starts the next). Frames with a bad E2E CRC are dropped; a step without every sensor's
-    frame is a lost measurement (NaN), a step without an input holds its last value (as the firmware does).
-    t = step * dt, each frame's step counter unwrapped by its own width (16 bits, BENCH_YP's 8).
-    """
-    from .bench.buslog import read_log
-    from .bench.codec import Codec
-    from .bench.e2e import crc_ok
-    from .bench.profiles import DIAGNOSTICS, INPUT_KEYS, SENSOR_KEYS, mechanism_profile, production
-
-    profile = DIAGNOSTICS
-    if sc is not None:
-        from .mechanism import Mechanism
-
-        profile = mechanism_profile(Mechanism.from_scenario(sc))
-    signals: Dict[str, Tuple[Tuple[str, str], ...]] = dict(profile.inputs)  # frame -> (signal, step key)
-    if profile is DIAGNOSTICS:  # the paper's mechanism: its production profile's frames too (BENCH_YP)
-        signals.update(production().inputs)
-    keys = {k for sigs in signals.values() for _, k in sigs}
-    in_keys = [k for k in INPUT_KEYS if k in keys]
-    y_keys = [k for k in SENSOR_KEYS if k in keys]
-    codec = Codec(dbc) if dbc else Codec()
-    frames = read_log(path, codec.from_estimator_ids)
-    ids = {codec.messages[n].frame_id: n for n in (*signals, "CTRL_RESET") if n in codec.messages}
-    data_id = {fid: codec.messages[n].data_id for fid, n in ids.items()}
-    segments: List[List[Tuple[str, bytes]]] = [[]]
-    for f in frames:
-        if not f.sent_by_bench or f.frame_id not in ids or not crc_ok(data_id[f.frame_id], f.data):
-            continue
-        name: str = ids[f.frame_id]
-        if name == "CTRL_RESET":
-            if segments[-1]:
-                segments.append([])
-            continue
-        segments[-1].append((name, f.data))
-    out: List[Record] = []
-    for i, seg in enumerate(s for s in segments if s):
-        steps: Dict[int, Dict[str, float]] = {}
-        base = None
-        for name, data in seg:
-            vals = codec.unpack(name, np.frombuffer(data, dtype=np.uint8))
-            wire = int(vals["STEP"][0])
-            if base is None:
-                base = wire
-            else:  # unwrap the frame's counter (16 bits, BENCH_YP's 8) to the step nearest the last one
-                mod = 1 << codec.messages[name].signals["STEP"].length
-                base += (wire - base + mod // 2) % mod - mod // 2
-            for sig, key in signals[name]:
-                steps.setdefault(base, {})[key] = float(vals[sig][0])
-        ks = np.array(sorted(steps))
-        k0 = ks[0]
-        n = int(ks[-1] - k0 + 1)
-        u = np.full((n, len(in_keys)), np.nan)
-        y = np.full((n, len(y_keys)), np.nan)
-        for k, v in steps.items():
-            j = k - k0
-            u[j] = [v.get(key, np.nan) for key in in_keys]
-            if all(key in v for key in y_keys):
-                y[j] = [v[key] for key in y_keys]
-        # hold the last known value of each input over steps whose frame was lost
-        idx = np.where(np.isfinite(u), np.arange(n)[:, None], 0)
-        np.maximum.accumulate(idx, axis=0, out=idx)
-        held = np.take_along_axis(u, idx, axis=0)
-        u = np.where(np.isfinite(held), held, 0.0)
-        out.append(Record(f"{Path(path).name}#{i + 1}", (k0 + np.arange(n)) * dt,
-                          u[:, 0].copy() if len(in_keys) == 1 else u, y))
-    if not out:
-        raise ValueError(f"{path}: no {'/'.join(signals)} frames")
-    return out
 
 
 # --- consistency -----------------------------------------------------------------------------------
@@ -222,7 +110,7 @@ def consistency(results: Sequence, gamma_true: Union[None, float, Sequence[float
     )
 
 
-def run_records(sc: Scenario, records: Sequence[Record], experiment: Optional[str] = None,
+def run_records(sc: Scenario, records: Sequence[Measurements], experiment: Optional[str] = None,
                 precision: str = "double", log_det_s: bool = True, **overrides) -> List:
     s = settings_for(sc, experiment, precision, **overrides)
     return [run(s, r.u, r.y, t=r.t, p_diag=False, log_det_s=log_det_s) for r in records]
@@ -242,8 +130,8 @@ class TuneResult:
     evaluations: int
 
 
-def tune(sc: Scenario, records: Sequence[Record], params: Optional[Sequence[str]] = None,
-         holdout: Sequence[Record] = (), experiment: Optional[str] = None, precision: str = "double",
+def tune(sc: Scenario, records: Sequence[Measurements], params: Optional[Sequence[str]] = None,
+         holdout: Sequence[Measurements] = (), experiment: Optional[str] = None, precision: str = "double",
          gamma_true: Union[None, float, Sequence[float]] = None, burn_in_s: float = 0.5, max_evals: int = 400,
          decades: float = 4.0, **overrides) -> TuneResult:
     """Maximum-likelihood noise for `params` (scenario keys of TUNABLE_NOISE or their aliases; default:
@@ -291,7 +179,7 @@ def tune(sc: Scenario, records: Sequence[Record], params: Optional[Sequence[str]
                             np.vstack([x0] + [x0 + np.eye(len(x0))[i] for i in range(len(x0))])})
     tuned = scenario_at(opt.x)
 
-    def measure(s: Scenario, recs: Sequence[Record]) -> Optional[Consistency]:
+    def measure(s: Scenario, recs: Sequence[Measurements]) -> Optional[Consistency]:
         return consistency(run_records(s, recs, experiment, precision, **overrides), g_true, burn_in) \
             if recs else None
 

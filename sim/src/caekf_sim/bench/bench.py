@@ -32,6 +32,7 @@ import numpy as np
 
 from .. import schema
 from . import e2e
+from .buslog import write_journal
 from .codec import RECORD, RECORD_FD, Codec, record_size, records_array
 from .profiles import INPUT_KEYS, SENSOR_KEYS, Profile, get_profile, mechanism_profile
 from .transport import Transport, make_transport, open_bus
@@ -741,8 +742,6 @@ class Bench:
 
     def write_log(self, path, clear: bool = True) -> int:
         """Write the journal as a `candump -L` log with python-can's CanutilsLogWriter."""
-        from .buslog import write_journal
-
         if self.journal is None:
             raise BenchError("this bench was opened without record_log")
         n = write_journal(self.journal, path, self.channel, self.wall_offset)

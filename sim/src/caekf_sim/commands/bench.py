@@ -352,7 +352,7 @@ def cmd_hil_report(args: argparse.Namespace) -> int:
 
 
 def cmd_hil_replay_log(args: argparse.Namespace) -> int:
-    from ..bench.buslog import replay_log, segment_results
+    from ..bench.replay import replay_log, segment_results
     from ..results import write_result_csv
 
     sc = scenario_from_args(args)

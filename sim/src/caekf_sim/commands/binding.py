@@ -210,17 +210,15 @@ def register_tune(sub: argparse._SubParsersAction) -> None:
 def _records(paths, sc):
     """Records of CSVs with the mechanism's columns (checked like caekf-replay checks them:
     caekf_sim.measurements) and *.log candump logs."""
-    from ..measurements import check_input_file, columns_of, read_candump_runs, read_measurements_csv
-    from ..tune import Record
+    from ..measurements import Measurements, check_input_file, columns_of, read_candump_runs, read_measurements_csv
 
-    out = []
+    out: List[Measurements] = []
     for path in paths:
         check_input_file(path)
         if str(path).endswith(".log"):
             out += read_candump_runs(path, sc.dt, sc)
         else:
-            m = read_measurements_csv(path, sc.dt, columns_of(sc))
-            out.append(Record(m.name, m.t, m.u, m.y))
+            out.append(read_measurements_csv(path, sc.dt, columns_of(sc)))
     return out
 
 
