@@ -28,7 +28,7 @@ foreach(dir firmware/protocol firmware/app)
                 DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}" FILES_MATCHING PATTERN "*.h")
     endif()
 endforeach()
-if(TARGET caekf_protocol) # generated from the DBC: caekf_proto_frames.h
+if(TARGET caekf_protocol) # generated from the DBC: caekf_proto_frames.h, caekf_proto_messages.h
     install(DIRECTORY "${PROJECT_BINARY_DIR}/generated/protocol/include/caekf" DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}"
             FILES_MATCHING PATTERN "*.h")
 endif()
