@@ -163,10 +163,12 @@ def test_flags_are_generated_once_and_their_bits_checked(tmp_path):
     import re
 
     files = codegen.c_core(schema.SCHEMA)
-    core = sorted(schema.SCHEMA.core_flags, key=lambda f: f.bit)
+    core = schema.SCHEMA.core_flags
+    assert [f.bit for f in core] == list(range(len(core)))
     enum = re.findall(r"CAEKF_FLAG_(\w+) = 1u << (\d+)", files["caekf/caekf_status.h"])
     assert enum == [(f.name.upper(), str(f.bit)) for f in core]
     assert f"#define CAEKF_FLAG_COUNT {len(core)}" in files["caekf/caekf_status.h"]
+    assert f"#define CAEKF_FLAG_MASK 0x{sum(f.mask for f in core):X}u" in files["caekf/caekf_status.h"]
     names = files["caekf_settings_names.c"].split("flag_names[CAEKF_FLAG_COUNT] = {")[1].split("};")[0]
     assert re.findall(r'"(\w+)"', names) == [f.name for f in core]
     for src in list((REPO / "firmware").rglob("*.[ch]")):

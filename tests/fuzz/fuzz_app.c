@@ -485,7 +485,7 @@ static void model_run_step(void)
     }
     e.msg = (uint8_t)CAEKF_MSG_EST_STEP;
     e.status = (int8_t)st;
-    e.flags = (uint16_t)((rep.flags & ((1u << CAEKF_FLAG_COUNT) - 1u)) | gap);
+    e.flags = (uint16_t)((rep.flags & CAEKF_FLAG_MASK) | gap);
     e.iters = (uint8_t)(rep.newton_iters < 0 ? 0 : rep.newton_iters > 255 ? 255 : rep.newton_iters);
     expect_push(&e);
 }

@@ -11,9 +11,8 @@
 
 /* The estimator's flags (the schema's) share EST_STEP.FLAGS with the app's named bits (the DBC's) above them,
  * and EST_PROD.FLAGS carries all of the estimator's. */
-CAEKF_STATIC_ASSERT((CAEKF_STEP_FLAGS_NAMED & ((1u << CAEKF_FLAG_COUNT) - 1u)) == 0u, core_flags_fit_below_app_flags);
-CAEKF_STATIC_ASSERT((((1u << CAEKF_FLAG_COUNT) - 1u) & ~CAEKF_PROD_FLAGS_MASK) == 0u,
-                    production_carries_every_core_flag);
+CAEKF_STATIC_ASSERT((CAEKF_STEP_FLAGS_NAMED & CAEKF_FLAG_MASK) == 0u, core_flags_fit_below_app_flags);
+CAEKF_STATIC_ASSERT((CAEKF_FLAG_MASK & ~CAEKF_PROD_FLAGS_MASK) == 0u, production_carries_every_core_flag);
 
 static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double value, uint16_t *app_flags)
 {
@@ -64,7 +63,7 @@ static caekf_msg_step_t step_info(uint16_t step, caekf_status_t status, const ca
 {
     caekf_msg_step_t s;
     s.step = step;
-    s.flags = (uint16_t)((report->flags & ((1u << CAEKF_FLAG_COUNT) - 1u)) | app_flags);
+    s.flags = (uint16_t)((report->flags & CAEKF_FLAG_MASK) | app_flags);
     s.newton_iters = clamp_iters(report->newton_iters);
     s.step_status = (int8_t)status;
     return s;

@@ -117,10 +117,14 @@ def named_bits(sig: Any) -> Dict[str, int]:
     return bits
 
 
-def _short(msg: Any) -> str:
-    """A message's name in the constants of its signals: EST_STEP -> STEP."""
+def api_name(msg: Any) -> str:
+    """A message's name in the API (its struct caekf_msg_<name>_t and codec functions): EST_ACK -> ack."""
     name = str(msg.name)
-    return name[len("EST_"):] if name.startswith("EST_") else name
+    for prefix in ("CTRL_", "EST_", "BENCH_"):
+        if name.startswith(prefix):
+            name = name[len(prefix):]
+            break
+    return name.lower()
 
 
 def _sentence(text: str) -> str:
@@ -158,9 +162,9 @@ def frames_header(db: Any, banner: str) -> str:
             bits = named_bits(sig)
             if bits:
                 h.append(f"/* {m.name}.{sig.name}'s named bits (its CaekfBits attribute). */")
-                h += [f"#define CAEKF_{_short(m)}_{sig.name}_{n} (1u << {b})" for n, b in bits.items()]
+                h += [f"#define CAEKF_{api_name(m).upper()}_{sig.name}_{n} (1u << {b})" for n, b in bits.items()]
                 mask = sum(1 << b for b in bits.values())
-                h += [f"#define CAEKF_{_short(m)}_{sig.name}_NAMED 0x{mask:X}u /* all of them */", ""]
+                h += [f"#define CAEKF_{api_name(m).upper()}_{sig.name}_NAMED 0x{mask:X}u /* all of them */", ""]
     h += ["/* EST_HEALTH's counters: page p carries counters 2p and 2p + 1. */", "typedef enum {"]
     h += [f"    CAEKF_CNT_{n} = {i}," for i, n in enumerate(cnt)]
     health_bits = db.get_message_by_name("EST_HEALTH").get_signal_by_name(cnt[0]).length
@@ -237,16 +241,6 @@ def plain_messages(db: Any) -> List[Any]:
             and all(s.scale == 1 and s.offset == 0 and not s.is_float for s in m.signals)]
 
 
-def api_name(msg: Any) -> str:
-    """A message's name in the API (its struct caekf_msg_<name>_t and codec functions): EST_ACK -> ack."""
-    name = str(msg.name)
-    for prefix in ("CTRL_", "EST_", "BENCH_"):
-        if name.startswith(prefix):
-            name = name[len(prefix):]
-            break
-    return name.lower()
-
-
 def _fields(msg: Any) -> List[Any]:
     from cantools.database.can.c_source import CodeGenSignal
 
@@ -262,8 +256,8 @@ def _raw_range(f: Any) -> Optional[Tuple[int, int]]:
 
 
 def _c_int(v: int, type_name: str) -> str:
-    return f"INT64_C({v})" if type_name.endswith("64_t") and type_name[0] == "i" else (
-        f"UINT64_C({v})" if type_name == "uint64_t" else str(v))
+    """An integer literal of a field's C type (64-bit ones through the stdint macros)."""
+    return {"int64_t": f"INT64_C({v})", "uint64_t": f"UINT64_C({v})"}.get(type_name, str(v))
 
 
 def messages_header(db: Any, banner: str) -> str:

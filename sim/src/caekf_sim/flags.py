@@ -12,7 +12,7 @@ from typing import Dict, List
 from .schema import SCHEMA
 
 # bit mask -> name, lowest bit first
-NAMES: Dict[int, str] = {f.mask: f.name for f in sorted(SCHEMA.flags, key=lambda f: f.bit)}
+NAMES: Dict[int, str] = {f.mask: f.name for f in SCHEMA.flags}
 _MASK: Dict[str, int] = {name: mask for mask, name in NAMES.items()}
 
 

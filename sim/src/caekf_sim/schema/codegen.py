@@ -171,7 +171,7 @@ class Schema:
     settings: Tuple[Setting, ...]
     presets: Tuple[Preset, ...]
     capacity: Dict[str, int] = field(default_factory=dict)
-    flags: Tuple[Flag, ...] = ()
+    flags: Tuple[Flag, ...] = ()  # lowest bit first
     statuses: Tuple[Status, ...] = ()
 
     @property
@@ -334,7 +334,8 @@ def _load_flags(entries: List[Dict[str, Any]]) -> Tuple[Flag, ...]:
             raise SchemaError(f"flag {f.name}: bit {f.bit}: the core's bits are 0..{WIRE_FLAG_BITS - 1}, "
                               f"the reference's {WIRE_FLAG_BITS}..31")
         flags.append(f)
-    core = sorted(f.bit for f in flags if f.layer == "core")
+    flags.sort(key=lambda f: f.bit)  # lowest bit first, as every table of them lists them
+    core = [f.bit for f in flags if f.layer == "core"]
     if core != list(range(len(core))):
         raise SchemaError(f"the core's flag bits must be 0..{len(core) - 1}, dense (got {core})")
     return tuple(flags)
@@ -685,7 +686,7 @@ const char *caekf_param_key(unsigned param_id)
     return param_id < CAEKF_PARAM_COUNT ? param_keys[param_id] : 0;
 }
 """]
-    core = sorted(schema.core_flags, key=lambda f: f.bit)
+    core = schema.core_flags
     n += ["static const char *const flag_names[CAEKF_FLAG_COUNT] = {"]
     n += [f'    "{f.name}",' for f in core] + ["};", "", """const char *caekf_flag_name(unsigned bit_index)
 {
@@ -702,7 +703,7 @@ const char *caekf_param_key(unsigned param_id)
 def c_status(schema: Schema) -> str:
     """The estimator's status codes (caekf_status_t) and health flags (caekf_report_t.flags, a bit mask,
     PX4-style)."""
-    core = sorted(schema.core_flags, key=lambda f: f.bit)
+    core = schema.core_flags
     last = len(schema.statuses) - 1
     h = [f"/* {GENERATED}. */", "#ifndef CAEKF_STATUS_H", "#define CAEKF_STATUS_H", "",
          "/* Status of every public call (errno-like: 0 is success, negative is an error). */", "typedef enum {"]
@@ -712,7 +713,8 @@ def c_status(schema: Schema) -> str:
           "/* Health flags of one step (caekf_report_t.flags; several may be set at once). */", "enum {"]
     h += [f"    CAEKF_FLAG_{_macro(f.name)} = 1u << {f.bit}{',' if i + 1 < len(core) else ''} {_c_comment(f.doc)}"
           for i, f in enumerate(core)]
-    h += ["};", f"#define CAEKF_FLAG_COUNT {len(core)}", "", "#endif", ""]
+    h += ["};", f"#define CAEKF_FLAG_COUNT {len(core)}",
+          f"#define CAEKF_FLAG_MASK 0x{(1 << len(core)) - 1:X}u /* every flag above */", "", "#endif", ""]
     return "\n".join(h)
 
 
