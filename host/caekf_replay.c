@@ -91,14 +91,20 @@ static void usage(FILE *f)
     fputs(CAEKF_EXIT_TABLE, f);
 }
 
-/* Final error of contact c's gamma against the scenario's true contact{c}_gamma [%]. */
-static double gamma_error(const caekf_scenario_t *sc, const double *gamma_last, int c)
+/* Final error of contact c's gamma against the scenario's true contact{c}_gamma [%], as text in buf: "-"
+ * when the scenario has no truth (a recording: the truth-only key is NaN). */
+static const char *gamma_error(const caekf_scenario_t *sc, const double *gamma_last, int c, char *buf, size_t len)
 {
     char key[32];
-    double truth = 0;
+    double truth = NAN;
     snprintf(key, sizeof key, "contact%d_gamma", c + 1);
     (void)caekf_scenario_value(sc, key, &truth);
-    return 100.0 * (gamma_last[c] / truth - 1.0);
+    if (isnan(truth)) {
+        snprintf(buf, len, "-");
+    } else {
+        snprintf(buf, len, "%+.4f", 100.0 * (gamma_last[c] / truth - 1.0));
+    }
+    return buf;
 }
 
 static void print_flags(FILE *f, uint32_t flags)
@@ -297,7 +303,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%-28s %-6s %7ld %5ld ", experiment != NULL ? experiment : "default", CAEKF_SCALAR_NAME,
                 sum.rows, sum.rejected);
         if (nc > 0) {
-            fprintf(stderr, "%+10.4f %12.4e ", gamma_error(&sc, sum.gamma_last, 0), sum.gamma_min_seen);
+            fprintf(stderr, "%10s %12.4e ", gamma_error(&sc, sum.gamma_last, 0, err, sizeof err), sum.gamma_min_seen);
         } else { /* no contact, no gamma */
             fprintf(stderr, "%10s %12s ", "-", "-");
         }
@@ -305,7 +311,7 @@ int main(int argc, char **argv)
                 sum.iters_max);
         print_flags(stderr, sum.flags_seen);
         for (i = 1; i < nc; ++i) { /* further contacts: their final gamma error, after the flags */
-            fprintf(stderr, " gamma%d %+.4f", i + 1, gamma_error(&sc, sum.gamma_last, i));
+            fprintf(stderr, " gamma%d %s", i + 1, gamma_error(&sc, sum.gamma_last, i, err, sizeof err));
         }
         fputc('\n', stderr);
     }

@@ -29,6 +29,9 @@ static void usage(FILE *f)
 {
     fputs("usage: caekf-truth --scenario FILE [--out CSV|-] [--bin FILE] [--no-csv] [--quiet] [--inputs CSV]\n"
           "                   [--method dop853|backward-euler] [--rtol R] [--atol-q A] [--atol-v A]\n"
+          "       caekf-truth --help | --version\n"
+          "The scenario must give the truth-only keys (contact{i}_gamma, input{i}_amp/_freq/_phase, t_end,\n"
+          "truth_substeps, noise_std, seed).\n"
           "Writes CSV columns t, the inputs (u, or u1..u<inputs>), one column per sensor (y<body> for a\n"
           "position sensor, yv<body> for a velocity sensor, in sensor order), q1..q<bodies>, v1..v<bodies>,\n"
           "and the penetrations (delta, or delta1..delta<contacts>) for k = 1..round(t_end/dt); for the\n"
@@ -193,6 +196,9 @@ int main(int argc, char **argv)
         } else if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             usage(stdout);
             return CAEKF_EXIT_OK;
+        } else if (strcmp(argv[i], "--version") == 0) {
+            caekf_tool_version("caekf-truth", CAEKF_SCALAR_NAME);
+            return CAEKF_EXIT_OK;
         } else {
             fprintf(stderr, "caekf-truth: unknown or incomplete argument '%s' (see --help)\n", argv[i]);
             return CAEKF_EXIT_USAGE;
@@ -209,6 +215,7 @@ int main(int argc, char **argv)
     /* Everything is checked before any output exists: the scenario (its mechanism validated as the
      * estimator would), the size, the input series. */
     if (caekf_scenario_load(scenario, &sc, err, sizeof err) != 0 ||
+        caekf_scenario_need_truth(&sc, scenario, err, sizeof err) != 0 ||
         caekf_scenario_settings(&sc, NULL, &settings, scenario, err, sizeof err) != 0) {
         fprintf(stderr, "caekf-truth: %s\n", err);
         return CAEKF_EXIT_INPUT;

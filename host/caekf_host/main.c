@@ -46,6 +46,7 @@ typedef struct {
 static void usage(FILE *out)
 {
     fprintf(out, "usage: caekf-host [--iface NAME] [--scenario FILE [--preset NAME]] [options]\n"
+                 "       caekf-host --help | --version\n"
                  "  --iface NAME            SocketCAN interface (default vcan0; a real can0 works the same)\n"
                  "  --scenario FILE         configure the estimator from a scenario file at start-up\n"
                  "                          (otherwise it waits for CTRL_PARAM/CTRL_RESET from the bench)\n"
@@ -91,7 +92,7 @@ static int parse_long_base(const char *text, int base, long lo, long hi, long *o
 
 static int parse_long(const char *text, long lo, long hi, long *out) { return parse_long_base(text, 10, lo, hi, out); }
 
-/* Returns 0 to run, 1 to exit 0 (help), 2 on a usage error. */
+/* Returns 0 to run, 1 to exit 0 (help, version), 2 on a usage error. */
 static int parse_args(int argc, char **argv, options_t *o)
 {
     int i;
@@ -116,6 +117,10 @@ static int parse_args(int argc, char **argv, options_t *o)
         int bad = 0;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
+            return 1;
+        } else if (strcmp(a, "--version") == 0) {
+            /* the CMake project version (compile definition), as every host tool prints it */
+            printf("caekf-host %s (%s)\n", CAEKF_VERSION, CAEKF_SCALAR_NAME);
             return 1;
         } else if (strcmp(a, "--quiet") == 0) {
             o->quiet = 1;

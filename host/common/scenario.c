@@ -143,8 +143,23 @@ int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsig
                      caekf_scenario_keys[k->in_use_key].key, *slot(sc, (unsigned)k->in_use_key));
             return -1;
         }
-        if (!seen[i] && k->required && in_use(sc, i)) {
+        /* A truth-only key (no wire id) is needed only to simulate a truth: caekf_scenario_need_truth. */
+        if (!seen[i] && k->required && k->param_id >= 0 && in_use(sc, i)) {
             snprintf(err, err_len, "%s: missing key '%s' (it has no default)", path, k->key);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+int caekf_scenario_need_truth(const caekf_scenario_t *sc, const char *path, char *err, unsigned err_len)
+{
+    unsigned i;
+    for (i = 0; i < NKEYS; ++i) {
+        const caekf_scenario_key_t *k = &caekf_scenario_keys[i];
+        if (k->param_id < 0 && k->required && !sc->given[i] && in_use(sc, i)) {
+            snprintf(err, err_len, "%s: missing key '%s' (it has no default; simulating a truth needs it)", path,
+                     k->key);
             return -1;
         }
     }

@@ -7,9 +7,15 @@
 #include "caekf_scenario_schema.h"
 
 /* Reads and checks a scenario file: every key must be known and given once, keys without a default
- * are required, every value is checked against the schema's range. On failure returns nonzero and
- * writes a one-line message naming the file, the line or key, and the rule. */
+ * are required (truth-only keys excepted: left out, they are NaN), every value is checked against the
+ * schema's range. On failure returns nonzero and writes a one-line message naming the file, the line or
+ * key, and the rule. */
 int caekf_scenario_load(const char *path, caekf_scenario_t *sc, char *err, unsigned err_len);
+
+/* For tools that simulate a truth: every truth-only key without a default (contact1_gamma, input1_amp,
+ * t_end, seed, ...) that is in use must have been given. Returns 0, or -1 with "path: missing key 'X'
+ * (...)" in err. */
+int caekf_scenario_need_truth(const caekf_scenario_t *sc, const char *path, char *err, unsigned err_len);
 
 /* A preset by name (caekf_presets), or NULL. */
 const caekf_preset_t *caekf_preset_find(const char *name);
@@ -29,7 +35,7 @@ int caekf_scenario_value(const caekf_scenario_t *sc, const char *key, double *v)
 /* Input 1's force u(t) = u_amp sin(2 pi u_freq t + u_phase) (the truth handles every input itself). */
 double caekf_scenario_input(const caekf_scenario_t *sc, double t);
 
-/* Number of estimator steps, round(t_end / dt). */
+/* Number of truth samples, round(t_end / dt) (t_end: a truth-only key). */
 long caekf_scenario_steps(const caekf_scenario_t *sc);
 
 #endif

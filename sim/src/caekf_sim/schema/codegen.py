@@ -736,8 +736,10 @@ def c_host(schema: Schema) -> Dict[str, str]:
           "    unsigned canonical;   /* the key this row sets (an alias row names another) */",
           "    unsigned offset;      /* of the double in caekf_scenario_t */",
           "    int param_id;         /* CTRL_PARAM id, or -1 for a truth-only key */",
-          "    int required;         /* no default: the file must give it when it is in use */",
-          "    double default_value; /* when not required (newton_rtol: double epsilon based) */",
+          "    int required;         /* no default: the file must give it when it is in use; a truth-only key",
+          "                           * (param_id -1) only to simulate a truth (caekf_scenario_need_truth) */",
+          "    double default_value; /* when not required (newton_rtol: double epsilon based); NAN for a",
+          "                           * required truth-only key, which estimating from recorded data never reads */",
           "    int is_integer;       /* int, enum or bool */",
           "    const char *rule;     /* the range rule as a message states it */",
           "    int rule_code;        /* CAEKF_RULE_* of caekf_settings_schema.h */",
@@ -761,14 +763,14 @@ def c_host(schema: Schema) -> Dict[str, str]:
     for k, canon, s, i in rows:
         pid = -1 if s.id is None else s.id + i
         req = s.element_required(i)
-        dv = 0.0 if req else s.default_value(index=i)
+        dv = ("NAN" if s.kind == "truth" else "0.0") if req else repr(s.default_value(index=i))
         rule = RULES[s.range]
         lo = 0.0 if s.range != "int" else s.lo
         hi = 0.0 if s.range != "int" else s.hi
         names = '"' + "|".join(s.values) + '"' if s.type == "enum" else "0"
         in_use = row_of[schema.by_name(s.in_use_by).keys[0]] if s.in_use_by else -1
         c.append(f'    {{"{k}", {row_of[canon]}u, (unsigned)offsetof(caekf_scenario_t, {canon}), {pid}, {int(req)}, '
-                 f'{dv!r}, {int(s.type != "real")}, "{s.rule_text()}", {rule}, {lo!r}, {hi!r}, {names}, {in_use}, {i}u}},')
+                 f'{dv}, {int(s.type != "real")}, "{s.rule_text()}", {rule}, {lo!r}, {hi!r}, {names}, {in_use}, {i}u}},')
     c += ["};", "", "const caekf_preset_t caekf_presets[CAEKF_PRESET_COUNT] = {"]
     for p in schema.presets:
         if len(p.values) > 8:
