@@ -19,6 +19,16 @@ WITHIN_CONVERGED = 0.05  # time to converge: |error| within 5 % from then on
 JOINT_TOL = {"gamma": 0.02, "n": 0.02, "lambda": 0.10, "gap": 1e-7}
 DIVERGED = 0.5  # |final error| above 50 %, or gamma <= 0, or NaN
 NEES_3SIGMA = 9.0  # final NEES of a chi-square(1) within 3 sigma
+MISMATCH_FLAG = "model_mismatch"  # the health flag saying the model does not fit the data (issue 27)
+
+
+def mismatch_flag_mask() -> Optional[int]:
+    """The bit of the `model_mismatch` flag, read by its name from caekf_sim.flags (the schema's); None while
+    the schema has no such flag (then `flagged_mismatch_end` is unavailable)."""
+    try:
+        return fl.mask(MISMATCH_FLAG)
+    except KeyError:
+        return None
 
 
 def contact_suffix(c: int) -> str:
@@ -128,6 +138,13 @@ def run_metrics(t: np.ndarray, gamma_true: Union[float, Sequence[float], np.ndar
         "steps_gamma_gated": int(np.count_nonzero(est.flags & fl.GAMMA_GATED)),
         "steps_constraint": int(np.count_nonzero(est.flags & fl.CONSTRAINT_APPLIED)),
     })
+    # issue 27: does the last step say the model does not fit, and is the run silently wrong (neither within
+    # 3 sigma of its own P at the end nor flagged at the end)? Without the flag in the schema nothing can
+    # flag a run: flagged_mismatch_end is None (unavailable) and silent_wrong counts every inconsistent run.
+    bit = mismatch_flag_mask()
+    flagged = None if bit is None or n == 0 else bool(int(est.flags[-1]) & bit)
+    out["flagged_mismatch_end"] = flagged
+    out["silent_wrong"] = not out["consistent_3sigma_worst"] and not flagged
     if est.law:
         out.update(law_metrics(est, law_true or {}, [m["final_err"] for m in per]))
     return out

@@ -14,7 +14,7 @@ import numpy as np
 from .spec import TARGETS, Family
 
 SUMMARY_COLUMNS = ("experiment", "group", "n", "within_1pct", "within_5pct", "diverged", "consistent_3sigma",
-                   "median_abs_err")
+                   "flagged_mismatch_end", "silent_wrong", "median_abs_err")
 
 
 def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Sequence[str]) -> List[Dict[str, Any]]:
@@ -29,6 +29,10 @@ def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Se
         err = np.array([r["abs_final_err_worst"] for r in rs], dtype=float)
         div = np.array([r["diverged_worst"] for r in rs], dtype=bool)
         cons = np.array([r["consistent_3sigma_worst"] for r in rs], dtype=bool)
+        # None where the schema has no model_mismatch flag: the count is unavailable (None) then
+        flag_known = all(r.get("flagged_mismatch_end") is not None for r in rs)
+        flagged = np.array([bool(r.get("flagged_mismatch_end")) for r in rs], dtype=bool)
+        silent = np.array([r.get("silent_wrong", not r["consistent_3sigma_worst"]) for r in rs], dtype=bool)
         for label, m in groups:
             out.append({
                 "experiment": e, "group": label, "n": int(m.sum()),
@@ -36,6 +40,8 @@ def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Se
                 "within_5pct": int(np.count_nonzero(err[m] <= 0.05)),
                 "diverged": int(np.count_nonzero(div[m])),
                 "consistent_3sigma": int(np.count_nonzero(cons[m])),
+                "flagged_mismatch_end": int(np.count_nonzero(flagged[m])) if flag_known else None,
+                "silent_wrong": int(np.count_nonzero(silent[m])),
                 "median_abs_err": float(np.median(err[m])) if m.any() else float("nan"),
             })
     return out
@@ -105,6 +111,8 @@ def format_targets(family: Family, summary: Sequence[Dict[str, Any]], joint: Seq
                 src, total = jrow, (jrow["crb_meets_targets"] if jrow else 0)
             else:
                 src, total = row, row["n"]
+            if name == "not_silent_wrong" and src is not None:  # the runs that are not silently wrong
+                src = {name: row["n"] - row["silent_wrong"]}
             if src is None:
                 cells.append(f"{name}: not measured")
                 all_met = False
@@ -123,9 +131,14 @@ def format_targets(family: Family, summary: Sequence[Dict[str, Any]], joint: Seq
 
 
 def format_summary(summary: Sequence[Dict[str, Any]]) -> str:
-    head = ["experiment", "group", "n", "within 1 %", "within 5 %", "diverged", "within 3 sigma", "median |err|"]
+    """The family table; "flagged" is the runs whose last step carries model_mismatch ("n/a" while the schema
+    has no such flag), "silent wrong" those neither within 3 sigma nor flagged."""
+    head = ["experiment", "group", "n", "within 1 %", "within 5 %", "diverged", "within 3 sigma", "flagged",
+            "silent wrong", "median |err|"]
+    na = lambda v: "n/a" if v is None else str(v)  # noqa: E731
     cells = [head] + [[s["experiment"], s["group"], str(s["n"]), str(s["within_1pct"]), str(s["within_5pct"]),
-                       str(s["diverged"]), str(s["consistent_3sigma"]), f"{100 * s['median_abs_err']:.3g} %"]
+                       str(s["diverged"]), str(s["consistent_3sigma"]), na(s.get("flagged_mismatch_end")),
+                       na(s.get("silent_wrong")), f"{100 * s['median_abs_err']:.3g} %"]
                       for s in summary]
     w = [max(len(r[i]) for r in cells) for i in range(len(head))]
     lines = ["| " + " | ".join(c.ljust(x) for c, x in zip(r, w)) + " |" for r in cells]

@@ -122,16 +122,26 @@ def observability_verdict(sc: Scenario, layout: Sequence[Tuple[int, str]]) -> Di
     return out
 
 
+def filter_inputs(run: Run, tr: TruthArrays) -> np.ndarray:
+    """The inputs the filter reads: the truth run's forces, plus the run's input noise under [mismatch]."""
+    noise = run.input_noise(len(tr.t))
+    return tr.u if noise is None else tr.u + noise
+
+
 def run_task(task: Task) -> List[Dict[str, Any]]:
-    """All rows of one mechanism: one per experiment."""
+    """All rows of one mechanism: one per experiment. The truth simulates the run's truth scenario (the
+    filter's own unless the family's [mismatch] perturbs it); every estimator runs the filter's scenario on
+    the truth's measurements and the inputs it reads (filter_inputs)."""
     sc = task.run.scenario
     t0 = time.perf_counter()
-    tr = truth_arrays(sc, task.truth)
+    truth_sc = task.run.truth_scenario()
+    tr = truth_arrays(truth_sc, task.truth)
+    u_read = filter_inputs(task.run, tr)
     truth_s = time.perf_counter() - t0
     from ..mechanism import contact_values, law_layout, scenario_value
 
     nc = int(sc.contacts)
-    g_true = contact_values(sc, "gamma", nc)
+    g_true = contact_values(truth_sc, "gamma", nc)
     g0 = contact_values(sc, "gamma0", nc)
     base: Dict[str, Any] = {"run": task.run.run, "source": task.run.source}
     base.update({k: float(v) for k, v in task.run.values.items()})
@@ -142,14 +152,14 @@ def run_task(task: Task) -> List[Dict[str, Any]]:
                  "truth_failed": bool(tr.failed)})
     base.update(truth_stats(tr.delta, nc))
     layout = law_layout(sc, nc)
-    law_true = {f"contact{c + 1}_{name}": float(scenario_value(sc, f"contact{c + 1}_{name}"))
+    law_true = {f"contact{c + 1}_{name}": float(scenario_value(truth_sc, f"contact{c + 1}_{name}"))
                 for c, name in layout}
     if task.observability and layout:
-        base.update(observability_verdict(sc, layout))
+        base.update(observability_verdict(truth_sc, layout))
     rows = []
     for e in task.experiments:
         t1 = time.perf_counter()
-        est = estimate(sc, e, tr.t, tr.u, tr.y, backend=task.estimator)
+        est = estimate(sc, e, tr.t, u_read, tr.y, backend=task.estimator)
         row = dict(base)
         row["experiment"] = e
         row.update(run_metrics(tr.t, g_true, tr.delta, est, law_true))

@@ -6,6 +6,9 @@ Run i draws from numpy's generator on SeedSequence(seed).spawn(runs)[i]: the sam
 same mechanisms, and run i does not depend on how many runs there are after it.
 The sampler knows nothing of the mechanism: every name that is a Scenario field sets it, so the
 family grows with the scenario format.
+A [mismatch] table makes the truth differ from the filter's model (issue 27): every mass, spring and damper
+of the truth off by a log-normal factor, the force the filter reads with white noise; both drawn from the
+run's generator after the family's draws, so the filter's scenario is the one the spec gives without it.
 """
 from __future__ import annotations
 
@@ -65,12 +68,38 @@ class Split:
 
 @dataclass(frozen=True)
 class Run:
-    """One mechanism of a family: its id, scenario and every drawn or set value by name."""
+    """One mechanism of a family: its id, scenario (the filter's model, and the truth's unless [mismatch]
+    says otherwise) and every drawn or set value by name.
+
+    With [mismatch]: `truth_factors` multiply the truth's masses, springs and dampers ((key, factor), the
+    scenario's keys); the filter reads each input i as the true force plus white noise of std
+    `input_noise_std[i]` [N], drawn from default_rng(input_noise_seed)."""
 
     run: int
     scenario: Scenario
     values: Dict[str, float]
     source: str = ""
+    truth_factors: Tuple[Tuple[str, float], ...] = ()
+    input_noise_std: Tuple[float, ...] = ()
+    input_noise_seed: Optional[int] = None
+
+    @property
+    def mismatched(self) -> bool:
+        return bool(self.truth_factors) or any(s > 0 for s in self.input_noise_std)
+
+    def truth_scenario(self) -> Scenario:
+        """The scenario the truth simulates: the filter's with the truth factors applied."""
+        if not self.truth_factors:
+            return self.scenario
+        return self.scenario.replace(**{k: getattr(self.scenario, k) * f for k, f in self.truth_factors})
+
+    def input_noise(self, n: int) -> Optional[np.ndarray]:
+        """The noise the filter's inputs carry, (n,) for one input else (n, inputs) [N]; None without."""
+        if not any(s > 0 for s in self.input_noise_std):
+            return None
+        rng = np.random.default_rng(self.input_noise_seed)
+        noise = rng.standard_normal((n, len(self.input_noise_std))) * np.asarray(self.input_noise_std, float)
+        return noise[:, 0] if noise.shape[1] == 1 else noise
 
 
 @dataclass(frozen=True)
@@ -81,6 +110,7 @@ class Family:
     drawn: Tuple[str, ...] = ()  # names varied across the family (plots against each)
     seed: Optional[int] = None
     targets: Tuple[Tuple[str, float], ...] = ()  # the spec's [targets]: (name, bound), checked over all runs
+    mismatch: Tuple[Tuple[str, float], ...] = ()  # the spec's [mismatch]: how the truth differs from the model
 
 
 # [targets]: what a family must reach, each a bound on one column of the family tables over the group "all":
@@ -89,7 +119,14 @@ class Family:
 TARGETS: Dict[str, str] = {
     "within_1pct": "fraction", "within_5pct": "fraction", "diverged": "count", "consistent_3sigma": "fraction",
     "joint_ok": "fraction", "joint_diverged": "count",
+    # issue 27: a run is silently wrong when it ends neither within 3 sigma nor flagged model_mismatch
+    "not_silent_wrong": "fraction",
 }
+
+# [mismatch]: how the truth differs from the filter's model (docs/family.md).
+MISMATCH_KEYS = ("params_lognormal_sigma", "input_noise_rel")
+# the settings whose every element in use the truth draws a factor for, in this order
+MISMATCH_SETTINGS = ("m", "spring_k", "spring_c")
 
 
 # ---------------------------------------------------------------- expressions
@@ -179,9 +216,11 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
             spec = tomllib.load(f)
         except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
             raise ValueError(f"{path}: not a TOML family spec: {exc}") from None
-    unknown = sorted(set(spec) - {"family", "structure", "draw", "set", "split", "targets"})
+    unknown = sorted(set(spec) - {"family", "structure", "draw", "set", "split", "targets", "mismatch"})
     if unknown:
-        raise ValueError(f"{path}: unknown tables {unknown} (family, structure, draw, set, split, targets)")
+        raise ValueError(f"{path}: unknown tables {unknown} (family, structure, draw, set, split, targets, "
+                         "mismatch)")
+    mismatch = _mismatch_table(spec.get("mismatch", {}), path)
     targets = spec.get("targets", {})
     unknown = sorted(set(targets) - set(TARGETS))
     if unknown:
@@ -232,10 +271,12 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
                     v = evaluate(str(expr) if idx is None else str(expr).replace("{i}", str(idx)), known)
                     values[k] = known[k] = v
             sc = scenario_from_values(base, values)
+            run = _mismatched(Run(run=i, scenario=sc, values=values, source=str(path)), mismatch, rng)
+            run.truth_scenario()  # the truth's values must be valid too
         except ValueError as exc:
             msg = str(exc).replace("replace(): ", "")
             raise ValueError(msg if msg.startswith(f"{path}: run") else f"{path}: run {i}: {msg}") from None
-        out.append(Run(run=i, scenario=sc, values=values, source=str(path)))
+        out.append(run)
     splits = tuple(
         Split(name=s["name"], edges=tuple(float(e) for e in s["edges"]) if "edges" in s else None,
               values=tuple(float(v) for v in s["values"]) if "values" in s else None)
@@ -244,7 +285,50 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
     varied = [k for k in (structure or {}) if k in ("bodies", "contacts", "closing")]
     varied += [name.replace("{i}", "1") for name in draws]  # a template: its first element
     return Family(name=str(fam.get("name", path.stem)), runs=tuple(out), splits=splits,
-                  drawn=tuple(varied), seed=root, targets=tuple((k, float(v)) for k, v in targets.items()))
+                  drawn=tuple(varied), seed=root, targets=tuple((k, float(v)) for k, v in targets.items()),
+                  mismatch=tuple(mismatch.items()))
+
+
+def _mismatch_table(table: Mapping[str, Any], path: Path) -> Dict[str, float]:
+    """The spec's [mismatch] values, checked (each a number >= 0)."""
+    unknown = sorted(set(table) - set(MISMATCH_KEYS))
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)} in [mismatch] ({', '.join(MISMATCH_KEYS)})")
+    out = {}
+    for k, v in table.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (v >= 0 and math.isfinite(v)):
+            raise ValueError(f"{path}: [mismatch] {k} = {v!r}: must be a number >= 0")
+        out[k] = float(v)
+    return out
+
+
+def _mismatched(run: Run, mismatch: Mapping[str, float], rng: np.random.Generator) -> Run:
+    """run with the spec's [mismatch] drawn from its generator (after every draw of the family): a factor
+    exp(sigma N(0,1)) for each mass, spring and damper in use (MISMATCH_SETTINGS, element by element), then
+    the input-noise seed. The filter's scenario is left as it is; the values gain `truth_factor_<key>`, the
+    [mismatch] values and `input_noise_seed`."""
+    if not mismatch:
+        return run
+    sc, values = run.scenario, dict(run.values)
+    factors: List[Tuple[str, float]] = []
+    sigma = mismatch.get("params_lognormal_sigma")
+    if sigma is not None:
+        in_use = sc.values()
+        keys = [k for name in MISMATCH_SETTINGS for k in SCHEMA.by_name(name).keys if k in in_use]
+        for k in keys:
+            factors.append((k, float(math.exp(sigma * rng.standard_normal()))))
+        values["params_lognormal_sigma"] = sigma
+        values.update({f"truth_factor_{k}": f for k, f in factors})
+    rel = mismatch.get("input_noise_rel")
+    std: Tuple[float, ...] = ()
+    seed = None
+    if rel is not None:
+        seed = int(rng.integers(1, 2**31 - 1))
+        std = tuple(rel * abs(float(getattr(sc, k))) for k in SCHEMA.by_name("input_amp").keys[:int(sc.inputs)])
+        values["input_noise_rel"] = rel
+        values["input_noise_seed"] = float(seed)
+    return dataclasses.replace(run, values=values, truth_factors=tuple(factors), input_noise_std=std,
+                               input_noise_seed=seed)
 
 
 def _expand(name: str, d: Any, known: Mapping[str, float], path: Path) -> List[Tuple[str, Optional[int]]]:

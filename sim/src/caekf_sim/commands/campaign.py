@@ -47,6 +47,7 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     import pyarrow.parquet as pq
 
     from ..campaign.report import format_joint, format_summary, format_targets, joint_rows, summary_rows, write_plots
+    from ..campaign.metrics import MISMATCH_FLAG, mismatch_flag_mask
     from ..campaign.runner import rows_table, run_family
     from ..campaign.spec import load_family
 
@@ -80,6 +81,12 @@ def cmd_campaign(args: argparse.Namespace) -> int:
             f"estimator {args.estimator}; {wall:.1f} s wall ({where})")
     failed = sum(1 for r in rows if r["truth_failed"]) // max(1, len(experiments))
     text = head + f"\ntruth failures: {failed}/{len(family.runs)}\n"
+    if family.mismatch:
+        text += ("the truth differs from the filter's model ([mismatch]: "
+                 + ", ".join(f"{k} = {v:g}" for k, v in family.mismatch) + ")\n")
+    if mismatch_flag_mask() is None:
+        text += (f"the schema has no {MISMATCH_FLAG} flag yet: flagged = n/a, and every run outside 3 sigma "
+                 "counts as silent wrong\n")
     if any(r.scenario.contacts > 1 for r in family.runs):
         text += ("mechanisms with several contacts count by their worst contact: largest |final error|, "
                  "diverged if any contact diverged, within 3 sigma if every contact is\n")
@@ -117,5 +124,11 @@ def cmd_family(args: argparse.Namespace) -> int:
     for r in family.runs:
         (args.out / f"run-{r.run:04d}.toml").write_text(
             f"# {family.name} run {r.run} (seed {family.seed})\n" + scenario_text(r.scenario), encoding="utf-8")
-    print(f"wrote {len(family.runs)} scenario files to {args.out}")
+        if r.truth_factors:  # [mismatch]: the truth's own scenario, in truth/ (not a run of the folder)
+            (args.out / "truth").mkdir(exist_ok=True)
+            (args.out / "truth" / f"run-{r.run:04d}.toml").write_text(
+                f"# {family.name} run {r.run} (seed {family.seed}): the truth ([mismatch])\n"
+                + scenario_text(r.truth_scenario()), encoding="utf-8")
+    print(f"wrote {len(family.runs)} scenario files to {args.out}"
+          + (" (the truths' in truth/)" if any(r.truth_factors for r in family.runs) else ""))
     return 0
