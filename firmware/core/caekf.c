@@ -165,6 +165,51 @@ static void apply_bounds(caekf_t *est, caekf_scalar_t *z, uint32_t *flags)
     }
 }
 
+/* The bodies' Q_x (scaled), times the mismatch monitor's factor (1 unless adapted: x * 1 is x). */
+static void set_body_q(caekf_t *est)
+{
+    const caekf_settings_t *s = &est->cfg;
+    const caekf_scalar_t f = est->mismatch.q_scale;
+    const int nq = CAEKF_DIM_NQ(&est->model);
+    int i;
+    for (i = 0; i < nq; ++i) {
+        /* Ratios before squaring: float would underflow on (1e-9)^2 / (1e-6)^2 done the other way. */
+        est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0) * f;
+        est->q_diag[nq + i] = sq(s->sigma_qx_v / s->sigma_v0) * f;
+    }
+}
+
+/* The model-mismatch monitor (docs/mismatch.md). A consistent filter's NIS per sensor has mean 1; its
+ * exponentially weighted mean over mismatch_window steps stays near 1 (within about 2 / sqrt(window ny)
+ * by chance). Each step's NIS is clipped at CAEKF_MISMATCH_NIS_CLIP per sensor so that a few outliers
+ * (a contact's first steps) cannot raise the mean alone; innovations that stay large do. Above
+ * mismatch_ratio the model does not fit the data. With mismatch_adapt the bodies' Q_x is then scaled
+ * by q_scale <- q_scale (1 + (mean - 1) / window) each step, which grows while the innovations are too
+ * large and shrinks back to 1 once they are consistent: P then admits the model's error, and the gate
+ * lets the contact parameters go. `next` gets the monitor after this step's NIS (corrected: a
+ * correction computed one). Returns CAEKF_FLAG_MODEL_MISMATCH or 0. */
+#define CAEKF_MISMATCH_NIS_CLIP ((caekf_scalar_t)100)
+#define CAEKF_MISMATCH_Q_SCALE_MAX ((caekf_scalar_t)1e12)
+static uint32_t mismatch_update(const caekf_t *est, int corrected, caekf_scalar_t nis, caekf_mismatch_t *next)
+{
+    const caekf_settings_t *cfg = &est->cfg;
+    const int ny = cfg->model.sensors;
+    *next = est->mismatch;
+    if (cfg->mismatch_window <= 0 || ny <= 0) {
+        return 0;
+    }
+    if (corrected) {
+        const caekf_scalar_t w = (caekf_scalar_t)cfg->mismatch_window;
+        const caekf_scalar_t per_sensor = caekf_min(nis / (caekf_scalar_t)ny, CAEKF_MISMATCH_NIS_CLIP);
+        next->nis_mean += (per_sensor - next->nis_mean) / w;
+        if (cfg->mismatch_adapt && (next->q_scale > 1 || next->nis_mean > cfg->mismatch_ratio)) {
+            next->q_scale *= 1 + (next->nis_mean - 1) / w;
+            next->q_scale = caekf_min(caekf_max(next->q_scale, 1), CAEKF_MISMATCH_Q_SCALE_MAX);
+        }
+    }
+    return next->nis_mean > cfg->mismatch_ratio || next->q_scale > 1 ? CAEKF_FLAG_MODEL_MISMATCH : 0u;
+}
+
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
 {
     const caekf_model_params_t *mp;
@@ -207,10 +252,10 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         est->scale[nq + i] = s->sigma_v0;
         est->z[i] = s->q0[i] / s->sigma_q0;
         est->z[nq + i] = s->v0[i] / s->sigma_v0;
-        /* Ratios before squaring: float would underflow on (1e-9)^2 / (1e-6)^2 done the other way. */
-        est->q_diag[i] = sq(s->sigma_qx_q / s->sigma_q0);
-        est->q_diag[nq + i] = sq(s->sigma_qx_v / s->sigma_v0);
     }
+    est->mismatch.nis_mean = 1;
+    est->mismatch.q_scale = 1;
+    set_body_q(est);
     for (i = 0; i < nc; ++i) {
         const int g = 2 * nq + i;
         if (CAEKF_PARAMS_GAMMA_LOG(mp)) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
@@ -589,6 +634,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     const caekf_contact_t *ct_pred = 0; /* the prediction's contacts at x_k- when it evaluated them */
 #endif
     caekf_scalar_t nis = 0;
+    caekf_mismatch_t monitor;
+    int corrected = 0, rescale;
 
     if (report != 0) {
         report->flags = 0;
@@ -734,12 +781,13 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < ny; ++i) {
             y_s[i] = y[i] / s[dims->h[i]];
         }
-        (void)caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
-                                  est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct);
+        corrected = caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
+                                        est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct) == 0;
         apply_bounds(est, z, &flags);
     } else {
         flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
     }
+    flags |= mismatch_update(est, corrected, nis, &monitor);
     if (!caekf_covariance_health(est->P_work, z, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
                                  est->cfg.cov_repair_enabled, est->scratch.m, &flags)) {
         flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
@@ -767,6 +815,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     est->u_prev_known = 1;
 #endif
+    rescale = monitor.q_scale != est->mismatch.q_scale;
+    est->mismatch = monitor;
+    if (rescale) {
+        set_body_q(est);
+    }
     est->step_count++;
     est->last_flags = flags;
 done:
@@ -801,6 +854,18 @@ CAEKF_NOINLINE static caekf_status_t readable(const caekf_t *est, const void *ou
         return CAEKF_ERR_NULL;
     }
     return is_init(est) ? CAEKF_OK : CAEKF_ERR_NOT_INIT;
+}
+
+caekf_status_t caekf_get_mismatch(const caekf_t *est, caekf_scalar_t *nis_mean, caekf_scalar_t *q_scale)
+{
+    const caekf_status_t st = readable(est, est);
+    if (st == CAEKF_OK && nis_mean != 0) {
+        *nis_mean = est->mismatch.nis_mean;
+    }
+    if (st == CAEKF_OK && q_scale != 0) {
+        *q_scale = est->mismatch.q_scale;
+    }
+    return st;
 }
 
 caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs)

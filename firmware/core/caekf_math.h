@@ -52,5 +52,6 @@
 #define CAEKF_ISFINITE(x) (isfinite(x) != 0)
 
 static inline caekf_scalar_t caekf_max(caekf_scalar_t a, caekf_scalar_t b) { return a > b ? a : b; }
+static inline caekf_scalar_t caekf_min(caekf_scalar_t a, caekf_scalar_t b) { return a < b ? a : b; }
 
 #endif /* CAEKF_MATH_H */

@@ -175,7 +175,7 @@ def test_flags_are_generated_once_and_their_bits_checked(tmp_path):
         assert not re.search(r"CAEKF_FLAG_\w+ = ", src.read_text()), src
     text = codegen.SCHEMA_PATH.read_text()
     for old, new, match in (('name = "input_rejected"\nbit = 1\n', 'name = "input_rejected"\nbit = 0\n', "twice"),
-                            ('name = "gamma_gated"\nbit = 11\n', 'name = "gamma_gated"\nbit = 12\n', "dense"),
+                            ('name = "model_mismatch"\nbit = 12\n', 'name = "model_mismatch"\nbit = 13\n', "dense"),
                             ('name = "non_finite"\nbit = 16\n', 'name = "non_finite"\nbit = 15\n', "reference")):
         assert old in text, old
         p = tmp_path / "s.toml"

@@ -208,6 +208,7 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_NEWTON_RTOL: return &s->newton_rtol;
     case CAEKF_PARAM_GAMMA_GATE_NIS: return &s->gamma_gate_nis;
     case CAEKF_PARAM_CONTACT_SLR_P: return &s->contact_slr_p;
+    case CAEKF_PARAM_MISMATCH_RATIO: return &s->mismatch_ratio;
     default: return NULL;
     }
 }
@@ -245,6 +246,8 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_CONTACT_SUBSTEPS: return &s->contact_substeps;
     case CAEKF_PARAM_GAMMA_LOG: return &m->gamma_log;
     case CAEKF_PARAM_LAW_SECOND_ORDER: return &s->law_second_order;
+    case CAEKF_PARAM_MISMATCH_WINDOW: return &s->mismatch_window;
+    case CAEKF_PARAM_MISMATCH_ADAPT: return &s->mismatch_adapt;
     default: return NULL;
     }
 }
@@ -857,7 +860,9 @@ static void check_tx(void)
             FZ_CHECK(get_bits(f->data, 12, 4) == e->page, "HEALTH pages in order");
         } else if (m == CAEKF_MSG_EST_STEP) {
             FZ_CHECK(get_bits(f->data, 12, 16) == e->step, "EST_STEP step");
-            FZ_CHECK((get_bits(f->data, 32, 16) & ~(uint64_t)0x5000u) == e->flags, "EST_STEP flags");
+            FZ_CHECK((get_bits(f->data, 32, 16) &
+                      ~(uint64_t)(CAEKF_STEP_FLAGS_SATURATED | CAEKF_STEP_FLAGS_PNORM_UNAVAILABLE)) == e->flags,
+                     "EST_STEP flags");
             FZ_CHECK(f->data[6] == e->iters, "EST_STEP Newton iterations");
             FZ_CHECK((int8_t)f->data[7] == e->status, "EST_STEP status");
         } else {

@@ -308,14 +308,17 @@ def test_yp_frame(db, dump):
 
 def test_prod_frame(db, dump):
     rng = random.Random(RNG_SEED + 12)
-    cases = [dict(STEP=rng.randrange(256), FLAGS=rng.randrange(4096), GAMMA=_f32(rng)) for _ in range(300)]
+    prod = db.get_message_by_name("EST_PROD")
+    step_mod, flags_mod = (1 << prod.get_signal_by_name(name).length for name in ("STEP", "FLAGS"))
+    cases = [dict(STEP=rng.randrange(step_mod), FLAGS=rng.randrange(flags_mod), GAMMA=_f32(rng)) for _ in range(300)]
     enc = dump.run([f"enc_prod {c['STEP']} {c['FLAGS']} {c['GAMMA']!r}" for c in cases])
     assert enc == [f"0 {encode(db, 'EST_PROD', c)}" for c in cases]
     dec = dump.run([f"dec_prod {line.split()[1]}" for line in enc])
     got = [(int(a), int(b), int(c), float.fromhex(d)) for a, b, c, d in (line.split() for line in dec)]
     assert got == [(0, c["STEP"], c["FLAGS"], c["GAMMA"]) for c in cases]
-    # flags above bit 11 are not part of EST_PROD: the C encoder drops them
-    assert dump.one("enc_prod 1 65535 1.0").split()[1] == encode(db, "EST_PROD", dict(STEP=1, FLAGS=4095, GAMMA=1.0))
+    # flags above the signal's width are not part of EST_PROD: the C encoder drops them
+    assert dump.one("enc_prod 1 65535 1.0").split()[1] == encode(db, "EST_PROD",
+                                                                 dict(STEP=1, FLAGS=flags_mod - 1, GAMMA=1.0))
 
 
 PAGE_SIGNALS = ("Q1", "Q2", "Q3", "Q4", "V1", "V2", "V3", "V4", "P_NORM", "P_GAMMA_GAMMA")
@@ -503,9 +506,9 @@ def test_named_bits_come_from_the_dbc_and_are_checked(tmp_path):
         assert bits
         for name, bit in bits.items():
             assert f"#define {prefix}{name} (1u << {bit})" in header
-    old = 'BA_ "CaekfBits" SG_ 395 FLAGS "12 SATURATED,13 STEP_GAP,14 PNORM_UNAVAILABLE";'
+    old = 'BA_ "CaekfBits" SG_ 395 FLAGS "13 SATURATED,14 STEP_GAP,15 PNORM_UNAVAILABLE";'
     assert old in text
-    for new in (old.replace("13 STEP_GAP", "12 STEP_GAP"), old.replace("14 PNORM", "16 PNORM")):
+    for new in (old.replace("14 STEP_GAP", "13 STEP_GAP"), old.replace("15 PNORM", "16 PNORM")):
         bad = tmp_path / "bad.dbc"
         bad.write_text(text.replace(old, new, 1), encoding="utf-8")
         with pytest.raises(ValueError, match="FLAGS"):

@@ -80,7 +80,7 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
     const uint16_t page = app->page_phase;
 
     (void)caekf_get_state(&app->est, x);
-    pm.step = (uint8_t)(step & 0xFFu);
+    pm.step = (uint8_t)(step & CAEKF_PROD_STEP_MASK);
     pm.flags = (uint16_t)(report->flags & CAEKF_PROD_FLAGS_MASK);
     pm.gamma = wire_value(app, x, 2u * WIRE_BODIES);
     if (caekf_proto_encode_prod(&pm, f.data) == CAEKF_PROTO_SATURATED) {

@@ -38,6 +38,12 @@ typedef struct {
     caekf_scalar_t nis;   /* normalised innovation squared of the correction (0 without one) */
 } caekf_report_t;
 
+/* The model-mismatch monitor's state (docs/mismatch.md). */
+typedef struct {
+    caekf_scalar_t nis_mean; /* exponentially weighted mean of NIS per sensor (clipped): 1 while consistent */
+    caekf_scalar_t q_scale;  /* the factor on the bodies' Q_x (mismatch_adapt): 1 unless adapted to a mismatch */
+} caekf_mismatch_t;
+
 /* The estimator instance (CMSIS-DSP style: caller-owned, no hidden state). Treat as opaque and read it
  * through the accessors below. Internally the state is scaled, z = S^-1 x with
  * S = diag(sigma_q0 .., sigma_v0 .., sigma_gamma0 of each contact), and P is kept in the same scaled
@@ -84,6 +90,7 @@ typedef struct {
     caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */
     uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
 #endif
+    caekf_mismatch_t mismatch; /* the model-mismatch monitor (mismatch_window > 0) */
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;
@@ -213,6 +220,11 @@ caekf_status_t caekf_correct(caekf_t *est, const caekf_scalar_t *u, const caekf_
  * gammas are unchanged. Keeping the estimator on the clock this way avoids blaming a time shift on gamma.
  * Non-finite u is rejected with the state untouched. Flags include CAEKF_FLAG_NO_MEASUREMENT. */
 caekf_status_t caekf_predict(caekf_t *est, const caekf_scalar_t *u, caekf_report_t *report);
+
+/* The model-mismatch monitor: the mean NIS per sensor over mismatch_window steps (about 1 while the
+ * innovations are consistent with P and R) and the factor now on the bodies' Q_x (1 unless
+ * mismatch_adapt has raised it). Either pointer may be NULL. */
+caekf_status_t caekf_get_mismatch(const caekf_t *est, caekf_scalar_t *nis_mean, caekf_scalar_t *q_scale);
 
 /* Sizes of the mechanism the estimator runs: states n = 2 bodies + contacts, sensors, inputs. */
 caekf_status_t caekf_get_sizes(const caekf_t *est, int *n, int *sensors, int *inputs);

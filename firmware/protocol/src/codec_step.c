@@ -183,7 +183,7 @@ caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t 
         return CAEKF_PROTO_ERR_NULL;
     }
     memset(&g, 0, sizeof g);
-    g.step = m->step;
+    g.step = (uint8_t)(m->step & CAEKF_PROD_STEP_MASK);
     g.flags = (uint16_t)(m->flags & CAEKF_PROD_FLAGS_MASK);
     clipped = put_f32(&g.gamma, m->gamma);
     return caekf_proto_packed(caekf_can_est_prod_pack(data, &g, CAEKF_CAN_DLC), CAEKF_CAN_DLC, clipped);

@@ -180,6 +180,8 @@ def frames_header(db: Any, banner: str) -> str:
           f"#define CAEKF_YP_BITS {yp.length}u /* and their width */",
           f"#define CAEKF_PROD_FLAGS_MASK 0x{(1 << prod.get_signal_by_name('FLAGS').length) - 1:04X}u"
           " /* EST_PROD.FLAGS: the estimator's flag bits it carries */",
+          f"#define CAEKF_PROD_STEP_MASK 0x{(1 << prod.get_signal_by_name('STEP').length) - 1:02X}u"
+          " /* EST_PROD.STEP: the step index modulo its width */",
           f"#define CAEKF_PAGE_COUNT {int(page.get_signal_by_name('PAGE').maximum) + 1}u /* EST_PAGE's pages */",
           f"#define CAEKF_PAGE_STEP_INFO {page.get_signal_by_name('FLAGS').multiplexer_ids[0]}u"
           " /* the page with FLAGS, NEWTON_ITERS, STEP_STATUS */", "", "#endif", ""]

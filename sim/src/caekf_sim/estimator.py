@@ -95,6 +95,14 @@ class EstimatorConfig:
     # its law's tangents expected over delta ~ N(delta, s_c^2) in F and in the Newton matrix (its force stays
     # the law's), and is active (eq. 21) while P(delta > 0) > contact_slr_p; other laws keep eq. 21's sign.
     contact_slr_p: float = 0.0
+    # The model-mismatch monitor (settings mismatch_window, mismatch_ratio, mismatch_adapt; docs/mismatch.md):
+    # m <- m + (min(NIS / ny, 100) - m) / window after each correction (m = 1 at the start); the flag
+    # MODEL_MISMATCH while m > ratio or the bodies' Q_x is still scaled; with adapt, that scale
+    # rho <- clip(rho (1 + (m - 1) / window), 1, 1e12) once m has passed the ratio, until it is back at 1.
+    # window 0 (the numpy reference's own default): no monitor.
+    mismatch_window: int = 0
+    mismatch_ratio: float = 3.0
+    mismatch_adapt: bool = False
 
     def __post_init__(self) -> None:
         if not self.contact_slr_p >= 0:
@@ -188,6 +196,8 @@ class AugmentedEKF:
         self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma,
                                law_value("sigma_q_{p}") ** 2])
         self.Qx = self.Q[: self.nx, : self.nx]
+        self.Qx_settings = np.diag(self.Qx).copy()
+        self.nis_mean, self.q_scale = 1.0, 1.0  # the model-mismatch monitor
         self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq),
                        np.log(g0) if cfg.gamma_log else g0, law_value("{p}0")]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
@@ -520,6 +530,15 @@ class AugmentedEKF:
         S = self.H @ P @ self.H.T + self.R
         return float(e @ np.linalg.solve(S, e))
 
+    def _monitor(self, nis: float) -> int:
+        """The model-mismatch monitor after a correction whose NIS is `nis` (EstimatorConfig): its flag."""
+        cfg, w = self.cfg, float(self.cfg.mismatch_window)
+        self.nis_mean += (min(nis / self.H.shape[0], 100.0) - self.nis_mean) / w
+        if cfg.mismatch_adapt and (self.q_scale > 1.0 or self.nis_mean > cfg.mismatch_ratio):
+            self.q_scale = min(max(self.q_scale * (1.0 + (self.nis_mean - 1.0) / w), 1.0), 1e12)
+            self.Qx[np.diag_indices(self.nx)] = self.Qx_settings * self.q_scale  # a view of Q
+        return fl.MODEL_MISMATCH if self.nis_mean > cfg.mismatch_ratio or self.q_scale > 1.0 else 0
+
     # ---- one step -----------------------------------------------------------------------
     def correct(self, u: Any, y: np.ndarray) -> int:
         """The measurements y at the estimate's own time, without a time update (a recording's sample at
@@ -613,6 +632,8 @@ class AugmentedEKF:
                     break
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(Pp))):
             status |= fl.NON_FINITE
+        if cfg.mismatch_window > 0:
+            status |= self._monitor(self._nis(xp, Pm, y))
         self.x, self.P = x, Pp
         self.u_prev = u
         return status, iters

@@ -37,13 +37,14 @@ DEFAULT = "default"  # no preset: the scenario's own settings (scenario_config)
 def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig:
     """The configuration the C tools run: the scenario's estimator settings (mode, switchoff, cov_update,
     q_gamma_scale, constraint_enabled, gamma_gate_nis (0: off), newton_max_iter, discretisation,
-    contact_substeps, gamma_log, law_second_order, contact_slr_p) with preset
+    contact_substeps, gamma_log, law_second_order, contact_slr_p, the mismatch monitor's) with preset
     `name`'s values over them (None or "default": no preset); for the cross-check of caekf-replay and the
     binding on any mechanism."""
     values = {s.name: float(getattr(sc, s.keys[0])) for s in schema.SCHEMA.settings
               if s.name in ("mode", "switchoff", "cov_update", "q_gamma_scale", "constraint_enabled",
                             "gamma_gate_nis", "newton_max_iter", "discretisation", "contact_substeps",
-                            "gamma_log", "law_second_order", "contact_slr_p")}
+                            "gamma_log", "law_second_order", "contact_slr_p", "mismatch_window",
+                            "mismatch_ratio", "mismatch_adapt")}
     if name == DEFAULT:
         name = None
     if name is not None:
@@ -60,7 +61,10 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
                            newton_max_iter=int(values["newton_max_iter"]), gate_nis=gate if gate > 0 else math.inf,
                            discretisation=enum("discretisation"), contact_substeps=int(values["contact_substeps"]),
                            gamma_log=bool(values["gamma_log"]), law_second_order=bool(values["law_second_order"]),
-                           contact_slr_p=float(values["contact_slr_p"]))
+                           contact_slr_p=float(values["contact_slr_p"]),
+                           mismatch_window=int(values["mismatch_window"]),
+                           mismatch_ratio=float(values["mismatch_ratio"]),
+                           mismatch_adapt=bool(values["mismatch_adapt"]))
 
 
 def experiment_config(name: str, **overrides) -> EstimatorConfig:

@@ -31,6 +31,7 @@ NUMERIC_ROLLBACK = mask("numeric_rollback")
 GAMMA_FROZEN = mask("gamma_frozen")
 NO_MEASUREMENT = mask("no_measurement")
 GAMMA_GATED = mask("gamma_gated")
+MODEL_MISMATCH = mask("model_mismatch")
 NON_FINITE = mask("non_finite")
 # Every bit the C core can set (the reference's own lie above them).
 CORE_MASK = sum(f.mask for f in SCHEMA.core_flags)

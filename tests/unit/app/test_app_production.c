@@ -81,7 +81,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
     s = base.est;
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&ref, &s));
     for (k = 0; k < 2u * PERIOD + 5u; k++) {
-        const uint16_t step = (uint16_t)(250u + k); /* EST_PROD.STEP wraps at 256 on the way */
+        const uint16_t step = (uint16_t)(250u + k); /* EST_PROD.STEP wraps (CAEKF_PROD_STEP_MASK) on the way */
         const double u = 0.02 * (double)k, y1 = -3.3e-7 * (double)k, y4 = 1.1e-8 * (double)k;
         caekf_scalar_t y[2], x[CAEKF_N], P[CAEKF_N][CAEKF_N], pn;
         caekf_report_t rep;
@@ -102,7 +102,7 @@ static void test_two_input_frames_make_a_step_and_each_value_equals_the_estimato
         TEST_ASSERT_EQUAL_INT(0, i);
         TEST_ASSERT_TRUE(fake_tx_e2e_ok(&fake, 0));
         TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_prod(fake.tx[0].data, &pm));
-        TEST_ASSERT_EQUAL_UINT8((uint8_t)(step & 0xFFu), pm.step);
+        TEST_ASSERT_EQUAL_UINT8((uint8_t)(step & CAEKF_PROD_STEP_MASK), pm.step);
         TEST_ASSERT_EQUAL_HEX16((uint16_t)(rep.flags & CAEKF_PROD_FLAGS_MASK), pm.flags);
         TEST_ASSERT_TRUE(f32((double)x[2 * ref.model.nq]) == pm.gamma);
         i = fake_tx_find(&fake, CAEKF_MSG_EST_PAGE, 0);

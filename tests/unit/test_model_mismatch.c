@@ -1,0 +1,132 @@
+/* The model-mismatch monitor (settings mismatch_window, mismatch_ratio, mismatch_adapt; docs/mismatch.md):
+ * the mean NIS per sensor it keeps follows its formula, an exact model is never flagged and its estimate
+ * is unchanged, a spring 3 % off (k1) is flagged, the adapted Q_x lets the gate go, and a refused step leaves
+ * the monitor as it was. The paper's noise-free truth (its filter model is exact). */
+#include <math.h>
+#include <string.h>
+
+#include "test_support.h"
+#include "unity.h"
+
+#define IG PAPER_IG
+
+void setUp(void) {}
+void tearDown(void) {}
+
+typedef struct {
+    long steps, flagged, gated_late; /* steps; steps flagged MODEL_MISMATCH; gated in the last 10 s */
+    uint32_t last_flags;
+    double nis_mean, q_scale; /* at the end */
+    double mean_ref_err;      /* largest |caekf_get_mismatch's mean - the formula's from rep.nis| */
+    caekf_scalar_t x[CAEKF_N];
+} mm_run_t;
+
+/* The paper's switched filter with the monitor set as given, spring 1 (k1, body 1 to the ground: it sets the quasi-static positions) of the filter's model
+ * multiplied by k1_factor, over the paper's truth. The test recomputes the monitor's mean from each
+ * step's reported NIS, in double. */
+static mm_run_t run(int window, double ratio, int adapt, double k1_factor)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    mm_run_t res;
+    truth_rec_t r;
+    double mean = 1;
+    memset(&res, 0, sizeof res);
+    paper_settings(&s, EXP_SWITCHED);
+    s.mismatch_window = window;
+    s.mismatch_ratio = (caekf_scalar_t)ratio;
+    s.mismatch_adapt = adapt;
+    s.model.spring_k[0] = (caekf_scalar_t)((double)s.model.spring_k[0] * k1_factor);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    while (truth_next(&r) == 1) {
+        const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
+        caekf_report_t rep;
+        caekf_scalar_t m, q;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &m, &q));
+        if (window > 0) {
+            mean += (fmin((double)rep.nis / 2, 100.0) - mean) / window;
+            res.mean_ref_err = fmax(res.mean_ref_err, fabs((double)m - mean) / fmax(mean, 1.0));
+        }
+        res.flagged += (rep.flags & CAEKF_FLAG_MODEL_MISMATCH) != 0;
+        res.gated_late += res.steps >= paper_steps() - 10000 && (rep.flags & CAEKF_FLAG_GAMMA_GATED) != 0;
+        res.last_flags = rep.flags;
+        res.nis_mean = (double)m;
+        res.q_scale = (double)q;
+        res.steps++;
+    }
+    truth_close();
+    TEST_ASSERT_EQUAL_INT32(paper_steps(), res.steps);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, res.x));
+    return res;
+}
+
+static void test_the_mean_follows_its_formula(void)
+{
+    /* Spring 3 % off: the NIS is far above the clip for long stretches, so the clip is exercised too. */
+    const mm_run_t wrong = run(500, 3.0, 0, 1.03);
+    TEST_ASSERT_TRUE(wrong.nis_mean > 3.0);
+    TEST_ASSERT_TRUE(wrong.mean_ref_err < 1e-3);
+}
+
+static void test_an_exact_model_is_never_flagged_and_its_estimate_is_unchanged(void)
+{
+    const mm_run_t off = run(0, 3.0, 1, 1.0), on = run(500, 3.0, 1, 1.0);
+    int i;
+    TEST_ASSERT_EQUAL_INT32(0, on.flagged);
+    TEST_ASSERT_TRUE(on.nis_mean < 3.0);
+    TEST_ASSERT_TRUE(on.q_scale == 1.0);
+    for (i = 0; i < PAPER_N; ++i) {
+        TEST_ASSERT_TRUE(on.x[i] == off.x[i]); /* bit for bit: the monitor only watched */
+    }
+}
+
+static void test_a_spring_three_percent_off_is_flagged(void)
+{
+    const mm_run_t wrong = run(500, 3.0, 0, 1.03), off = run(0, 3.0, 0, 1.03);
+    TEST_ASSERT_TRUE(wrong.last_flags & CAEKF_FLAG_MODEL_MISMATCH);
+    TEST_ASSERT_TRUE(wrong.flagged > wrong.steps / 2);
+    TEST_ASSERT_EQUAL_INT32(0, off.flagged); /* window 0: no monitor */
+    TEST_ASSERT_TRUE(wrong.q_scale == 1.0);  /* not adapting */
+}
+
+static void test_adapting_q_lets_the_gate_go(void)
+{
+    const mm_run_t held = run(500, 3.0, 0, 1.03), adapted = run(500, 3.0, 1, 1.03);
+    TEST_ASSERT_TRUE(adapted.q_scale > 1.0);
+    TEST_ASSERT_TRUE(adapted.last_flags & CAEKF_FLAG_MODEL_MISMATCH); /* still said while Q_x is adapted */
+    TEST_ASSERT_TRUE(held.gated_late > 0);
+    TEST_ASSERT_TRUE(adapted.gated_late < held.gated_late / 10);
+}
+
+static void test_a_refused_step_leaves_the_monitor_as_it_was(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    caekf_report_t rep;
+    caekf_scalar_t m0, q0, m1, q1;
+    const caekf_scalar_t u[1] = {0}, bad[2] = {(caekf_scalar_t)NAN, 0}, y[2] = {(caekf_scalar_t)1e-3, 0};
+    paper_settings(&s, EXP_SWITCHED);
+    s.mismatch_window = 10;
+    s.mismatch_adapt = 1;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, u, y, &rep)); /* a 1 mm innovation: far out */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &m0, &q0));
+    TEST_ASSERT_TRUE(m0 > 1);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_INPUT, caekf_step(&est, u, bad, &rep));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &m1, &q1));
+    TEST_ASSERT_TRUE(m1 == m0 && q1 == q0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_get_mismatch(0, &m1, &q1));
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_the_mean_follows_its_formula);
+    RUN_TEST(test_an_exact_model_is_never_flagged_and_its_estimate_is_unchanged);
+    RUN_TEST(test_a_spring_three_percent_off_is_flagged);
+    RUN_TEST(test_adapting_q_lets_the_gate_go);
+    RUN_TEST(test_a_refused_step_leaves_the_monitor_as_it_was);
+    return UNITY_END();
+}
