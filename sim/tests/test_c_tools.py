@@ -4,6 +4,7 @@ Looks in $CAEKF_BUILD_DIR/host, then build/<preset>/host for the double-precisio
 Skipped when no build exists (the Python package must also work on its own).
 """
 import os
+import re
 import subprocess
 from pathlib import Path
 
@@ -13,6 +14,8 @@ import pytest
 from caekf_sim.results import read_result_csv
 from caekf_sim.scenario import default_scenario_path
 from caekf_sim.truth import read_truth_csv, write_truth_csv
+from recording_support import (project_version, text_without, truth_keys_in_use, write_recording,
+                               write_scenario_without_truth)
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -101,3 +104,83 @@ def test_c_replay_with_its_gate_matches_numpy_with_the_scenarios_settings(name, 
     assert np.any(py.flags & gated) == fires  # switched: NIS 27 at the onsets (README)
     np.testing.assert_array_equal(c.flags & gated, py.flags & gated)
     assert np.max(np.abs(c.gamma - py.gamma)) < 1e-8 * sc.gamma
+
+
+# ---- a recording's scenario (no truth-only key) through every C tool; --version of every tool ----------------
+
+
+def _build_host() -> Path:
+    """The build's host/ folder (the one find_tool takes caekf-replay from)."""
+    tool = find_tool("caekf-replay")
+    if tool is None:
+        if os.environ.get("CAEKF_BUILD_DIR"):
+            pytest.fail("caekf-replay not found under $CAEKF_BUILD_DIR/host")
+        pytest.skip("the C tools are not built")
+    return tool.parent
+
+
+def _host_tool(name: str) -> Path:
+    """A host executable by name anywhere under the build's host/ (caekf-host is in host/caekf_host/)."""
+    found = [p for p in _build_host().rglob(name) if p.is_file() and os.access(p, os.X_OK)]
+    if not found:
+        pytest.fail(f"{name} not built under {_build_host()}")
+    return found[0]
+
+
+def _run(args, **kw):
+    return subprocess.run([str(a) for a in args], capture_output=True, text=True, timeout=120, **kw)
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    d = tmp_path_factory.mktemp("recording")
+    return write_scenario_without_truth(d / "mechanism.toml"), write_recording(d / "rec.csv")
+
+
+def test_every_host_executable_answers_version_with_the_cmake_project_version():
+    """Every executable built from host/ (caekf-replay, caekf-truth, caekf-bench, caekf-reference, caekf-host,
+    and any added later) prints "<name> <project version> (<scalar>)" and exits 0."""
+    host = _build_host()
+    tools = sorted(p for p in host.rglob("*") if p.is_file() and os.access(p, os.X_OK)
+                   and "CMakeFiles" not in p.parts and p.suffix == "")
+    names = {p.name for p in tools}
+    assert {"caekf-replay", "caekf-truth", "caekf-bench", "caekf-reference"} <= names, names
+    for p in tools:
+        r = _run([p, "--version"])
+        assert r.returncode == 0, (p.name, r.stderr)
+        assert re.fullmatch(rf"{re.escape(p.name)} {re.escape(project_version())} \((double|float)\)\n", r.stdout), \
+            (p.name, r.stdout)
+
+
+def test_replay_bench_reference_and_host_take_a_scenario_without_truth_keys(recording, tmp_path):
+    """A recording's scenario has no truth-only key: caekf-replay estimates from it exactly what it estimates
+    with the full reference scenario (the truth keys are never read), --summary has no gamma error to give."""
+    scenario, rec = recording
+    est, full = tmp_path / "est.csv", tmp_path / "full.csv"
+    r = _run([_host_tool("caekf-replay"), "--scenario", scenario, "--in", rec, "--out", est, "--summary"])
+    assert r.returncode == 0, r.stderr
+    assert _run([_host_tool("caekf-replay"), "--scenario", default_scenario_path(), "--in", rec, "--out", full]
+                ).returncode == 0
+    assert est.read_text() == full.read_text() and len(est.read_text().splitlines()) == 301
+    assert r.stderr.split()[4] == "-"  # the final gamma error: there is no true gamma
+    r = _run([_host_tool("caekf-bench"), scenario, rec, "1"])
+    assert r.returncode == 0 and "switched" in r.stdout, r.stderr
+    r = _run([_host_tool("caekf-reference"), scenario, rec, tmp_path / "ref.h"])
+    assert r.returncode == 0 and "reference_f64_final_gamma" in (tmp_path / "ref.h").read_text(), r.stderr
+    # caekf-host reads the scenario and configures the estimator before it opens the bus
+    r = _run([_host_tool("caekf-host"), "--scenario", scenario, "--iface", "caekfnosuch0"])
+    assert "no network interface 'caekfnosuch0'" in r.stderr and "missing" not in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("key", truth_keys_in_use())
+def test_truth_refuses_a_scenario_without_a_truth_key_naming_file_and_key(key, tmp_path):
+    """caekf-truth simulates a truth: each truth-only key it needs is refused when absent, in one line naming
+    the file and the key, before any output exists."""
+    scenario = tmp_path / "no-truth.toml"
+    scenario.write_text(text_without([key]))
+    out = tmp_path / "truth.csv"
+    r = _run([_host_tool("caekf-truth"), "--scenario", scenario, "--out", out])
+    assert r.returncode == 3
+    assert r.stderr == f"caekf-truth: {scenario}: missing key '{key}' (it has no default; simulating a truth " \
+                       "needs it)\n"
+    assert not out.exists()

@@ -9,6 +9,8 @@ from caekf_sim.cli import COMMAND_MODULES, build_parser, main
 from caekf_sim.results import read_result_csv
 from caekf_sim.scenario import default_scenario_path
 from caekf_sim.truth import read_truth_csv
+from recording_support import (REPO, project_version, text_without, truth_keys_in_use, write_recording,
+                               write_scenario_without_truth)
 
 
 def test_all_documented_subcommands_exist():
@@ -171,3 +173,60 @@ def test_observability_names_why_the_papers_claims_need_its_mechanism(capsys):
     assert main(["filterpy-check", "--scenario", str(scenario)]) == 3
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "filterpy-check" in err[0] and "bodies = 6 (the paper's chain has 4)" in err[0]
+
+
+# ---- a recording's scenario (no truth-only key) through every caekf-sim tool; --version -----------------------
+
+
+def test_tools_take_a_scenario_without_truth_keys(tmp_path: Path, capsys):
+    """estimate (both engines), tune, plot and observability run on a recording with the scenario a user writes
+    for a real mechanism: no truth-only key. The estimate equals the one with the full reference scenario."""
+    scenario = write_scenario_without_truth(tmp_path / "mechanism.toml")
+    rec = write_recording(tmp_path / "rec.csv")
+    for engine in ("c", "numpy"):
+        est, full = tmp_path / f"est-{engine}.csv", tmp_path / f"full-{engine}.csv"
+        assert main(["estimate", "--scenario", str(scenario), "--measurements", str(rec), "--engine", engine,
+                     "--out", str(est)]) == 0, capsys.readouterr().err
+        assert main(["estimate", "--measurements", str(rec), "--engine", engine, "--out", str(full)]) == 0
+        assert est.read_text() == full.read_text() and len(read_result_csv(est).t) == 300
+    tuned = tmp_path / "tuned.toml"
+    assert main(["tune", "--scenario", str(scenario), "--runs", str(rec), "--burn-in", "0.05", "--max-evals", "3",
+                 "--out", str(tuned)]) == 0, capsys.readouterr().err
+    assert tuned.exists() and "nan" not in tuned.read_text().split("\n# ")[-1].lower()
+    fig = tmp_path / "fig.png"
+    assert main(["plot", "--scenario", str(scenario), str(tmp_path / "est-c.csv"), "--out", str(fig)]) == 0, \
+        capsys.readouterr().err
+    assert fig.stat().st_size > 10_000
+    capsys.readouterr()
+    assert main(["observability", "--scenario", str(scenario)]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert "claim 1 (contact active: observable, even with one position sensor): confirmed" in out
+    assert "claim 2 (contact inactive: unobservable, gamma's mode at lambda = 0): confirmed" in out
+
+
+def test_truth_commands_refuse_a_scenario_without_a_truth_key_naming_file_and_key(tmp_path: Path, capsys):
+    """truth, experiments and observability --crb simulate a truth: a missing truth-only key is a one-line error
+    (exit 3) naming the file and the key, and nothing is written."""
+    for key in truth_keys_in_use():
+        scenario = tmp_path / f"no-{key}.toml"
+        scenario.write_text(text_without([key]))
+        for argv in (["truth", "--out", str(tmp_path / "t.csv")], ["experiments", "--outdir", str(tmp_path / "x")],
+                     ["observability", "--crb"]):
+            capsys.readouterr()
+            assert main([argv[0], "--scenario", str(scenario), *argv[1:]]) == 3, (key, argv)
+            assert capsys.readouterr().err == (f"caekf-sim: {scenario}: missing key '{key}' (it has no default; "
+                                               "simulating a truth needs it)\n"), (key, argv)
+        assert not (tmp_path / "t.csv").exists() and not (tmp_path / "x").exists()
+
+
+def test_version_is_the_cmake_project_version(capsys):
+    """caekf-sim --version prints the project's one version (CMake's project version: sim/pyproject.toml reads
+    it from there instead of keeping a copy)."""
+    try:
+        main(["--version"])
+    except SystemExit as exc:
+        assert exc.code == 0
+    assert capsys.readouterr().out == f"caekf-sim {project_version()}\n"
+    text = (REPO / "sim" / "pyproject.toml").read_text()
+    assert re.search(r"^version\s*=", text, re.MULTILINE) is None and 'dynamic = ["version"]' in text
+    assert '__version__ = "' not in (REPO / "sim" / "src" / "caekf_sim" / "__init__.py").read_text()

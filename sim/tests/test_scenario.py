@@ -1,7 +1,10 @@
+import re
+
 import pytest
 
 from caekf_sim import schema
 from caekf_sim.scenario import ScenarioError, default_scenario_path, load_scenario, parse_flat, scenario_from_text
+from recording_support import text_without, truth_keys_in_use, write_recording, write_scenario_without_truth
 
 PAPER = default_scenario_path()
 
@@ -80,3 +83,39 @@ def test_replace_is_checked_too():
     assert sc.replace(t_end=1.0).n_steps == 1000
     with pytest.raises(ScenarioError, match="t_end"):
         sc.replace(t_end=-1.0)
+
+
+# ---- a recording's scenario: no truth-only key ---------------------------------------------------------------
+
+
+def test_a_scenario_without_truth_keys_loads_and_runs_the_binding(tmp_path):
+    """The loader takes a scenario with no truth-only key (what a user writes for a real mechanism):
+    the keys are missing, not invented, and caekf_sim.run estimates from it exactly as from the full file."""
+    import numpy as np
+
+    import caekf_sim
+
+    path = write_scenario_without_truth(tmp_path / "mechanism.toml")
+    sc = load_scenario(path)
+    assert not sc.has_truth and sc.missing_truth() == truth_keys_in_use()
+    assert not set(truth_keys_in_use()) & set(sc.values())  # left out, as the file leaves them (written back so)
+    assert sc.replace(sigma_r=2e-7).missing_truth() == truth_keys_in_use()
+    rec = np.loadtxt(write_recording(tmp_path / "rec.csv"), delimiter=",", skiprows=1)
+    got = caekf_sim.run(path, rec[:, 1], rec[:, 2:])
+    want = caekf_sim.run(PAPER, rec[:, 1], rec[:, 2:])
+    assert np.array_equal(got.x, want.x) and np.array_equal(got.flags, want.flags)
+
+
+@pytest.mark.parametrize("key", truth_keys_in_use())
+def test_simulating_a_truth_refuses_a_missing_truth_key_naming_file_and_key(key, tmp_path):
+    from caekf_sim.binding import truth as c_truth
+    from caekf_sim.truth import simulate
+
+    path = tmp_path / "no-truth.toml"
+    path.write_text(text_without([key]))
+    sc = load_scenario(path)
+    assert sc.missing_truth() == [key]
+    message = f"^{re.escape(str(path))}: missing key '{key}' \\(it has no default; simulating a truth needs it\\)$"
+    for fn in (simulate, c_truth):
+        with pytest.raises(ScenarioError, match=message):
+            fn(sc)

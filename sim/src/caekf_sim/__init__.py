@@ -6,7 +6,18 @@ The shipped C estimator, from Python (caekf_sim.binding): Estimator, run, settin
 from .binding import BindingError, Estimator, Report, RunResult, SettingsError, default_settings, run, settings_for
 from .settings_adapter import Settings
 
-__version__ = "0.1.0"
+
+def _version() -> str:
+    """The installed distribution's version: CMake's project version (sim/pyproject.toml reads it), one source."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("caekf-sim")
+    except PackageNotFoundError:  # not installed (imported from the source tree)
+        return "unknown"
+
+
+__version__ = _version()
 
 __all__ = ["BindingError", "Estimator", "Report", "RunResult", "Settings", "SettingsError", "default_settings",
            "run", "settings_for"]

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Sequenc
 import numpy as np
 
 from . import schema
-from .scenario import PathLike, Scenario, load_scenario
+from .scenario import PathLike, Scenario, load_scenario, require_truth
 from .settings_adapter import Settings, check_precision, scenario_dict
 
 if TYPE_CHECKING:
@@ -484,6 +484,7 @@ def truth(sc: Scenario) -> "Truth":
 
     from .mechanism import Mechanism
 
+    require_truth(sc)
     mech = Mechanism.from_scenario(sc)
     x = sc.t_end / sc.dt
     n = int(math.floor(x + 0.5)) if x > 0 else 0  # caekf_scenario_steps: lround

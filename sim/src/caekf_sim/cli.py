@@ -19,6 +19,7 @@ COMMAND_MODULES = (
     "caekf_sim.commands.binding",  # bench-binding (the C binding's speed), tune (noise from data)
     "caekf_sim.commands.campaign",  # campaign, family
     "caekf_sim.commands.truthcheck",  # truth-check
+    "caekf_sim.commands.identify",  # identify (maximum-likelihood parameters from recordings)
 )
 
 
@@ -57,12 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version() -> str:
-    try:
-        from importlib.metadata import version
+    from . import __version__
 
-        return version("caekf-sim")
-    except Exception:  # not installed (running from the source tree)
-        return "unknown"
+    return __version__
 
 
 def exit_code(exc: BaseException) -> int:

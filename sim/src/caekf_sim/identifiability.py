@@ -32,6 +32,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .mechanism import POSITION, Mechanism, contact_law, contact_values, scenario_value
+from .scenario import require_truth
 from .schema import setting_of
 from .truth import TRUTH_ATOL_Q, TRUTH_ATOL_V, input_function, integrate_modes
 
@@ -122,6 +123,7 @@ class Sensitivity:
 def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, inputs: Any = None,
                   rtol: float = SENS_RTOL, t_end: Optional[float] = None) -> Sensitivity:
     """Integrate the truth and its variational equations for the unknowns [x0 (if initial_state); params]."""
+    require_truth(sc)
     mech = Mechanism.from_scenario(sc)
     nq, nc = mech.nq, mech.n_contacts
     unknowns = (initial_state_params(sc, mech) if initial_state else []) + list(params)

@@ -118,6 +118,12 @@ def _real(sc: Any, key: str, lo: Optional[float] = None, strict: bool = False) -
     return v
 
 
+def _excitation(sc: Any, key: str, lo: Optional[float] = None) -> float:
+    """An input's sine (truth-only: a recording's scenario leaves it out, NaN, and the truth refuses that)."""
+    v = float(scenario_value(sc, key))
+    return v if math.isnan(v) else _real(sc, key, lo)
+
+
 def _kind(sc: Any, key: str) -> int:
     v = scenario_value(sc, key)
     if isinstance(v, str):
@@ -282,9 +288,9 @@ class Mechanism:
         scc = [_real(sc, f"spring{i}_c", 0.0) for i in range(1, n_springs + 1)]
         ni = _count(sc, "inputs", 0, MAX_INPUTS)
         ib = [_body(sc, f"input{i}_body", nq, False) for i in range(1, ni + 1)]
-        amp = [_real(sc, f"input{i}_amp") for i in range(1, ni + 1)]
-        freq = [_real(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]
-        phase = [_real(sc, f"input{i}_phase") for i in range(1, ni + 1)]
+        amp = [_excitation(sc, f"input{i}_amp") for i in range(1, ni + 1)]
+        freq = [_excitation(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]
+        phase = [_excitation(sc, f"input{i}_phase") for i in range(1, ni + 1)]
         ns = _count(sc, "sensors", 1, MAX_SENSORS)
         sens: List[Tuple[int, int]] = []
         for i in range(1, ns + 1):

@@ -11,6 +11,7 @@ so every entry is O(1); rank is then counted with singular values > RANK_RTOL * 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Dict, List, Sequence, Tuple
 
@@ -21,6 +22,12 @@ from .scenario import Scenario
 
 RANK_RTOL = 1e-9
 SENSOR_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
+
+
+def linearisation_gamma(sc: Scenario) -> float:
+    """The stiffness the model is linearised at: the true contact1_gamma, or, for a recording's scenario that
+    has no truth, the estimator's initial contact1_gamma0."""
+    return float(sc.gamma) if not math.isnan(sc.gamma) else float(sc.gamma0)
 
 
 def augmented_jacobian(plant: Plant, delta: float, gamma: float) -> np.ndarray:
@@ -95,11 +102,12 @@ def analyse(
 ) -> Dict[Tuple[str, Tuple[str, ...]], PbhResult]:
     """PBH test for contact active (delta = penetration) and inactive, per sensor set."""
     plant = Plant.from_scenario(sc)
+    gamma = linearisation_gamma(sc)
     out = {}
     for case, delta in (("active", penetration), ("inactive", -penetration)):
-        A = augmented_jacobian(plant, delta, sc.gamma)
+        A = augmented_jacobian(plant, delta, gamma)
         for sensors in sensor_sets:
-            As, Hs = scaled(A, output_matrix(sensors), penetration, sc.gamma)
+            As, Hs = scaled(A, output_matrix(sensors), penetration, gamma)
             out[(case, tuple(sensors))] = PbhResult(case, tuple(sensors), pbh(As, Hs), A.shape[0])
     return out
 
@@ -121,7 +129,8 @@ def format_report(results: Dict[Tuple[str, Tuple[str, ...]], PbhResult]) -> str:
 def gamma_in_unobservable_subspace(sc: Scenario, penetration: float = 2e-6) -> float:
     """|gamma component| of the null vector of [A - 0 I; H] with contact inactive (1 = pure gamma)."""
     plant = Plant.from_scenario(sc)
-    A = augmented_jacobian(plant, -penetration, sc.gamma)
-    As, Hs = scaled(A, output_matrix(("q1", "q4")), penetration, sc.gamma)
+    gamma = linearisation_gamma(sc)
+    A = augmented_jacobian(plant, -penetration, gamma)
+    As, Hs = scaled(A, output_matrix(("q1", "q4")), penetration, gamma)
     _, _, vh = np.linalg.svd(np.vstack([As, Hs]))
     return float(abs(vh[-1, 8]))

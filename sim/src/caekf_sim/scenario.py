@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any, Dict, Union
+from typing import Any, Dict, List, Union
 
 from .schema import ALIASES, SCHEMA, canonical, setting_of
 
@@ -36,19 +36,41 @@ class _ScenarioBase:
         a change of a count leaves unused are dropped."""
         values = {**self.values(), **{canonical(k): v for k, v in changes.items()}}
         unused = [k for k, s, i in _KEYS if not SCHEMA.in_use(s, i, values)]
-        return scenario_from_values({k: v for k, v in values.items() if k not in unused}, "replace()",
-                                    truth_optional=not self.has_truth)
+        return scenario_from_values({k: v for k, v in values.items() if k not in unused}, self.source)
+
+    @property
+    def source(self) -> str:
+        """Where the values came from: the file's path (or "<text>", "replace()", ...)."""
+        return str(self.__dict__.get("_source", "<scenario>"))
+
+    def missing_truth(self) -> List[str]:
+        """The truth-only keys in use that the file left out (NaN): a recording's scenario lacks them."""
+        values = dict(dataclasses.asdict(self))  # type: ignore[call-overload]
+        return [k for k, v in values.items() if _missing_truth(k, v) and SCHEMA.in_use(_SETTINGS[k], _INDEX[k], values)]
 
     @property
     def has_truth(self) -> bool:
-        """False for a scenario loaded with truth_optional whose file left out truth-only keys (NaN)."""
-        return not any(isinstance(v, float) and math.isnan(v) for k, v in self.values().items()
-                       if setting_of(k).kind == "truth")
+        """Whether every truth-only key in use is given: the scenario can drive a simulated truth."""
+        return not self.missing_truth()
+
+    def require_truth(self) -> None:
+        """For code that simulates a truth: ScenarioError naming the file and the first missing truth key."""
+        missing = self.missing_truth()
+        if missing:
+            raise ScenarioError(f"{self.source}: missing key '{missing[0]}' (it has no default; simulating a truth "
+                                "needs it)")
 
     def values(self) -> Dict[str, float]:
-        """Every key's value, by scenario key; elements not in use (m5 of a 4-body mechanism) are left out."""
+        """Every key's value, by scenario key; elements not in use (m5 of a 4-body mechanism) and truth-only keys
+        the file left out (missing_truth) are left out, as a file would leave them."""
         values = dict(dataclasses.asdict(self))  # type: ignore[call-overload]
-        return {k: v for k, v in values.items() if SCHEMA.in_use(_SETTINGS[k], _INDEX[k], values)}
+        return {k: v for k, v in values.items()
+                if SCHEMA.in_use(_SETTINGS[k], _INDEX[k], values) and not _missing_truth(k, v)}
+
+
+def _missing_truth(key: str, value: Any) -> bool:
+    """A truth-only key the file left out: NaN in the Scenario (scenario_from_values)."""
+    return _SETTINGS[key].kind == "truth" and isinstance(value, float) and math.isnan(value)
 
 
 _KEYS = SCHEMA.keys()
@@ -94,10 +116,11 @@ def _check(key: str, v: float, where: str, text: str = "") -> Any:
     return int(v) if setting.type != "real" else float(v)
 
 
-def scenario_from_values(values: Dict[str, Any], source: str, truth_optional: bool = False) -> Any:
-    """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked. With
-    `truth_optional`, a truth-only key without a default (gamma, u_amp, ...: the simulated plant) may be
-    absent or NaN: it is NaN in the Scenario (estimating from measurements needs none of them)."""
+def scenario_from_values(values: Dict[str, Any], source: str) -> Any:
+    """A Scenario from {key: number}; defaults for absent keys, the schema's rules checked. A truth-only key
+    without a default (gamma, u_amp, t_end, ...: the simulated plant, kind "truth" in the schema) may be
+    absent or NaN: it is NaN in the Scenario. Estimating from measurements needs none of them; code that
+    simulates a truth calls Scenario.require_truth()."""
     unknown = sorted(set(values) - set(_TYPES) - set(ALIASES))
     if unknown:
         raise ScenarioError(f"{source}: unknown key '{unknown[0]}'")
@@ -114,7 +137,7 @@ def scenario_from_values(values: Dict[str, Any], source: str, truth_optional: bo
             counter = SCHEMA.by_name(setting.in_use_by or "").keys[0]
             raise ScenarioError(f"{source}: {key} is given, but {counter} = {given.get(counter, 'its default')} "
                                 "leaves it unused")
-        if truth_optional and setting.kind == "truth" and setting.element_required(index) and used \
+        if setting.kind == "truth" and setting.element_required(index) and used \
                 and (key not in given or math.isnan(float(given[key]))):
             out[key] = math.nan
         elif key in given:
@@ -124,11 +147,21 @@ def scenario_from_values(values: Dict[str, Any], source: str, truth_optional: bo
         else:
             out[key] = _check(key, setting.default_value(index=index), source) if not setting.element_required(
                 index) else (0 if setting.type != "real" else 0.0)
-    return Scenario(**out)
+    sc = Scenario(**out)
+    object.__setattr__(sc, "_source", source)  # not a field: the file named in require_truth's message
+    return sc
 
 
-def scenario_from_text(text: str, source: str = "<text>", truth_optional: bool = False) -> Any:
-    """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required."""
+def require_truth(sc: Any) -> None:
+    """For code that simulates a truth from a Scenario or a dict of values: Scenario.require_truth (a dict, built
+    in code, is not checked here)."""
+    if isinstance(sc, _ScenarioBase):
+        sc.require_truth()
+
+
+def scenario_from_text(text: str, source: str = "<text>") -> Any:
+    """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required (truth-only
+    keys excepted: see scenario_from_values)."""
     values: Dict[str, float] = {}
     for key, (lineno, value) in parse_flat(text, source).items():
         if key not in _TYPES and key not in ALIASES:
@@ -146,11 +179,11 @@ def scenario_from_text(text: str, source: str = "<text>", truth_optional: bool =
             raise ScenarioError(f"{source}:{lineno}: {key} = {value}: not a finite number")
         _check(key, v, f"{source}:{lineno}", value)
         values[key] = v
-    return scenario_from_values(values, source, truth_optional)
+    return scenario_from_values(values, source)
 
 
-def load_scenario(path: PathLike, truth_optional: bool = False) -> Any:
-    """Read and check a scenario file; `truth_optional`: see scenario_from_values."""
+def load_scenario(path: PathLike) -> Any:
+    """Read and check a scenario file (truth-only keys may be left out: see scenario_from_values)."""
     p = Path(path)
     if p.is_dir():
         raise IsADirectoryError(f"{p}: is a directory, expected a scenario file")
@@ -160,7 +193,7 @@ def load_scenario(path: PathLike, truth_optional: bool = False) -> Any:
         raise ScenarioError(f"{p}: not a text file (bytes that are not UTF-8)") from None
     except OSError as exc:  # a missing or unreadable file: an I/O error (exit 4), as the C tools say
         raise OSError(f"{p}: cannot open: {exc.strerror}") from None
-    return scenario_from_text(text, str(p), truth_optional)
+    return scenario_from_text(text, str(p))
 
 
 def default_scenario_path() -> Path:

@@ -34,7 +34,7 @@ import numpy as np
 
 from .mechanism import InputSeries, Mechanism, contact_law, contact_values, scenario_value
 from .model import StepSolver
-from .scenario import Scenario
+from .scenario import Scenario, require_truth
 
 TRUTH_COLUMNS = ("t", "u", "y1", "y4", "q1", "q2", "q3", "q4", "v1", "v2", "v3", "v4", "delta")
 TRUTH_NEWTON_MAX_ITER = 50
@@ -117,6 +117,7 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
     """
     q: Any  # (N, nq) arrays in the continuous branch, plain float lists in the backward-Euler hot loop
     v: Any
+    require_truth(sc)  # gamma, the inputs' sines, t_end, noise, seed: a recording's scenario has none
     mech = mech if mech is not None else Mechanism.from_scenario(sc)
     ufn = input_function(mech, inputs)
     if method == CONTINUOUS:
@@ -224,6 +225,7 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
     first terminal event delta_c = 0 crossed in the direction that leaves contact c's mode; the next
     segment restarts at the located event with that contact's mode switched (`integrate_modes`).
     """
+    require_truth(sc)
     mech = mech if mech is not None else Mechanism.from_scenario(sc)
     nq, nc = mech.nq, mech.n_contacts
     minv = 1.0 / mech.m

@@ -15,13 +15,13 @@ def add_scenario_arg(p: argparse.ArgumentParser, t_end: bool = False) -> None:
                        help="override t_end [s] (shorter runs)")
 
 
-def scenario_from_args(args: argparse.Namespace, truth_optional: bool = False) -> Scenario:
-    """The --scenario file (default: the reference scenario), checked, with --t-end applied.
-    `truth_optional`: truth-only keys may be left out (commands that estimate from measurements)."""
+def scenario_from_args(args: argparse.Namespace) -> Scenario:
+    """The --scenario file (default: the reference scenario), checked, with --t-end applied. Truth-only keys
+    may be left out; commands that simulate a truth refuse that (Scenario.require_truth, in the truth's code)."""
     path = args.scenario or default_scenario_path()
     if not Path(path).exists():
         raise FileNotFoundError(f"{path}: cannot open: No such file or directory (the scenario; use --scenario)")
-    sc = load_scenario(path, truth_optional=truth_optional)
+    sc = load_scenario(path)
     if getattr(args, "t_end", None) is not None:
         try:
             sc = sc.replace(t_end=args.t_end)

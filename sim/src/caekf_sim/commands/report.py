@@ -80,7 +80,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         raise UsageError("--results-dir makes Figs 3-6: give --outdir (not --out)")
     if args.label is not None and len(args.label) != len(args.runs):
         raise UsageError(f"{len(args.label)} --label for {len(args.runs)} RESULT_CSV files")
-    sc = scenario_from_args(args, truth_optional=True)
+    sc = scenario_from_args(args)
     if args.out is not None:
         check_output_file(args.out)
         if args.out.suffix.lstrip(".").lower() not in PLOT_FORMATS:
@@ -151,6 +151,7 @@ def _names(text: str, what: str) -> List[str]:
 
 def _observability_run(args: argparse.Namespace, sc: Any) -> int:
     """Rank test and Cramer-Rao bounds of chosen law parameters along the scenario's truth run."""
+    sc.require_truth()  # the run is simulated: before --t-from is checked against t_end
     from ..identifiability import (PARAMS, IdentifiabilityError, analyse_run, format_table, law_params, plot,
                                    sensor_sigmas, write_csv)
     from ..mechanism import Mechanism

@@ -102,7 +102,7 @@ def cmd_truth(args: argparse.Namespace) -> int:
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    sc = scenario_from_args(args, truth_optional=True)
+    sc = scenario_from_args(args)
     check_output_file(args.out)
     if args.run is not None and args.candump is None:
         raise UsageError("--run selects a run of a --candump log")
