@@ -116,6 +116,19 @@ def run_records(sc: Scenario, records: Sequence[Measurements], experiment: Optio
     return [run(s, r.u, r.y, t=r.t, p_diag=False, log_det_s=log_det_s) for r in records]
 
 
+def innovation_nll(results: Sequence, burn_in: int = 0) -> Tuple[float, int]:
+    """The negative log-likelihood of the innovations of runs (RunResult with log_det_s), up to a constant:
+    1/2 sum_k (log det S_k + NIS_k) over the steps after `burn_in` with a plain correction (finite log det S),
+    and the number of those steps. `identify` minimises it over model parameters (caekf_sim.identify)."""
+    total, steps = 0.0, 0
+    for r in results:
+        ld, nis = r.log_det_s[burn_in:], r.nis[burn_in:]
+        ok = np.isfinite(ld) & _corrected(r)[burn_in:]
+        total += 0.5 * float(np.sum(ld[ok] + nis[ok]))
+        steps += int(np.count_nonzero(ok))
+    return total, steps
+
+
 # --- tuning ----------------------------------------------------------------------------------------
 
 @dataclass
