@@ -13,7 +13,6 @@
 
 CAEKF_STATIC_ASSERT(CAEKF_NEWTON_MAX_ITER >= 1 && CAEKF_NEWTON_MAX_ITER <= 100, newton_bound_sane);
 CAEKF_STATIC_ASSERT(CAEKF_N <= 255, state_indices_fit_a_byte);
-CAEKF_STATIC_ASSERT(CAEKF_NP <= 32, parameter_bounds_fit_a_word);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= 2 * CAEKF_NQ * CAEKF_N && CAEKF_N * CAEKF_N >= 4 * CAEKF_NQ,
                     scratch_holds_the_newton_and_substep_work);
 CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_holds_a_substep_start);
@@ -141,7 +140,8 @@ static caekf_scalar_t bound_of(const caekf_t *est, int k, int is_max)
  * that applies one fixes one more, and np passes bound the loop. */
 static void apply_bounds(caekf_t *est, caekf_scalar_t *z, uint32_t *flags)
 {
-    const int nx = 2 * CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model), np = n - nx;
+    /* the contacts' parameters (the mechanism's have no bounds: their logs keep them positive) */
+    const int nx = 2 * CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model), np = n - nx - CAEKF_DIM_NM(&est->model);
     const caekf_scalar_t *s = est->scale;
     int pass, k;
     if ((est->bound_lo | est->bound_hi) == 0) {
@@ -288,6 +288,14 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         }
     }
 #endif
+    for (i = n - est->model.nm; i < n; ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
+        const int j = i - (n - est->model.nm), e = est->model.mech_elem[j];
+        const unsigned char kind = est->model.mech_kind[j];
+        est->scale[i] = kind == CAEKF_MECH_MASS        ? mp->m_sigma[e]
+                        : kind == CAEKF_MECH_STIFFNESS ? mp->spring_k_sigma[e]
+                                                       : mp->spring_c_sigma[e];
+        est->q_diag[i] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
+    }
     est->dims.nq = nq;
     est->dims.n = n;
     est->dims.ny = mp->sensors;
@@ -407,6 +415,18 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
     if (substepped) { /* scaled: S^-1 F S, column j times s_j / s_q (q-rows) or s_j / s_v (v-rows) */
         const caekf_scalar_t rvq = s_v / s_q, rqv = s_q / s_v;
         est->fv_const = 0;
+        if (CAEKF_DIM_NM(&est->model) > 0) { /* the mechanism's columns over the whole step (docs) */
+            const int first = n - CAEKF_DIM_NM(&est->model);
+            if (caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, est->fv) != 0) {
+                return -1;
+            }
+            for (i = 0; i < nq; ++i) {
+                int j;
+                for (j = first; j < n; ++j) {
+                    est->fq[i][j] = est->model.hs * est->fv[i][j];
+                }
+            }
+        }
         for (i = 0; i < nq; ++i) {
             caekf_scalar_t *fq = est->fq[i], *fv = est->fv[i];
             int j;
@@ -424,7 +444,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
     } else
 #endif
-        if (closed) {
+        if (closed || CAEKF_DIM_NM(&est->model) > 0) {
         est->fv_const = 0;
 #if CAEKF_HAS_SUBSTEPS /* the trapezoidal rule's contacts at x_{k-1}: advance's, in sub_ct[1] */
         if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv) != 0) {
@@ -435,6 +455,10 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
             return -1;
         }
 #endif
+        if (CAEKF_DIM_NM(&est->model) > 0 &&
+            caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, est->fv) != 0) {
+            return -1;
+        }
         scale_fv(est->fv, s, nq, n);
         caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
     } else if (!est->fv_const) {
@@ -450,6 +474,48 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
     caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.hs * s_v / s_q,
                              (est->model.p.dt - est->model.hs) * s_v / s_q, SUBSTEP_FQ(est, substepped), est->q_diag,
                              &est->dims);
+    return 0;
+}
+
+/* Any input given a noise (input{i}_sigma > 0). */
+static int measured_inputs(const caekf_t *est)
+{
+    int k, any = 0;
+    for (k = 0; k < CAEKF_DIM_NU(&est->model); ++k) {
+        any |= est->cfg.input_sigma[k] > 0;
+    }
+    return any;
+}
+
+/* The measured inputs' noise (settings input{i}_sigma) as process noise: Q_u = G diag(sigma_u^2) G^T over
+ * the bodies' states, G = dx_k/du_k through the implicit step (A^-1 B_u at x_k-, the positions hs times
+ * the velocities), added to P_work's upper triangle. Returns -1 on a singular Newton matrix. */
+static int add_input_noise(caekf_t *est, const caekf_contact_t *ct)
+{
+    caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS], col[2 * CAEKF_NQ];
+    const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model), nu = CAEKF_DIM_NU(&est->model);
+    int i, j, k;
+    if (caekf_model_input_columns(&est->model, ct, g) != 0) {
+        return -1;
+    }
+    for (k = 0; k < nu; ++k) {
+        const caekf_scalar_t var = sq(est->cfg.input_sigma[k]);
+        if (!(var > 0)) {
+            continue;
+        }
+        for (i = 0; i < nq; ++i) { /* scaled: S^-1 G */
+            /* the trapezoidal rule takes each sample in two steps (u_{k-1} + u_k): as white noise of the
+             * same low-frequency power, twice the one-end gain */
+            const caekf_scalar_t gi = CAEKF_METHOD_TRAP(&est->model) ? 2 * g[i][k] : g[i][k];
+            col[i] = est->model.hs * gi / est->scale[i];
+            col[nq + i] = gi / est->scale[nq + i];
+        }
+        for (i = 0; i < 2 * nq; ++i) {
+            for (j = i; j < 2 * nq; ++j) {
+                est->P_work[i * n + j] += var * col[i] * col[j];
+            }
+        }
+    }
     return 0;
 }
 
@@ -613,6 +679,27 @@ static void set_penetration_std(caekf_t *est)
 }
 #endif
 
+/* The model at the mechanism parameters' estimates (x: the physical state, ln(value / setting) in its
+ * last nm entries): its matrices, and the substeps' model's. Returns -1 on a singular Newton matrix (the
+ * step is then rolled back: the next one derives them again). */
+static int set_mechanism(caekf_t *est, const caekf_scalar_t *x)
+{
+    caekf_scalar_t mult[CAEKF_MECH_STORE];
+    const int nm = CAEKF_DIM_NM(&est->model), first = CAEKF_DIM_N(&est->model) - nm;
+    int j, r;
+    for (j = 0; j < nm; ++j) {
+        mult[j] = CAEKF_EXP(x[first + j]);
+    }
+    r = caekf_model_set_mech(&est->model, &est->cfg.model, mult);
+#if CAEKF_HAS_SUBSTEPS
+    if (est->cfg.contact_substeps > 1) {
+        r |= caekf_model_set_mech(&est->sub_model, &est->cfg.model, mult);
+    }
+#endif
+    est->fv_const = 0;
+    return r;
+}
+
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
  * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
  * caller error. */
@@ -626,7 +713,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     caekf_scalar_t deepest = 0;
     uint32_t flags = 0;
     int iters = 0;
-    int i, nq, nc, n, ny, nu, any_contact = 0, substepped = 0;
+    int i, nq, nc, n, nm, ny, nu, any_contact = 0, substepped = 0;
     int closed_prev = 0; /* a contact closed at x_{k-1}: substeps and the trapezoidal F both ask */
     const caekf_scalar_t *s;
     caekf_contact_t *ct; /* the contacts' laws at x_k-, after the Newton solve (in scratch) */
@@ -653,6 +740,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     nq = CAEKF_DIM_NQ(&est->model);
     nc = CAEKF_DIM_NC(&est->model);
     n = CAEKF_DIM_N(&est->model);
+    nm = CAEKF_DIM_NM(&est->model);
     nu = CAEKF_DIM_NU(&est->model);
     ny = est->cfg.model.sensors;
     if (nu > 0 && u == 0) {
@@ -673,6 +761,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
      * init holds u over its interval unless caekf_correct gave the input at t0. */
     for (i = 0; i < n; ++i) {
         xprev[i] = est->z[i] * s[i];
+    }
+    if (CAEKF_MAX_MECH_PARAMS > 0 && nm > 0 && set_mechanism(est, xprev) != 0) {
+        flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+        st = CAEKF_ERR_SINGULAR;
+        goto done;
     }
 #if CAEKF_HAS_SLR
     if (est->cfg.contact_slr_p > 0) {
@@ -751,8 +844,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }
     }
-    for (i = nc; i < n - 2 * nq; ++i) { /* a law parameter follows its contact's gamma */
+    for (i = nc; i < n - 2 * nq - nm; ++i) { /* a law parameter follows its contact's gamma */
         dims->policy[i] = dims->policy[est->model.param_contact[i]];
+    }
+    for (i = n - 2 * nq - nm; i < n - 2 * nq; ++i) { /* the mechanism's: observable without contact */
+        dims->policy[i] = CAEKF_GAMMA_LIVE;
     }
     if (any_contact) {
         flags |= CAEKF_FLAG_CONTACT_ACTIVE;
@@ -769,10 +865,16 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
-    } else if (any_contact && est->cfg.law_second_order &&
-               (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
-        for (i = 0; i < nc; ++i) {
-            add_second_order_noise(est, i);
+    } else {
+        if (measured_inputs(est) && add_input_noise(est, ct) != 0) {
+            flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+            st = CAEKF_ERR_SINGULAR;
+            goto done;
+        }
+        if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
+            for (i = 0; i < nc; ++i) {
+                add_second_order_noise(est, i);
+            }
         }
     }
 
@@ -890,6 +992,11 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
         const caekf_scalar_t gamma = CAEKF_EXP(v);
         *factor = est->scale[i] * gamma;
         return gamma;
+    }
+    if (i >= est->model.n - est->model.nm) { /* a mechanism parameter: its value now, ln(value / setting) held */
+        const caekf_scalar_t value = est->model.mech_value[i - (est->model.n - est->model.nm)];
+        *factor = est->scale[i] * value;
+        return value;
     }
     *factor = est->scale[i];
     return v;

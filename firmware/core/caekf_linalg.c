@@ -8,8 +8,6 @@ static caekf_la_status_t lu_factor_from(caekf_scalar_t *a, int n, int piv[], cae
 
 #define A_(m, n, i, j) ((m)[(i) * (n) + (j)])
 
-CAEKF_STATIC_ASSERT(CAEKF_LA_MAX_N <= 32, zero_variances_fit_a_word);
-
 static int size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
 #if CAEKF_LA_GENERAL_LU

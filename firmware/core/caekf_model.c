@@ -967,60 +967,62 @@ CAEKF_NOINLINE static void add_link(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], int 
     add_contact_block(&out[0][0], CAEKF_NQ, a - 1, b - 1, value);
 }
 
-int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
+/* The factor on a setting's value: mult[j] for the estimated mechanism parameter j of that kind and
+ * element, else 1 (mult NULL: every value the setting's). */
+static caekf_scalar_t mech_factor(const caekf_model_t *m, const caekf_scalar_t *mult, int kind, int elem)
+{
+    int j;
+    for (j = 0; mult != 0 && j < CAEKF_DIM_NM(m); ++j) {
+        if (m->mech_kind[j] == kind && m->mech_elem[j] == elem) {
+            return mult[j];
+        }
+    }
+    return 1;
+}
+
+/* The estimated mechanism parameters (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0):
+ * states after the law parameters, masses first, then stiffnesses, then dampers. */
+static void mech_states(caekf_model_t *m, const caekf_model_params_t *p)
+{
+    int i, kind;
+    m->nm = 0;
+    for (kind = CAEKF_MECH_MASS; kind <= CAEKF_MECH_DAMPER; ++kind) {
+        const int count = kind == CAEKF_MECH_MASS ? p->bodies : p->springs;
+        const caekf_scalar_t *sigma = kind == CAEKF_MECH_MASS        ? p->m_sigma
+                                      : kind == CAEKF_MECH_STIFFNESS ? p->spring_k_sigma
+                                                                     : p->spring_c_sigma;
+        for (i = 0; i < count && m->nm < CAEKF_MAX_MECH_PARAMS; ++i) {
+            if (sigma[i] > 0) {
+                const int j = m->nm++;
+                m->mech_kind[j] = (unsigned char)kind;
+                m->mech_elem[j] = (unsigned char)i;
+                m->mech_a[j] = (signed char)(kind == CAEKF_MECH_MASS ? i : p->spring_a[i] - 1);
+                m->mech_b[j] = (signed char)(kind == CAEKF_MECH_MASS ? i : p->spring_b[i] - 1);
+                m->mech_value[j] = kind == CAEKF_MECH_MASS        ? p->m[i]
+                                   : kind == CAEKF_MECH_STIFFNESS ? p->spring_k[i]
+                                                                  : p->spring_c[i];
+            }
+        }
+    }
+    m->n += m->nm;
+}
+
+/* The matrices derived from the values: K, C, M / hs, A0 and its LU, the contact-free F; the estimated
+ * mechanism parameters at mult[j] times their settings' values (mult NULL: the settings'). */
+static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *mult)
 {
     caekf_contact_t none[CAEKF_MAX_CONTACTS + 1]; /* every contact open: only delta = 0 is read */
-    int i, j, nq;
-    if (caekf_model_params_check(p) != 0) {
-        return -1;
-    }
+    const int nq = m->nq;
+    int i, j;
     for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
         none[i].delta = 0;
         none[i].dfc_ddelta = 0;
     }
-    m->p.dt = p->dt;
-#if !CAEKF_SIZED
-    m->p.inputs = p->inputs;
-#endif
-    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
-        m->p.input_body[i] = p->input_body[i];
-    }
-    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
-        m->p.contact_gap[i] = p->contact_gap[i];
-#ifndef CAEKF_SIZED_CONTACT_N
-        m->p.contact_n[i] = p->contact_n[i];
-#endif
-#if CAEKF_HAS_DAMPING
-        m->p.contact_lambda[i] = p->contact_lambda[i];
-#endif
-    }
-#if !CAEKF_SIZED_METHOD
-    m->p.gamma_log = p->gamma_log;
-    m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
-#endif
-#if CAEKF_HAS_SLR
-    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
-        m->slr_s[i] = 0;
-    }
-#endif
-    m->hs = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? p->dt / 2 : p->dt;
-    nq = p->bodies;
-    m->nq = nq;
-    m->nc = p->contacts;
-    m->n = 2 * p->bodies + p->contacts;
-    for (i = 0; i < CAEKF_NP_STORE; ++i) {
-        m->param_contact[i] = (unsigned char)(i < p->contacts ? i : 0);
-    }
-    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) { /* the estimated law parameters, after the gammas */
-        const int *const flags[CAEKF_LAW_COUNT] = {p->contact_estimate_n, p->contact_estimate_lambda,
-                                                   p->contact_estimate_gap};
-        for (j = 0; j < CAEKF_LAW_COUNT; ++j) {
-            m->law_state[i][j] = 0;
-            if (i < p->contacts && flags[j][i]) {
-                m->param_contact[m->n - 2 * nq] = (unsigned char)i;
-                m->law_state[i][j] = (unsigned char)m->n++;
-            }
-        }
+    for (j = 0; mult != 0 && j < CAEKF_DIM_NM(m); ++j) {
+        const int e = m->mech_elem[j];
+        m->mech_value[j] = mult[j] * (m->mech_kind[j] == CAEKF_MECH_MASS        ? p->m[e]
+                                      : m->mech_kind[j] == CAEKF_MECH_STIFFNESS ? p->spring_k[e]
+                                                                                : p->spring_c[e]);
     }
     for (i = 0; i < CAEKF_NQ; ++i) {
         for (j = 0; j < CAEKF_NQ; ++j) {
@@ -1030,15 +1032,11 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     }
     /* Links in order, each adding its 2x2 pattern: a link to ground adds to one diagonal entry. */
     for (i = 0; i < p->springs; ++i) {
-        add_link(m->K, p->spring_a[i], p->spring_b[i], p->spring_k[i]);
-        add_link(m->C, p->spring_a[i], p->spring_b[i], p->spring_c[i]);
-    }
-    for (i = 0; i < p->contacts; ++i) {
-        m->contact_i[i] = p->contact_a[i] - 1;
-        m->contact_j[i] = p->contact_b[i] - 1;
+        add_link(m->K, p->spring_a[i], p->spring_b[i], p->spring_k[i] * mech_factor(m, mult, CAEKF_MECH_STIFFNESS, i));
+        add_link(m->C, p->spring_a[i], p->spring_b[i], p->spring_c[i] * mech_factor(m, mult, CAEKF_MECH_DAMPER, i));
     }
     for (i = 0; i < nq; ++i) {
-        m->m_dt[i] = p->m[i] / m->hs;
+        m->m_dt[i] = p->m[i] * mech_factor(m, mult, CAEKF_MECH_MASS, i) / m->hs;
     }
     for (i = 0; i < nq; ++i) {
 #if !CAEKF_FIXED_LINKS
@@ -1086,6 +1084,127 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
 #else
     (void)none;
 #endif
+    return 0;
+}
+
+int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
+{
+    int i, j, nq;
+    if (caekf_model_params_check(p) != 0) {
+        return -1;
+    }
+    m->p.dt = p->dt;
+#if !CAEKF_SIZED
+    m->p.inputs = p->inputs;
+#endif
+    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
+        m->p.input_body[i] = p->input_body[i];
+    }
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
+        m->p.contact_gap[i] = p->contact_gap[i];
+#ifndef CAEKF_SIZED_CONTACT_N
+        m->p.contact_n[i] = p->contact_n[i];
+#endif
+#if CAEKF_HAS_DAMPING
+        m->p.contact_lambda[i] = p->contact_lambda[i];
+#endif
+    }
+#if !CAEKF_SIZED_METHOD
+    m->p.gamma_log = p->gamma_log;
+    m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
+#endif
+#if CAEKF_HAS_SLR
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
+        m->slr_s[i] = 0;
+    }
+#endif
+    m->hs = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? p->dt / 2 : p->dt;
+    nq = p->bodies;
+    m->nq = nq;
+    m->nc = p->contacts;
+    m->n = 2 * p->bodies + p->contacts;
+    for (i = 0; i < CAEKF_NP_STORE; ++i) {
+        m->param_contact[i] = (unsigned char)(i < p->contacts ? i : 0);
+    }
+    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) { /* the estimated law parameters, after the gammas */
+        const int *const flags[CAEKF_LAW_COUNT] = {p->contact_estimate_n, p->contact_estimate_lambda,
+                                                   p->contact_estimate_gap};
+        for (j = 0; j < CAEKF_LAW_COUNT; ++j) {
+            m->law_state[i][j] = 0;
+            if (i < p->contacts && flags[j][i]) {
+                m->param_contact[m->n - 2 * nq] = (unsigned char)i;
+                m->law_state[i][j] = (unsigned char)m->n++;
+            }
+        }
+    }
+    for (i = 0; i < p->contacts; ++i) {
+        m->contact_i[i] = p->contact_a[i] - 1;
+        m->contact_j[i] = p->contact_b[i] - 1;
+    }
+    mech_states(m, p);
+    return derive_values(m, p, 0);
+}
+
+int caekf_model_set_mech(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *mult)
+{
+    return derive_values(m, p, mult);
+}
+
+int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
+                              caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS])
+{
+    const int nq = CAEKF_DIM_NQ(m), nu = CAEKF_DIM_NU(m);
+    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
+    int piv[CAEKF_NQ];
+    int i, k;
+    if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
+        return -1;
+    }
+    for (i = 0; i < nq; ++i) { /* -dg/du_k = B_u: +1 on the input's body row */
+        for (k = 0; k < nu; ++k) {
+            g[i][k] = i == m->p.input_body[k] - 1 ? 1 : 0;
+        }
+    }
+    solve(A, nq, piv, &g[0][0], nu, CAEKF_MAX_INPUTS);
+    return 0;
+}
+
+int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
+                             const caekf_scalar_t xk[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    const int nq = CAEKF_DIM_NQ(m), nm = CAEKF_DIM_NM(m), first = CAEKF_DIM_N(m) - nm;
+    const int trap = CAEKF_METHOD_TRAP(m);
+    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
+    int piv[CAEKF_NQ];
+    int i, j;
+    if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
+        return -1;
+    }
+    /* -dg/d ln(value): the momentum rows' terms, each the value times its own derivative. A mass: M/hs
+     * (v_k - v_{k-1}) on its body's row; a link: K or C times the ends' difference (b_l^T q, b_l^T v) at
+     * x_k and, trapezoidal, at x_{k-1} too, +b_l on its ends' rows. */
+    for (j = 0; j < nm; ++j) {
+        const int a = m->mech_a[j], b = m->mech_b[j], off = m->mech_kind[j] == CAEKF_MECH_DAMPER ? nq : 0;
+        caekf_scalar_t d;
+        for (i = 0; i < nq; ++i) {
+            fv[i][first + j] = 0;
+        }
+        if (m->mech_kind[j] == CAEKF_MECH_MASS) {
+            fv[a][first + j] = -m->mech_value[j] / m->hs * (xk[nq + a] - xprev[nq + a]);
+            continue;
+        }
+        d = (a >= 0 ? xk[off + a] : 0) - (b >= 0 ? xk[off + b] : 0);
+        if (trap) {
+            d += (a >= 0 ? xprev[off + a] : 0) - (b >= 0 ? xprev[off + b] : 0);
+        }
+        if (a >= 0) {
+            fv[a][first + j] = -m->mech_value[j] * d;
+        }
+        if (b >= 0) {
+            fv[b][first + j] = m->mech_value[j] * d;
+        }
+    }
+    solve(A, nq, piv, &fv[0][first], nm, CAEKF_N);
     return 0;
 }
 

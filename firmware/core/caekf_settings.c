@@ -509,6 +509,27 @@ static unsigned law_params(const caekf_model_params_t *m)
 
 CAEKF_STATIC_ASSERT(offsetof(caekf_settings_t, model) == 0, the_model_leads_the_settings);
 
+/* The first mechanism parameter declared uncertain (m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0)
+ * the build has no room for: its parameter id, or -1 when they fit. A sized build estimates exactly its
+ * scenario's count: fewer is refused at the first sigma (as unsupported). */
+static int first_mech_over(const caekf_model_params_t *p)
+{
+    int i, count = 0, over = -1;
+    for (i = 0; i < p->bodies && i < CAEKF_MAX_BODIES; ++i) {
+        count += p->m_sigma[i] > 0;
+        over = over < 0 && count > CAEKF_MAX_MECH_PARAMS ? (int)CAEKF_PARAM_M_SIGMA + i : over;
+    }
+    for (i = 0; i < p->springs && i < CAEKF_MAX_SPRINGS; ++i) {
+        count += p->spring_k_sigma[i] > 0;
+        over = over < 0 && count > CAEKF_MAX_MECH_PARAMS ? (int)CAEKF_PARAM_SPRING_K_SIGMA + i : over;
+    }
+    for (i = 0; i < p->springs && i < CAEKF_MAX_SPRINGS; ++i) {
+        count += p->spring_c_sigma[i] > 0;
+        over = over < 0 && count > CAEKF_MAX_MECH_PARAMS ? (int)CAEKF_PARAM_SPRING_C_SIGMA + i : over;
+    }
+    return over >= 0 || !CAEKF_SIZED || count == CAEKF_MAX_MECH_PARAMS ? over : (int)CAEKF_PARAM_M_SIGMA;
+}
+
 /* The model's own defence: the checks of caekf_settings_validate that concern the model alone (the same
  * code: its rows of the table, the bodies, a sized build's counts and method, the law parameters' room),
  * so that an invalid mechanism can never be derived (validation says which parameter is wrong). Returns
@@ -521,7 +542,8 @@ int caekf_model_params_check(const caekf_model_params_t *p)
         return 1;
     }
     law = law_params(p);
-    return law > (unsigned)CAEKF_MAX_LAW_PARAMS || (CAEKF_SIZED && law != (unsigned)CAEKF_MAX_LAW_PARAMS);
+    return law > (unsigned)CAEKF_MAX_LAW_PARAMS || (CAEKF_SIZED && law != (unsigned)CAEKF_MAX_LAW_PARAMS) ||
+           first_mech_over(p) >= 0;
 }
 
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
@@ -565,6 +587,10 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     }
     if (CAEKF_SIZED && law_count != (unsigned)CAEKF_MAX_LAW_PARAMS) {
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, CAEKF_PARAM_ESTIMATE_N);
+    }
+    bad = first_mech_over(&s->model);
+    if (bad >= 0) {
+        return refuse(err, CAEKF_SIZED ? CAEKF_SETTING_UNSUPPORTED : CAEKF_SETTING_OVER_CAPACITY, (unsigned)bad);
     }
     for (i = 0; i < (unsigned)s->model.contacts; ++i) {
         if (s->model.gamma_log && !(s->gamma0[i] > 0)) {

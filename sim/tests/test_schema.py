@@ -38,6 +38,20 @@ def test_schema_errors_are_one_line(tmp_path):
         codegen.load(p)
 
 
+def test_settings_out_of_id_order_are_refused(tmp_path):
+    """The C table is looked up by id in the file's order: a block of settings moved ahead of lower ids (the
+    mechanism's sigmas once sat before the mismatch monitor's) made caekf_settings_set refuse a preset's value."""
+    text = codegen.SCHEMA_PATH.read_text()
+    start = text.index('[[setting]]\nname = "mismatch_window"')
+    block = text[start:text.index('[[setting]]\nname = "m_sigma"')]
+    moved = text.replace(block, "", 1)
+    at = moved.index("# --- truth only")
+    p = tmp_path / "s.toml"
+    p.write_text(moved[:at] + block + moved[at:])
+    with pytest.raises(codegen.SchemaError, match="id order"):
+        codegen.load(p)
+
+
 def test_generated_c_tables_follow_the_schema(tmp_path):
     files = codegen.c_core(schema.SCHEMA)
     header = files["caekf/caekf_settings_schema.h"]

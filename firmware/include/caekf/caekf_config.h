@@ -14,6 +14,8 @@
  *                            CAEKF_SIZED_* the settings must then equal.
  *   CAEKF_MAX_LAW_PARAMS     contact-law parameters (n, lambda, gap) the build can estimate besides the
  *                            gammas: 3 per contact, or exactly the sized scenario's (generated too).
+ *   CAEKF_MAX_MECH_PARAMS    mechanism parameters (masses, stiffnesses, dampers) the build can estimate
+ *                            (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0)
  *   CAEKF_SIZED_METHOD       generated (caekf/caekf_capacity.h), 1 in a build sized for one configuration
  *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
  *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
@@ -110,7 +112,9 @@ typedef double caekf_scalar_t;
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses
  * n = 2 bodies + contacts + the n, lambda and gap it estimates). */
 #define CAEKF_NQ CAEKF_MAX_BODIES
-#define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS) /* estimated parameters */
+/* estimated parameters: the contacts' gammas and law parameters, then the mechanism's (masses, links) */
+#define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS + CAEKF_MAX_MECH_PARAMS)
+#define CAEKF_MECH_STORE (CAEKF_MAX_MECH_PARAMS > 0 ? CAEKF_MAX_MECH_PARAMS : 1)
 #define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_NP)
 /* Arrays with one element per estimated parameter: at least one (C has no empty arrays). */
 #define CAEKF_NP_STORE (CAEKF_NP > 0 ? CAEKF_NP : 1)
@@ -125,5 +129,7 @@ CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES >= 1 && CAEKF_MAX_SPRINGS >= 0 && CAEKF_MAX
                         CAEKF_MAX_SENSORS >= 1 && CAEKF_MAX_CONTACTS >= 0 && CAEKF_MAX_LAW_PARAMS >= 0 &&
                         CAEKF_MAX_LAW_PARAMS <= 3 * CAEKF_MAX_CONTACTS,
                     capacities_are_counts);
+/* The bounds of the contacts' parameters are bits of a uint32_t (the mechanism's have none). */
+CAEKF_STATIC_ASSERT(CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS <= 32, bounded_parameters_fit_a_word);
 
 #endif /* CAEKF_CONFIG_H */

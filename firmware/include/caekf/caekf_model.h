@@ -25,6 +25,10 @@ extern "C" {
 /* A contact's law parameters besides gamma (index into caekf_model_t.law_state). */
 enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT = 3 };
 
+/* A mechanism parameter's kind (caekf_model_t.mech_kind): settings m{i}_sigma, spring{i}_k_sigma,
+ * spring{i}_c_sigma > 0 make them states. */
+enum { CAEKF_MECH_MASS = 0, CAEKF_MECH_STIFFNESS = 1, CAEKF_MECH_DAMPER = 2 };
+
 /* Builds that can estimate law parameters (CAEKF_MAX_LAW_PARAMS > 0) look them up in the state; the
  * others compile the lookups out. */
 #define CAEKF_HAS_LAW_PARAMS (CAEKF_MAX_LAW_PARAMS > 0)
@@ -66,6 +70,13 @@ typedef struct {
     /* The contact of each parameter state 2 nq + k (the gammas first): its switch-off follows that contact. */
     unsigned char param_contact[CAEKF_NP_STORE];
     int contact_i[CAEKF_MAX_CONTACTS], contact_j[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
+    /* The estimated mechanism parameters (the last nm states, from state n - nm): their kind, the ends
+     * they act between (0-based, -1 = ground; a mass: its body twice), the setting's element (its body or
+     * link) and their value now (the setting's times exp of the state, caekf_model_set_mech). */
+    int nm;
+    unsigned char mech_kind[CAEKF_MECH_STORE], mech_elem[CAEKF_MECH_STORE];
+    signed char mech_a[CAEKF_MECH_STORE], mech_b[CAEKF_MECH_STORE];
+    caekf_scalar_t mech_value[CAEKF_MECH_STORE];
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
     /* The implicit stage: the momentum rows are scaled so that their v_k-derivative is
@@ -153,6 +164,22 @@ typedef struct {
 
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
+
+/* The matrices again with the estimated mechanism parameters at factor[j] times their settings' values
+ * (j = 0 .. nm-1, in state order; p: the settings the model was initialised from). Returns 0, or -1
+ * when the Newton matrix without contact is singular (the model then holds the new values). */
+int caekf_model_set_mech(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *factor);
+
+/* dv_k / du_k = A^-1 B_u, A the Newton matrix at the contacts ct (x_k): how each input's error moves the
+ * step's velocities (its positions by hs times as much). g is nq x inputs. Returns -1 when A is singular. */
+int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
+                              caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS]);
+
+/* The mechanism parameters' columns of F's v-rows, dv_k / d ln(value_j), at the step x_{k-1} -> x_k with
+ * the contacts at x_k in ct: -A^-1 dg/d ln(value_j), A the Newton matrix at x_k. Written into the last nm
+ * columns of fv. Returns 0, or -1 when A is singular. */
+int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
+                             const caekf_scalar_t xk[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
 /* Contact c's law at the augmented state x: positions, velocities, its gamma and its estimated law
  * parameters (the others are the model's). */

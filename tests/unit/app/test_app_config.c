@@ -232,12 +232,12 @@ static void test_unknown_param_id_or_bad_mode_is_refused_naming_it(void)
 static void test_bad_param_frames_are_refused_with_their_id(void)
 {
     fixture_configure(CAEKF_FIXTURE_PRESET_SWITCHED);
-    bench_param(&fake, 200, 0, 1);
+    bench_param(&fake, CAEKF_PARAM_COUNT, 0, 1); /* the first id no setting has */
     bench_param(&fake, CAEKF_PARAM_SPRING_K, 3, 2);
     bench_reset(&fake, 2, 6);
     fixture_poll_all();
     TEST_ASSERT_EQUAL_INT8(CAEKF_ACK_REFUSED_PARAM, last_ack().ack_status);
-    TEST_ASSERT_EQUAL_UINT8(200, last_ack().bad_param);
+    TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_COUNT, last_ack().bad_param);
     TEST_ASSERT_EQUAL_UINT32(1, counter(CAEKF_CNT_RX_BAD_VALUE));
 
     bench_param(&fake, CAEKF_PARAM_NEWTON_MAX_ITER, -1, 25); /* 2.5 iterations */

@@ -283,6 +283,11 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
         if s.id != next_id:
             raise SchemaError(f"{s.name}: id {s.id}, expected {next_id} (ids are dense)")
         next_id += s.count
+    # The C table is written in the file's order and looked up by id: the entries keep their ids' order.
+    wire = [s for s in settings if s.on_wire]
+    for before, after in zip(wire, wire[1:]):
+        if (after.id or 0) < (before.id or 0):
+            raise SchemaError(f"{after.name}: id {after.id} after {before.name}'s {before.id} (entries in id order)")
     presets = []
     for pname, p in raw.get("preset", {}).items():
         vals: Dict[str, float] = {}
@@ -444,6 +449,10 @@ def c_sized_links(schema: Schema, given: Dict[str, float], counts: Dict[str, int
                    "and L's left of it")]
 
 
+# The settings that declare a mechanism parameter uncertain, and the capacity each spans.
+MECH_SIGMAS = (("m_sigma", "bodies"), ("spring_k_sigma", "springs"), ("spring_c_sigma", "springs"))
+
+
 def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> str:
     """caekf/caekf_capacity.h: the build's mechanism capacity. Without a mechanism, the wire's (any
     mechanism up to it, sizes at run time); with one (a scenario file), exactly its counts (CAEKF_SIZED:
@@ -470,6 +479,9 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
                  for i in range(1, counts["contacts"] + 1) for p in LAW_PARAMS}
         law = sum(flags.values())
         lines.append(f"#define CAEKF_SIZED_LAW_PARAMS {law} /* estimated n, lambda and gap */")
+        mech = sum(1 for name, cap in MECH_SIGMAS for i in range(1, counts[cap] + 1)
+                   if float(given.get(schema.by_name(name).keys[i - 1], 0.0)) > 0)
+        lines.append(f"#define CAEKF_SIZED_MECH_PARAMS {mech} /* masses, stiffnesses, dampers estimated */")
         # Hunt-Crossley damping in any contact: a nonzero lambda, or lambda estimated (CAEKF_HAS_DAMPING).
         lam = schema.by_name("contact_lambda")
         damped = any(flags[f"contact{i + 1}_estimate_lambda"] or
@@ -503,6 +515,10 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
     # lambda and gap, or exactly the sized scenario's.
     law_cap = law if mechanism is not None else len(LAW_PARAMS) * counts["contacts"]
     lines.append(f"#define CAEKF_MAX_LAW_PARAMS {law_cap}")
+    # The mechanism's parameters estimated (states after the law's): every mass, stiffness and damper, or
+    # exactly those the sized scenario declares uncertain.
+    mech_cap = mech if mechanism is not None else sum(counts[cap] for _, cap in MECH_SIGMAS)
+    lines.append(f"#define CAEKF_MAX_MECH_PARAMS {mech_cap}")
     return "\n".join(lines + ["", "#endif", ""])
 
 
