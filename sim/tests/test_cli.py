@@ -230,3 +230,22 @@ def test_version_is_the_cmake_project_version(capsys):
     text = (REPO / "sim" / "pyproject.toml").read_text()
     assert re.search(r"^version\s*=", text, re.MULTILINE) is None and 'dynamic = ["version"]' in text
     assert '__version__ = "' not in (REPO / "sim" / "src" / "caekf_sim" / "__init__.py").read_text()
+
+
+def test_estimate_says_in_words_when_the_model_does_not_fit(tmp_path: Path, capsys):
+    """issue 27 point 4: a run that ends flagged MODEL_MISMATCH is said in words by `estimate`; a fitting one
+    is not. The record is the reference truth; the mismatched scenario's spring 1 (body 1 to the ground,
+    which sets the quasi-static positions) is 10 % stiffer than the truth's."""
+    t = tmp_path / "truth.csv"
+    assert main(["truth", "--t-end", "3.0", "--out", str(t)]) == 0
+    capsys.readouterr()
+    e = tmp_path / "est.csv"
+    assert main(["estimate", "--measurements", str(t), "--out", str(e)]) == 0
+    assert "model mismatch" not in capsys.readouterr().out
+    k1 = next(ln for ln in REPO.joinpath("sim/scenarios/paper.toml").read_text().splitlines() if ln.startswith("k1 "))
+    wrong = tmp_path / "wrong.toml"
+    wrong.write_text(REPO.joinpath("sim/scenarios/paper.toml").read_text().replace(k1, "k1 = 2.2e3", 1))
+    assert main(["estimate", "--scenario", str(wrong), "--measurements", str(t), "--out", str(e)]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"model mismatch: the innovations have not fitted the model since t = [0-9.]+ s", out), out
+    assert read_result_csv(e).flags[-1] & fl.MODEL_MISMATCH

@@ -7,7 +7,9 @@ meaning, so that CSVs from both sides read the same way. NON_FINITE is the refer
 """
 from __future__ import annotations
 
-from typing import Dict, List
+from typing import Dict, List, Optional
+
+import numpy as np
 
 from .schema import SCHEMA
 
@@ -40,3 +42,17 @@ CORE_MASK = sum(f.mask for f in SCHEMA.core_flags)
 def describe(bits: int) -> List[str]:
     """Names of the bits set in `bits`, lowest first."""
     return [name for bit, name in NAMES.items() if bits & bit]
+
+
+def mismatch_words(t: np.ndarray, flags: np.ndarray) -> Optional[str]:
+    """The model-mismatch monitor in words (docs/mismatch.md): None when the run ends without MODEL_MISMATCH,
+    else one line saying since when the model has not fitted the data and what to do about it."""
+    flagged = (np.asarray(flags).astype(np.int64) & MODEL_MISMATCH) != 0
+    if len(flagged) == 0 or not flagged[-1]:
+        return None
+    clear = np.flatnonzero(~flagged)
+    since = t[clear[-1] + 1] if len(clear) else t[0]
+    return (f"model mismatch: the innovations have not fitted the model since t = {since:.3f} s "
+            f"({100 * flagged.mean():.0f} % of the run); the estimate is not to be trusted as it stands: declare "
+            "what is uncertain (m<i>_sigma, spring<i>_k_sigma, spring<i>_c_sigma, input<i>_sigma) or tune the noise "
+            "(caekf-sim tune)")

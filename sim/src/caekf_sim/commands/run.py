@@ -10,6 +10,7 @@ import numpy as np
 from pathlib import Path
 from typing import Any, Dict
 
+from .. import flags
 from ..cli import UsageError
 from ..estimator import EstimateResult
 from ..experiments import (DEFAULT, EXPERIMENTS, experiment_config, format_table, run_experiment, scenario_config,
@@ -127,6 +128,9 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     print(f"wrote {args.out}: {len(res.t)} samples of {meas.name} ({args.engine} estimator"
           f"{', ' + args.precision if args.engine == 'c' else ''})")
     print(format_table([summarize(args.experiment, res, sc.gamma)]))
+    words = flags.mismatch_words(res.t, res.flags)
+    if words is not None:
+        print(words)
     return 0
 
 
