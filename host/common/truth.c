@@ -13,7 +13,7 @@
 #include "dop853_coefficients.h"
 
 #define CAEKF_PI 3.141592653589793238462643383279502884
-#define TRUTH_N (2 * CAEKF_MAX_BODIES) /* capacity of the integrated state [q; v] */
+#define TRUTH_N CAEKF_TRUTH_N
 #define TRUTH_LINE 4096
 #define TRUTH_SERIES_MAX_ROWS 2000000L /* as the measurement CSVs (CAEKF_CSV_MAX_ROWS) */
 #define TRUTH_MAX_STEPS 100000000L     /* whole run */
@@ -256,20 +256,8 @@ void caekf_input_series_free(caekf_input_series_t *s)
 
 /* ---------------------------------------------------------------- the plant */
 
-typedef struct {
-    const caekf_input_series_t *series;
-    int nq, nc, ni, ns, n;
-    double amp[CAEKF_MAX_INPUTS], freq[CAEKF_MAX_INPUTS], phase[CAEKF_MAX_INPUTS];
-    int input_body[CAEKF_MAX_INPUTS]; /* 0-based */
-    int sensor_body[CAEKF_MAX_SENSORS], sensor_vel[CAEKF_MAX_SENSORS];
-    double noise[CAEKF_MAX_SENSORS];                    /* std of each sensor's noise */
-    int ca[CAEKF_MAX_CONTACTS], cb[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
-    double gap[CAEKF_MAX_CONTACTS], cn[CAEKF_MAX_CONTACTS], lam[CAEKF_MAX_CONTACTS], gamma[CAEKF_MAX_CONTACTS];
-    double minv[CAEKF_MAX_BODIES];
-    double K[CAEKF_MAX_BODIES][CAEKF_MAX_BODIES], C[CAEKF_MAX_BODIES][CAEKF_MAX_BODIES];
-    double atol[TRUTH_N], rtol;
-    int closed[CAEKF_MAX_CONTACTS]; /* contact mode: 0 open (no force), 1 closed (the law while delta > 0) */
-} plant_t;
+typedef caekf_truth_plant_t plant_t;
+
 
 /* A truth-only key of element i (1-based): "contact%d_gamma", "input%d_amp", ... */
 static double element_value(const caekf_scenario_t *sc, const char *fmt, int i)
@@ -658,93 +646,129 @@ static int event_first(const plant_t *p, double t, const double *y, const double
     return first;
 }
 
+int caekf_truth_start(caekf_truth_stepper_t *st, const caekf_scenario_t *sc, const caekf_truth_options_t *opt)
+{
+    caekf_model_params_t mp;
+    caekf_truth_options_t def;
+    int i;
+    if (opt == NULL) {
+        caekf_truth_options_default(&def);
+        opt = &def;
+    }
+    memset(st, 0, sizeof *st);
+    if (!(opt->rtol > 0) || !(opt->atol_q > 0) || !(opt->atol_v > 0) || plant_setup(sc, opt->series, &st->p, &mp) != 0) {
+        return -1;
+    }
+    for (i = 0; i < st->p.nq; ++i) {
+        st->p.atol[i] = opt->atol_q;
+        st->p.atol[st->p.nq + i] = opt->atol_v;
+    }
+    st->p.rtol = opt->rtol;
+    st->sc = sc;
+    st->rng = (uint64_t)sc->seed;
+    st->t = 0;
+    rhs(&st->p, st->t, st->y, st->k0);
+    st->h = fmin(sc->dt, 1e-4);
+    return 0;
+}
+
+int caekf_truth_advance(caekf_truth_stepper_t *st, caekf_truth_sample_t *out)
+{
+    plant_t *p = &st->p;
+    double ynew[TRUTH_N], kend[TRUTH_N], yev[TRUTH_N];
+    const long k = st->k + 1;
+    const double t_next = (double)k * st->sc->dt;
+    int i, c;
+    memset(out, 0, sizeof *out);
+    if (st->failed) {
+        return 1;
+    }
+    while (st->t < t_next) {
+        double rem = t_next - st->t, hh = st->h, err, s;
+        int clipped = 0, switched = 0;
+        for (c = 0; c < p->nc; ++c) { /* on the far side already (a crossing below every check): switch here */
+            if (event_g(p, c, st->y) > 0) {
+                p->closed[c] = !p->closed[c];
+                switched = 1;
+                out->events++;
+            }
+        }
+        if (switched) {
+            rhs(p, st->t, st->y, st->k0);
+        }
+        if (hh >= rem) {
+            hh = rem;
+            clipped = 1;
+        }
+        err = dop853_step(p, st->t, st->y, st->k0, hh, ynew, kend);
+        if (++st->total > TRUTH_MAX_STEPS) {
+            out->failed = 1;
+        } else if (!(err <= 1)) {
+            st->h = hh * (err < HUGE_VAL ? fmax(0.2, 0.9 * pow(err, -1.0 / 8)) : 0.2);
+            out->rejected++;
+            if (st->h < TRUTH_MIN_STEP) {
+                out->failed = 1;
+            } else {
+                continue;
+            }
+        }
+        if (out->failed) {
+            st->failed = 1;
+            st->k = k;
+            sample_fill(p, st->sc, k, st->y, &st->rng, out);
+            return 1;
+        }
+        c = event_first(p, st->t, st->y, st->k0, hh, ynew, &s, yev);
+        if (c >= 0) {
+            st->t = (s >= rem) ? t_next : st->t + s;
+            for (i = 0; i < p->n; ++i) {
+                st->y[i] = yev[i];
+            }
+            p->closed[c] = !p->closed[c];
+            rhs(p, st->t, st->y, st->k0);
+            out->events++;
+            out->steps++;
+            continue;
+        }
+        {
+            double fac = err > 0 ? fmin(10.0, fmax(0.2, 0.9 * pow(err, -1.0 / 8))) : 10.0;
+            double hn = hh * fac;
+            st->h = (clipped && hn < st->h) ? st->h : hn;
+        }
+        st->t = clipped ? t_next : st->t + hh;
+        for (i = 0; i < p->n; ++i) {
+            st->y[i] = ynew[i];
+            st->k0[i] = kend[i];
+        }
+        out->steps++;
+    }
+    st->k = k;
+    sample_fill(p, st->sc, k, st->y, &st->rng, out);
+    return 0;
+}
+
+/* The whole run: one caekf_truth_advance per sample (the FMU of the plant steps the same way). */
 static int truth_run_dop853(const caekf_scenario_t *sc, const caekf_truth_options_t *opt,
                             int (*emit)(const caekf_truth_sample_t *, void *), void *ctx)
 {
-    plant_t p;
-    caekf_model_params_t mp;
-    double y[TRUTH_N] = {0}, k0[TRUTH_N], ynew[TRUTH_N], kend[TRUTH_N], yev[TRUTH_N];
-    double t = 0, h;
-    long steps = caekf_scenario_steps(sc), k, total = 0;
-    uint64_t rng = (uint64_t)sc->seed;
-    int i, c;
-    if (!(opt->rtol > 0) || !(opt->atol_q > 0) || !(opt->atol_v > 0) || plant_setup(sc, opt->series, &p, &mp) != 0) {
+    caekf_truth_stepper_t *st = malloc(sizeof *st);
+    long steps = caekf_scenario_steps(sc), k;
+    int rc = 0;
+    if (st == NULL || caekf_truth_start(st, sc, opt) != 0) {
+        free(st);
         return -1;
     }
-    for (i = 0; i < p.nq; ++i) {
-        p.atol[i] = opt->atol_q;
-        p.atol[p.nq + i] = opt->atol_v;
-    }
-    p.rtol = opt->rtol;
-    rhs(&p, t, y, k0);
-    h = fmin(sc->dt, 1e-4);
-    for (k = 1; k <= steps; ++k) {
+    for (k = 1; k <= steps && rc == 0; ++k) {
         caekf_truth_sample_t out;
-        double t_next = (double)k * sc->dt;
-        memset(&out, 0, sizeof out);
-        while (t < t_next) {
-            double rem = t_next - t, hh = h, err, s;
-            int clipped = 0, switched = 0;
-            for (c = 0; c < p.nc; ++c) { /* on the far side already (a crossing below every check): switch here */
-                if (event_g(&p, c, y) > 0) {
-                    p.closed[c] = !p.closed[c];
-                    switched = 1;
-                    out.events++;
-                }
-            }
-            if (switched) {
-                rhs(&p, t, y, k0);
-            }
-            if (hh >= rem) {
-                hh = rem;
-                clipped = 1;
-            }
-            err = dop853_step(&p, t, y, k0, hh, ynew, kend);
-            if (++total > TRUTH_MAX_STEPS) {
-                out.failed = 1;
-            } else if (!(err <= 1)) {
-                h = hh * (err < HUGE_VAL ? fmax(0.2, 0.9 * pow(err, -1.0 / 8)) : 0.2);
-                out.rejected++;
-                if (h < TRUTH_MIN_STEP) {
-                    out.failed = 1;
-                } else {
-                    continue;
-                }
-            }
-            if (out.failed) {
-                sample_fill(&p, sc, k, y, &rng, &out);
-                return emit(&out, ctx) != 0 ? -1 : 1;
-            }
-            c = event_first(&p, t, y, k0, hh, ynew, &s, yev);
-            if (c >= 0) {
-                t = (s >= rem) ? t_next : t + s;
-                for (i = 0; i < p.n; ++i) {
-                    y[i] = yev[i];
-                }
-                p.closed[c] = !p.closed[c];
-                rhs(&p, t, y, k0);
-                out.events++;
-                out.steps++;
-                continue;
-            }
-            {
-                double fac = err > 0 ? fmin(10.0, fmax(0.2, 0.9 * pow(err, -1.0 / 8))) : 10.0;
-                double hn = hh * fac;
-                h = (clipped && hn < h) ? h : hn;
-            }
-            t = clipped ? t_next : t + hh;
-            for (i = 0; i < p.n; ++i) {
-                y[i] = ynew[i];
-                k0[i] = kend[i];
-            }
-            out.steps++;
-        }
-        sample_fill(&p, sc, k, y, &rng, &out);
+        const int failed = caekf_truth_advance(st, &out);
         if (emit(&out, ctx) != 0) {
-            return -1;
+            rc = -1;
+        } else if (failed) {
+            rc = 1;
         }
     }
-    return 0;
+    free(st);
+    return rc;
 }
 
 int caekf_truth_run(const caekf_scenario_t *sc, const caekf_truth_options_t *opt,

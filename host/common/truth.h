@@ -18,6 +18,8 @@
 #ifndef CAEKF_HOST_TRUTH_H
 #define CAEKF_HOST_TRUTH_H
 
+#include <stdint.h>
+
 #include "scenario.h"
 
 typedef enum { CAEKF_TRUTH_DOP853 = 0, CAEKF_TRUTH_BACKWARD_EULER = 1 } caekf_truth_method_t;
@@ -62,6 +64,44 @@ typedef struct {
     int events;                       /* DOP853: contact events (closing or opening) located in this interval */
     int failed;                       /* DOP853: step size underflow or step budget exhausted (the run stops) */
 } caekf_truth_sample_t;
+
+/* The plant as the truth integrates it (caekf_truth_start fills it from the scenario). */
+#define CAEKF_TRUTH_N (2 * CAEKF_MAX_BODIES) /* capacity of the integrated state [q; v] */
+typedef struct {
+    const caekf_input_series_t *series;
+    int nq, nc, ni, ns, n;
+    double amp[CAEKF_MAX_INPUTS], freq[CAEKF_MAX_INPUTS], phase[CAEKF_MAX_INPUTS];
+    int input_body[CAEKF_MAX_INPUTS]; /* 0-based */
+    int sensor_body[CAEKF_MAX_SENSORS], sensor_vel[CAEKF_MAX_SENSORS];
+    double noise[CAEKF_MAX_SENSORS];                    /* std of each sensor's noise */
+    int ca[CAEKF_MAX_CONTACTS], cb[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
+    double gap[CAEKF_MAX_CONTACTS], cn[CAEKF_MAX_CONTACTS], lam[CAEKF_MAX_CONTACTS], gamma[CAEKF_MAX_CONTACTS];
+    double minv[CAEKF_MAX_BODIES];
+    double K[CAEKF_MAX_BODIES][CAEKF_MAX_BODIES], C[CAEKF_MAX_BODIES][CAEKF_MAX_BODIES];
+    double atol[CAEKF_TRUTH_N], rtol;
+    int closed[CAEKF_MAX_CONTACTS]; /* contact mode: 0 open (no force), 1 closed (the law while delta > 0) */
+} caekf_truth_plant_t;
+
+/* The DOP853 truth one sample at a time (caekf_truth_run's own loop; the plant FMU, fmu/, steps it the
+ * same way, so its samples equal caekf-truth's bit for bit). Plain data: no pointer but to the scenario
+ * (and its series), which must outlive it. */
+typedef struct {
+    const caekf_scenario_t *sc;
+    caekf_truth_plant_t p;
+    double y[CAEKF_TRUTH_N], k0[CAEKF_TRUTH_N]; /* the state at t and f(t, y) */
+    double t, h;                                /* time reached, next step size */
+    long k, total;                              /* samples emitted, DOP853 steps taken */
+    uint64_t rng;                               /* the measurement noise's generator */
+    int failed;
+} caekf_truth_stepper_t;
+
+/* Starts at rest (q = v = 0) at t = 0. opt may be NULL (defaults; its method is ignored: DOP853).
+ * Returns 0, or -1 when the model refuses the scenario's mechanism or the options are invalid. */
+int caekf_truth_start(caekf_truth_stepper_t *st, const caekf_scenario_t *sc, const caekf_truth_options_t *opt);
+
+/* Integrates to the next sample, t_k = k dt (k = 1, 2, ...), and fills it (noise included). Returns 0, or
+ * 1 when the integration failed (out->failed; every later call fails too). */
+int caekf_truth_advance(caekf_truth_stepper_t *st, caekf_truth_sample_t *out);
 
 /* Defaults above. */
 void caekf_truth_options_default(caekf_truth_options_t *opt);
