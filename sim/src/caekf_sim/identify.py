@@ -662,7 +662,8 @@ def identify(sc: Scenario, records: Sequence[Measurements], params: Sequence[str
         cov = cov * scale
         var = np.diag(cov)
         sd = np.sqrt(np.where(var > 0, var, np.inf))
-        corr = cov / np.outer(sd, sd)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov / np.outer(sd, sd)
         corr[~np.isfinite(corr)] = np.nan
         np.fill_diagonal(corr, 1.0)
         threshold = CHI2_95 / 2 * scale
