@@ -70,8 +70,13 @@ static void step_at(const caekf_scalar_t *xp, const caekf_scalar_t *mult, const 
     TEST_ASSERT_EQUAL_INT(0, caekf_model_set_mech(&model, &settings.model, ones));
 }
 
+/* Central differences (double): their step in ln(value) and their tolerance, relative to a column's
+ * largest entry (truncation h^2 and rounding eps / h). */
+#define FD_H 1e-6
+#define FD_TOL 1e-5
+
 /* A column of nq rows (leading dimension ld) against the central difference (a - b) / span of the
- * velocities, within 1e-5 of the column's largest entry (the difference's own rounding). */
+ * velocities, within FD_TOL of the column's largest entry. */
 static void check_column(const caekf_scalar_t *a, const caekf_scalar_t *b, double span, const caekf_scalar_t *col,
                          int ld)
 {
@@ -83,7 +88,7 @@ static void check_column(const caekf_scalar_t *a, const caekf_scalar_t *b, doubl
     }
     TEST_ASSERT_TRUE(big > 0);
     for (i = 0; i < NQ; ++i) {
-        TEST_ASSERT_DOUBLE_WITHIN(1e-5 * big, fd[i], (double)col[i * ld]);
+        TEST_ASSERT_DOUBLE_WITHIN(FD_TOL * big, fd[i], (double)col[i * ld]);
     }
 }
 
@@ -91,8 +96,11 @@ static void check_columns(int discretisation, double delta)
 {
     caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], fv[CAEKF_NQ][CAEKF_N], g[CAEKF_NQ][CAEKF_MAX_INPUTS];
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
-    const double h = 1e-6;
+    const double h = FD_H;
     int i, j, first;
+    if (CAEKF_USE_FLOAT) { /* the float Newton step stops at 256 eps: its differences say nothing at this step */
+        TEST_IGNORE_MESSAGE("central differences of the step: the double build checks them");
+    }
     declare_all(discretisation);
     first = model.n - model.nm;
     TEST_ASSERT_EQUAL_INT(NM, model.nm);

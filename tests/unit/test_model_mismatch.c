@@ -9,6 +9,8 @@
 #include "unity.h"
 
 #define IG PAPER_IG
+/* The monitor's mean against the formula in double: its own scalar's rounding over 60,000 steps. */
+#define MEAN_TOL (CAEKF_USE_FLOAT ? 1e-2 : 1e-9)
 
 void setUp(void) {}
 void tearDown(void) {}
@@ -43,9 +45,15 @@ static mm_run_t run(int window, double ratio, int adapt, double k1_factor)
         const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
         caekf_report_t rep;
         caekf_scalar_t m, q;
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+        const caekf_status_t st = caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep);
         TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &m, &q));
-        if (window > 0) {
+        if (st != CAEKF_OK) { /* a wrong model may drive float into a rolled-back step: the monitor kept */
+            TEST_ASSERT_TRUE(st == CAEKF_ERR_SINGULAR || st == CAEKF_ERR_NUMERIC);
+            TEST_ASSERT_TRUE(res.steps == 0 || ((double)m == res.nis_mean && (double)q == res.q_scale));
+            res.steps++;
+            continue;
+        }
+        if (window > 0 && !(rep.flags & CAEKF_FLAG_SINGULAR_INNOVATION)) { /* a correction was computed */
             mean += (fmin((double)rep.nis / 2, 100.0) - mean) / window;
             res.mean_ref_err = fmax(res.mean_ref_err, fabs((double)m - mean) / fmax(mean, 1.0));
         }
@@ -67,7 +75,7 @@ static void test_the_mean_follows_its_formula(void)
     /* Spring 3 % off: the NIS is far above the clip for long stretches, so the clip is exercised too. */
     const mm_run_t wrong = run(500, 3.0, 0, 1.03);
     TEST_ASSERT_TRUE(wrong.nis_mean > 3.0);
-    TEST_ASSERT_TRUE(wrong.mean_ref_err < 1e-3);
+    TEST_ASSERT_TRUE(wrong.mean_ref_err < MEAN_TOL);
 }
 
 static void test_an_exact_model_is_never_flagged_and_its_estimate_is_unchanged(void)
