@@ -19,8 +19,22 @@ typedef struct {
     double gamma_last[CAEKF_MAX_CONTACTS];
 } summary_t;
 
+/* The name of estimated mechanism parameter j (the state n - nm + j): its scenario key, m<body>,
+ * spring<link>_k or spring<link>_c. */
+static void mech_name(char *out, size_t len, const caekf_model_t *m, int j)
+{
+    const int e = m->mech_elem[j] + 1;
+    if (m->mech_kind[j] == CAEKF_MECH_MASS) {
+        snprintf(out, len, "m%d", e);
+    } else {
+        snprintf(out, len, "spring%d_%c", e, m->mech_kind[j] == CAEKF_MECH_STIFFNESS ? 'k' : 'c');
+    }
+}
+
 /* The output header: t, q1.., v1.., gamma (contact 1), gamma2.., the estimated law parameters (n, lambda,
- * gap of contact 1, then n2, ..., in the state's order), p_norm, p_gg, p_gg2.., flags, newton_iters, nis. */
+ * gap of contact 1, then n2, ..., in the state's order), the estimated mechanism parameters (their scenario
+ * keys: m2, spring1_k, spring3_c, ..., in the state's order), p_norm, p_gg, p_gg2.., the mechanism
+ * parameters' variances (p_m2, p_spring1_k, ...), flags, newton_iters, nis. */
 static void write_header(FILE *f, const caekf_model_t *m)
 {
     static const char *const law_names[CAEKF_LAW_COUNT] = {"n", "lambda", "gap"};
@@ -43,10 +57,20 @@ static void write_header(FILE *f, const caekf_model_t *m)
             }
         }
     }
+    for (i = 0; i < m->nm; ++i) {
+        char key[24];
+        mech_name(key, sizeof key, m, i);
+        fprintf(f, ",%s", key);
+    }
     fputs(",p_norm", f);
     for (i = 0; i < nc; ++i) {
         caekf_csv_series_name(name, "p_gg", i, nc, 1);
         fprintf(f, ",%s", name);
+    }
+    for (i = 0; i < m->nm; ++i) {
+        char key[24];
+        mech_name(key, sizeof key, m, i);
+        fprintf(f, ",p_%s", key);
     }
     fputs(",flags,newton_iters,nis\n", f);
 }
@@ -69,7 +93,10 @@ static void usage(FILE *f)
         "(contact 1) and gamma2.. (further contacts), p_norm, p_gg (contact 1) and p_gg2.., flags,\n"
         "newton_iters, nis (stdout by default; the paper:\n"
         "t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,p_norm,p_gg,flags,newton_iters,nis). Estimated law parameters\n"
-        "(contact{i}_estimate_n/lambda/gap) follow the gammas as n, lambda, gap (n2, ... for contact 2).\n"
+        "(contact{i}_estimate_n/lambda/gap) follow the gammas as n, lambda, gap (n2, ... for contact 2);\n"
+        "estimated mechanism parameters (m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0) follow them\n"
+        "by their scenario keys (m2, spring1_k, spring3_c: masses, stiffnesses, dampers), their variances\n"
+        "after the p_gg columns as p_m2, p_spring1_k, ...\n"
         "Settings: the schema's defaults (the recommended estimator), the scenario's values, then the\n"
         "preset named by --experiment, then the explicit flags. Presets:\n"
         "p_norm is the 2-norm of P in physical units; p_gg its gamma variance; nis the normalised\n"
@@ -274,6 +301,9 @@ int main(int argc, char **argv)
         fprintf(fout, ",%.17g", (double)pn);
         for (i = 0; i < nc; ++i) {
             fprintf(fout, ",%.17g", (double)P[ig + i][ig + i]);
+        }
+        for (i = est.model.n - est.model.nm; i < est.model.n; ++i) { /* the mechanism parameters' variances */
+            fprintf(fout, ",%.17g", (double)P[i][i]);
         }
         fprintf(fout, ",%lu,%d,%.9g\n", (unsigned long)rep.flags, rep.newton_iters, (double)rep.nis);
         sum.rows++;

@@ -184,3 +184,35 @@ def test_truth_refuses_a_scenario_without_a_truth_key_naming_file_and_key(key, t
     assert r.stderr == f"caekf-truth: {scenario}: missing key '{key}' (it has no default; simulating a truth " \
                        "needs it)\n"
     assert not out.exists()
+
+
+def test_estimate_csv_carries_the_mechanism_parameters_as_replay_does(tmp_path):
+    """`caekf-sim estimate` writes caekf-replay's columns for declared mechanism parameters (m3, spring1_k
+    after the gammas, p_m3, p_spring1_k after p_gg), the same text in every shared column, on a record whose
+    true spring 1 is 5 % stiffer than the filter's setting (declared spring1_k_sigma = 0.1)."""
+    from caekf_sim import binding
+    from caekf_sim.campaign.spec import scenario_text
+    from caekf_sim.cli import main
+    from caekf_sim.scenario import load_scenario
+
+    sc = load_scenario(default_scenario_path())
+    true_sc = sc.replace(spring1_k=1.05 * sc.spring1_k)
+    scen, meas = tmp_path / "declared.toml", tmp_path / "truth.csv"
+    scen.write_text(scenario_text(sc.replace(spring1_k_sigma=0.1, m3_sigma=0.03)))
+    write_truth_csv(binding.truth(true_sc), meas)
+    rep, est = tmp_path / "replay.csv", tmp_path / "estimate.csv"
+    r = _run([_host_tool("caekf-replay"), "--scenario", scen, "--in", meas, "--out", rep])
+    assert r.returncode == 0, r.stderr
+    assert main(["estimate", "--scenario", str(scen), "--measurements", str(meas), "--out", str(est),
+                 "--no-progress"]) == 0
+    rl, el = rep.read_text().splitlines(), est.read_text().splitlines()
+    rh, eh = rl[0].split(","), el[0].split(",")
+    assert eh == ("t,q1,q2,q3,q4,v1,v2,v3,v4,gamma,m3,spring1_k,p_norm,p_gg,p_m3,p_spring1_k,flags,"
+                  "newton_iters").split(",")
+    assert len(rl) == len(el) == 60001
+    rc = list(zip(*(ln.split(",") for ln in rl[1:])))
+    ec = list(zip(*(ln.split(",") for ln in el[1:])))
+    for name in eh:
+        assert ec[eh.index(name)] == rc[rh.index(name)], name
+    k = float(ec[eh.index("spring1_k")][-1])
+    assert abs(k / true_sc.spring1_k - 1) < 0.005

@@ -30,7 +30,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -169,6 +169,34 @@ def _law_columns(settings: Settings, x: np.ndarray) -> Dict[str, np.ndarray]:
     return {name: x[..., first + i] for i, name in enumerate(names)}
 
 
+# The mechanism parameters a scenario can declare uncertain (settings m{i}_sigma, spring{i}_k_sigma,
+# spring{i}_c_sigma > 0), in the order their states follow the law parameters: (the value's key pattern,
+# the count key of its elements). Each estimated one is named by its value's scenario key (m2, spring1_k).
+MECH_PARAMS = (("m{i}", "bodies"), ("spring{i}_k", "springs"), ("spring{i}_c", "springs"))
+
+
+def mech_layout(sc: Any) -> Tuple[str, ...]:
+    """The estimated mechanism parameters of a scenario or settings, in state order (masses, stiffnesses,
+    dampers, each by element): their scenario keys (m2, spring1_k, spring3_c). They are the last states of x,
+    after the law parameters; caekf-replay's columns of the same names, their variances p_<key>."""
+    from .mechanism import scenario_value
+
+    out = []
+    for pattern, count in MECH_PARAMS:
+        for i in range(1, int(float(scenario_value(sc, count))) + 1):
+            key = pattern.replace("{i}", str(i))
+            if float(scenario_value(sc, f"{key}_sigma")) > 0.0:
+                out.append(key)
+    return tuple(out)
+
+
+def _mech_columns(settings: Settings, a: np.ndarray, prefix: str = "") -> Dict[str, np.ndarray]:
+    """The mechanism parameters' entries of a (last axis: x or P's diagonal) by column name (prefix + key)."""
+    names = mech_layout(settings)
+    first = a.shape[-1] - len(names)
+    return {prefix + name: a[..., first + i] for i, name in enumerate(names)}
+
+
 def _settings(what: ScenarioOrSettings, precision: Optional[str], experiment: Optional[str],
               overrides: Dict[str, Any]) -> Settings:
     if isinstance(what, Settings):
@@ -194,7 +222,7 @@ class RunResult:
     """Per-step output of :func:`run`, one row per input sample (numpy arrays, picklable)."""
 
     t: np.ndarray  # (steps,) [s]
-    x: np.ndarray  # (steps, n) posterior [q [m], v [m/s], gamma per contact [N/m^n]]
+    x: np.ndarray  # (steps, n) posterior [q [m], v [m/s], gamma per contact [N/m^n], law, mechanism parameters]
     P_diag: Optional[np.ndarray]  # (steps, n) diagonal of P (physical units squared)
     flags: np.ndarray  # (steps,) uint32 CAEKF_FLAG_* bits
     nis: np.ndarray  # (steps,) normalised innovation squared (0 on steps without correction)
@@ -236,6 +264,19 @@ class RunResult:
         """The estimated law parameters (docs/contact-law.md) by caekf-replay's column name (n, lambda,
         gap; n2.. for contact 2): (steps,) each, after the gammas in x."""
         return _law_columns(self.settings, self.x)
+
+    @property
+    def mech(self) -> Dict[str, np.ndarray]:
+        """The estimated mechanism parameters (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0)
+        by caekf-replay's column name, their scenario key (m2, spring1_k, spring3_c): (steps,) each, their
+        values [kg, N/m, N s/m], the last states of x."""
+        return _mech_columns(self.settings, self.x)
+
+    @property
+    def p_mech(self) -> Dict[str, np.ndarray]:
+        """Their variances by caekf-replay's column name (p_m2, p_spring1_k): (steps,) each; empty without
+        P_diag."""
+        return {} if self.P_diag is None else _mech_columns(self.settings, self.P_diag, "p_")
 
     @property
     def p_gg(self) -> Optional[np.ndarray]:
@@ -348,6 +389,11 @@ class Estimator:
     def law(self) -> Dict[str, float]:
         """The estimated law parameters by column name (n, lambda, gap; n2.. for contact 2)."""
         return {k: float(v) for k, v in _law_columns(self.settings, self.x).items()}
+
+    @property
+    def mech(self) -> Dict[str, float]:
+        """The estimated mechanism parameters' values by column name (m2, spring1_k; see RunResult.mech)."""
+        return {k: float(v) for k, v in _mech_columns(self.settings, self.x).items()}
 
     @property
     def P(self) -> np.ndarray:

@@ -1,13 +1,14 @@
 """Estimate CSV (same columns as the C `caekf-replay` output) and its reader.
 
 A general mechanism (nq bodies, nc contacts) writes q1..q<nq>, v1..v<nq>, then `gamma` (contact 1) and
-gamma2..gamma<nc>, then the estimated law parameters (n, lambda, gap; n2.. for contact 2), as caekf-replay
-does; the paper's columns are RESULT_COLUMNS. The reader keeps q, v and the gammas."""
+gamma2..gamma<nc>, then the estimated law parameters (n, lambda, gap; n2.. for contact 2) and mechanism
+parameters (m2, spring1_k, ..., their variances p_m2, ... after p_gg), as caekf-replay does; the paper's
+columns are RESULT_COLUMNS. The reader keeps q, v and the gammas."""
 from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Tuple, Union
+from typing import Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -21,19 +22,26 @@ RESULT_COLUMNS = (
 PathLike = Union[str, Path]
 
 
-def result_columns(nq: int, nc: int, law: Tuple[str, ...] = ()) -> Tuple[str, ...]:
-    """The columns for nq bodies, nc contacts and the estimated law parameters' names (n, lambda, gap, n2..)."""
+def result_columns(nq: int, nc: int, law: Tuple[str, ...] = (), variances: Tuple[str, ...] = ()
+                   ) -> Tuple[str, ...]:
+    """The columns for nq bodies, nc contacts and the names of the parameter states after the gammas (the law's:
+    n, lambda, gap, n2..; then the estimated mechanism parameters': m2, spring1_k, ...), and of the variance
+    columns after p_gg (the mechanism parameters': p_m2, p_spring1_k, ...), as caekf-replay orders them."""
     gammas = ["gamma"][:nc] + [f"gamma{i}" for i in range(2, nc + 1)]
     return ("t", *[f"q{i}" for i in range(1, nq + 1)], *[f"v{i}" for i in range(1, nq + 1)], *gammas, *law,
-            "p_norm", "p_gg", "flags", "newton_iters")
+            "p_norm", "p_gg", *variances, "flags", "newton_iters")
 
 
-def write_result_csv(res: EstimateResult, path: PathLike) -> None:
-    """%.17g for the floats so a reader gets the bits back; flags and iterations as integers."""
+def write_result_csv(res: EstimateResult, path: PathLike, variances: Optional[Mapping[str, np.ndarray]] = None
+                     ) -> None:
+    """%.17g for the floats so a reader gets the bits back; flags and iterations as integers. `variances`:
+    further variance columns by name, written after p_gg (the estimated mechanism parameters' p_m2, ...)."""
+    var = dict(variances or {})
     with open(path, "w", encoding="utf-8") as f:
         nc = res.n_contacts
-        f.write(",".join(result_columns((res.x.shape[1] - nc - res.n_law) // 2, nc, res.law_names)) + "\n")
-        floats = np.column_stack([res.t, res.x, res.p_norm, res.p_gg])
+        f.write(",".join(result_columns((res.x.shape[1] - nc - res.n_law) // 2, nc, res.law_names, tuple(var)))
+                + "\n")
+        floats = np.column_stack([res.t, res.x, res.p_norm, res.p_gg, *var.values()])
         for row, flag, it in zip(floats, res.flags, res.newton_iters):
             f.write(",".join("%.17g" % v for v in row) + f",{int(flag)},{int(it)}\n")
 

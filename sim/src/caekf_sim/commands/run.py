@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 from pathlib import Path
-from typing import Any, Dict
+from typing import Any, Dict, Tuple
 
 from .. import flags
 from ..cli import UsageError
@@ -119,12 +119,13 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     if args.contact_substeps is not None:
         overrides["contact_substeps"] = args.contact_substeps  # likewise
     progress = want_progress(args)
+    variances: Dict[str, np.ndarray] = {}
     if args.engine == "numpy":
         res = _estimate_numpy(sc, meas, args.experiment, overrides, progress)
     else:
-        res = estimate_c(sc, meas, args.experiment, args.precision, overrides, progress)
+        res, variances = estimate_c(sc, meas, args.experiment, args.precision, overrides, progress)
     with atomic_output(args.out) as tmp:
-        write_result_csv(res, tmp)
+        write_result_csv(res, tmp, variances)
     print(f"wrote {args.out}: {len(res.t)} samples of {meas.name} ({args.engine} estimator"
           f"{', ' + args.precision if args.engine == 'c' else ''})")
     print(format_table([summarize(args.experiment, res, sc.gamma)]))
@@ -135,9 +136,12 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def estimate_c(sc: Any, meas: Measurements, experiment: str, precision: str = "double",
-               overrides: Any = None, progress: bool = False, chunk: int = 5000) -> EstimateResult:
+               overrides: Any = None, progress: bool = False, chunk: int = 5000
+               ) -> Tuple[EstimateResult, Dict[str, np.ndarray]]:
     """The shipped C estimator (caekf_sim.run's loop, chunk by chunk for the progress bar) over a run:
-    the columns of caekf-replay's output (p_norm, the gamma variance, flags, Newton iterations)."""
+    the columns of caekf-replay's output (p_norm, the gamma variance, flags, Newton iterations; the
+    estimated law and mechanism parameters after the gammas), and the mechanism parameters' variances by
+    caekf-replay's column names (p_m2, p_spring1_k, ...)."""
     from ..binding import Estimator
 
     est = Estimator(sc, precision, None if experiment == DEFAULT else experiment, **(overrides or {}))
@@ -159,13 +163,14 @@ def estimate_c(sc: Any, meas: Measurements, experiment: str, precision: str = "d
     wall = time.perf_counter() - t0
     pd = np.concatenate([r.P_diag for r in parts])
     ig, nc = parts[0].gamma_index, int(parts[0].settings.contacts)  # the gammas, then the law parameters
-    law = tuple(parts[0].law)
+    law = tuple(parts[0].law) + tuple(parts[0].mech)  # the parameter states after the gammas, by column name
+    variances = {k: np.concatenate([r.p_mech[k] for r in parts]) for k in parts[0].p_mech}
     return EstimateResult(
         t=np.concatenate([r.t for r in parts]), x=np.concatenate([r.x for r in parts]),
         p_norm=np.concatenate([r.p_norm for r in parts]), p_gg=pd[:, ig] if nc else np.zeros(n),
         flags=np.concatenate([r.flags for r in parts]).astype(np.int64),
         newton_iters=np.concatenate([r.newton_iters for r in parts]).astype(np.int64), wall_time=wall,
-        n_contacts=nc, p_ggs=pd[:, ig:ig + nc], n_law=len(law), law_names=law)
+        n_contacts=nc, p_ggs=pd[:, ig:ig + nc], n_law=len(law), law_names=law), variances
 
 
 def _estimate_numpy(sc: Any, meas: Measurements, experiment: str, overrides: Dict[str, Any],
