@@ -258,7 +258,6 @@ void caekf_input_series_free(caekf_input_series_t *s)
 
 typedef caekf_truth_plant_t plant_t;
 
-
 /* A truth-only key of element i (1-based): "contact%d_gamma", "input%d_amp", ... */
 static double element_value(const caekf_scenario_t *sc, const char *fmt, int i)
 {
@@ -656,7 +655,8 @@ int caekf_truth_start(caekf_truth_stepper_t *st, const caekf_scenario_t *sc, con
         opt = &def;
     }
     memset(st, 0, sizeof *st);
-    if (!(opt->rtol > 0) || !(opt->atol_q > 0) || !(opt->atol_v > 0) || plant_setup(sc, opt->series, &st->p, &mp) != 0) {
+    if (!(opt->rtol > 0) || !(opt->atol_q > 0) || !(opt->atol_v > 0) ||
+        plant_setup(sc, opt->series, &st->p, &mp) != 0) {
         return -1;
     }
     for (i = 0; i < st->p.nq; ++i) {
