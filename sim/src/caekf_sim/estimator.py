@@ -39,6 +39,13 @@ mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). O
                sequential perfect measurements). S^c is solved after diagonal equilibration, with a
                pseudo-inverse fallback when singular (flag SINGULAR_INNOVATION); afterwards gamma_c =
                gamma_min_c and P's gamma_c row/column are set to their exact-arithmetic values.
+  mechanism    (m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0; docs/mechanism.md) theta_j = ln(value_j /
+               setting_j) are the last states, always live, random walk sigma_q_mech * sigma_j, no bounds; M, K,
+               C are rebuilt at setting_j exp(theta_j) before each step and F's theta columns are eq. (10)'s
+               -(dg/dx_k)^-1 dg/dtheta_j at x_k^- over the whole step (also when substepped). The gate holds
+               them with the gammas. input{i}_sigma: P^- += G diag(sigma_u^2) G^T on the bodies' states, G =
+               dx_k/du through the implicit step (trapezoidal: both ends' inputs). Read from the scenario, as
+               the other noise settings.
 Flags use the C core's bit layout (flags.py).
 """
 from __future__ import annotations
@@ -53,7 +60,7 @@ import numpy as np
 
 from . import flags as fl
 from .mechanism import (Mechanism, body_values, contact_values, law_column_names, law_derivatives, law_layout,
-                        scenario_value)
+                        mech_column_names, mech_layout, scenario_value)
 from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_inputs
 from .scenario import Scenario
 
@@ -159,7 +166,18 @@ class AugmentedEKF:
         self.nx = 2 * nq
         # The estimated law parameters (docs/contact-law.md): states after the gammas, contact by contact.
         self.law = law_layout(sc, nc)
-        self.n = n = 2 * nq + nc + len(self.law)
+        # The estimated mechanism parameters (docs/mechanism.md): theta_j = ln(value_j / setting_j), the last nm
+        # states; the model's M, K, C follow their estimates every step (_set_mechanism).
+        self.base = p
+        self.mech = mech_layout(sc, p)
+        self.nm = nm = len(self.mech)
+        self.n = n = 2 * nq + nc + len(self.law) + nm
+        self.im = list(range(n - nm, n))
+        self.mech_setting = np.array([float(getattr(p, "m" if kind == "m" else f"spring_{kind}")[e])
+                                      for kind, e, _ in self.mech])
+        mech_sigma = np.array([sigma for _, _, sigma in self.mech])
+        # the measured inputs' white noise [N] (input{i}_sigma): process noise through the implicit step
+        self.input_sigma = np.array([float(scenario_value(sc, f"input{i}_sigma")) for i in range(1, p.n_inputs + 1)])
         self.ig = list(range(self.nx, self.nx + nc))  # indices of the gammas
         # state index of contact c's n, lambda, gap (absent: the mechanism's value)
         self.law_state: List[dict] = [{} for _ in range(nc)]
@@ -178,7 +196,7 @@ class AugmentedEKF:
         self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
         self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
         self.dt = sc.dt
-        self.H = measurement_matrix(p, len(self.law))
+        self.H = measurement_matrix(p, len(self.law) + nm)
         self.Hx = self.H[:, : self.nx]
         sig_r = float(scenario_value(sc, "sigma_r"))
         sig_rv = float(scenario_value(sc, "sigma_rv"))
@@ -194,14 +212,16 @@ class AugmentedEKF:
                              for c, name in self.law])
 
         self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma,
-                               law_value("sigma_q_{p}") ** 2])
+                               law_value("sigma_q_{p}") ** 2,
+                               (float(scenario_value(sc, "sigma_q_mech")) * mech_sigma) ** 2])
         self.Qx = self.Q[: self.nx, : self.nx]
         self.Qx_settings = np.diag(self.Qx).copy()
         self.nis_mean, self.q_scale = 1.0, 1.0  # the model-mismatch monitor
         self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq),
-                       np.log(g0) if cfg.gamma_log else g0, law_value("{p}0")]
+                       np.log(g0) if cfg.gamma_log else g0, law_value("{p}0"), np.zeros(nm)]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
-                               (contact_values(sc, "sigma_gamma0", nc) / rel) ** 2, law_value("sigma_{p}0") ** 2])
+                               (contact_values(sc, "sigma_gamma0", nc) / rel) ** 2, law_value("sigma_{p}0") ** 2,
+                               mech_sigma**2])
         # Bounds (state, minimum, maximum or None), in state order: gamma's when constrained (eqs. 28-30),
         # an estimated law parameter's always. A maximum of 0 is none.
         self.bounds: List[Tuple[int, float, Optional[float]]] = []
@@ -224,6 +244,87 @@ class AugmentedEKF:
             h = self.dt / cfg.contact_substeps
             self.sub_solver = StepSolver(p, h, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
             self.sub_maps = self._constant_jacobians(h)
+
+    def _set_mechanism(self, x: np.ndarray) -> None:
+        """The model at the mechanism parameters' estimates in x (value_j = setting_j exp(theta_j)): the
+        mechanism, its step solvers (their statistical linearisation kept) and eq. (10)'s constant maps."""
+        values = {kind: np.array(getattr(self.base, "m" if kind == "m" else f"spring_{kind}"), dtype=float)
+                  for kind in ("m", "k", "c")}
+        for (kind, e, _), setting, theta in zip(self.mech, self.mech_setting.tolist(), x[self.im].tolist()):
+            values[kind][e] = setting * math.exp(theta)
+        self.plant = p = self.base.with_values(values["m"], values["k"], values["c"])
+        cfg, slr = self.cfg, self.solver.slr
+        self.solver = StepSolver(p, self.dt, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
+        self.solver.slr = slr
+        self.Jk0, self.Jprev0, self.F0 = self._constant_jacobians(self.dt)
+        if self.sub_solver is not None:
+            h = self.dt / cfg.contact_substeps
+            self.sub_solver = StepSolver(p, h, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
+            self.sub_solver.slr = slr
+            self.sub_maps = self._constant_jacobians(h)
+
+    def mech_values(self, x: Optional[np.ndarray] = None) -> np.ndarray:
+        """The estimated mechanism parameters' values, setting_j exp(theta_j), at x (default: the estimate)."""
+        theta = (self.x if x is None else x)[self.im]
+        return self.mech_setting * np.exp(theta)
+
+    def _full_step_jacobian(self, xp: np.ndarray) -> np.ndarray:
+        """dg/dx_k of the whole step (eq. 10's, step dt) at x_k^-: the contact tangents at x_k^- included.
+        Its x-rows hold the Newton matrix M/hs + C + hs K + contacts (scaled by 1/2 for the trapezoidal rule's
+        residual, whose momentum rows are the mean of both ends' forces)."""
+        nq, nx = self.nq, self.nx
+        w = 0.5 if self.trapezoidal else 1.0
+        Jk = self._add_contacts(None, self.Jk0, w, xp[:nq], xp[nx:], xp[nq:nx])
+        return self.Jk0 if Jk is None else Jk
+
+    def mech_columns(self, x_prev: np.ndarray, xp: np.ndarray) -> np.ndarray:
+        """The mechanism parameters' columns of F's physical rows, dx_k / d theta_j (nx, nm), for the step
+        x_{k-1} -> x_k^- (eq. 10 with theta_j a state: -(dg/dx_k)^-1 dg/dtheta_j). dg/dtheta_j = value_j
+        dg/dvalue_j of the step's residual (the rows of _constant_jacobians): a mass m_a (v_k,a - v_{k-1},a)/dt
+        on body a's momentum row; a link (a, b) of stiffness k: w k (d_ab(q_k) + d_ab(q_{k-1}) if trapezoidal)
+        on row a, minus that on row b (d_ab = q_a - q_b, ground 0; w = 1/2 trapezoidal, 1 backward Euler); a
+        damper the same with v. With substeps the same one-step formula over the whole step (the C core's)."""
+        nq, nx = self.nq, self.nx
+        values = self.mech_values(x_prev)
+        p = self.base
+        D = np.zeros((self.n, self.nm))
+        w = 0.5 if self.trapezoidal else 1.0
+        for j, ((kind, e, _), value) in enumerate(zip(self.mech, values.tolist())):
+            if kind == "m":
+                D[nq + e, j] = value * (xp[nq + e] - x_prev[nq + e]) / self.dt
+                continue
+            off = 0 if kind == "k" else nq
+            a, b = int(p.spring_a[e]), int(p.spring_b[e])
+
+            def diff(x: np.ndarray) -> float:
+                return (x[off + a] if a >= 0 else 0.0) - (x[off + b] if b >= 0 else 0.0)
+
+            d = diff(xp) + (diff(x_prev) if self.trapezoidal else 0.0)
+            if a >= 0:
+                D[nq + a, j] = w * value * d
+            if b >= 0:
+                D[nq + b, j] = -w * value * d
+        return -np.linalg.solve(self._full_step_jacobian(xp), D)[:nx]
+
+    def input_columns(self, xp: np.ndarray) -> np.ndarray:
+        """dx_k / du (nx, inputs): how an error in the measured inputs moves the step's end (eq. 10's inverse
+        Jacobian at x_k^- on dg/du). Backward Euler: u_k enters the momentum rows as -B_u; trapezoidal: u_{k-1}
+        and u_k each as -B_u / 2, and a sensor's error held over the step enters at both ends (its white noise
+        of the same low-frequency power), so the sum of both: twice the one-end gain."""
+        nq, nx = self.nq, self.nx
+        Du = np.zeros((self.n, self.plant.n_inputs))
+        Du[nq:nx] = -self.plant.B_u * (0.5 if self.trapezoidal else 1.0)
+        if self.trapezoidal:
+            Du[nq:nx] += -self.plant.B_u * 0.5  # u_{k-1}'s
+        return -np.linalg.solve(self._full_step_jacobian(xp), Du)[:nx]
+
+    def _add_mech_columns(self, F: np.ndarray, xp: np.ndarray) -> np.ndarray:
+        """F with the mechanism parameters' columns (a copy; F itself when none is estimated)."""
+        if not self.nm:
+            return F
+        F = F.copy()
+        F[: self.nx, self.im] = self.mech_columns(self.x, xp)
+        return F
 
     def _constant_jacobians(self, dt: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """dg/dx_k without the contact terms, dg/dx_{k-1} without them (backward Euler: constant) and the
@@ -272,15 +373,21 @@ class AugmentedEKF:
         return np.exp(g) if self.cfg.gamma_log else g
 
     def physical(self) -> Tuple[np.ndarray, np.ndarray]:
-        """(x, P) with gamma itself in place of ln gamma (gamma_log): gamma = exp, P mapped to first order by
-        d gamma = gamma d ln gamma; unchanged otherwise."""
-        if not self.cfg.gamma_log:
+        """(x, P) with gamma itself in place of ln gamma (gamma_log) and each estimated mechanism parameter's
+        value setting exp(theta) in place of theta: P mapped to first order by d value = value d theta (d gamma
+        = gamma d ln gamma); unchanged otherwise."""
+        if not self.cfg.gamma_log and not self.nm:
             return self.x, self.P
         f = np.ones(self.n)
-        g = self.gammas_of(self.x[self.nx :])
-        f[self.ig] = g
         x = self.x.copy()
-        x[self.ig] = g
+        if self.cfg.gamma_log:
+            g = self.gammas_of(self.x[self.nx :])
+            f[self.ig] = g
+            x[self.ig] = g
+        if self.nm:
+            values = self.mech_values()
+            f[self.im] = values
+            x[self.im] = values
         return x, self.P * np.outer(f, f)
 
     def _solver(self, solver: StepSolver, params: np.ndarray) -> StepSolver:
@@ -363,17 +470,18 @@ class AugmentedEKF:
                                                                                           self.gammas_of(gammas))
         self._substepped = True
         if self.sub_solver is not None and self._on_prev:
-            return self.substep_predict(u_prev, u)  # closed at the start: no one-step solve needed
+            xp, F, iters, ok = self.substep_predict(u_prev, u)  # closed at the start: no one-step solve needed
+            return xp, self._add_mech_columns(F, xp), iters, ok
         q, v, iters, ok = solver.solve(x[:nq], x[nq:nx], u, self.gammas_of(gammas), u_prev)
         if self.sub_solver is not None and solver.any_on(q, self.gammas_of(gammas)):
             xp, F, sub_iters, ok = self.substep_predict(u_prev, u)
-            return xp, F, iters + sub_iters, ok
+            return xp, self._add_mech_columns(F, xp), iters + sub_iters, ok
         self._substepped = False
         xp = np.empty(self.n)
         xp[:nq] = q
         xp[nq:nx] = v
         xp[nx:] = gammas  # random walk: gamma_k^- = gamma_{k-1}^+ (eq. 19, last rows)
-        return xp, self.transition_matrix(q, gammas, v, x), iters, ok
+        return xp, self._add_mech_columns(self.transition_matrix(q, gammas, v, x), xp), iters, ok
 
     def substep_predict(self, u0: Any, u: Any) -> Tuple[np.ndarray, np.ndarray, int, bool]:
         """x_{k-1} -> x_k^- in contact_substeps steps of dt / contact_substeps, the inputs linear from u0 (at
@@ -459,17 +567,17 @@ class AugmentedEKF:
     def _index(self, live: Sequence[int]) -> Index:
         """The live block: the physical states plus the live contacts' parameter states (a slice when
         contiguous)."""
-        idx = list(range(self.nx)) + sorted(g for c in live for g in self.pstates[c])
+        idx = list(range(self.nx)) + sorted(g for c in live for g in self.pstates[c]) + self.im
         return slice(0, len(idx)) if idx == list(range(len(idx))) else idx
 
     def _correct(
         self, xp: np.ndarray, P: np.ndarray, y: np.ndarray, L: Index, frozen: Sequence[int], schmidt: bool,
-        violated: Sequence[Tuple[int, float]] = (),
+        violated: Sequence[Tuple[int, float]] = (), held: Sequence[int] = (),
     ) -> Tuple[np.ndarray, np.ndarray, bool]:
         """Eqs. (13)-(15) on the block L; the parameter states of the contacts `frozen` keep value and
         variance (eqs. 25-27), their cross-covariance with L Schmidt-updated when `schmidt`. `violated`
-        (state, bound) pairs add the perfect measurements x_state = bound of eqs. (28)-(30). Returns
-        (x, P, used_pinv)."""
+        (state, bound) pairs add the perfect measurements x_state = bound of eqs. (28)-(30); `held` states
+        (outside L) are held as the frozen contacts' are. Returns (x, P, used_pinv)."""
         HL = self.H[:, L]
         R = self.R
         resid = y - self.H @ xp
@@ -511,7 +619,7 @@ class AugmentedEKF:
         Pn = P.copy()
         _set_block(Pn, L, L, joseph(IKH, PLL, G, R) if self.cfg.joseph else IKH @ PLL)  # eq. (15) / (27)
         if schmidt:
-            for g in (g for c in frozen for g in self.pstates[c]):
+            for g in [g for c in frozen for g in self.pstates[c]] + list(held):
                 col = IKH @ P[L, g]  # Schmidt update of the cross-covariance
                 Pn[L, g] = col
                 Pn[g, L] = col
@@ -552,6 +660,8 @@ class AugmentedEKF:
         cfg = self.cfg
         status = 0
         slr_p = cfg.contact_slr_p
+        if self.nm:
+            self._set_mechanism(self.x)  # the model at the mechanism parameters' estimates x_{k-1}
         if slr_p > 0:
             self._set_penetration_std()
         if predict:
@@ -566,7 +676,7 @@ class AugmentedEKF:
                   for d, s in zip(deltas, self.slr_s)]
         if predict and slr_p > 0 and not self._substepped and not any(closed) \
                 and not (self.trapezoidal and self._on_prev):
-            F = self.F0  # no contact active at either end: the contact-free F, whatever the tangents
+            F = self._add_mech_columns(self.F0, xp)  # no contact active at either end: the contact-free F
         if any(closed):
             status |= fl.CONTACT_ACTIVE
         live = [c for c in range(self.nc) if cfg.mode == CANONICAL or closed[c]]
@@ -603,11 +713,16 @@ class AugmentedEKF:
                     Pm[L, g] = col
                     Pm[g, L] = col
             # Q_gamma = 0 (eq. 21): the frozen P_gg and gamma stay as they are.
+        if predict and self.input_sigma.size and np.any(self.input_sigma > 0):
+            # the measured inputs' noise through the implicit step: Q_u = G diag(sigma_u^2) G^T on the bodies
+            G = self.input_columns(xp)
+            Pm[: self.nx, : self.nx] += (G * self.input_sigma**2) @ G.T
         if predict and cfg.law_second_order and (self.law or cfg.gamma_log):
             Pm = self._second_order_noise(xp, Pm)
-        if live and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
-            status |= fl.GAMMA_GATED  # every live gamma held this step, as a consider state
-            x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True)
+        if (live or self.nm) and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
+            # every live parameter (the mechanism's too) held this step, as a consider state
+            status |= fl.GAMMA_GATED
+            x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True, held=self.im)
         else:
             x, Pp, _ = self._correct(xp, Pm, y, L, frozen, consistent)
             # Eqs. (28)-(30) over the active set: in state order, each live parameter outside a bound
@@ -655,11 +770,13 @@ class EstimateResult:
     p_ggs: Optional[np.ndarray] = None  # (N, nc): P^+ of every gamma_c
     n_law: int = 0  # estimated law parameters: the last n_law states
     law_names: Tuple[str, ...] = ()  # their CSV columns (mechanism.law_column_names)
+    n_mech: int = 0  # estimated mechanism parameters: the last n_mech states (their values), after the law's
+    mech_names: Tuple[str, ...] = ()  # their keys (mechanism.mech_column_names: m1, spring2_k, ...)
 
     @property
     def gammas(self) -> np.ndarray:
         """(N, nc): gamma_c of every contact, the nc states before the law parameters."""
-        end = self.x.shape[1] - self.n_law
+        end = self.x.shape[1] - self.n_law - self.n_mech
         return self.x[:, end - self.n_contacts : end]
 
     @property
@@ -728,4 +845,6 @@ def run_estimator(
         p_ggs=Ps[:, ekf.ig, ekf.ig].copy(),
         n_law=len(ekf.law),
         law_names=law_column_names(ekf.law),
+        n_mech=ekf.nm,
+        mech_names=mech_column_names(ekf.mech),
     )

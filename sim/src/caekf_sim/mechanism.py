@@ -17,6 +17,7 @@ of the settings schema, which are the paper's chain. `sc` may be a `Scenario` or
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
@@ -204,6 +205,40 @@ def law_column_names(layout: Sequence[Tuple[int, str]]) -> Tuple[str, ...]:
     return tuple(name if c == 0 else f"{name}{c + 1}" for c, name in layout)
 
 
+# The mechanism parameters the filter can estimate (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0,
+# docs/mechanism.md "Uncertain parameters and measured inputs"): their kinds, in the order their states follow
+# the contact-law parameters (every mass, then every stiffness, then every damper, each by element index).
+MECH_KINDS = ("m", "k", "c")
+
+
+def mech_sigma_key(kind: str, elem: int) -> str:
+    """The scenario key of the relative standard deviation of element `elem` (0-based) of `kind`."""
+    return f"m{elem + 1}_sigma" if kind == "m" else f"spring{elem + 1}_{kind}_sigma"
+
+
+def mech_value_key(kind: str, elem: int) -> str:
+    """The scenario key of the value itself (m1, spring2_k, ...)."""
+    return f"m{elem + 1}" if kind == "m" else f"spring{elem + 1}_{kind}"
+
+
+def mech_layout(sc: Any, mech: "Mechanism") -> Tuple[Tuple[str, int, float], ...]:
+    """The estimated mechanism parameters of a scenario in state order: (kind, element 0-based, relative
+    sigma) for every sigma > 0."""
+    out = []
+    for kind in MECH_KINDS:
+        count = mech.nq if kind == "m" else len(mech.spring_k)
+        for e in range(count):
+            sigma = _real(sc, mech_sigma_key(kind, e), 0.0)
+            if sigma > 0.0:
+                out.append((kind, e, sigma))
+    return tuple(out)
+
+
+def mech_column_names(layout: Sequence[Tuple[str, int, float]]) -> Tuple[str, ...]:
+    """Column names of estimated mechanism parameters: the value's own key (m1, spring2_k, spring3_c)."""
+    return tuple(mech_value_key(kind, e) for kind, e, _ in layout)
+
+
 def contact_forces(delta: np.ndarray, ddelta: np.ndarray, gamma: "np.ndarray | float", n: "np.ndarray | float",
                    lam: "np.ndarray | float") -> np.ndarray:
     """Vectorised contact force f (broadcast over any shape; the law of `contact_law`)."""
@@ -265,6 +300,11 @@ class Mechanism:
         H = np.zeros((len(self.sensor_body), 2 * nq))
         H[np.arange(len(self.sensor_body)), self.sensor_body + nq * self.sensor_kind] = 1.0
         set_(self, "H", H)
+
+    def with_values(self, m: np.ndarray, spring_k: np.ndarray, spring_c: np.ndarray) -> "Mechanism":
+        """The same mechanism with other masses, stiffnesses and dampers (K, C derived again)."""
+        return dataclasses.replace(self, m=np.asarray(m, dtype=float), spring_k=np.asarray(spring_k, dtype=float),
+                                   spring_c=np.asarray(spring_c, dtype=float))
 
     @property
     def M(self) -> np.ndarray:
