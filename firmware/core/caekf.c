@@ -993,8 +993,13 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
         *factor = est->scale[i] * gamma;
         return gamma;
     }
-    if (i >= est->model.n - est->model.nm) { /* a mechanism parameter: its value now, ln(value / setting) held */
-        const caekf_scalar_t value = est->model.mech_value[i - (est->model.n - est->model.nm)];
+    if (i >= est->model.n - est->model.nm) { /* a mechanism parameter: the setting times exp(ln(value / setting)) */
+        const int j = i - (est->model.n - est->model.nm), e = est->model.mech_elem[j];
+        const caekf_model_params_t *p = &est->cfg.model;
+        const caekf_scalar_t setting = est->model.mech_kind[j] == CAEKF_MECH_MASS        ? p->m[e]
+                                       : est->model.mech_kind[j] == CAEKF_MECH_STIFFNESS ? p->spring_k[e]
+                                                                                         : p->spring_c[e];
+        const caekf_scalar_t value = setting * CAEKF_EXP(v);
         *factor = est->scale[i] * value;
         return value;
     }

@@ -113,17 +113,16 @@ def test_c_and_numpy_twin_agree_on_state_and_covariance(both):
     steps. 1e-6 leaves a margin of 1e5 and still fails on each modelling slip tried (the trapezoidal factor 2 of
     the input noise, the hs of F's q-rows, the start's d_ab of a link, the gate's hold of the parameters).
 
-    The parameters: the C accessor reports the value of the model its step was built with (set from x_{k-1}^+ at
-    the step's start), so its row k + 1 holds exp(theta_k^+) (see the xfail below); P is compared in theta's
-    units (C's P divided by the factor value * value it applied), which does not depend on that."""
+    The parameters are compared as theta = ln(value / setting); P in theta's units (C's P divided by the
+    factor value * value its accessor applies)."""
     c, nm = both
     flags_differ = np.flatnonzero(c["flags"] != nm["flags"])
     assert flags_differ.size == 0, f"flags differ first at step {flags_differ[:1]}"
     assert c["flags"][0] & 256  # GAMMA_FROZEN: no contact in 10 s: the parameters move on the free motion
     assert rel_err(nm["x"][:, :NX], c["x"][:, :NX]) < 1e-6  # q, v
     np.testing.assert_array_equal(nm["x"][:, NX], c["x"][:, NX])  # gamma frozen in both
-    theta_c = np.log(c["x"][1:, IM] / nm["setting"])  # the state theta_k^+, from C's row k + 1
-    theta_n = np.log(nm["x"][:-1, IM] / nm["setting"])
+    theta_c = np.log(c["x"][:, IM] / nm["setting"])
+    theta_n = np.log(nm["x"][:, IM] / nm["setting"])
     assert np.max(np.abs(theta_c - theta_n)) < 1e-6 * SIGMA
     assert np.max(np.abs(theta_n[-1])) > 0.3 * SIGMA  # the parameters did move
     f = np.ones(21)
@@ -135,10 +134,9 @@ def test_c_and_numpy_twin_agree_on_state_and_covariance(both):
     assert np.max(np.abs(nm["P_theta"] - P_c) / (d[:, :, None] * d[:, None, :])) < 1e-6
 
 
-@pytest.mark.xfail(strict=True, reason="the C accessors (caekf_get_state, caekf_get_covariance) report a "
-                   "mechanism parameter as model.mech_value, set from x_{k-1}^+ when the step starts: one "
-                   "correction behind the state theta_k^+ (the numpy twin reports setting * exp(theta_k^+))")
 def test_c_accessor_reports_the_current_parameter_value(both):
+    """The C accessors report a mechanism parameter as setting * exp(theta_k^+), the state after the step's
+    correction (they once reported the value the step's model was built with, one correction behind)."""
     c, nm = both
     assert rel_err(c["x"][:, IM], nm["x"][:, IM]) < 1e-6
 
