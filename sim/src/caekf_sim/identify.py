@@ -4,7 +4,8 @@ estimate of chosen scenario values, with Fisher-information and profile-likeliho
 The predictor is the shipped C filter run through the binding (caekf_sim.binding.run, the loop in C). For
 values theta of the chosen keys the filter runs over every record as a plain state estimator of a
 mechanism whose parameters are theta: every contact's law is held fixed (gamma through a P0 of 1e-9 of
-its value and no random walk, n, lambda and the gap as model values, not states), the constraint and the
+its value and no random walk, n, lambda and the gap as model values, not states; so is every mechanism
+parameter the scenario declares uncertain, its `<key>_sigma` set to 0), the constraint and the
 model-mismatch adaptation are off (both would make the predictor depend on its own innovations). Its
 innovations nu_k, with covariance S_k, give the prediction-error decomposition of the likelihood:
 
@@ -82,6 +83,7 @@ class Unknown:
 
 _LAW_RE = re.compile(r"^contact(\d+)_(gamma|n|lambda|gap)$")
 _MECH_RE = re.compile(r"^(m(\d+)|spring(\d+)_(k|c))$")
+_MECH_SIGMA_RE = re.compile(r"^(m\d+|spring\d+_[kc])_sigma$")  # an augmented mechanism parameter's P0
 MECH_FACTOR = 1.5  # default bounds of a mechanism parameter: start / 1.5 .. start * 1.5
 LAW_FACTOR = 3.0  # of gamma and lambda: start / 3 .. start * 3
 NOISE_DECADES = 3.0  # of a noise standard deviation: three decades either way
@@ -236,6 +238,9 @@ class Problem:
             for name in LAW[1:]:
                 ch[f"contact{c}_{name}"] = float(values.get(f"contact{c}_{name}", _law_start(sc, c, name)))
                 ch[f"contact{c}_estimate_{name}"] = 0
+        for k in sc.values():  # mechanism parameters the scenario declares uncertain: held too
+            if _MECH_SIGMA_RE.match(k):
+                ch[k] = 0.0
         for k, v in values.items():
             if not _LAW_RE.match(k):
                 ch[k] = float(v)
