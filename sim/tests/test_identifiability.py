@@ -8,7 +8,8 @@ import pytest
 
 import caekf_sim
 from caekf_sim.cli import main
-from caekf_sim.identifiability import (PARAMS, analyse_run, bounds, format_table, law_params, sensitivities)
+from caekf_sim.identifiability import (PARAMS, analyse_run, bounds, format_table, law_params, mechanism_params,
+                                      sensitivities)
 from caekf_sim.mechanism import Mechanism
 from caekf_sim.scenario import load_scenario, scenario_from_text
 from caekf_sim.truth import continuous_states
@@ -196,3 +197,114 @@ def test_cli_errors_are_one_line(argv, code, text, capsys):
     rc = main(["observability", "--scenario", str(VALVE), "--t-end", "0.01", *argv])
     err = capsys.readouterr().err
     assert rc == code and text in err and err.count("\n") == 1
+
+
+# ---- declared mechanism parameters and a measured force (issue 27 point 1) ------------------------------------
+
+
+@pytest.fixture(scope="module")
+def declared(sc):
+    """The paper to just past its first contact (12.8 s), 10 nm sensors, with a mass (m2: the contact's
+    body), a stiffness to the ground (spring1_k) and a damper between two bodies (spring2_c) declared
+    uncertain by 3 %, and the sensitivities of gamma with those three."""
+    d = sc.replace(t_end=14.0, sigma_r=1e-8, m2_sigma=0.03, spring1_k_sigma=0.03, spring2_c_sigma=0.03)
+    params = law_params(d, ["gamma"], [1]) + mechanism_params(d)
+    return d, sensitivities(d, params)
+
+
+def test_mechanism_parameters_follow_the_filters_state_order_and_declaration(declared):
+    d, _ = declared
+    ps = mechanism_params(d)
+    assert [(p.key, p.mech, p.element) for p in ps] == [("m2", "m", 1), ("spring1_k", "k", 0),
+                                                       ("spring2_c", "c", 1)]
+    assert [p.value for p in ps] == [d.m2, d.spring1_k, d.spring2_c] == [p.scale for p in ps]
+    assert [p.prior for p in ps] == pytest.approx([0.03 * p.value for p in ps])
+    assert mechanism_params(d.replace(m2_sigma=0.0, spring1_k_sigma=0.0, spring2_c_sigma=0.0)) == []
+
+
+def test_mechanism_sensitivities_are_the_truths_central_differences(declared):
+    """dy/d ln(value) of a mass, a grounded stiffness and a damper between two bodies, through a contact
+    episode, against central differences of the continuous truth."""
+    d, sens = declared
+    assert sens.events >= 1
+    mech = Mechanism.from_scenario(d)
+    cols = {p.key: j for j, p in enumerate(sens.params)}
+    for p in mechanism_params(d):
+        h = 1e-4 * p.value
+        ys = []
+        for sign in (1.0, -1.0):
+            q, v, _ = continuous_states(d.replace(**{p.key: p.value + sign * h}), mech=None)
+            ys.append(mech.measure(q, v))
+        fd = (ys[0] - ys[1]) / (2 * h) * p.scale
+        dy = sens.dy[:, :, cols[p.key]]
+        assert np.max(np.abs(fd - dy)) < 2e-3 * np.max(np.abs(dy)), p.key
+
+
+def test_declared_parameters_and_force_noise_never_shrink_gammas_bound(declared):
+    """Every unknown added (the declared mechanism parameters) and the force's declared noise (process noise
+    through the linearised model) can only lose information: gamma's bound with them is never below the bound
+    without, at every checkpoint, and here strictly above at the end."""
+    d, sens = declared
+    g = sens.params.index(law_params(d, ["gamma"], [1])[0])
+    n_x0 = 2 * Mechanism.from_scenario(d).nq
+    gamma_only = replace(sens, dy=sens.dy[:, :, :n_x0 + 1], params=sens.params[:n_x0 + 1])
+    assert g == n_x0
+    base = analyse_run(d, law_params(d, ["gamma"], [1]), sens=gamma_only)
+    full = analyse_run(d, law_params(d, ["gamma"], [1]) + mechanism_params(d), sens=sens)
+    noisy = analyse_run(d.replace(input1_sigma=0.01 * d.u_amp), law_params(d, ["gamma"], [1]), sens=gamma_only)
+    both = analyse_run(d.replace(input1_sigma=0.01 * d.u_amp), law_params(d, ["gamma"], [1]) + mechanism_params(d),
+                       sens=sens)
+    finite = np.isfinite(base.crb[:, 0])
+    assert finite[-1] and full.observable.all() and both.observable.all()
+    for an in (full, noisy, both):
+        assert np.all(an.crb[finite, 0] >= base.crb[finite, 0] * (1 - 1e-9))
+        assert an.crb[-1, 0] > base.crb[-1, 0] * (1 + 1e-6)
+    assert np.all(both.crb[finite, 0] >= full.crb[finite, 0] * (1 - 1e-9))
+    assert np.all(both.crb[finite, 0] >= noisy.crb[finite, 0] * (1 - 1e-9))
+    # the posterior bound of a declared parameter is below its declared prior
+    assert np.all(full.crb_post[-1, 1:] < full.prior[1:])
+
+
+def test_force_noise_information_is_the_explicit_output_covariances():
+    """The Kalman-filter whitening (information_input_noise) against S^T Sigma^-1 S with Sigma built
+    explicitly (R plus the force noise's response through the same F_k, G_k), on a short window."""
+    from caekf_sim.identifiability import information_input_noise, noise_dynamics, sensor_sigmas
+
+    sc = load_scenario(SCENARIOS / "paper.toml")
+    d = sc.replace(t_end=0.25, dt=1e-3, spring1_k_sigma=0.03, input1_sigma=0.05)
+    sens = sensitivities(d, law_params(d, ["gamma"], [1]) + mechanism_params(d))
+    sig = sensor_sigmas(d, Mechanism.from_scenario(d))
+    _, J = information_input_noise(d, sens, sig, np.array([0.05]))
+    F, G = noise_dynamics(d, sens)
+    H = Mechanism.from_scenario(d).H
+    n, ns, m = sens.dy.shape
+    n2 = F.shape[1]
+    # the noise model e_0 = G_0 w_0, e_k = F_{k-1} e_{k-1} + G_{k-1} w_k: e_k as a linear map of w_0 .. w_{n-1}
+    states = np.zeros((n, n2, n))  # e_k as a linear map of (w_0 .. w_{n-1}), w_0 the first sample's own
+    states[0, :, 0] = G[0][:, 0]
+    for k in range(1, n):
+        states[k] = F[k - 1] @ states[k - 1]
+        states[k, :, k] += G[k - 1][:, 0]
+    Y = np.einsum("sx,kxj->ksj", H, states).reshape(n * ns, n)
+    Sigma = Y @ Y.T * 0.05 ** 2 + np.diag(np.tile(sig ** 2, n))
+    S = sens.dy.reshape(n * ns, m)
+    want = S.T @ np.linalg.solve(Sigma, S)
+    np.testing.assert_allclose(J[-1], want, rtol=1e-6, atol=1e-9 * np.max(np.abs(want)))
+
+
+def test_cli_prints_each_declared_parameters_bound(tmp_path, capsys):
+    """`observability --crb` on a scenario declaring a stiffness, a damper and the force's noise: a row with the
+    bound of each declared parameter (its CSV columns too), gamma's bound above the one with --known-mechanism."""
+    scen, csv = tmp_path / "declared.toml", tmp_path / "crb.csv"
+    scen.write_text(VALVE.read_text() + "spring1_k_sigma = 0.05\nspring1_c_sigma = 0.05\ninput1_sigma = 0.05\n")
+    assert main(["observability", "--scenario", str(scen), "--t-end", "2", "--crb", "--csv", str(csv)]) == 0
+    out = capsys.readouterr().out
+    rows = {ln.split()[0]: ln.split() for ln in out.splitlines() if ln.split()}
+    assert {"contact1_gamma", "spring1_k", "spring1_c"} <= set(rows) and "input1_sigma = 0.05 N" in out
+    assert rows["spring1_k"][2] == "yes" and float(rows["spring1_k"][3]) > 0
+    header = csv.read_text().splitlines()[0].split(",")
+    assert {"crb_spring1_k", "rel_spring1_c", "post_spring1_k"} <= set(header)
+    assert main(["observability", "--scenario", str(scen), "--t-end", "2", "--crb", "--known-mechanism"]) == 0
+    known = {ln.split()[0]: ln.split() for ln in capsys.readouterr().out.splitlines() if ln.split()}
+    assert "spring1_k" not in known
+    assert float(rows["contact1_gamma"][3]) > float(known["contact1_gamma"][3])

@@ -50,12 +50,16 @@ class IdentifiabilityError(ValueError):
 
 @dataclass(frozen=True)
 class Param:
-    """One unknown: a contact's law parameter, or an entry of the initial state (contact = 0)."""
+    """One unknown: a contact's law parameter, an entry of the initial state (contact = 0), or a declared
+    mechanism parameter (contact = 0, `mech` its kind)."""
 
-    contact: int  # 1-based contact number; 0 for the initial state
-    name: str  # gamma | n | lambda | gap, or q0_<body> / v0_<body>
+    contact: int  # 1-based contact number; 0 for the initial state and the mechanism's parameters
+    name: str  # gamma | n | lambda | gap, q0_<body> / v0_<body>, or the value's key m<i> / spring<i>_k / spring<i>_c
     value: float
     scale: float  # the column scale of the integration (SI units of the parameter)
+    mech: str = ""  # a mechanism parameter's kind: "m" (a mass), "k" (a link's stiffness), "c" (its damper)
+    element: int = -1  # its body or link, 0-based
+    prior: float = math.inf  # its prior std in SI (the declared sigma times the value; inf: none)
 
     @property
     def key(self) -> str:
@@ -88,6 +92,31 @@ def law_params(sc: Any, params: Sequence[str], contacts: Sequence[int]) -> List[
     return out
 
 
+def mechanism_params(sc: Any) -> List[Param]:
+    """The scenario's declared mechanism parameters (m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0),
+    in the filter's state order (binding.mech_layout: masses, stiffnesses, dampers): the unknown is the
+    value, its column scale the value itself, so a column is dy/d ln(value) and the relative bound that of
+    ln(value); the declared sigma times the value is its prior std."""
+    from .binding import mech_layout
+
+    out = []
+    for key in mech_layout(sc):
+        value = float(scenario_value(sc, key))
+        sigma = float(scenario_value(sc, f"{key}_sigma"))
+        if key.startswith("m"):
+            kind, elem = "m", int(key[1:]) - 1
+        else:  # spring<i>_<k|c>
+            head, kind = key.rsplit("_", 1)
+            elem = int(head[len("spring"):]) - 1
+        out.append(Param(0, key, value, value, mech=kind, element=elem, prior=sigma * value))
+    return out
+
+
+def input_sigmas(sc: Any, mech: Mechanism) -> np.ndarray:
+    """Each input's declared white-noise std input{i}_sigma [N] (0: read exactly)."""
+    return np.array([float(scenario_value(sc, f"input{i + 1}_sigma")) for i in range(mech.n_inputs)])
+
+
 def initial_state_params(sc: Any, mech: Mechanism) -> List[Param]:
     """q0_1..q0_nq, v0_1..v0_nq at the truth's start (rest), scaled by the estimator's sigma_q0, sigma_v0."""
     sq, sv = float(scenario_value(sc, "sigma_q0")), float(scenario_value(sc, "sigma_v0"))
@@ -118,6 +147,7 @@ class Sensitivity:
     dy: np.ndarray
     params: Tuple[Param, ...]
     events: int
+    x: Optional[np.ndarray] = None  # (N, 2 nq): the truth's [q; v] at the samples (the linearisation's point)
 
 
 def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, inputs: Any = None,
@@ -140,6 +170,16 @@ def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, 
     for j, p in enumerate(unknowns):
         if p.contact:
             cols[p.contact - 1].append((j, p.name, p.scale))
+    # the mechanism's: a mass (column, body), a link (column, e = e_a - e_b, scale, on q or on v)
+    mass_cols = [(j, p.element) for j, p in enumerate(unknowns) if p.mech == "m"]
+    link_cols = []
+    for j, p in enumerate(unknowns):
+        if p.mech in ("k", "c"):
+            e = np.zeros(nq)
+            for end, sign in ((int(mech.spring_a[p.element]), 1.0), (int(mech.spring_b[p.element]), -1.0)):
+                if end >= 0:
+                    e[end] += sign
+            link_cols.append((j, e, p.scale, p.mech == "c"))
 
     def rhs(closed: Tuple[bool, ...]):
         def f(t: float, z: np.ndarray) -> np.ndarray:
@@ -174,6 +214,12 @@ def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, 
                         dp = -fd
                     drow[j] += dp * scale
                 dSv -= np.outer(b, drow)
+            # the mechanism's parameters, scaled by their values: d(F_i / m_i)/d ln m_i = -F_i / m_i, and a
+            # link's force -value e (e^T q) (stiffness) or -value e (e^T v) (damper) on its two ends
+            for j, i in mass_cols:
+                dSv[i, j] -= a[i]
+            for j, e, scale, on_v in link_cols:
+                dSv[:, j] -= scale * float(e @ (v if on_v else q)) * e
             return np.concatenate([v, a * minv, Sv.ravel(), (dSv * minv[:, None]).ravel()])
         return f
 
@@ -190,7 +236,7 @@ def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, 
     S = out[:, n2:].reshape(n, n2, m)
     dy = np.einsum("sx,kxm->ksm", mech.H, S)
     return Sensitivity(t=ts, y=mech.measure(q, v), delta=mech.penetrations(q), dy=dy, params=tuple(unknowns),
-                       events=events)
+                       events=events, x=np.hstack([q, v]))
 
 
 def information(sens: Sensitivity, sigma: np.ndarray, stride: int = 1, t_from: float = 0.0
@@ -208,6 +254,88 @@ def information(sens: Sensitivity, sigma: np.ndarray, stride: int = 1, t_from: f
         per[i] = np.einsum("ksi,ksj->ij", blk, blk)
         start = e
     return sens.t[ends - 1], np.cumsum(per, axis=0)
+
+
+def noise_dynamics(sc: Any, sens: Sensitivity) -> Tuple[np.ndarray, np.ndarray]:
+    """(F (N, 2 nq, 2 nq), G (N, 2 nq, inputs)): the continuous model linearised at the truth's state of each
+    sample k (contacts' stiffness and damping included) over one sample dt, x_{k+1} = F_k x_k + G_k u_k with
+    the force held over the sample (zero-order hold): expm of [[A, B], [0, 0]] dt."""
+    from scipy.linalg import expm
+
+    if sens.x is None:
+        raise IdentifiabilityError("the sensitivities carry no states (integrate them with sensitivities())")
+    mech = Mechanism.from_scenario(sc)
+    nq, ni, nc = mech.nq, mech.n_inputs, mech.n_contacts
+    n2, N = 2 * nq, len(sens.t)
+    q, v = sens.x[:, :nq], sens.x[:, nq:]
+    gammas = contact_values(sc, "gamma", nc).tolist()
+    kc = np.zeros((N, nq, nq))  # the contacts' d force / d q and d force / d v, per sample
+    cc = np.zeros((N, nq, nq))
+    for c, ((ia, ib, gap, ne, lam), g) in enumerate(zip(mech.contacts, gammas)):
+        b = mech.B_c[c]
+        d, dd = q @ b - gap, v @ b
+        for k in np.flatnonzero(d > 0.0).tolist():
+            _, fd, fdd, _ = contact_law(float(d[k]), float(dd[k]), g, ne, lam)
+            kc[k] += fd * np.outer(b, b)
+            cc[k] += fdd * np.outer(b, b)
+    closed = np.flatnonzero(np.any(kc != 0.0, axis=(1, 2)) | np.any(cc != 0.0, axis=(1, 2)))
+    minv = 1.0 / mech.m
+
+    def augmented(kk: np.ndarray, ck: np.ndarray) -> np.ndarray:
+        M = np.zeros(kk.shape[:-2] + (n2 + ni, n2 + ni))
+        M[..., :nq, nq:n2] = np.eye(nq)
+        M[..., nq:n2, :nq] = -minv[:, None] * (mech.K + kk)
+        M[..., nq:n2, nq:n2] = -minv[:, None] * (mech.C + ck)
+        M[..., nq:n2, n2:] = minv[:, None] * mech.B_u
+        return M * sc.dt
+
+    E = np.empty((N, n2 + ni, n2 + ni))
+    E[:] = expm(augmented(np.zeros((nq, nq)), np.zeros((nq, nq))))
+    if closed.size:
+        E[closed] = expm(augmented(kc[closed], cc[closed]))
+    return E[:, :n2, :n2], E[:, :n2, n2:]
+
+
+def information_input_noise(sc: Any, sens: Sensitivity, sigma: np.ndarray, sigma_u: np.ndarray, stride: int = 1,
+                            t_from: float = 0.0) -> Tuple[np.ndarray, np.ndarray]:
+    """`information` when the inputs are read with white noise (input{i}_sigma > 0): the force the truth feels
+    is the one read minus that noise, held over each sample, so the measurements carry, besides R, the noise's
+    response e_{k+1} = F_k e_k + G_k w_k (w_k ~ N(0, diag(sigma_u^2)), e_0 = 0) through the model linearised
+    along the truth (`noise_dynamics`). The Fisher information S^T Sigma^-1 S of that Gaussian output noise
+    is summed from the innovations of the Kalman filter of that noise model run over the sensitivities (the
+    whitening of Sigma = R + the noise response's covariance; exact for the linearised model). It is never
+    larger than `information`'s: the bounds only grow."""
+    F, G = noise_dynamics(sc, sens)
+    H = Mechanism.from_scenario(sc).H
+    R = np.diag(np.asarray(sigma, float) ** 2)
+    Qw = np.diag(np.asarray(sigma_u, float) ** 2)
+    n, _, m = sens.dy.shape
+    n2 = F.shape[1]
+    X = np.zeros((n2, m))  # the noise state's prediction of each sensitivity column
+    P = G[0] @ Qw @ G[0].T  # e_1 = G_0 w_0
+    use = sens.t >= t_from
+    ends = np.r_[np.arange(stride, n, stride), n]
+    out = np.empty((len(ends), m, m))
+    J = np.zeros((m, m))
+    e = 0
+    for k in range(n):
+        if use[k]:
+            PHt = P @ H.T
+            S = H @ PHt + R
+            nu = sens.dy[k] - H @ X
+            Sinv_nu = np.linalg.solve(S, nu)
+            J += nu.T @ Sinv_nu
+            K = np.linalg.solve(S, PHt.T).T
+            X = X + K @ nu
+            P = P - K @ PHt.T
+            P = 0.5 * (P + P.T)
+        if k + 1 == ends[e]:
+            out[e] = J
+            e += 1
+        if k + 1 < n:
+            X = F[k] @ X
+            P = F[k] @ P @ F[k].T + G[k] @ Qw @ G[k].T
+    return sens.t[ends - 1], out
 
 
 @dataclass(frozen=True)
@@ -319,11 +447,16 @@ class Analysis:
 
 def analyse_run(sc: Any, params: Sequence[Param], priors: Optional[Mapping[Tuple[int, str], float]] = None,
                 initial_state: bool = True, inputs: Any = None, t_from: float = 0.0, checkpoints: int = 2000,
-                t_end: Optional[float] = None, sens: Optional[Sensitivity] = None) -> Analysis:
+                t_end: Optional[float] = None, sens: Optional[Sensitivity] = None, input_noise: bool = True
+                ) -> Analysis:
     """Sensitivities, rank test and (posterior) Cramer-Rao bounds of `params` along the scenario's run.
 
-    priors: {(contact, name): std} for the posterior bound; gamma's defaults to the scenario's
-    contact{i}_sigma_gamma0, the initial state's to sigma_q0 / sigma_v0; others have none (0 information)."""
+    params: law parameters (law_params) and, to have them unknown too, the declared mechanism parameters
+    (mechanism_params). priors: {(contact, name): std} for the posterior bound; gamma's defaults to the
+    scenario's contact{i}_sigma_gamma0, the initial state's to sigma_q0 / sigma_v0, a mechanism parameter's
+    to its declared sigma times its value (key (0, "spring1_k")); others have none (0 information).
+    input_noise: the inputs' declared white noise (input{i}_sigma > 0) enters the information as process
+    noise (information_input_noise); False, or nothing declared: R alone."""
     mech = Mechanism.from_scenario(sc)
     sigma = sensor_sigmas(sc, mech)
     if not params:
@@ -334,12 +467,18 @@ def analyse_run(sc: Any, params: Sequence[Param], priors: Optional[Mapping[Tuple
     n_x0 = len(unknowns) - len(params)
     scales = np.array([p.scale for p in unknowns])
     stride = max(1, len(sens.t) // max(1, checkpoints))
-    t_c, J = information(sens, sigma, stride=stride, t_from=t_from)
+    sigma_u = input_sigmas(sc, mech)
+    if input_noise and np.any(sigma_u > 0.0):
+        t_c, J = information_input_noise(sc, sens, sigma, sigma_u, stride=stride, t_from=t_from)
+    else:
+        t_c, J = information(sens, sigma, stride=stride, t_from=t_from)
     # prior information in the scaled coordinates: (scale / std)^2
     given = dict(priors or {})
     std = []
     for p in unknowns:
-        if p.contact == 0:
+        if p.mech:
+            std.append(float(given.get((0, p.name), p.prior)))
+        elif p.contact == 0:
             std.append(p.scale)  # x0's scales are sigma_q0 / sigma_v0
         elif (p.contact, p.name) in given:
             std.append(float(given[(p.contact, p.name)]))

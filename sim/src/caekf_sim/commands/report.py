@@ -49,6 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "gamma's default: contact{i}_sigma_gamma0); applies to every chosen contact")
     p.add_argument("--known-initial-state", action="store_true",
                    help="the initial state is known (default: an unknown, with sigma_q0/sigma_v0 as its prior)")
+    p.add_argument("--known-mechanism", action="store_true",
+                   help="leave out the scenario's declared mechanism parameters (m{i}_sigma, spring{i}_k_sigma, "
+                        "spring{i}_c_sigma > 0) and input noise (input{i}_sigma); by default each declared "
+                        "parameter is an unknown with its own bound, the force noise process noise")
     p.add_argument("--t-from", type=float, default=0.0,
                    help="use only the samples at t >= T [s] (e.g. steady-state data only)")
     p.add_argument("--target", type=float, default=0.01,
@@ -152,8 +156,8 @@ def _names(text: str, what: str) -> List[str]:
 def _observability_run(args: argparse.Namespace, sc: Any) -> int:
     """Rank test and Cramer-Rao bounds of chosen law parameters along the scenario's truth run."""
     sc.require_truth()  # the run is simulated: before --t-from is checked against t_end
-    from ..identifiability import (PARAMS, IdentifiabilityError, analyse_run, format_table, law_params, plot,
-                                   sensor_sigmas, write_csv)
+    from ..identifiability import (PARAMS, IdentifiabilityError, analyse_run, format_table, input_sigmas,
+                                   law_params, mechanism_params, plot, sensor_sigmas, write_csv)
     from ..mechanism import Mechanism
 
     params = _names(args.params, "--params") if args.params is not None else ["gamma"]
@@ -188,10 +192,20 @@ def _observability_run(args: argparse.Namespace, sc: Any) -> int:
         if out is not None:
             check_output_file(out)
     chosen = law_params(sc, params, contacts)
-    an = analyse_run(sc, chosen, priors=priors, initial_state=not args.known_initial_state, t_from=args.t_from)
+    declared = [] if args.known_mechanism else mechanism_params(sc)
+    an = analyse_run(sc, chosen + declared, priors=priors, initial_state=not args.known_initial_state,
+                     t_from=args.t_from, input_noise=not args.known_mechanism)
+    mech = Mechanism.from_scenario(sc)
+    sigma_u = input_sigmas(sc, mech)
     print(f"{sc.t_end:g} s run, {an.sens.events} contact events, samples t >= {args.t_from:g} s, "
-          f"R = diag({', '.join(f'{s:g}^2' for s in sensor_sigmas(sc, Mechanism.from_scenario(sc)))}), "
+          f"R = diag({', '.join(f'{s:g}^2' for s in sensor_sigmas(sc, mech))}), "
           f"initial state {'known' if args.known_initial_state else 'unknown (nuisance)'}")
+    if declared:
+        print("declared mechanism parameters, unknowns with their declared sigma as the posterior's prior: "
+              + ", ".join(f"{p.key} ({p.prior / p.value:g})" for p in declared))
+    if np.any(sigma_u > 0) and not args.known_mechanism:
+        print("force read with white noise (process noise through the linearised model): "
+              + ", ".join(f"input{i + 1}_sigma = {s:g} N" for i, s in enumerate(sigma_u) if s > 0))
     print(format_table(an, target=args.target))
     if args.csv is not None:
         write_csv(an, args.csv)
