@@ -32,7 +32,7 @@ if __package__:
     from .codegen import Schema, SchemaError, Setting, load, read_scenario_values
 else:  # run as a script by CMake
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from codegen import Schema, SchemaError, Setting, load, read_scenario_values  # type: ignore[no-redef]
+    from codegen import Schema, SchemaError, Setting, load, read_scenario_values  # type: ignore[no-redef,import-not-found]
 
 GENERATED = "GENERATED from sim/src/caekf_sim/schema/settings.toml by fmu_codegen.py: do not edit"
 ROLES = ("estimator", "plant")
@@ -67,7 +67,9 @@ def _fmt(v: float) -> str:
 def _range(s: Setting) -> Tuple[Optional[float], Optional[float]]:
     if s.type in ("int", "enum", "bool"):
         return s.lo, s.hi
-    return {"> 0": (0.0, None), ">= 0": (0.0, None), ">= 1": (1.0, None), "(0, 1)": (0.0, 1.0)}.get(s.range, (None, None))
+    ranges: Dict[str, Tuple[Optional[float], Optional[float]]] = {
+        "> 0": (0.0, None), ">= 0": (0.0, None), ">= 1": (1.0, None), "(0, 1)": (0.0, 1.0)}
+    return ranges.get(s.range, (None, None))
 
 
 def _param_type(s: Setting) -> str:
@@ -120,7 +122,7 @@ def estimator_io(schema: Schema, given: Dict[str, float]) -> List[Var]:
     v: List[Var] = []
     for i in range(cap["inputs"]):
         v.append(Var(f"u{i + 1}", "real", "input", "continuous", "IN_U", i,
-                     f"Input {i + 1}'s force at the communication point (inputs beyond `inputs` are ignored).", un, 0.0))
+                     f"Input {i + 1}'s force at the communication point (beyond `inputs`: ignored).", un, 0.0))
         v.append(Var(f"u{i + 1}_valid", "bool", "input", "discrete", "IN_U_VALID", i,
                      f"u{i + 1} is a fresh sample; false: the last valid u{i + 1} is held (0 before any).", start=1.0))
     for j in range(cap["sensors"]):
@@ -148,24 +150,24 @@ def estimator_io(schema: Schema, given: Dict[str, float]) -> List[Var]:
         o.append(Var(f"gap{c + 1}", "real", "output", "discrete", "OUT_GAP", c,
                      f"Contact {c + 1}'s gap: the estimate when estimated, else the setting.", ugap))
     for i in range(nb):
-        o.append(Var(f"var_q{i + 1}", "real", "output", "discrete", "OUT_VAR_Q", i, f"P's diagonal: variance of q{i + 1}.",
-                     _sq(uq)))
+        o.append(Var(f"var_q{i + 1}", "real", "output", "discrete", "OUT_VAR_Q", i,
+                     f"P's diagonal: variance of q{i + 1}.", _sq(uq)))
     for i in range(nb):
-        o.append(Var(f"var_v{i + 1}", "real", "output", "discrete", "OUT_VAR_V", i, f"P's diagonal: variance of v{i + 1}.",
-                     _sq(uv)))
+        o.append(Var(f"var_v{i + 1}", "real", "output", "discrete", "OUT_VAR_V", i,
+                     f"P's diagonal: variance of v{i + 1}.", _sq(uv)))
     for c in range(nc):
         o.append(Var(f"var_gamma{c + 1}", "real", "output", "discrete", "OUT_VAR_GAMMA", c,
                      f"P's diagonal: variance of gamma{c + 1}.", _sq(ug)))
-        for law, unit in (("n", ""), ("lambda", ul), ("gap", ugap)):
+        for law, law_unit in (("n", ""), ("lambda", ul), ("gap", ugap)):
             o.append(Var(f"var_{law}{c + 1}", "real", "output", "discrete", f"OUT_VAR_{law.upper()}", c,
-                         f"P's diagonal: variance of {law}{c + 1} (0 unless estimated).", _sq(unit)))
+                         f"P's diagonal: variance of {law}{c + 1} (0 unless estimated).", _sq(law_unit)))
     mech = (("m_sigma", "m{i}", "bodies", "MASS"), ("spring_k_sigma", "spring{i}_k", "springs", "STIFFNESS"),
             ("spring_c_sigma", "spring{i}_c", "springs", "DAMPER"))
-    for setting, pattern, capname, kind in mech:
+    for setting, pattern, capname, mech_kind in mech:
         schema.by_name(setting)  # the uncertain mechanism parameters of the schema (KeyError if renamed)
         for i in range(cap[capname]):
             name = pattern.format(i=i + 1)
-            o.append(Var(f"var_ln_{name}", "real", "output", "discrete", f"OUT_VAR_MECH_{kind}", i,
+            o.append(Var(f"var_ln_{name}", "real", "output", "discrete", f"OUT_VAR_MECH_{mech_kind}", i,
                          f"P's diagonal: variance of ln({name} / setting) (0 unless {setting} makes it a state)."))
     o += [
         Var("nis", "real", "output", "discrete", "OUT_NIS", 0, "Normalised innovation squared of the step's correction "
@@ -188,12 +190,13 @@ def estimator_io(schema: Schema, given: Dict[str, float]) -> List[Var]:
 
 def plant_io(schema: Schema, given: Dict[str, float]) -> List[Var]:
     cap = schema.capacity
-    uq, uv, un, ugap = _unit(schema, "q0"), _unit(schema, "v0"), _unit(schema, "input_amp"), _unit(schema, "contact_gap")
+    uq, uv, un = _unit(schema, "q0"), _unit(schema, "v0"), _unit(schema, "input_amp")
+    ugap = _unit(schema, "contact_gap")
     vel = schema.by_name("sensor_kind").values.index("velocity")
     o = []
     for i in range(cap["inputs"]):
         o.append(Var(f"u{i + 1}", "real", "output", "continuous", "OUT_U", i,
-                     f"Input {i + 1}'s force: input{i + 1}_amp sin(2 pi input{i + 1}_freq t + input{i + 1}_phase).", un))
+                     f"Input {i + 1}'s force: amp sin(2 pi freq t + phase) of input{i + 1}_amp, _freq, _phase.", un))
     for j in range(cap["sensors"]):
         kind = given.get(f"sensor{j + 1}_kind", 0.0)
         o.append(Var(f"y{j + 1}", "real", "output", "discrete", "OUT_Y", j,
