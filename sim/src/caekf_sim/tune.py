@@ -27,6 +27,8 @@ BENCH_Y4, or BENCH_YP in the production profile; one record per configuration, i
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple, Union
@@ -202,6 +204,11 @@ def tune(sc: Scenario, records: Sequence[Measurements], params: Optional[Sequenc
         holdout_before=measure(sc, holdout), holdout_after=measure(tuned, holdout), evaluations=evals)
 
 
+
+def _percent(err: float) -> str:
+    """An error in percent, or "-" without a truth to compare with (a real recording), as caekf-replay prints it."""
+    return f"{100 * err:.3f} %" if math.isfinite(err) else "-"
+
 def report_text(r: TuneResult, params: Sequence[str]) -> str:
     from .bench.results import format_table
 
@@ -219,8 +226,8 @@ def report_text(r: TuneResult, params: Sequence[str]) -> str:
         if c is None:
             continue
         rows.append([label, str(c.steps), f"{c.nis_mean:.3f}", f"[{c.nis_mean_band[0]:.3f}, {c.nis_mean_band[1]:.3f}]",
-                     f"{100 * c.in_band:.1f} %", f"{c.nll:.4f}", f"{100 * c.gamma_final_err:.3f} %",
-                     f"{100 * c.gamma_rms_err:.3f} %"])
+                     f"{100 * c.in_band:.1f} %", f"{c.nll:.4f}", _percent(c.gamma_final_err),
+                     _percent(c.gamma_rms_err)])
     lines.append("")
     lines.append(format_table(["runs", "steps", "mean NIS", "95 % band of mean", f"NIS in [{lo:.3f}, {hi:.2f}]",
                                "mean log det S + NIS", "gamma err final", "gamma err RMS last 1/4"], rows))
