@@ -22,7 +22,7 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$REPO"
 
 BOOTSTRAP_FLAGS=(--arm --hil)
-STAGES=(host-double host-float host-asan lint pytest cortex-m4f cortex-m7 fuzz hil)
+STAGES=(host-double host-float host-asan lint pytest cortex-m4f cortex-m7 fuzz hil coverage)
 
 JOBS="${JOBS:-2}"
 VENV_PY="$REPO/.venv/bin/python"
@@ -87,6 +87,12 @@ stage_fuzz() { tools/fuzz.sh --seconds "${FUZZ_SECONDS:-20}" --jobs "$JOBS"; }
 # The HIL suite (tests/hil): the firmware app on vcan0 driven over CAN by the Python bench, in one
 # vcan session (native vcan0, else one user-mode Linux boot). Never skipped: no vcan0 is a failure.
 stage_hil() { tools/hil-tests.sh; }
+
+# Line and branch coverage of firmware/ (tools/coverage.sh): the host-coverage preset (double, -O0 --coverage)
+# runs its whole ctest (the Unity suites, the fuzz corpus replays, the host tools' tests) and gcovr (pinned in
+# sim/pyproject.toml) prints the table per folder (core, protocol, app, port, the generated C). Fails on a
+# build or test failure, not on a figure; the figures and the untaken branches: docs/coverage.md.
+stage_coverage() { tools/coverage.sh; }
 
 # ---- driver -------------------------------------------------------------------------------
 log() { printf '[run-tests] %s\n' "$*"; }
