@@ -925,6 +925,9 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     est->step_count++;
     est->last_flags = flags;
 done:
+    if (st != CAEKF_OK) { /* a rolled-back step leaves the monitor as it was, and says what it says */
+        flags |= mismatch_update(est, 0, 0, &monitor);
+    }
     if (report != 0) {
         report->flags = flags;
         report->newton_iters = iters;

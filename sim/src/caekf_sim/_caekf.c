@@ -445,6 +445,17 @@ static PyObject *est_p_norm(EstObject *self, PyObject *unused)
     return PyFloat_FromDouble((double)n);
 }
 
+static PyObject *est_mismatch(EstObject *self, PyObject *unused)
+{
+    caekf_scalar_t mean = 0, q_scale = 0;
+    (void)unused;
+    if (check_ready(self) != 0) {
+        return NULL;
+    }
+    (void)caekf_get_mismatch(&self->est, &mean, &q_scale);
+    return Py_BuildValue("(dd)", (double)mean, (double)q_scale);
+}
+
 static PyObject *est_step_count(EstObject *self, void *closure)
 {
     (void)closure;
@@ -703,6 +714,8 @@ static PyMethodDef est_methods[] = {
     {"predict", (PyCFunction)est_predict, METH_O,
      "predict(u) -> Report: caekf_predict, a time update without measurement (u as for step)."},
     {"p_norm", (PyCFunction)est_p_norm, METH_NOARGS, "2-norm of P in physical units (caekf_get_cov_norm2)."},
+    {"mismatch", (PyCFunction)est_mismatch, METH_NOARGS,
+     "The model-mismatch monitor: (mean NIS per sensor, factor on Q_x) (caekf_get_mismatch)."},
     {"_state_into", (PyCFunction)est_state_into, METH_O, NULL},
     {"_cov_into", (PyCFunction)est_cov_into, METH_O, NULL},
     {"_settings", (PyCFunction)est_settings, METH_NOARGS, NULL},

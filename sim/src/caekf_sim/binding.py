@@ -408,6 +408,12 @@ class Estimator:
         """2-norm of P in physical units (caekf_get_cov_norm2)."""
         return self._c.p_norm()
 
+    def mismatch(self) -> Tuple[float, float]:
+        """The model-mismatch monitor (caekf_get_mismatch, docs/mismatch.md): the mean NIS per sensor over
+        mismatch_window steps (about 1 while consistent) and the factor now on Q_x (1 unless adapted)."""
+        mean, q_scale = self._c.mismatch()
+        return float(mean), float(q_scale)
+
     @property
     def step_count(self) -> int:
         return self._c.step_count
