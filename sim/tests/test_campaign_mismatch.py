@@ -234,3 +234,87 @@ def test_mismatch_campaign_prints_its_table_and_target(tmp_path, capsys):
     assert "silent wrong" in text
     line = next(t for t in text.splitlines() if t.startswith("default: "))
     assert "not_silent_wrong" in line
+
+
+# ---- issue 27's declared family: admission by gamma's Cramer-Rao bound with every declared parameter unknown ----
+
+def declared_spec(path: Path) -> Path:
+    """mismatch.toml (its filters and truths, run for run) with the uncertainty declared to the filter (every mass,
+    spring and damper 3 %, the force's noise 1 % of its amplitude) and issue 27's admitted targets."""
+    base = f'base = "{FAMILIES.parent}/scenarios/paper.toml"'
+    text = MISMATCH.read_text().replace('base = "../scenarios/paper.toml"', base)
+    set_end = 'gamma_min = "gamma0 / 75"          # 1e6\n'  # the last line of [set]
+    assert text.count(set_end) == 1
+    text = text.replace(set_end, set_end + '"m{i}_sigma" = "0.03"\n"spring{i}_k_sigma" = "0.03"\n'
+                        '"spring{i}_c_sigma" = "0.03"\ninput1_sigma = "0.01 * u_amp"\n')
+    text = text.replace("not_silent_wrong = 0.95", "within_2pct_admitted = 0.90\ndiverged_admitted = 0\n"
+                        "consistent_3sigma = 0.95")
+    path.write_text(text)
+    return path
+
+
+def test_a_declared_family_keeps_mismatchs_runs_and_takes_the_admitted_targets(tmp_path):
+    plain, dec = load_spec(MISMATCH, runs=3), load_spec(declared_spec(tmp_path / "d.toml"), runs=3)
+    for a, b in zip(plain.runs, dec.runs):
+        assert b.truth_factors == a.truth_factors and b.input_noise_std == a.input_noise_std
+        assert b.scenario.replace(**{k: 0.0 for k in declared_keys(b.scenario)}) == a.scenario
+        assert runner.declares_uncertainty(b.scenario) and not runner.declares_uncertainty(a.scenario)
+    assert dict(dec.targets) == {"within_2pct_admitted": 0.9, "diverged_admitted": 0.0, "consistent_3sigma": 0.95}
+
+
+def declared_keys(sc):
+    from caekf_sim.binding import mech_layout
+
+    return [f"{k}_sigma" for k in mech_layout(sc)] + ["input1_sigma"]
+
+
+def test_admitted_targets_count_over_the_admitted_runs_and_print_the_share():
+    from caekf_sim.campaign.spec import Family
+
+    fam = Family(name="d", runs=(), targets=(("within_2pct_admitted", 0.9), ("diverged_admitted", 0.0)))
+    row = {"experiment": "a", "group": "all", "n": 20, "admitted": 10, "within_2pct_admitted": 9,
+           "diverged_admitted": 0}
+    text = format_targets(fam, [row], [])
+    assert "within_2pct_admitted 90.0 % of 10 admitted (50.0 % of 20) >= 90 %: met" in text
+    assert "diverged_admitted 0 of 10 admitted (50.0 % of 20) <= 0: met" in text and text.endswith("every target met")
+    assert "NOT met" in format_targets(fam, [{**row, "within_2pct_admitted": 8}], [])
+    assert "NOT met" in format_targets(fam, [{**row, "diverged_admitted": 1}], [])
+    unmeasured = {k: v for k, v in row.items() if not k.endswith("admitted")}
+    assert "within_2pct_admitted: not measured (--observability)" in format_targets(fam, [unmeasured], [])
+
+
+def test_declared_campaign_admits_runs_by_gammas_bound_with_every_declared_parameter(tmp_path, capsys):
+    """Two short runs of the declared family with --observability: each run's posterior bound of gamma with its
+    12 declared mechanism parameters unknown and the force noise as process noise (the bound of each declared
+    parameter too), never below the bound with them known; admitted = 3 bounds within 2 %; the table and the
+    targets say how many the bound admits. Without --observability nothing of it appears."""
+    import pyarrow.parquet as pq
+
+    from caekf_sim import identifiability as idf
+    from caekf_sim.cli import main
+
+    out, spec = tmp_path / "camp", declared_spec(tmp_path / "declared.toml")
+    assert main(["campaign", str(spec), "--runs", "2", "--t-end", "14", "--out", str(out), "--no-progress",
+                 "--workers", "1", "--experiment", "default", "--no-plots", "--observability"]) == 0
+    text = capsys.readouterr().out
+    assert "admitted by the Cramer-Rao bound of gamma with every declared parameter unknown" in text
+    line = next(t for t in text.splitlines() if t.startswith("default: "))
+    assert "within_2pct_admitted" in line and "admitted (" in line and "not measured" not in line
+    rows = pq.read_table(out / "runs.parquet").to_pylist()
+    fam = load_spec(spec, runs=2, t_end=14.0)
+    for r, run in zip(rows, fam.runs):
+        keys = [k for k in declared_keys(run.scenario) if k != "input1_sigma"]
+        assert len(keys) == 12 and all(f"crb_{k[:-len('_sigma')]}" in r for k in keys)
+        assert r["crb_admitted"] == (runner.ADMIT_SIGMAS * r["crb_gamma_declared"] <= runner.ADMIT_TOL)
+        known = run.truth_scenario().replace(**{k: 0.0 for k in declared_keys(run.scenario)})
+        alone = idf.analyse_run(known, idf.law_params(known, ["gamma"], [1]))
+        assert r["crb_gamma_declared"] >= alone.crb_post[-1, 0] / known.contact1_gamma * (1 - 1e-9)
+    summary = pq.read_table(out / "summary.parquet").to_pylist()
+    assert summary[0]["admitted"] == sum(r["crb_admitted"] for r in rows)
+    assert summary[0]["within_2pct_admitted"] == sum(r["crb_admitted"] and r["abs_final_err_worst"] <= 0.02
+                                                     for r in rows)
+    assert main(["campaign", str(spec), "--runs", "1", "--t-end", "2", "--out", str(tmp_path / "plain"),
+                 "--no-progress", "--workers", "1", "--experiment", "default", "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "admitted by" not in text and "within_2pct_admitted: not measured (--observability)" in text
+    assert "admitted" not in pq.read_table(tmp_path / "plain" / "summary.parquet").column_names

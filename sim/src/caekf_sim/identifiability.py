@@ -20,6 +20,11 @@ A contact's force is continuous at delta = 0, so the sensitivities do not jump a
   * both cumulatively along the run (J over the samples up to t), so a user sees when the bound falls
     below 1 % of the value.
 
+Declared mechanism parameters (m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0; `mechanism_params`) are
+unknowns too, each column dy/d ln(value), the declared sigma its prior; a declared force noise
+(input{i}_sigma > 0) is process noise: the information is whitened by the Kalman filter of its response
+through the model linearised along the truth (`information_input_noise`; docs/observability.md).
+
 Columns are scaled for the integrator (the parameter's value, 1 SI unit for a zero value; sigma_q0 and
 sigma_v0 for the initial state); the results are in SI units.
 """

@@ -11,6 +11,7 @@ from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
+from .runner import ADMIT_TOL
 from .spec import TARGETS, Family
 
 SUMMARY_COLUMNS = ("experiment", "group", "n", "within_1pct", "within_5pct", "diverged", "consistent_3sigma",
@@ -33,7 +34,18 @@ def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Se
         flag_known = all(r.get("flagged_mismatch_end") is not None for r in rs)
         flagged = np.array([bool(r.get("flagged_mismatch_end")) for r in rs], dtype=bool)
         silent = np.array([r.get("silent_wrong", not r["consistent_3sigma_worst"]) for r in rs], dtype=bool)
+        # issue 27's admission by gamma's Cramer-Rao bound (--observability on a family declaring uncertainty):
+        # its columns only where it was measured, so other campaigns' tables stay as they were
+        admission = bool(rs) and all("crb_admitted" in r for r in rs)
+        admitted = np.array([bool(r.get("crb_admitted")) for r in rs], dtype=bool)
         for label, m in groups:
+            extra = {}
+            if admission:
+                ma = m & admitted
+                extra = {"admitted": int(ma.sum()),
+                         "within_2pct_admitted": int(np.count_nonzero(err[ma] <= ADMIT_TOL)),
+                         "diverged_admitted": int(np.count_nonzero(div[ma])),
+                         "consistent_3sigma_admitted": int(np.count_nonzero(cons[ma]))}
             out.append({
                 "experiment": e, "group": label, "n": int(m.sum()),
                 "within_1pct": int(np.count_nonzero(err[m] <= 0.01)),
@@ -43,8 +55,34 @@ def summary_rows(rows: Sequence[Dict[str, Any]], family: Family, experiments: Se
                 "flagged_mismatch_end": int(np.count_nonzero(flagged[m])) if flag_known else None,
                 "silent_wrong": int(np.count_nonzero(silent[m])),
                 "median_abs_err": float(np.median(err[m])) if m.any() else float("nan"),
+                **extra,
             })
     return out
+
+
+ADMISSION_COLUMNS = ("experiment", "group", "n", "admitted", "within_2pct_admitted", "diverged_admitted",
+                     "consistent_3sigma_admitted")
+
+
+def format_admission(summary: Sequence[Dict[str, Any]]) -> str:
+    """The runs gamma's Cramer-Rao bound admits (every declared parameter unknown; runner.admission_verdict)
+    and, among them, within 2 %, diverged, within 3 sigma; empty when the campaign did not measure it."""
+    rows = [s for s in summary if "admitted" in s]
+    if not rows:
+        return ""
+    head = ["experiment", "group", "n", "admitted (share)", "within 2 % of admitted", "diverged admitted",
+            "within 3 sigma admitted"]
+
+    def share(k: int, n: int) -> str:
+        return f"{k} ({100 * k / n:.0f} %)" if n else f"{k}"
+
+    cells = [head] + [[s["experiment"], s["group"], str(s["n"]), share(s["admitted"], s["n"]),
+                       share(s["within_2pct_admitted"], s["admitted"]), str(s["diverged_admitted"]),
+                       share(s["consistent_3sigma_admitted"], s["admitted"])] for s in rows]
+    w = [max(len(r[i]) for r in cells) for i in range(len(head))]
+    lines = ["| " + " | ".join(c.ljust(x) for c, x in zip(r, w)) + " |" for r in cells]
+    lines.insert(1, "|" + "|".join("-" * (x + 2) for x in w) + "|")
+    return "\n".join(lines)
 
 
 JOINT_COLUMNS = ("experiment", "group", "n", "observable", "crb_meets_targets", "joint_ok", "joint_diverged",
@@ -109,22 +147,27 @@ def format_targets(family: Family, summary: Sequence[Dict[str, Any]], joint: Seq
             kind = TARGETS[name]
             if name.startswith("joint"):
                 src, total = jrow, (jrow["crb_meets_targets"] if jrow else 0)
+            elif name.endswith("_admitted"):  # over the runs gamma's bound admits; None: not measured
+                src, total = (row, row["admitted"]) if "admitted" in row else (None, 0)
             else:
                 src, total = row, row["n"]
             if name == "not_silent_wrong" and src is not None:  # the runs that are not silently wrong
                 src = {name: row["n"] - row["silent_wrong"]}
             if src is None:
-                cells.append(f"{name}: not measured")
+                cells.append(f"{name}: not measured" + (" (--observability)" if name.endswith("_admitted") else ""))
                 all_met = False
                 continue
             v = float(src[name])
+            # the admitted targets say how many runs the bound admits (the share of all runs)
+            of = (f" of {total} admitted ({100 * total / row['n']:.1f} % of {row['n']})"
+                  if name.endswith("_admitted") and row["n"] else "")
             if kind == "fraction":
                 frac = v / total if total else float("nan")
                 met = frac >= bound
-                cells.append(f"{name} {100 * frac:.1f} % >= {100 * bound:g} %: {'met' if met else 'NOT met'}")
+                cells.append(f"{name} {100 * frac:.1f} %{of} >= {100 * bound:g} %: {'met' if met else 'NOT met'}")
             else:
                 met = v <= bound
-                cells.append(f"{name} {v:g} <= {bound:g}: {'met' if met else 'NOT met'}")
+                cells.append(f"{name} {v:g}{of} <= {bound:g}: {'met' if met else 'NOT met'}")
             all_met &= met
         lines.append(f"{e}: " + "; ".join(cells) + f" -> {'every target met' if all_met else 'targets NOT met'}")
     return "\n".join(lines)
