@@ -32,3 +32,13 @@ def test_a_rolled_back_step_carries_the_mismatch_flag():
     assert rolled_back > 0, "the run no longer rolls back: pick another run of the family"
     assert rep.flags & fl.MODEL_MISMATCH
     assert np.isfinite(mean)
+
+
+def test_the_estimators_sizes_with_law_and_mechanism_parameters():
+    """Estimator.bodies and gamma_index count the bodies, not (n - contacts) / 2: with the law's and the
+    mechanism's parameters in the state the latter read 10 bodies of the paper's 4 and gamma at index 20."""
+    est = Estimator(Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml", contact1_estimate_n=1, contact1_sigma_n0=0.1,
+                    m2_sigma=0.03, spring1_k_sigma=0.03)
+    assert (est.bodies, est.contacts, est.n) == (4, 1, 2 * 4 + 1 + 1 + 2)
+    assert est.gamma_index == 8
+    assert est.gamma == est.x[est.gamma_index]

@@ -204,7 +204,7 @@ static void est_sizes(EstObject *self)
 {
     (void)caekf_get_sizes(&self->est, &self->n, &self->ny, &self->nu);
     self->nc = self->est.cfg.model.contacts;
-    self->nq = (self->n - self->nc) / 2;
+    self->nq = self->est.cfg.model.bodies; /* n also counts the law's and the mechanism's parameters */
 }
 
 static int est_init(EstObject *self, PyObject *args, PyObject *kwds)
