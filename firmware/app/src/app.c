@@ -40,7 +40,7 @@ caekf_app_status_t caekf_app_init(caekf_app_t *app, const caekf_app_hal_t *hal, 
         caekf_proto_id_offset_check(cfg->id_offset) != CAEKF_PROTO_OK) {
         return CAEKF_APP_ERR_CONFIG;
     }
-    memset(app, 0, sizeof *app);
+    (void)memset(app, 0, sizeof *app);
     app->hal = *hal;
     app->cfg = *cfg;
     app->staged_bad_param = (uint8_t)CAEKF_ACK_BAD_PARAM_NONE;
@@ -84,7 +84,7 @@ static void handle_frame(caekf_app_t *app, const caekf_can_frame_t *f, uint32_t 
     caekf_msg_t msg;
     const caekf_msg_info_t *info;
     if (caekf_proto_msg_from_bus_id(f->id, app->cfg.id_offset, &msg) != CAEKF_PROTO_OK ||
-        caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK || info->dir != CAEKF_DIR_TO_ESTIMATOR) {
+        caekf_proto_msg_info(msg, &info) != CAEKF_PROTO_OK || info->dir != (uint8_t)CAEKF_DIR_TO_ESTIMATOR) {
         caekf_app_count(app, CAEKF_CNT_RX_UNKNOWN_ID, 1u);
         return;
     }

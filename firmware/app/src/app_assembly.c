@@ -13,8 +13,8 @@
 
 #include "app_internal.h"
 
-#define HAVE_INPUT(i) (1u << (i))
-#define HAVE_SENSOR(s) (1u << (CAEKF_MAX_INPUTS + (s)))
+#define HAVE_INPUT(i) (1u << (unsigned)(i))
+#define HAVE_SENSOR(s) (1u << ((unsigned)CAEKF_MAX_INPUTS + (unsigned)(s)))
 #define NO_SENSOR (-1)
 
 CAEKF_STATIC_ASSERT(CAEKF_MAX_INPUTS + CAEKF_MAX_SENSORS <= 8, slot_bits_fit_in_have);
@@ -165,9 +165,9 @@ static uint16_t unwrap_step8(const caekf_app_t *app, uint8_t step8)
 {
     uint16_t ref;
     uint8_t d;
-    if (app->slot.open) {
+    if (app->slot.open != 0u) {
         ref = app->slot.step;
-    } else if (app->have_closed) {
+    } else if (app->have_closed != 0u) {
         ref = (uint16_t)(app->last_closed_step + 1u);
     } else {
         return step8;
@@ -186,12 +186,14 @@ static int route(caekf_app_t *app, uint16_t step, uint32_t now_us)
         caekf_app_count(app, CAEKF_CNT_RX_LATE, 1u);
         return 0;
     }
-    if (app->slot.open) {
+    if (app->slot.open != 0u) {
         caekf_app_count(app, CAEKF_CNT_STEPS_SUPERSEDED, 1u);
         close_slot(app);
-    } else if (app->have_closed && !step_after(step, app->last_closed_step)) {
+    } else if (app->have_closed != 0u && !step_after(step, app->last_closed_step)) {
         caekf_app_count(app, CAEKF_CNT_RX_LATE, 1u);
         return 0;
+    } else {
+        /* no slot open and the step is new: it opens one below */
     }
     app->slot.open = 1;
     app->slot.have = 0;
@@ -279,7 +281,7 @@ void caekf_app_assembly_input(caekf_app_t *app, caekf_msg_t msg, const uint8_t d
     if (!route(app, step, now_us)) {
         return;
     }
-    if (app->slot.have & all) {
+    if ((app->slot.have & all) != 0u) {
         caekf_app_count(app, CAEKF_CNT_RX_REPEATED, 1u); /* keep the first values */
         return;
     }

@@ -18,7 +18,7 @@ void caekf_app_handle_param(caekf_app_t *app, const uint8_t data[CAEKF_CAN_DLC])
     double value;
     (void)caekf_proto_decode_param(data, &m);
     if (!app->staging) {
-        if (app->configured) {
+        if (app->configured != 0u) {
             app->staged = app->active;
         } else {
             (void)caekf_app_settings_default(&app->staged);

@@ -93,6 +93,8 @@ static void send_production(caekf_app_t *app, uint16_t step, caekf_status_t stat
         app->page_phase = (uint16_t)((app->page_phase + 1u) % app->cfg.page_period_steps);
     } else if (app->page_phase < CAEKF_PAGE_COUNT) {
         app->page_phase++;
+    } else {
+        /* pages only on request: the phase stays past the last page */
     }
     if (page >= CAEKF_PAGE_COUNT) {
         return;

@@ -49,7 +49,7 @@ caekf_proto_status_t caekf_proto_encode_health(const caekf_msg_health_t *m, uint
     if (m->page >= CAEKF_HEALTH_PAGES) {
         return CAEKF_PROTO_ERR_RANGE;
     }
-    memset(&g, 0, sizeof g);
+    (void)memset(&g, 0, sizeof g);
     g.page = m->page;
     *health_counter(&g, 2u * m->page) = m->counter_a & CAEKF_HEALTH_COUNTER_MASK;
     *health_counter(&g, 2u * m->page + 1u) = m->counter_b & CAEKF_HEALTH_COUNTER_MASK;

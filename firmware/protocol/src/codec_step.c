@@ -20,7 +20,7 @@ static caekf_proto_status_t layout_of(caekf_msg_t msg, const caekf_msg_info_t **
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
-    if ((*info)->layout != CAEKF_LAYOUT_INT36 && (*info)->layout != CAEKF_LAYOUT_FLOAT32) {
+    if ((*info)->layout != (uint8_t)CAEKF_LAYOUT_INT36 && (*info)->layout != (uint8_t)CAEKF_LAYOUT_FLOAT32) {
         return CAEKF_PROTO_ERR_MSG;
     }
     return CAEKF_PROTO_OK;
@@ -43,7 +43,7 @@ typedef union {
 static int pack_value(caekf_msg_t msg, uint16_t step, int64_t raw, uint32_t bits, uint8_t data[CAEKF_CAN_DLC])
 {
     value_frame_t m;
-    memset(&m, 0, sizeof m);
+    (void)memset(&m, 0, sizeof m);
     switch (msg) {
 #define PACK_CASE(id, name, field, kind)     \
     case id:                                 \
@@ -88,7 +88,7 @@ caekf_proto_status_t caekf_proto_encode_value(caekf_msg_t msg, uint16_t step, do
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
-    if (info->layout == CAEKF_LAYOUT_INT36) {
+    if (info->layout == (uint8_t)CAEKF_LAYOUT_INT36) {
         clipped = caekf_scaled_to_raw(value, info->lsb, 36u, &raw);
     } else {
         clipped = caekf_float32_bits(value, &bits);
@@ -115,10 +115,12 @@ caekf_proto_status_t caekf_proto_decode_value(caekf_msg_t msg, const uint8_t dat
     if (unpack_value(msg, data, &s, &raw, &bits) != 0) {
         return CAEKF_PROTO_ERR_MSG;
     }
-    if (info->layout == CAEKF_LAYOUT_INT36) {
+    if (info->layout == (uint8_t)CAEKF_LAYOUT_INT36) {
         v = (double)raw * info->lsb; /* as cantools: raw * scale */
     } else if (caekf_float32_value(bits, &v) != 0) {
         return CAEKF_PROTO_ERR_VALUE; /* NaN or infinity never reaches the estimator */
+    } else {
+        /* v holds the finite float32 value */
     }
     *step = s;
     *value = v;
@@ -138,7 +140,7 @@ caekf_proto_status_t caekf_proto_encode_yp(const caekf_msg_yp_t *m, uint8_t data
     }
     clipped = caekf_scaled_to_raw(m->y1, CAEKF_YP_LSB, CAEKF_YP_BITS, &r1);
     clipped |= caekf_scaled_to_raw(m->y4, CAEKF_YP_LSB, CAEKF_YP_BITS, &r4);
-    memset(&g, 0, sizeof g);
+    (void)memset(&g, 0, sizeof g);
     g.step = m->step;
     g.y1 = (int32_t)r1;
     g.y4 = (int32_t)r4;
@@ -162,7 +164,7 @@ static int put_f32(float *dst, double value)
 {
     uint32_t bits = 0u;
     int clipped = caekf_float32_bits(value, &bits);
-    memcpy(dst, &bits, sizeof bits);
+    (void)memcpy(dst, &bits, sizeof bits);
     return clipped;
 }
 
@@ -170,7 +172,7 @@ static double get_f32(const float *src)
 {
     uint32_t bits;
     double v = 0.0;
-    memcpy(&bits, src, sizeof bits);
+    (void)memcpy(&bits, src, sizeof bits);
     (void)caekf_float32_value(bits, &v); /* outputs: NaN and infinities are returned as they are */
     return v;
 }
@@ -182,7 +184,7 @@ caekf_proto_status_t caekf_proto_encode_prod(const caekf_msg_prod_t *m, uint8_t 
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(&g, 0, sizeof g);
+    (void)memset(&g, 0, sizeof g);
     g.step = (uint8_t)(m->step & CAEKF_PROD_STEP_MASK);
     g.flags = (uint16_t)(m->flags & CAEKF_PROD_FLAGS_MASK);
     clipped = put_f32(&g.gamma, m->gamma);
@@ -220,7 +222,7 @@ caekf_proto_status_t caekf_proto_encode_page(const caekf_msg_page_t *m, uint8_t 
     if (m->page >= CAEKF_PAGE_COUNT) {
         return CAEKF_PROTO_ERR_RANGE;
     }
-    memset(&g, 0, sizeof g);
+    (void)memset(&g, 0, sizeof g);
     g.page = m->page;
     g.step = m->step;
     if (m->page == CAEKF_PAGE_STEP_INFO) {
@@ -278,7 +280,7 @@ caekf_proto_status_t caekf_proto_encode_fd_in(const caekf_msg_fd_in_t *m, uint8_
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(&g, 0, sizeof g);
+    (void)memset(&g, 0, sizeof g);
     g.step = m->step;
     clipped = put_f32(&g.u, m->u);
     clipped |= caekf_scaled_to_raw(m->y1, CAEKF_SCALE_BENCH_FD_Y1, CAEKF_BITS_BENCH_FD_Y1, &g.y1);
@@ -295,7 +297,7 @@ caekf_proto_status_t caekf_proto_decode_fd_in(const uint8_t data[CAEKF_CAN_FD_MA
     if (st != CAEKF_PROTO_OK) {
         return st;
     }
-    memcpy(&bits, &g.u, sizeof bits);
+    (void)memcpy(&bits, &g.u, sizeof bits);
     if (caekf_float32_value(bits, &u) != 0) {
         return CAEKF_PROTO_ERR_VALUE; /* inputs: NaN and infinities are refused */
     }
@@ -314,7 +316,7 @@ caekf_proto_status_t caekf_proto_encode_fd_out(const caekf_msg_fd_out_t *m, uint
     if (m == NULL || data == NULL) {
         return CAEKF_PROTO_ERR_NULL;
     }
-    memset(&g, 0, sizeof g);
+    (void)memset(&g, 0, sizeof g);
     for (i = 0; i < 8u; i++) {
         double lsb;
         int64_t *const raw = fd_scaled(&g, i, &lsb);

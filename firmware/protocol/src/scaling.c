@@ -17,17 +17,20 @@ static int64_t round_half_even(double x)
         t += 1;
     } else if (frac < -0.5 || (frac == -0.5 && (t & 1))) {
         t -= 1;
+    } else {
+        /* frac within (-0.5, 0.5), or a tie towards an even t: t stands */
     }
     return t;
 }
 
 int caekf_scaled_to_raw(double value, double lsb, unsigned len, int64_t *raw)
 {
-    const int64_t max_raw = (int64_t)(((uint64_t)1u << (len - 1u)) - 1u);
+    const unsigned sign_bit = len - 1u;
+    const int64_t max_raw = (int64_t)(((uint64_t)1u << sign_bit) - (uint64_t)1u);
     const int64_t min_raw = -max_raw - 1;
     double x = value / lsb; /* division, not multiplication by 1/lsb: the same double as cantools */
     int64_t r;
-    if (isnan(x)) {
+    if (isnan(x) != 0) {
         *raw = 0;
         return 1;
     }
@@ -65,14 +68,14 @@ int caekf_float32_bits(double value, uint32_t *bits)
     } else {
         f = (float)value;
     }
-    memcpy(bits, &f, sizeof f);
+    (void)memcpy(bits, &f, sizeof f);
     return clipped;
 }
 
 int caekf_float32_value(uint32_t bits, double *value)
 {
     float f;
-    memcpy(&f, &bits, sizeof f);
+    (void)memcpy(&f, &bits, sizeof f);
     *value = (double)f;
     return (isnan(f) || isinf(f)) ? -1 : 0;
 }
