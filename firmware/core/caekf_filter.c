@@ -11,7 +11,7 @@
  * the loop bounds then fold away), the instance's otherwise. */
 #if CAEKF_SIZED
 #define DIM_NQ(d) ((void)(d), CAEKF_SIZED_BODIES)
-#define DIM_N(d) ((void)(d), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS)
+#define DIM_N(d) ((void)(d), CAEKF_SIZED_N)
 #define DIM_NY(d) ((void)(d), CAEKF_SIZED_SENSORS)
 #else
 #define DIM_NQ(d) ((d)->nq)

@@ -312,7 +312,7 @@ caekf_la_status_t caekf_sym2_inverse(caekf_scalar_t a, caekf_scalar_t b, caekf_s
  * it to check that instance), up to CAEKF_PSD_WRITTEN_OUT_MAX_N. Elsewhere a loop (the one-step build keeps
  * its text). */
 #if !defined(CAEKF_PSD_WRITTEN_OUT_N) && CAEKF_SIZED && CAEKF_HAS_SUBSTEPS && CAEKF_N <= CAEKF_PSD_WRITTEN_OUT_MAX_N
-#define CAEKF_PSD_WRITTEN_OUT_N (2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS)
+#define CAEKF_PSD_WRITTEN_OUT_N CAEKF_SIZED_N
 #endif
 #if defined(CAEKF_PSD_WRITTEN_OUT_N) && defined(__GNUC__) && !defined(__clang__)
 #define PSD_UNROLL _Pragma("GCC unroll 16")

@@ -13,8 +13,7 @@
 #define CAEKF_DIM_NQ(m) ((void)(m), CAEKF_SIZED_BODIES)
 #define CAEKF_DIM_NC(m) ((void)(m), CAEKF_SIZED_CONTACTS)
 #define CAEKF_DIM_NU(m) ((void)(m), CAEKF_SIZED_INPUTS)
-#define CAEKF_DIM_N(m) \
-    ((void)(m), 2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS + CAEKF_SIZED_MECH_PARAMS)
+#define CAEKF_DIM_N(m) ((void)(m), CAEKF_SIZED_N)
 #define CAEKF_DIM_NM(m) ((void)(m), CAEKF_SIZED_MECH_PARAMS)
 #else
 #define CAEKF_DIM_NQ(m) ((m)->nq)

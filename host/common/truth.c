@@ -145,7 +145,7 @@ int caekf_input_series_read(const char *path, int inputs, caekf_input_series_t *
     }
     s->inputs = inputs;
     while (fgets(line, sizeof line, f) != NULL) {
-        double v[CAEKF_MAX_INPUTS + 1];
+        double v[CAEKF_MAX_INPUTS + 1] = {0}; /* every column is found in the header (checked above) */
         int nf;
         ++lineno;
         if (strchr(line, '\n') == NULL && !feof(f)) {

@@ -111,6 +111,12 @@ typedef double caekf_scalar_t;
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses
  * n = 2 bodies + contacts + the n, lambda and gap it estimates). */
+/* A sized build's state: 2 bodies, the gammas, the law's and the mechanism's parameters (one definition for
+ * every file that takes the sized n as a constant). */
+#if CAEKF_SIZED
+#define CAEKF_SIZED_N (2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS + CAEKF_SIZED_MECH_PARAMS)
+#endif
+
 #define CAEKF_NQ CAEKF_MAX_BODIES
 /* estimated parameters: the contacts' gammas and law parameters, then the mechanism's (masses, links) */
 #define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS + CAEKF_MAX_MECH_PARAMS)
