@@ -152,7 +152,8 @@ def main() -> int:
     folders = sorted({f for c in counts.values() for f in c})
     cats = [M, "required (deviated)", R, A]
     print(f"MISRA C:2012 (cppcheck misra addon), {len(findings)} findings")
-    print(f"{'category':22}" + "".join(f"{f.replace('firmware/', '').replace('generated/', 'gen/')[:12]:>13}" for f in folders) + f"{'total':>8}")
+    heads = [f.replace("firmware/", "").replace("generated/", "gen/")[:12] for f in folders]
+    print(f"{'category':22}" + "".join(f"{h:>13}" for h in heads) + f"{'total':>8}")
     for c in cats:
         row = counts.get(c, Counter())
         label = "required (undeviated)" if c == R else c
