@@ -86,11 +86,10 @@ def chain(tmp_path_factory) -> Dict[str, Any]:
     tuned = d / "tuned.toml"
     assert main(["tune", "--scenario", str(SCENARIO), "--runs", str(RECORD), "--out", str(tuned)]) == 0
     text = tuned.read_text(encoding="utf-8")
-    # Known defect (docs/real-data.md): tune --out writes the truth-only keys the scenario left out as
-    # "key = nan", which every reader then refuses. Drop those lines (they were never in the scenario).
+    # tune once wrote the truth-only keys the scenario left out as "key = nan", which every reader refused:
+    # the tuned file is used as written, and test_tuned_scenario_is_readable_as_written keeps it so.
     nan_lines = [ln for ln in text.splitlines() if ln.split("#")[0].strip().endswith("= nan")]
-    usable = d / "tuned-usable.toml"
-    usable.write_text("\n".join(ln for ln in text.splitlines() if ln not in nan_lines) + "\n", encoding="utf-8")
+    usable = tuned
     est, rep, fig = d / "est.csv", d / "replay.csv", d / "gamma.png"
     assert main(["estimate", "--scenario", str(usable), "--measurements", str(RECORD), "--out", str(est),
                  "--no-progress"]) == 0
@@ -142,8 +141,6 @@ def test_tune_fits_the_records_noise(chain, record):
     assert 0.3 * scatter < tuned.sigma_r < 3 * scatter, (tuned.sigma_r, scatter)
 
 
-@pytest.mark.xfail(reason="caekf-sim tune --out writes truth-only keys the scenario left out as 'key = nan', "
-                          "which load_scenario and caekf-replay refuse (docs/real-data.md)", strict=False)
 def test_tuned_scenario_is_readable_as_written(chain):
     assert not chain["nan_lines"]
     load_scenario(chain["tuned"])
