@@ -48,17 +48,8 @@ static void law_settings(caekf_settings_t *s, int discretisation, int gamma_log)
 /* A state with penetration `delta` (at the state's own gap) and some motion; law states set. */
 static void make_state(caekf_scalar_t x[CAEKF_N], double delta, int gamma_log)
 {
-    const double gap = 1.0001e-3, q3 = 1.5e-5;
-    memset(x, 0, sizeof(caekf_scalar_t) * CAEKF_N);
-    x[0] = (caekf_scalar_t)1.2e-3;
-    x[1] = (caekf_scalar_t)(q3 + gap + delta);
-    x[2] = (caekf_scalar_t)q3;
-    x[3] = (caekf_scalar_t)-4e-6;
-    x[4] = (caekf_scalar_t)3e-3;
-    x[5] = (caekf_scalar_t)-2e-3;
-    x[6] = (caekf_scalar_t)1e-3;
-    x[7] = (caekf_scalar_t)-5e-4;
-    x[8] = (caekf_scalar_t)(gamma_log ? log(1.1e8) : 1.1e8);
+    const double gap = 1.0001e-3;
+    paper_moving_state(x, gap, delta, gamma_log ? log(1.1e8) : 1.1e8);
     x[IN] = (caekf_scalar_t)1.4;
     x[IL] = (caekf_scalar_t)200;
     x[IGAP] = (caekf_scalar_t)gap;

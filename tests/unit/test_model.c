@@ -39,19 +39,7 @@ void setUp(void)
 void tearDown(void) {}
 
 /* A state with penetration `delta` (<= 0: no contact) and some motion. */
-static void make_state(caekf_scalar_t x[CAEKF_N], double delta)
-{
-    double q3 = 1.5e-5;
-    x[0] = (caekf_scalar_t)1.2e-3;
-    x[1] = (caekf_scalar_t)(q3 + 1.0e-3 + delta);
-    x[2] = (caekf_scalar_t)q3;
-    x[3] = (caekf_scalar_t)-4e-6;
-    x[4] = (caekf_scalar_t)3e-3;
-    x[5] = (caekf_scalar_t)-2e-3;
-    x[6] = (caekf_scalar_t)1e-3;
-    x[7] = (caekf_scalar_t)-5e-4;
-    x[8] = (caekf_scalar_t)1.1e8;
-}
+static void make_state(caekf_scalar_t x[CAEKF_N], double delta) { paper_moving_state(x, 1.0e-3, delta, 1.1e8); }
 
 #if CAEKF_MODEL_ORACLES /* the library has the reference residual, Jacobians and F */
 static void check_jacobians_at(double delta)

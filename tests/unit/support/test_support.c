@@ -162,3 +162,21 @@ int test_invert(double *a, double *inv, int n)
     }
     return 0;
 }
+
+void paper_moving_state(caekf_scalar_t x[CAEKF_N], double gap, double delta, double gamma)
+{
+    const double q3 = 1.5e-5;
+    int i;
+    for (i = 0; i < CAEKF_N; ++i) {
+        x[i] = 0;
+    }
+    x[0] = (caekf_scalar_t)1.2e-3;
+    x[1] = (caekf_scalar_t)(q3 + gap + delta);
+    x[2] = (caekf_scalar_t)q3;
+    x[3] = (caekf_scalar_t)-4e-6;
+    x[4] = (caekf_scalar_t)3e-3;
+    x[5] = (caekf_scalar_t)-2e-3;
+    x[6] = (caekf_scalar_t)1e-3;
+    x[7] = (caekf_scalar_t)-5e-4;
+    x[8] = (caekf_scalar_t)gamma;
+}

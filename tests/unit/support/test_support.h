@@ -66,6 +66,10 @@ static inline void paper_filter_dims(caekf_filter_dims_t *d, caekf_scalar_t r, c
 /* A deterministic SPD matrix L L^T + small diagonal, with every entry correlated (filter-level tests). */
 void test_spd_matrix(paper_mat_t P);
 
+/* A state of the paper's chain in motion: bodies 2 and 3 at penetration `delta` beyond `gap` (<= 0: open),
+ * gamma `gamma` in state 8, every other entry up to CAEKF_N zero. The model and contact-law suites' point. */
+void paper_moving_state(caekf_scalar_t x[CAEKF_N], double gap, double delta, double gamma);
+
 /* Gauss-Jordan inverse with partial pivoting in double, written independently of the library's LU, for
  * reference computations: a (n x n, row-major, destroyed) -> inv. Returns 0, or -1 on a zero pivot. */
 int test_invert(double *a, double *inv, int n);
