@@ -438,9 +438,9 @@ def main():
     if rows:
         table(f"Instructions per caekf_step, the recommended default ({default_method()}), the joint "
               "four-parameter step (ln gamma, n, lambda, gap: sim/scenarios/paper-joint.toml) and the default on the "
-              "8-body, 2-contact chain (tests/target/chain8.toml, its own truth), the default with the chain's 12 masses, "
-              "springs and dampers estimated (mech12: tests/target/paper-mech12.toml); 60,000 steps; constructed "
-              "worst case: the full PSD test of P on every step",
+              "8-body, 2-contact chain (tests/target/chain8.toml, its own truth), the default with the chain's "
+              "12 masses, springs and dampers estimated (mech12: tests/target/paper-mech12.toml); 60,000 steps; "
+              "constructed worst case: the full PSD test of P on every step",
               ["target", "opt", "estimator", "build", "min", "median", "max", "constructed worst case",
                "Newton iterations max", "caekf_step stack static / painted", "lib text", "sizeof(caekf_t)",
                f"worst <= {GOAL_ICOUNT_DEFAULT}"], rows)
