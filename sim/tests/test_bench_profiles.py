@@ -81,10 +81,12 @@ def test_production_inputs_are_two_frames_per_step_on_the_yp_grid(codec):
     assert ids == [0x100, 0x103, 0x100, 0x103]
 
 
-def test_paced_matcher_unwraps_the_8_bit_step(codec):
+def test_paced_matcher_unwraps_the_narrow_step(codec):
+    """EST_PROD's STEP is the low bits of the 16-bit step (7 since the 13 health flags took one)."""
     rows = np.arange(N)
     wire = ((300 + rows) & 0xFFFF).tolist()
-    prod = codec.pack("EST_PROD", {"STEP": np.array(wire) & 0xFF, "GAMMA": np.ones(N)}, rows & 15)
+    assert PRODUCTION.closing_step_bits == codec.messages["EST_PROD"].signals["STEP"].length < 16
+    prod = codec.pack("EST_PROD", {"STEP": np.array(wire) & PRODUCTION.step_mask, "GAMMA": np.ones(N)}, rows & 15)
     frames = records_array(make_records(codec.messages["EST_PROD"].frame_id, prod).tobytes())
     t_ns = 1000 * rows.astype(np.int64) + 7
     got = _first_by_step(t_ns, frames, codec.messages["EST_PROD"].frame_id, wire, PRODUCTION.closing_step_bits)

@@ -277,3 +277,15 @@ def test_bench_binding_prints_its_table(recorded, tmp_path, capsys):
     for row in ("caekf_sim.run", "Estimator.step, y = numpy row", "numpy AEKF", "FilterPy EKF"):
         assert row in out
     assert out.count("caekf_sim.run ") == 2  # double and float
+
+
+def test_tune_searches_a_declared_input_noise_and_the_mechanisms_drift_only_when_declared():
+    """issue 27: tune can fit input{i}_sigma (a measured force's noise) once it is declared (> 0, a log-scale
+    search); sigma_q_mech, the declared mechanism parameters' drift, only when one is declared."""
+    from caekf_sim.scenario import load_scenario, default_scenario_path
+    from caekf_sim.settings_adapter import tunable_noise
+
+    sc = load_scenario(default_scenario_path())
+    assert "input1_sigma" not in tunable_noise(sc) and "sigma_q_mech" not in tunable_noise(sc)
+    declared = sc.replace(input1_sigma=0.02, spring1_k_sigma=0.03)
+    assert {"input1_sigma", "sigma_q_mech"} <= set(tunable_noise(declared))

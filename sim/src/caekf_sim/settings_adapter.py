@@ -85,17 +85,25 @@ def scenario_dict(sc: Scenario) -> Dict[str, float]:
 # --- noise tuning (caekf-sim tune) ------------------------------------------------------------------
 
 # The noise standard deviations tune may change: the schema's noise settings that are standard
-# deviations (sigma_*; not the factor q_gamma_scale), by scenario key (per contact: contact{i}_sigma_q_gamma).
+# deviations (sigma_*, and the measured inputs' input{i}_sigma; not the factor q_gamma_scale), by scenario key
+# (per contact: contact{i}_sigma_q_gamma).
 TUNABLE_NOISE: Tuple[str, ...] = tuple(k for k, s, _ in schema.SCHEMA.keys()
-                                       if s.kind == "noise" and s.name.startswith("sigma_"))
+                                       if s.kind == "noise" and (s.name.startswith("sigma_")
+                                                                 or s.name.endswith("_sigma")))
+# The mechanism parameters' random walk acts only when one is declared uncertain.
+_MECH_SIGMAS = tuple(k for k, s, _ in schema.SCHEMA.keys() if s.name in ("m_sigma", "spring_k_sigma",
+                                                                           "spring_c_sigma"))
 
 
 def tunable_noise(sc: Scenario) -> Tuple[str, ...]:
     """The noise keys `tune` searches by default for scenario `sc`: those of TUNABLE_NOISE its mechanism
     uses (contact{i}_sigma_q_gamma for its contacts) and sets > 0 (the search is on a log scale; a 0,
-    e.g. sigma_rv without velocity sensors, stays off)."""
+    e.g. sigma_rv without velocity sensors or input1_sigma for an exact force, stays off); sigma_q_mech only
+    when a mechanism parameter is declared uncertain."""
     values = sc.values()
-    return tuple(k for k in TUNABLE_NOISE if k in values and float(values[k]) > 0)
+    declared = any(float(values.get(k, 0.0)) > 0 for k in _MECH_SIGMAS)
+    return tuple(k for k in TUNABLE_NOISE if k in values and float(values[k]) > 0
+                 and (k != "sigma_q_mech" or declared))
 
 
 def noise_of(sc: Scenario, keys: Optional[Sequence[str]] = None) -> Dict[str, float]:

@@ -68,6 +68,12 @@ def step_flags() -> Dict[str, int]:
     return dict(Codec().step_flags)
 
 
+@functools.lru_cache(maxsize=None)
+def signal_length(message: str, signal: str) -> int:
+    """A signal's width in bits in the default DBC (the profiles' step counters: one source, the DBC)."""
+    return int(Codec().messages[message].signals[signal].length)
+
+
 @dataclass(frozen=True)
 class SignalLayout:
     name: str

@@ -18,6 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Dict, Optional, Tuple
 
+from .codec import signal_length
+
 # EST_PAGE page -> the results column it carries (page 10: flags, newton_iters, step_status)
 PAGE_COLUMNS: Tuple[Tuple[int, str, str], ...] = (
     (0, "q1", "Q1"), (1, "q2", "Q2"), (2, "q3", "Q3"), (3, "q4", "Q4"),
@@ -44,7 +46,7 @@ class Profile:
     name: str
     inputs: Tuple[Tuple[str, Tuple[Tuple[str, str], ...]], ...]  # (message, ((signal, "u"|"y1"|"y4"), ...))
     closing: str  # the message that closes a step (the bench waits for it)
-    closing_step_bits: int  # width of its STEP signal (at bit 12)
+    closing_step_bits: int  # width of its STEP signal (at bit 12): the DBC's (codec.signal_length)
     results: Dict[str, Signal]  # results column -> where it is carried
     per_step: Dict[str, float]  # message -> frames per step (for the bus load), at the defaults
 
@@ -77,7 +79,7 @@ DIAGNOSTICS = Profile(
     name="diagnostics",
     inputs=(("BENCH_U", (("U", "u"),)), ("BENCH_Y1", (("Y1", "y1"),)), ("BENCH_Y4", (("Y4", "y4"),))),
     closing="EST_STEP",
-    closing_step_bits=16,
+    closing_step_bits=signal_length("EST_STEP", "STEP"),
     results=_DIAG_RESULTS,
     per_step={**{m: 1.0 for m in ("BENCH_U", "BENCH_Y1", "BENCH_Y4") + _DIAG_OUT},
               "EST_HEALTH": HEALTH_PAGES_PER_SECOND / 1000.0},
@@ -92,7 +94,7 @@ def production(page_period: int = DEFAULT_PAGE_PERIOD, rate_hz: float = 1000.0) 
         name="production",
         inputs=(("BENCH_U", (("U", "u"),)), ("BENCH_YP", (("Y1", "y1"), ("Y4", "y4")))),
         closing="EST_PROD",
-        closing_step_bits=8,
+        closing_step_bits=signal_length("EST_PROD", "STEP"),
         results=results,
         per_step={"BENCH_U": 1.0, "BENCH_YP": 1.0, "EST_PROD": 1.0,
                   "EST_PAGE": (PAGE_COUNT / page_period) if page_period else 0.0,
@@ -108,7 +110,7 @@ FD = Profile(
     name="fd",
     inputs=(("BENCH_FD", (("U", "u"), ("Y1", "y1"), ("Y4", "y4"))),),
     closing="EST_FD",
-    closing_step_bits=16,
+    closing_step_bits=signal_length("EST_FD", "STEP"),
     results={col: Signal("EST_FD", src.signal) for col, src in _DIAG_RESULTS.items()},
     per_step={"BENCH_FD": 1.0, "EST_FD": 1.0, "EST_HEALTH": HEALTH_PAGES_PER_SECOND / 1000.0},
 )
@@ -161,7 +163,7 @@ def diagnostics_for(n_inputs: int, sensor_kinds, n_bodies: int, n_contacts: int)
         name="diagnostics",
         inputs=tuple(inputs),
         closing="EST_STEP",
-        closing_step_bits=16,
+        closing_step_bits=signal_length("EST_STEP", "STEP"),
         results=results,
         per_step={**{m: 1.0 for m, _ in inputs}, **{m: 1.0 for m in out},
                   "EST_HEALTH": HEALTH_PAGES_PER_SECOND / 1000.0},

@@ -277,7 +277,9 @@ def load_spec(path: PathLike, runs: Optional[int] = None, seed: Optional[int] = 
             run = _mismatched(Run(run=i, scenario=sc, values=values, source=str(path)), mismatch, rng)
             run.truth_scenario()  # the truth's values must be valid too
         except ValueError as exc:
-            msg = str(exc).replace("replace(): ", "")
+            # a drawn value's refusal names the base scenario (Scenario.replace keeps its source): the spec's run
+            # is the place to look
+            msg = str(exc).replace(f"{base.source}: ", "")
             raise ValueError(msg if msg.startswith(f"{path}: run") else f"{path}: run {i}: {msg}") from None
         out.append(run)
     splits = tuple(
