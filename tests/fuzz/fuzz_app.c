@@ -196,6 +196,10 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     if (IN(CAEKF_PARAM_LAMBDA_MAX, CAEKF_MAX_CONTACTS)) return &s->lambda_max[id - CAEKF_PARAM_LAMBDA_MAX];
     if (IN(CAEKF_PARAM_GAP_MIN, CAEKF_MAX_CONTACTS)) return &s->gap_min[id - CAEKF_PARAM_GAP_MIN];
     if (IN(CAEKF_PARAM_GAP_MAX, CAEKF_MAX_CONTACTS)) return &s->gap_max[id - CAEKF_PARAM_GAP_MAX];
+    if (IN(CAEKF_PARAM_M_SIGMA, CAEKF_MAX_BODIES)) return &m->m_sigma[id - CAEKF_PARAM_M_SIGMA];
+    if (IN(CAEKF_PARAM_SPRING_K_SIGMA, CAEKF_MAX_SPRINGS)) return &m->spring_k_sigma[id - CAEKF_PARAM_SPRING_K_SIGMA];
+    if (IN(CAEKF_PARAM_SPRING_C_SIGMA, CAEKF_MAX_SPRINGS)) return &m->spring_c_sigma[id - CAEKF_PARAM_SPRING_C_SIGMA];
+    if (IN(CAEKF_PARAM_INPUT_SIGMA, CAEKF_MAX_INPUTS)) return &s->input_sigma[id - CAEKF_PARAM_INPUT_SIGMA];
     switch (id) {
     case CAEKF_PARAM_DT: return &m->dt;
     case CAEKF_PARAM_SIGMA_Q0: return &s->sigma_q0;
@@ -209,6 +213,7 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_GAMMA_GATE_NIS: return &s->gamma_gate_nis;
     case CAEKF_PARAM_CONTACT_SLR_P: return &s->contact_slr_p;
     case CAEKF_PARAM_MISMATCH_RATIO: return &s->mismatch_ratio;
+    case CAEKF_PARAM_SIGMA_Q_MECH: return &s->sigma_q_mech;
     default: return NULL;
     }
 }
