@@ -47,7 +47,10 @@ import pytest
 
 from hilcfg import PROFILE, SCENARIO, report
 
+from caekf_sim.schema import SCHEMA
+
 ROWS = 15000
+UNKNOWN_ID = SCHEMA.param_count  # the first CTRL_PARAM id no setting has
 SEED = 20261121
 N_EACH = 105  # injections per non-destructive class
 N_FLOOD_EPISODES = 12
@@ -111,7 +114,7 @@ def _validation_cases(bench, sc):
         (f"gamma_min = {2 * g0:g} > gamma0 (constrained)", [("constraint_enabled", 1.0), ("gamma_min", 2 * g0)],
          "REFUSED_SETTINGS", "contact1_gamma0"),
         ("unknown mode 7", [("mode", 7.0)], "REFUSED_SETTINGS", "mode"),
-        ("unknown parameter id 200", "id200", "REFUSED_PARAM", "200"),
+        (f"unknown parameter id {UNKNOWN_ID}", "unknown-id", "REFUSED_PARAM", str(UNKNOWN_ID)),
     ]
 
 
@@ -126,8 +129,8 @@ def _validate(bench, sc, row):
             blob = faults.unchecked_frame(bench, "CTRL_PARAM", {"PARAM_ID": pid, "PARAM_EXP10": 31,
                                                                  "PARAM_MANTISSA": 1})
             n = 1
-        elif params == "id200":
-            blob = faults.unchecked_frame(bench, "CTRL_PARAM", {"PARAM_ID": 200, "PARAM_EXP10": 0,
+        elif params == "unknown-id":
+            blob = faults.unchecked_frame(bench, "CTRL_PARAM", {"PARAM_ID": UNKNOWN_ID, "PARAM_EXP10": 0,
                                                                  "PARAM_MANTISSA": 1})
             n = 1
         else:
