@@ -82,7 +82,7 @@ def test_production_inputs_are_two_frames_per_step_on_the_yp_grid(codec):
 
 
 def test_paced_matcher_unwraps_the_narrow_step(codec):
-    """EST_PROD's STEP is the low bits of the 16-bit step (7 since the 13 health flags took one)."""
+    """EST_PROD's STEP is the low byte of the 16-bit step."""
     rows = np.arange(N)
     wire = ((300 + rows) & 0xFFFF).tolist()
     assert PRODUCTION.closing_step_bits == codec.messages["EST_PROD"].signals["STEP"].length < 16

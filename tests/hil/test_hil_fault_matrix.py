@@ -339,7 +339,8 @@ def matrix(fault_run, binaries, inputs, out_dir, bench):
     r = np.where((answered & ~fr["lost"])[:, None], r, 0.0)
     ratio, pr = r[:, :9].max(axis=1), r[:, 9:]
     fl = dec.columns["flags"].astype(np.int64)
-    flags_bad = int(np.sum((fl[answered] & flags.CORE_MASK) != (ref_flags[answered] & flags.CORE_MASK)))
+    carried = flags.CORE_MASK & bench.profile.flags_mask  # production's EST_PROD leaves MODEL_MISMATCH to pages
+    flags_bad = int(np.sum((fl[answered] & carried) != (ref_flags[answered] & carried)))
     it_rows = answered & dec.carried.get("newton_iters", answered)
     iters_bad = int(np.sum(dec.columns["newton_iters"][it_rows].astype(np.int64)
                            != np.clip(ref_iters[it_rows], 0, 255)))

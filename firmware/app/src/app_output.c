@@ -10,9 +10,11 @@
 #include "app_internal.h"
 
 /* The estimator's flags (the schema's) share EST_STEP.FLAGS with the app's named bits (the DBC's) above them,
- * and EST_PROD.FLAGS carries all of the estimator's. */
+ * and EST_PROD.FLAGS carries every one of the estimator's but MODEL_MISMATCH, a condition over hundreds of
+ * steps that EST_PAGE's page 10 carries (EST_PROD keeps its 8-bit step). */
 CAEKF_STATIC_ASSERT((CAEKF_STEP_FLAGS_NAMED & CAEKF_FLAG_MASK) == 0u, core_flags_fit_below_app_flags);
-CAEKF_STATIC_ASSERT((CAEKF_FLAG_MASK & ~CAEKF_PROD_FLAGS_MASK) == 0u, production_carries_every_core_flag);
+CAEKF_STATIC_ASSERT((CAEKF_FLAG_MASK & ~CAEKF_PROD_FLAGS_MASK & ~(uint32_t)CAEKF_FLAG_MODEL_MISMATCH) == 0u,
+                    production_carries_every_per_step_core_flag);
 
 static void send_value(caekf_app_t *app, caekf_msg_t msg, uint16_t step, double value, uint16_t *app_flags)
 {

@@ -117,7 +117,7 @@ typedef struct {
 } caekf_msg_yp_t;
 
 typedef struct {
-    uint8_t step;   /* STEP modulo 2^7 (CAEKF_PROD_STEP_MASK) */
+    uint8_t step;   /* STEP modulo 2^8 (CAEKF_PROD_STEP_MASK) */
     uint16_t flags; /* the estimator's flags (CAEKF_PROD_FLAGS_MASK) */
     double gamma;   /* sent as float32 */
 } caekf_msg_prod_t;

@@ -9,7 +9,7 @@ estimator's profile is a runtime choice (`caekf-host --profile`), the bench's to
   within the DBC's sizes: `diagnostics_for` / `mechanism_profile` (its inputs and sensors in, every body's
   q and v and every contact's gamma and P_gamma,gamma out).
 - production: BENCH_U, BENCH_YP in; EST_PROD out every step (gamma, the estimator's flags, STEP mod
-  2^7); the rest of the estimate as EST_PAGE pages 0..10, one page per step at the first 11 steps of
+  2^8); the rest of the estimate as EST_PAGE pages 0..10, one page per step at the first 11 steps of
   every page period (default 20 steps), for a real 1 Mbit/s classic bus.
 - fd: BENCH_FD in, EST_FD out (CAN FD, 20 and 64 bytes, CRC-16 E2E), every value every step.
 """
@@ -53,6 +53,13 @@ class Profile:
     @property
     def input_messages(self) -> Tuple[str, ...]:
         return tuple(m for m, _ in self.inputs)
+
+    @property
+    def flags_mask(self) -> int:
+        """The flag bits the profile's every-step flags column carries: its signal's width (production's
+        EST_PROD.FLAGS leaves MODEL_MISMATCH to EST_PAGE)."""
+        s = self.results["flags"]
+        return (1 << signal_length(s.message, s.signal)) - 1
 
     @property
     def step_mask(self) -> int:

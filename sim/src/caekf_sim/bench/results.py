@@ -401,8 +401,9 @@ def compare_with_replay(dec: Decoded, ref: EstimateResult, codec: Codec,
         return have if c is None else have & np.asarray(c[:rows], dtype=bool)
 
     fsel, isel = rows_of("flags"), rows_of("newton_iters")
-    fl_can = cols["flags"][:rows][fsel].astype(np.int64) & fl.CORE_MASK
-    fl_ref = ref.flags[:rows][fsel] & fl.CORE_MASK
+    carried = fl.CORE_MASK & profile.flags_mask  # the core bits the flags column carries
+    fl_can = cols["flags"][:rows][fsel].astype(np.int64) & carried
+    fl_ref = ref.flags[:rows][fsel] & carried
     it_can = cols["newton_iters"][:rows][isel].astype(np.int64)
     it_ref = np.clip(ref.newton_iters[:rows][isel], 0, 255)
     for c in lacking:  # the replay has no such column: every CAN row of it counts as a mismatch
