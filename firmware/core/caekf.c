@@ -289,11 +289,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     }
 #endif
     for (i = n - est->model.nm; i < n; ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
-        const int j = i - (n - est->model.nm), e = est->model.mech_elem[j];
-        const unsigned char kind = est->model.mech_kind[j];
-        est->scale[i] = kind == CAEKF_MECH_MASS        ? mp->m_sigma[e]
-                        : kind == CAEKF_MECH_STIFFNESS ? mp->spring_k_sigma[e]
-                                                       : mp->spring_c_sigma[e];
+        (void)caekf_model_mech_setting(&est->model, mp, i - (n - est->model.nm), &est->scale[i]);
         est->q_diag[i] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
     }
     est->dims.nq = nq;
@@ -696,8 +692,7 @@ static int set_mechanism(caekf_t *est, const caekf_scalar_t *x)
         r |= caekf_model_set_mech(&est->sub_model, &est->cfg.model, mult);
     }
 #endif
-    est->fv_const = 0;
-    return r;
+    return r; /* fv_const stays unused: with mechanism parameters every step forms F (predict_covariance) */
 }
 
 /* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
@@ -997,12 +992,9 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
         return gamma;
     }
     if (i >= est->model.n - est->model.nm) { /* a mechanism parameter: the setting times exp(ln(value / setting)) */
-        const int j = i - (est->model.n - est->model.nm), e = est->model.mech_elem[j];
-        const caekf_model_params_t *p = &est->cfg.model;
-        const caekf_scalar_t setting = est->model.mech_kind[j] == CAEKF_MECH_MASS        ? p->m[e]
-                                       : est->model.mech_kind[j] == CAEKF_MECH_STIFFNESS ? p->spring_k[e]
-                                                                                         : p->spring_c[e];
-        const caekf_scalar_t value = setting * CAEKF_EXP(v);
+        const caekf_scalar_t value =
+            caekf_model_mech_setting(&est->model, &est->cfg.model, i - (est->model.n - est->model.nm), 0) *
+            CAEKF_EXP(v);
         *factor = est->scale[i] * value;
         return value;
     }

@@ -980,6 +980,26 @@ static caekf_scalar_t mech_factor(const caekf_model_t *m, const caekf_scalar_t *
     return 1;
 }
 
+/* A kind of mechanism parameter's settings: its values (m, spring_k or spring_c) and their declared
+ * relative standard deviations. */
+static const caekf_scalar_t *mech_settings(const caekf_model_params_t *p, int kind, const caekf_scalar_t **sigma)
+{
+    *sigma = kind == CAEKF_MECH_MASS        ? p->m_sigma
+             : kind == CAEKF_MECH_STIFFNESS ? p->spring_k_sigma
+                                            : p->spring_c_sigma;
+    return kind == CAEKF_MECH_MASS ? p->m : kind == CAEKF_MECH_STIFFNESS ? p->spring_k : p->spring_c;
+}
+
+caekf_scalar_t caekf_model_mech_setting(const caekf_model_t *m, const caekf_model_params_t *p, int j,
+                                        caekf_scalar_t *sigma)
+{
+    const caekf_scalar_t *sig, *value = mech_settings(p, m->mech_kind[j], &sig);
+    if (sigma != 0) {
+        *sigma = sig[m->mech_elem[j]];
+    }
+    return value[m->mech_elem[j]];
+}
+
 /* The estimated mechanism parameters (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0):
  * states after the law parameters, masses first, then stiffnesses, then dampers. */
 static void mech_states(caekf_model_t *m, const caekf_model_params_t *p)
@@ -988,9 +1008,7 @@ static void mech_states(caekf_model_t *m, const caekf_model_params_t *p)
     m->nm = 0;
     for (kind = CAEKF_MECH_MASS; kind <= CAEKF_MECH_DAMPER; ++kind) {
         const int count = kind == CAEKF_MECH_MASS ? p->bodies : p->springs;
-        const caekf_scalar_t *sigma = kind == CAEKF_MECH_MASS        ? p->m_sigma
-                                      : kind == CAEKF_MECH_STIFFNESS ? p->spring_k_sigma
-                                                                     : p->spring_c_sigma;
+        const caekf_scalar_t *sigma, *value = mech_settings(p, kind, &sigma);
         for (i = 0; i < count && m->nm < CAEKF_MAX_MECH_PARAMS; ++i) {
             if (sigma[i] > 0) {
                 const int j = m->nm++;
@@ -998,9 +1016,7 @@ static void mech_states(caekf_model_t *m, const caekf_model_params_t *p)
                 m->mech_elem[j] = (unsigned char)i;
                 m->mech_a[j] = (signed char)(kind == CAEKF_MECH_MASS ? i : p->spring_a[i] - 1);
                 m->mech_b[j] = (signed char)(kind == CAEKF_MECH_MASS ? i : p->spring_b[i] - 1);
-                m->mech_value[j] = kind == CAEKF_MECH_MASS        ? p->m[i]
-                                   : kind == CAEKF_MECH_STIFFNESS ? p->spring_k[i]
-                                                                  : p->spring_c[i];
+                m->mech_value[j] = value[i];
             }
         }
     }
@@ -1019,10 +1035,7 @@ static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const 
         none[i].dfc_ddelta = 0;
     }
     for (j = 0; mult != 0 && j < CAEKF_DIM_NM(m); ++j) {
-        const int e = m->mech_elem[j];
-        m->mech_value[j] = mult[j] * (m->mech_kind[j] == CAEKF_MECH_MASS        ? p->m[e]
-                                      : m->mech_kind[j] == CAEKF_MECH_STIFFNESS ? p->spring_k[e]
-                                                                                : p->spring_c[e]);
+        m->mech_value[j] = mult[j] * caekf_model_mech_setting(m, p, j, 0);
     }
     for (i = 0; i < CAEKF_NQ; ++i) {
         for (j = 0; j < CAEKF_NQ; ++j) {

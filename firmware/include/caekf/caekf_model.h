@@ -165,6 +165,11 @@ typedef struct {
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
 
+/* Estimated mechanism parameter j's setting (its value in p, the settings the model was initialised from)
+ * and, with sigma not NULL, its declared relative standard deviation. */
+caekf_scalar_t caekf_model_mech_setting(const caekf_model_t *m, const caekf_model_params_t *p, int j,
+                                        caekf_scalar_t *sigma);
+
 /* The matrices again with the estimated mechanism parameters at factor[j] times their settings' values
  * (j = 0 .. nm-1, in state order; p: the settings the model was initialised from). Returns 0, or -1
  * when the Newton matrix without contact is singular (the model then holds the new values). */
