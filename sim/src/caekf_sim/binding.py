@@ -172,22 +172,13 @@ def _law_columns(settings: Settings, x: np.ndarray) -> Dict[str, np.ndarray]:
 # The mechanism parameters a scenario can declare uncertain (settings m{i}_sigma, spring{i}_k_sigma,
 # spring{i}_c_sigma > 0), in the order their states follow the law parameters: (the value's key pattern,
 # the count key of its elements). Each estimated one is named by its value's scenario key (m2, spring1_k).
-MECH_PARAMS = (("m{i}", "bodies"), ("spring{i}_k", "springs"), ("spring{i}_c", "springs"))
-
-
 def mech_layout(sc: Any) -> Tuple[str, ...]:
     """The estimated mechanism parameters of a scenario or settings, in state order (masses, stiffnesses,
     dampers, each by element): their scenario keys (m2, spring1_k, spring3_c). They are the last states of x,
     after the law parameters; caekf-replay's columns of the same names, their variances p_<key>."""
-    from .mechanism import scenario_value
+    from .mechanism import mech_column_names, mech_layout as layout
 
-    out = []
-    for pattern, count in MECH_PARAMS:
-        for i in range(1, int(float(scenario_value(sc, count))) + 1):
-            key = pattern.replace("{i}", str(i))
-            if float(scenario_value(sc, f"{key}_sigma")) > 0.0:
-                out.append(key)
-    return tuple(out)
+    return mech_column_names(layout(sc))
 
 
 def _mech_columns(settings: Settings, a: np.ndarray, prefix: str = "") -> Dict[str, np.ndarray]:

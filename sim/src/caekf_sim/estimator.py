@@ -169,7 +169,7 @@ class AugmentedEKF:
         # The estimated mechanism parameters (docs/mechanism.md): theta_j = ln(value_j / setting_j), the last nm
         # states; the model's M, K, C follow their estimates every step (_set_mechanism).
         self.base = p
-        self.mech = mech_layout(sc, p)
+        self.mech = mech_layout(sc)
         self.nm = nm = len(self.mech)
         self.n = n = 2 * nq + nc + len(self.law) + nm
         self.im = list(range(n - nm, n))

@@ -221,12 +221,12 @@ def mech_value_key(kind: str, elem: int) -> str:
     return f"m{elem + 1}" if kind == "m" else f"spring{elem + 1}_{kind}"
 
 
-def mech_layout(sc: Any, mech: "Mechanism") -> Tuple[Tuple[str, int, float], ...]:
-    """The estimated mechanism parameters of a scenario in state order: (kind, element 0-based, relative
-    sigma) for every sigma > 0."""
+def mech_layout(sc: Any) -> Tuple[Tuple[str, int, float], ...]:
+    """The estimated mechanism parameters of a scenario or settings in state order (the C core's: masses,
+    stiffnesses, dampers, each by element): (kind, element 0-based, relative sigma) for every sigma > 0."""
     out = []
     for kind in MECH_KINDS:
-        count = mech.nq if kind == "m" else len(mech.spring_k)
+        count = int(float(scenario_value(sc, "bodies" if kind == "m" else "springs")))
         for e in range(count):
             sigma = _real(sc, mech_sigma_key(kind, e), 0.0)
             if sigma > 0.0:

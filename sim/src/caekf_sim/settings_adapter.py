@@ -90,9 +90,6 @@ def scenario_dict(sc: Scenario) -> Dict[str, float]:
 TUNABLE_NOISE: Tuple[str, ...] = tuple(k for k, s, _ in schema.SCHEMA.keys()
                                        if s.kind == "noise" and (s.name.startswith("sigma_")
                                                                  or s.name.endswith("_sigma")))
-# The mechanism parameters' random walk acts only when one is declared uncertain.
-_MECH_SIGMAS = tuple(k for k, s, _ in schema.SCHEMA.keys() if s.name in ("m_sigma", "spring_k_sigma",
-                                                                           "spring_c_sigma"))
 
 
 def tunable_noise(sc: Scenario) -> Tuple[str, ...]:
@@ -100,8 +97,10 @@ def tunable_noise(sc: Scenario) -> Tuple[str, ...]:
     uses (contact{i}_sigma_q_gamma for its contacts) and sets > 0 (the search is on a log scale; a 0,
     e.g. sigma_rv without velocity sensors or input1_sigma for an exact force, stays off); sigma_q_mech only
     when a mechanism parameter is declared uncertain."""
+    from .mechanism import mech_layout
+
     values = sc.values()
-    declared = any(float(values.get(k, 0.0)) > 0 for k in _MECH_SIGMAS)
+    declared = bool(mech_layout(sc))  # the mechanism parameters' drift acts only on declared ones
     return tuple(k for k in TUNABLE_NOISE if k in values and float(values[k]) > 0
                  and (k != "sigma_q_mech" or declared))
 
