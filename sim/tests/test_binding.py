@@ -61,19 +61,6 @@ def read_csv(path: Path) -> Dict[str, np.ndarray]:
     return {h: cells[:, i].astype(np.float64) for i, h in enumerate(header)}
 
 
-@pytest.fixture(scope="module")
-def truth_csv(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("bind") / "truth.csv"
-    subprocess.run([str(tool("caekf-truth", "double")), "--scenario", str(default_scenario_path()), "--out",
-                    str(out), "--quiet"], check=True, timeout=300)
-    return out
-
-
-@pytest.fixture(scope="module")
-def truth_cols(truth_csv) -> Dict[str, np.ndarray]:
-    return read_csv(truth_csv)
-
-
 def replay(precision: str, csv: Path, out: Path, *args: str, scenario: Optional[Path] = None) -> Dict[str, np.ndarray]:
     subprocess.run([str(tool("caekf-replay", precision)), "--scenario", str(scenario or default_scenario_path()),
                     "--in", str(csv), "--out", str(out), *args], check=True, timeout=300)

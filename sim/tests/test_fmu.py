@@ -9,7 +9,6 @@ FMU fails.
 from __future__ import annotations
 
 import os
-import subprocess
 from pathlib import Path
 from typing import Dict
 
@@ -24,7 +23,7 @@ from caekf_sim import fmu, schema  # noqa: E402
 from caekf_sim.experiments import run_experiment  # noqa: E402
 from caekf_sim.scenario import default_scenario_path  # noqa: E402
 
-from test_binding import read_csv, tool  # noqa: E402
+from test_binding import replay  # noqa: E402
 
 EXPERIMENTS = (None, "canonical", "switched", "switched-highq", "switched-highq-constrained")
 VERSIONS = (3, 2)
@@ -37,25 +36,6 @@ def fmu_file(role: str, version: int) -> Path:
             pytest.fail(f"caekf_{role}_fmi{version}.fmu not built in {[str(d) for d in fmu.fmu_dirs()]}")
         pytest.skip(f"caekf_{role}_fmi{version}.fmu not built")
     return p
-
-
-@pytest.fixture(scope="module")
-def truth_csv(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("fmu") / "truth.csv"
-    subprocess.run([str(tool("caekf-truth", "double")), "--scenario", str(default_scenario_path()), "--out",
-                    str(out), "--quiet"], check=True, timeout=300)
-    return out
-
-
-@pytest.fixture(scope="module")
-def truth_cols(truth_csv) -> Dict[str, np.ndarray]:
-    return read_csv(truth_csv)
-
-
-def replay(csv: Path, out: Path, *args: str) -> Dict[str, np.ndarray]:
-    subprocess.run([str(tool("caekf-replay", "double")), "--scenario", str(default_scenario_path()), "--in", str(csv),
-                    "--out", str(out), *args], check=True, timeout=300)
-    return read_csv(out)
 
 
 def assert_same(rep: Dict[str, np.ndarray], out: Dict[str, np.ndarray], prefix: str = "") -> None:
@@ -105,7 +85,7 @@ def test_parameters_are_the_schema(version):
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
 def test_estimator_fmu_equals_replay_bit_for_bit(experiment, version, truth_csv, truth_cols, tmp_path):
     args = ("--experiment", experiment) if experiment else ()
-    rep = replay(truth_csv, tmp_path / "replay.csv", *args)
+    rep = replay("double", truth_csv, tmp_path / "replay.csv", *args)
     y = np.column_stack([truth_cols["y1"], truth_cols["y4"]])
     out = fmu.replay(fmu_file("estimator", version), truth_cols["t"], truth_cols["u"], y, preset=experiment)
     assert_same(rep, out)
@@ -125,7 +105,7 @@ def test_lost_samples_bridge_like_replay(version, truth_cols, tmp_path):
         for k in range(n):
             ys = ",," if lost[k] else f",{float(y1[k])!r},{float(y4[k])!r}"
             f.write(f"{float(t[k])!r},{float(u[k])!r}{ys}\n")
-    rep = replay(csv, tmp_path / "replay.csv", "--missing-y-predict", "--experiment", "switched")
+    rep = replay("double", csv, tmp_path / "replay.csv", "--missing-y-predict", "--experiment", "switched")
     out = fmu.replay(fmu_file("estimator", version), t, u, np.column_stack([y1, y4]), has_y=~lost, preset="switched")
     assert_same(rep, out)
     assert np.all(out["flags"][lost].astype(int) & 1024)  # no_measurement
@@ -203,7 +183,7 @@ def cosim() -> Dict[str, np.ndarray]:
 def test_cosimulation_equals_the_c_experiment(cosim, truth_csv, tmp_path):
     """Plant FMU + estimator FMU in one FMPy co-simulation = caekf-truth | caekf-replay --experiment switched
     (tools/experiments.sh's pipeline), bit for bit over the whole 60 s."""
-    rep = replay(truth_csv, tmp_path / "replay.csv", "--experiment", "switched", "--gate", "0")
+    rep = replay("double", truth_csv, tmp_path / "replay.csv", "--experiment", "switched", "--gate", "0")
     assert np.array_equal(cosim["t"], rep["t"])
     assert_same(rep, cosim, prefix="est_")
 
