@@ -3,9 +3,12 @@
  * NULL arguments and unknown messages with its error status and writes nothing; the CRC-16 and FD E2E functions
  * refuse lengths outside 3..64; caekf_scaled_to_raw clips a value that only rounding takes past the signal's
  * range. Each test fails (or crashes) when the check it covers is removed. */
+#include <float.h>
+#include <math.h>
 #include <string.h>
 
 #include "caekf/caekf_crc16.h"
+#include "caekf/caekf_crc8.h"
 #include "caekf/caekf_e2e.h"
 #include "caekf/caekf_proto.h"
 #include "scaling.h"
@@ -126,6 +129,109 @@ static void test_scaled_to_raw_clips_what_rounding_takes_past_the_range(void)
     TEST_ASSERT_EQUAL_INT64(-INT64_C(34359738368), raw);
 }
 
+/* scaling.h's contract: 1 when clipped (not merely non-zero), a NaN gives raw 0, ties to even on both sides of
+ * zero; float32: FLT_MAX itself is not clipped, the value of a non-finite pattern is -1. (tools/mutation.py:
+ * the codec only reads these results as booleans, so no codec test tells 1 from 2.) */
+static void test_scaling_results_are_exactly_as_documented(void)
+{
+    int64_t raw = 5;
+    uint32_t bits = 0u;
+    double v = 0.0;
+    float f;
+    TEST_ASSERT_EQUAL_INT(1, caekf_scaled_to_raw((double)NAN, 1.0, 36u, &raw));
+    TEST_ASSERT_EQUAL_INT64(0, raw);
+    TEST_ASSERT_EQUAL_INT(1, caekf_scaled_to_raw(1e300, 1.0, 36u, &raw));
+    TEST_ASSERT_EQUAL_INT(1, caekf_scaled_to_raw(-1e300, 1.0, 36u, &raw));
+    TEST_ASSERT_EQUAL_INT(0, caekf_scaled_to_raw(-2.5, 1.0, 36u, &raw)); /* t = -2 even: stands */
+    TEST_ASSERT_EQUAL_INT64(-2, raw);
+    TEST_ASSERT_EQUAL_INT(0, caekf_scaled_to_raw(-0.5, 1.0, 36u, &raw));
+    TEST_ASSERT_EQUAL_INT64(0, raw);
+    TEST_ASSERT_EQUAL_INT(0, caekf_scaled_to_raw(-1.5, 1.0, 36u, &raw)); /* t = -1 odd: away, to -2 */
+    TEST_ASSERT_EQUAL_INT64(-2, raw);
+    TEST_ASSERT_EQUAL_INT(0, caekf_scaled_to_raw(-2.75, 1.0, 36u, &raw));
+    TEST_ASSERT_EQUAL_INT64(-3, raw);
+    TEST_ASSERT_EQUAL_INT(0, caekf_float32_bits((double)FLT_MAX, &bits));
+    memcpy(&f, &bits, sizeof f);
+    TEST_ASSERT_TRUE(f == FLT_MAX);
+    TEST_ASSERT_EQUAL_INT(0, caekf_float32_bits(-(double)FLT_MAX, &bits));
+    memcpy(&f, &bits, sizeof f);
+    TEST_ASSERT_TRUE(f == -FLT_MAX);
+    TEST_ASSERT_EQUAL_INT(1, caekf_float32_bits(2.0 * (double)FLT_MAX, &bits));
+    TEST_ASSERT_EQUAL_INT(1, caekf_float32_bits(-2.0 * (double)FLT_MAX, &bits));
+    TEST_ASSERT_EQUAL_INT(0, caekf_float32_value(0x3F800000u, &v));
+    TEST_ASSERT_TRUE(v == 1.0);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_float32_value(0x7FC00000u, &v)); /* NaN */
+    TEST_ASSERT_EQUAL_INT(-1, caekf_float32_value(0xFF800000u, &v)); /* -infinity */
+    TEST_ASSERT_TRUE(isinf(v) && v < 0.0);
+}
+
+/* The message count itself is an unknown message; a NULL buffer with a length is refused by the CRC-8. */
+static void test_the_first_index_past_the_table_and_a_null_buffer_with_bytes_are_refused(void)
+{
+    const caekf_msg_info_t *info = NULL;
+    uint8_t crc = 0x5Au;
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_MSG, caekf_proto_msg_info(CAEKF_MSG_COUNT, &info));
+    TEST_ASSERT_NULL(info);
+    TEST_ASSERT_EQUAL_INT(-1, caekf_crc8(NULL, 1u, &crc));
+    TEST_ASSERT_EQUAL_HEX8(0x5Au, crc);
+    TEST_ASSERT_EQUAL_INT(0, caekf_crc8(NULL, 0u, &crc));
+}
+
+/* The runtime ID base: every message moves by the offset, both ways; the offsets that keep every ID within
+ * 0..0x7FF are exactly the accepted ones. */
+static void test_id_offsets_move_every_message_and_stop_at_the_11_bit_range(void)
+{
+    unsigned i;
+    uint32_t lo = 0xFFFFu, hi = 0u;
+    const int32_t offsets[] = {0, 5, -3};
+    unsigned k;
+    for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
+        const caekf_msg_info_t *info;
+        TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_info((caekf_msg_t)i, &info));
+        lo = info->can_id < lo ? info->can_id : lo;
+        hi = info->can_id > hi ? info->can_id : hi;
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_id_offset_check(-(int32_t)lo));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_id_offset_check(-(int32_t)lo - 1));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_id_offset_check((int32_t)(CAEKF_CAN_SFF_MAX - hi)));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE, caekf_proto_id_offset_check((int32_t)(CAEKF_CAN_SFF_MAX - hi) + 1));
+    for (k = 0; k < sizeof offsets / sizeof offsets[0]; k++) {
+        for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
+            const caekf_msg_info_t *info;
+            uint32_t id = 0u;
+            caekf_msg_t msg = CAEKF_MSG_COUNT;
+            TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_info((caekf_msg_t)i, &info));
+            TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_bus_id((caekf_msg_t)i, offsets[k], &id));
+            TEST_ASSERT_EQUAL_UINT32((uint32_t)((int32_t)info->can_id + offsets[k]), id);
+            TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_from_bus_id(id, offsets[k], &msg));
+            TEST_ASSERT_EQUAL_INT((int)i, (int)msg);
+        }
+    }
+    {
+        uint32_t id = 0x55u;
+        TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_ERR_RANGE,
+                              caekf_proto_bus_id(CAEKF_MSG_EST_HEALTH, (int32_t)(CAEKF_CAN_SFF_MAX - hi) + 1, &id));
+        TEST_ASSERT_EQUAL_UINT32(0x55u, id);
+    }
+}
+
+/* A CAN FD message is sealed at its own length with the CRC-16 the FD check accepts. */
+static void test_seal_of_a_can_fd_message_uses_its_length_and_the_crc16(void)
+{
+    caekf_can_frame_t f;
+    const caekf_msg_info_t *info;
+    caekf_e2e_rx_t rx;
+    memset(&f, 0, sizeof f);
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_msg_info(CAEKF_MSG_EST_FD, &info));
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_seal(CAEKF_MSG_EST_FD, 6u, &f));
+    TEST_ASSERT_EQUAL_UINT32(info->can_id, f.id);
+    TEST_ASSERT_EQUAL_UINT8(CAEKF_FD_OUT_LEN, f.dlc);
+    (void)caekf_e2e_rx_init(&rx);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK,
+                          caekf_e2e_check_fd(&rx, info->data_id, 1u, f.data, f.dlc, (uint8_t)CAEKF_FD_OUT_LEN, NULL));
+    TEST_ASSERT_EQUAL_HEX8(6u, f.data[2] & 0x0Fu);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -133,5 +239,9 @@ int main(void)
     RUN_TEST(test_codecs_refuse_null_arguments);
     RUN_TEST(test_crc16_and_fd_e2e_refuse_null_and_bad_lengths);
     RUN_TEST(test_scaled_to_raw_clips_what_rounding_takes_past_the_range);
+    RUN_TEST(test_scaling_results_are_exactly_as_documented);
+    RUN_TEST(test_the_first_index_past_the_table_and_a_null_buffer_with_bytes_are_refused);
+    RUN_TEST(test_id_offsets_move_every_message_and_stop_at_the_11_bit_range);
+    RUN_TEST(test_seal_of_a_can_fd_message_uses_its_length_and_the_crc16);
     return UNITY_END();
 }

@@ -160,6 +160,54 @@ static void test_fd_crc16_check_value_and_seal_check(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_E2E_ERR_NULL, caekf_e2e_protect_fd(0xCA92u, 0u, NULL, 64u));
 }
 
+/* protect writes the whole counter nibble: a stale counter in the payload does not leak into the new one */
+static void test_protect_overwrites_the_old_counter_nibble(void)
+{
+    uint8_t f[8] = {0, 0xAF, 1, 2, 3, 4, 5, 6};
+    uint8_t fd[20];
+    memset(fd, 0x5F, sizeof fd);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect(DATA_ID, 0x30u, f)); /* only the low 4 bits count */
+    TEST_ASSERT_EQUAL_HEX8(0xA0u, f[1]);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect(DATA_ID, 3u, f));
+    TEST_ASSERT_EQUAL_HEX8(0xA3u, f[1]);
+    TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect_fd(DATA_ID, 0x12u, fd, sizeof fd));
+    TEST_ASSERT_EQUAL_HEX8(0x52u, fd[2]);
+}
+
+/* The CRC-16 is over [data ID low, data ID high, bytes 2..len-1], from the shortest frame (3 bytes) to the
+ * longest, with data IDs whose low and high bytes both matter. */
+static void test_fd_crc16_covers_both_data_id_bytes_then_bytes_2_to_len(void)
+{
+    static const uint16_t ids[] = {0xCA92u, 0x0001u, 0x0100u, 0xFFFFu};
+    static const uint8_t lens[] = {3u, 4u, 20u, 63u, 64u};
+    uint8_t p[64];
+    uint8_t seq[2 + 62];
+    unsigned i, k, j;
+    for (i = 0; i < sizeof p; i++) {
+        p[i] = (uint8_t)(i * 29u + 3u);
+    }
+    for (k = 0; k < sizeof ids / sizeof ids[0]; k++) {
+        for (j = 0; j < sizeof lens; j++) {
+            const unsigned len = lens[j];
+            uint16_t crc = 0u;
+            seq[0] = (uint8_t)(ids[k] & 0xFFu);
+            seq[1] = (uint8_t)(ids[k] >> 8);
+            memcpy(&seq[2], &p[2], len - 2u);
+            TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_crc16(ids[k], p, (uint8_t)len, &crc));
+            TEST_ASSERT_EQUAL_HEX16(caekf_crc16_update(CAEKF_CRC16_INIT, seq, len), crc);
+        }
+    }
+    /* the shortest frame seals and checks */
+    {
+        caekf_e2e_rx_t frx;
+        uint8_t s3[3] = {0, 0, 0x70};
+        TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_protect_fd(0xCA04u, 9u, s3, 3u));
+        TEST_ASSERT_EQUAL_HEX8(0x79u, s3[2]);
+        (void)caekf_e2e_rx_init(&frx);
+        TEST_ASSERT_EQUAL_INT(CAEKF_E2E_OK, caekf_e2e_check_fd(&frx, 0xCA04u, 1u, s3, 3u, 3u, NULL));
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -174,5 +222,7 @@ int main(void)
     RUN_TEST(test_any_bit_flip_or_wrong_data_id_is_a_crc_error);
     RUN_TEST(test_null_pointers_are_refused);
     RUN_TEST(test_fd_crc16_check_value_and_seal_check);
+    RUN_TEST(test_protect_overwrites_the_old_counter_nibble);
+    RUN_TEST(test_fd_crc16_covers_both_data_id_bytes_then_bytes_2_to_len);
     return UNITY_END();
 }
