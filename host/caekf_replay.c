@@ -62,6 +62,11 @@ static void write_header(FILE *f, const caekf_model_t *m)
         mech_name(key, sizeof key, m, i);
         fprintf(f, ",%s", key);
     }
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) { /* the sensors' estimated offsets */
+        if (m->sensor_bias[i] != 0) {
+            fprintf(f, ",sensor%d_bias", i + 1);
+        }
+    }
     fputs(",p_norm", f);
     for (i = 0; i < nc; ++i) {
         caekf_csv_series_name(name, "p_gg", i, nc, 1);
@@ -71,6 +76,11 @@ static void write_header(FILE *f, const caekf_model_t *m)
         char key[24];
         mech_name(key, sizeof key, m, i);
         fprintf(f, ",p_%s", key);
+    }
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
+        if (m->sensor_bias[i] != 0) {
+            fprintf(f, ",p_sensor%d_bias", i + 1);
+        }
     }
     fputs(",flags,newton_iters,nis\n", f);
 }
@@ -302,7 +312,8 @@ int main(int argc, char **argv)
         for (i = 0; i < nc; ++i) {
             fprintf(fout, ",%.17g", (double)P[ig + i][ig + i]);
         }
-        for (i = est.model.n - est.model.nm; i < est.model.n; ++i) { /* the mechanism parameters' variances */
+        for (i = est.model.n - est.model.nm - est.model.nb; i < est.model.n;
+             ++i) { /* mechanism's, offsets' variances */
             fprintf(fout, ",%.17g", (double)P[i][i]);
         }
         fprintf(fout, ",%lu,%d,%.9g\n", (unsigned long)rep.flags, rep.newton_iters, (double)rep.nis);

@@ -141,7 +141,7 @@ static caekf_scalar_t bound_of(const caekf_t *est, int k, int is_max)
 static void apply_bounds(caekf_t *est, caekf_scalar_t *z, uint32_t *flags)
 {
     /* the contacts' parameters (the mechanism's have no bounds: their logs keep them positive) */
-    const int nx = 2 * CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model), np = n - nx - CAEKF_DIM_NM(&est->model);
+    const int nx = 2 * CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model), np = CAEKF_DIM_MECH0(&est->model) - nx;
     const caekf_scalar_t *s = est->scale;
     int pass, k;
     if ((est->bound_lo | est->bound_hi) == 0) {
@@ -208,6 +208,15 @@ static uint32_t mismatch_update(const caekf_t *est, int corrected, caekf_scalar_
         }
     }
     return next->nis_mean > cfg->mismatch_ratio || next->q_scale > 1 ? CAEKF_FLAG_MODEL_MISMATCH : 0u;
+}
+
+/* Sensor k's noise std in its own unit (docs/sensors.md): its own, or the position or velocity sensors'. */
+static caekf_scalar_t sensor_sigma(const caekf_settings_t *s, int k)
+{
+    if (s->sensor_sigma[k] > 0) {
+        return s->sensor_sigma[k];
+    }
+    return s->model.sensor_kind[k] == CAEKF_SENSOR_VELOCITY ? s->sigma_rv : s->sigma_r;
 }
 
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
@@ -288,9 +297,17 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         }
     }
 #endif
-    for (i = n - est->model.nm; i < n; ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
-        (void)caekf_model_mech_setting(&est->model, mp, i - (n - est->model.nm), &est->scale[i]);
-        est->q_diag[i] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
+    for (i = 0; i < est->model.nm; ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
+        const int k = CAEKF_DIM_MECH0(&est->model) + i;
+        (void)caekf_model_mech_setting(&est->model, mp, i, &est->scale[k]);
+        est->q_diag[k] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
+    }
+    for (i = 0; i < mp->sensors; ++i) { /* the sensors' offsets: 0 at first, a random walk */
+        const int k = est->model.sensor_bias[i];
+        if (k != 0) {
+            est->scale[k] = mp->sensor_bias_sigma[i];
+            est->q_diag[k] = sq(s->sigma_q_mech);
+        }
     }
     est->dims.nq = nq;
     est->dims.n = n;
@@ -298,10 +315,21 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
         est->dims.r[i] = 1;
     }
+    est->dims.rows = 0;
     for (i = 0; i < mp->sensors; ++i) {
         const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
+        est->dims.rows |= mp->sensor_kind[i] > CAEKF_SENSOR_VELOCITY || est->model.sensor_bias[i] != 0;
         est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
         est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
+    }
+    for (i = 0; i < mp->sensors && est->dims.rows; ++i) { /* rows of H: each sensor in units of its noise */
+        int k;
+        est->dims.r[i] = 1;
+        for (k = 0; k < mp->inputs && mp->sensor_kind[i] == CAEKF_SENSOR_ACCELERATION; ++k) {
+            if (mp->input_body[k] == mp->sensor_body[i]) { /* a measured force's noise, read through 1 / m */
+                est->dims.r[i] += sq(s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
+            }
+        }
     }
     for (i = 0; i < n; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
         est->P[i * n + i] = 1;
@@ -412,13 +440,13 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         const caekf_scalar_t rvq = s_v / s_q, rqv = s_q / s_v;
         est->fv_const = 0;
         if (CAEKF_DIM_NM(&est->model) > 0) { /* the mechanism's columns over the whole step (docs) */
-            const int first = n - CAEKF_DIM_NM(&est->model);
+            const int first = CAEKF_DIM_MECH0(&est->model), end = first + CAEKF_DIM_NM(&est->model);
             if (caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, est->fv) != 0) {
                 return -1;
             }
             for (i = 0; i < nq; ++i) {
                 int j;
-                for (j = first; j < n; ++j) {
+                for (j = first; j < end; ++j) {
                     est->fq[i][j] = est->model.hs * est->fv[i][j];
                 }
             }
@@ -675,13 +703,38 @@ static void set_penetration_std(caekf_t *est)
 }
 #endif
 
+/* The correction's rows of H for sensors that read more than one state: at the scaled prediction z (the
+ * physical state is z times the scales), each sensor's h(x), row and measurement scaled by its noise std
+ * (its R is then 1). */
+static void sensor_rows(caekf_t *est, const caekf_scalar_t *z, const caekf_scalar_t *u, const caekf_scalar_t *y,
+                        caekf_scalar_t *y_s)
+{
+    caekf_correct_work_t *w = &est->scratch.correct;
+    const int n = CAEKF_DIM_N(&est->model);
+    caekf_scalar_t x[CAEKF_N];
+    int i, k;
+    for (i = 0; i < n; ++i) {
+        x[i] = z[i] * est->scale[i];
+    }
+    for (k = 0; k < est->cfg.model.sensors; ++k) {
+        const caekf_scalar_t sigma = sensor_sigma(&est->cfg, k);
+        caekf_scalar_t h;
+        caekf_model_sensor(&est->model, &est->cfg.model, k, x, u, &h, w->row[k]);
+        for (i = 0; i < n; ++i) {
+            w->row[k][i] *= est->scale[i] / sigma;
+        }
+        w->hx[k] = h / sigma;
+        y_s[k] = y[k] / sigma;
+    }
+}
+
 /* The model at the mechanism parameters' estimates (x: the physical state, ln(value / setting) in its
  * last nm entries): its matrices, and the substeps' model's. Returns -1 on a singular Newton matrix (the
  * step is then rolled back: the next one derives them again). */
 static int set_mechanism(caekf_t *est, const caekf_scalar_t *x)
 {
     caekf_scalar_t mult[CAEKF_MECH_STORE];
-    const int nm = CAEKF_DIM_NM(&est->model), first = CAEKF_DIM_N(&est->model) - nm;
+    const int nm = CAEKF_DIM_NM(&est->model), first = CAEKF_DIM_MECH0(&est->model);
     int j, r;
     for (j = 0; j < nm; ++j) {
         mult[j] = CAEKF_EXP(x[first + j]);
@@ -839,10 +892,11 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }
     }
-    for (i = nc; i < n - 2 * nq - nm; ++i) { /* a law parameter follows its contact's gamma */
+    for (i = nc; i < CAEKF_DIM_MECH0(&est->model) - 2 * nq; ++i) { /* a law parameter follows its contact's gamma */
         dims->policy[i] = dims->policy[est->model.param_contact[i]];
     }
-    for (i = n - 2 * nq - nm; i < n - 2 * nq; ++i) { /* the mechanism's: observable without contact */
+    for (i = CAEKF_DIM_MECH0(&est->model) - 2 * nq; i < n - 2 * nq; ++i) {
+        /* the mechanism's and the sensors' offsets: observable without contact */
         dims->policy[i] = CAEKF_GAMMA_LIVE;
     }
     if (any_contact) {
@@ -875,8 +929,12 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
 
     if (y != 0) {
         /* Correction, eqs. (13)-(15) / (25)-(27). */
-        for (i = 0; i < ny; ++i) {
-            y_s[i] = y[i] / s[dims->h[i]];
+        if (CAEKF_HAS_SENSOR_ROWS && dims->rows) {
+            sensor_rows(est, z, u, y, y_s);
+        } else {
+            for (i = 0; i < ny; ++i) {
+                y_s[i] = y[i] / s[dims->h[i]];
+            }
         }
         corrected = caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
                                         est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct) == 0;
@@ -991,10 +1049,10 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
         *factor = est->scale[i] * gamma;
         return gamma;
     }
-    if (i >= est->model.n - est->model.nm) { /* a mechanism parameter: the setting times exp(ln(value / setting)) */
+    if (i >= CAEKF_DIM_MECH0(&est->model) && i < CAEKF_DIM_MECH0(&est->model) + est->model.nm) {
+        /* a mechanism parameter: the setting times exp(ln(value / setting)) */
         const caekf_scalar_t value =
-            caekf_model_mech_setting(&est->model, &est->cfg.model, i - (est->model.n - est->model.nm), 0) *
-            CAEKF_EXP(v);
+            caekf_model_mech_setting(&est->model, &est->cfg.model, i - CAEKF_DIM_MECH0(&est->model), 0) * CAEKF_EXP(v);
         *factor = est->scale[i] * value;
         return value;
     }

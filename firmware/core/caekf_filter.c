@@ -353,12 +353,48 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     }
 }
 
-/* S^-1 of the innovation covariance S = H P H^T + R (ny x ny, from P's upper triangle). Two sensors: the
- * closed form; otherwise an LU. Returns 0, or -1 when S is not positive definite. */
-static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t *d,
-                              caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
+/* The sensors are rows of H (dims rows), in builds that have them (CAEKF_HAS_SENSOR_ROWS). */
+#define ROWS(d) (CAEKF_HAS_SENSOR_ROWS && (d)->rows)
+
+/* H P H^T's entry (k, l): P's at the sensed states, or with rows of H the correction's product. */
+static caekf_scalar_t hph(const caekf_scalar_t *P, const caekf_filter_dims_t *d, const caekf_correct_work_t *work,
+                          int k, int l)
+{
+    return ROWS(d) ? work->hph[k][l] : UP(P, DIM_N(d), d->h[k], d->h[l]);
+}
+
+/* Rows of H (work->row, scaled): H P into work->hp and H P H^T into work->hph, from P's upper triangle. */
+static void sensed_rows(const caekf_scalar_t *P, const caekf_filter_dims_t *d, caekf_correct_work_t *work)
 {
     const int n = DIM_N(d), ny = DIM_NY(d);
+    int i, j, k, l;
+    for (k = 0; k < ny; ++k) {
+        const caekf_scalar_t *h = work->row[k];
+        for (i = 0; i < n; ++i) {
+            caekf_scalar_t s = 0;
+            for (j = 0; j < n; ++j) {
+                s += h[j] * UP(P, n, j, i);
+            }
+            work->hp[k][i] = s;
+        }
+    }
+    for (k = 0; k < ny; ++k) {
+        for (l = k; l < ny; ++l) {
+            caekf_scalar_t s = 0;
+            for (i = 0; i < n; ++i) {
+                s += work->hp[k][i] * work->row[l][i];
+            }
+            work->hph[k][l] = work->hph[l][k] = s;
+        }
+    }
+}
+
+/* S^-1 of the innovation covariance S = H P H^T + R (ny x ny). Two sensors: the closed form; otherwise an
+ * LU. Returns 0, or -1 when S is not positive definite. */
+static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t *d, const caekf_correct_work_t *work,
+                              caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
+{
+    const int ny = DIM_NY(d);
 #if CAEKF_LA_GENERAL_LU
     caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
@@ -367,8 +403,8 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
 #endif
     if (ny == 2) {
         caekf_scalar_t inv[3];
-        if (caekf_sym2_inverse(AT(P, n, d->h[0], d->h[0]) + d->r[0], UP(P, n, d->h[0], d->h[1]),
-                               AT(P, n, d->h[1], d->h[1]) + d->r[1], CAEKF_EPS * 16, inv) != CAEKF_LA_OK) {
+        if (caekf_sym2_inverse(hph(P, d, work, 0, 0) + d->r[0], hph(P, d, work, 0, 1), hph(P, d, work, 1, 1) + d->r[1],
+                               CAEKF_EPS * 16, inv) != CAEKF_LA_OK) {
             return -1;
         }
         Si[0][0] = inv[0];
@@ -379,7 +415,7 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
 #if CAEKF_LA_GENERAL_LU
     for (k = 0; k < ny; ++k) {
         for (l = 0; l < ny; ++l) {
-            S[k * ny + l] = UP(P, n, d->h[k], d->h[l]) + (k == l ? d->r[k] : 0);
+            S[k * ny + l] = hph(P, d, work, k, l) + (k == l ? d->r[k] : 0);
             I[k * ny + l] = k == l ? 1 : 0;
         }
         if (!(S[k * ny + k] > 0)) {
@@ -424,12 +460,15 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     int any_live = 0, any_skip = 0;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
     int i, j, k, l;
-    if (innovation_inverse(P, d, Si) != 0) {
+    if (ROWS(d)) {
+        sensed_rows(P, d, work);
+    }
+    if (innovation_inverse(P, d, work, Si) != 0) {
         *flags |= CAEKF_FLAG_SINGULAR_INNOVATION;
         return -1;
     }
     for (k = 0; k < ny; ++k) {
-        e[k] = y_s[k] - z[d->h[k]]; /* eq. (14) */
+        e[k] = y_s[k] - (ROWS(d) ? work->hx[k] : z[d->h[k]]); /* eq. (14) */
     }
     /* Normalised innovation squared e^T S^-1 e: chi-square with ny degrees of freedom while the filter
      * is consistent. Far above that, the linearisation behind the gamma gain no longer holds (e.g. the
@@ -467,8 +506,10 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     if (ny == 2) { /* two sensors, written out: the same operations as the loops below */
         const int h0 = d->h[0], h1 = d->h[1];
         const caekf_scalar_t s00 = Si[0][0], s01 = Si[0][1], s11 = Si[1][1], e0 = e[0], e1 = e[1];
-        upper_col(P, n, h0, hp[0]);
-        upper_col(P, n, h1, hp[1]);
+        if (!ROWS(d)) {
+            upper_col(P, n, h0, hp[0]);
+            upper_col(P, n, h1, hp[1]);
+        }
         for (i = 0; i < n; ++i) {
             const caekf_scalar_t a = hp[0][i], b = hp[1][i];
             /* eq. (26) with a gamma frozen: a Schmidt ("consider") gain of 0 on it */
@@ -478,7 +519,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
             z[i] += G[i][0] * e0 + G[i][1] * e1;
         }
     } else {
-        for (i = 0; i < n; ++i) {
+        for (i = 0; i < n && !ROWS(d); ++i) {
             for (k = 0; k < ny; ++k) {
                 hp[k][i] = UP(P, n, d->h[k], i);
             }
@@ -501,7 +542,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     if (!JOSEPH_FORM(joseph)) {
         /* Eq. (15) on the upper triangle: P+ = P - G (H P). With a gamma's gain zeroed, its row of this
          * product would stay stale; the upper triangle alone gives the Schmidt result
-         * P_xg <- (I - G_x H_x) P_xg, P_gg unchanged. */
+         * P_xg <- P_xg - G_x (H P)_g, P_gg unchanged. */
         for (i = 0; i < n; ++i) {
             caekf_scalar_t *p = &AT(P, n, i, 0);
             if (skip[i]) {
@@ -535,6 +576,24 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
                 p[j] = j == i ? p[j] - s : flush(p[j] - s);
             }
         }
+        /* A held parameter i (gain 0) before a live state j: the upper triangle keeps P_ij, which is row j's
+         * update P_ji - G_j (H P)_i (the Schmidt result on both sides); the row loop above left it. Only a
+         * state with more than one parameter has such pairs. */
+        for (i = nx; CAEKF_NP > 1 && i < n; ++i) {
+            if (live[i] || skip[i]) {
+                continue;
+            }
+            for (j = i + 1; j < n; ++j) {
+                caekf_scalar_t s = 0;
+                if (!live[j] || skip[j]) {
+                    continue;
+                }
+                for (k = 0; k < ny; ++k) {
+                    s += G[j][k] * hp[k][i];
+                }
+                AT(P, n, i, j) = flush(AT(P, n, i, j) - s);
+            }
+        }
         return 0;
     }
     /* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,sensed} G^T + G R G^T. Row i
@@ -551,7 +610,7 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         for (k = 0; k < ny; ++k) {
             caekf_scalar_t s = 0;
             for (l = 0; l < ny; ++l) {
-                s += G[i][l] * hp[l][d->h[k]];
+                s += G[i][l] * (ROWS(d) ? work->hph[l][k] : hp[l][d->h[k]]); /* the prior's H P H^T */
             }
             a[k] = hp[k][i] - s;
             gr[k] = G[i][k] * rr[k];

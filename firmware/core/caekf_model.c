@@ -1155,6 +1155,14 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
         m->contact_j[i] = p->contact_b[i] - 1;
     }
     mech_states(m, p);
+    m->nb = 0;
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) { /* the sensors' offsets: the last states */
+        m->sensor_bias[i] = 0;
+        if (i < p->sensors && p->sensor_bias_sigma[i] > 0 && m->nb < CAEKF_MAX_BIASES) {
+            m->sensor_bias[i] = (unsigned char)m->n++;
+            m->nb++;
+        }
+    }
     return derive_values(m, p, 0);
 }
 
@@ -1185,7 +1193,7 @@ int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
 int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                              const caekf_scalar_t xk[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
-    const int nq = CAEKF_DIM_NQ(m), nm = CAEKF_DIM_NM(m), first = CAEKF_DIM_N(m) - nm;
+    const int nq = CAEKF_DIM_NQ(m), nm = CAEKF_DIM_NM(m), first = CAEKF_DIM_MECH0(m);
     const int trap = CAEKF_METHOD_TRAP(m);
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
     int piv[CAEKF_NQ];

@@ -15,13 +15,17 @@
 #define CAEKF_DIM_NU(m) ((void)(m), CAEKF_SIZED_INPUTS)
 #define CAEKF_DIM_N(m) ((void)(m), CAEKF_SIZED_N)
 #define CAEKF_DIM_NM(m) ((void)(m), CAEKF_SIZED_MECH_PARAMS)
+#define CAEKF_DIM_NB(m) ((void)(m), CAEKF_SIZED_BIASES)
 #else
 #define CAEKF_DIM_NQ(m) ((m)->nq)
 #define CAEKF_DIM_NC(m) ((m)->nc)
 #define CAEKF_DIM_NU(m) ((m)->p.inputs)
 #define CAEKF_DIM_N(m) ((m)->n)
 #define CAEKF_DIM_NM(m) ((m)->nm)
+#define CAEKF_DIM_NB(m) ((m)->nb)
 #endif
+/* The first mechanism parameter's state: the mechanism's parameters, then the sensors' offsets, end x. */
+#define CAEKF_DIM_MECH0(m) (CAEKF_DIM_N(m) - CAEKF_DIM_NM(m) - CAEKF_DIM_NB(m))
 
 /* Contact c's ends (0-based bodies, -1: ground): constants where the links are the build's
  * (CAEKF_FIXED_LINKS; the settings' ends are refused unless they are the sized scenario's). */

@@ -350,6 +350,13 @@ static int first_bad_body(const caekf_model_params_t *m)
         if (!body_ok(m, m->sensor_body[i])) {
             return (int)CAEKF_PARAM_SENSOR_BODY + i;
         }
+        if (m->sensor_kind[i] == CAEKF_SENSOR_RELATIVE &&
+            (!body_ok(m, m->sensor_ref[i]) || m->sensor_ref[i] == m->sensor_body[i])) {
+            return (int)CAEKF_PARAM_SENSOR_REF + i;
+        }
+        if (m->sensor_kind[i] == CAEKF_SENSOR_LINK_FORCE && m->sensor_link[i] > m->springs) {
+            return (int)CAEKF_PARAM_SENSOR_LINK + i;
+        }
     }
     for (i = 0; i < m->contacts; ++i) {
         if (!body_ok(m, m->contact_a[i])) {
@@ -530,6 +537,22 @@ static int first_mech_over(const caekf_model_params_t *p)
     return over >= 0 || !CAEKF_SIZED || count == CAEKF_MAX_MECH_PARAMS ? over : (int)CAEKF_PARAM_M_SIGMA;
 }
 
+/* The first sensor the build cannot take: an offset (sensor{i}_bias_sigma > 0) beyond its room, or in a
+ * build sized for one scenario any other count of offsets (refused at the first) or a sensor reading more
+ * than one state where the build has no rows of H (CAEKF_HAS_SENSOR_ROWS). Its parameter id, or -1. */
+static int first_sensor_over(const caekf_model_params_t *p)
+{
+    int i, count = 0, over = -1;
+    for (i = 0; i < p->sensors && i < CAEKF_MAX_SENSORS; ++i) {
+        count += p->sensor_bias_sigma[i] > 0;
+        over = over < 0 && count > CAEKF_MAX_BIASES ? (int)CAEKF_PARAM_SENSOR_BIAS_SIGMA + i : over;
+        over = over < 0 && !CAEKF_HAS_SENSOR_ROWS && p->sensor_kind[i] > CAEKF_SENSOR_VELOCITY
+                   ? (int)CAEKF_PARAM_SENSOR_KIND + i
+                   : over;
+    }
+    return over >= 0 || !CAEKF_SIZED || count == CAEKF_MAX_BIASES ? over : (int)CAEKF_PARAM_SENSOR_BIAS_SIGMA;
+}
+
 /* The model's own defence: the checks of caekf_settings_validate that concern the model alone (the same
  * code: its rows of the table, the bodies, a sized build's counts and method, the law parameters' room),
  * so that an invalid mechanism can never be derived (validation says which parameter is wrong). Returns
@@ -543,7 +566,7 @@ int caekf_model_params_check(const caekf_model_params_t *p)
     }
     law = law_params(p);
     return law > (unsigned)CAEKF_MAX_LAW_PARAMS || (CAEKF_SIZED && law != (unsigned)CAEKF_MAX_LAW_PARAMS) ||
-           first_mech_over(p) >= 0;
+           first_mech_over(p) >= 0 || first_sensor_over(p) >= 0;
 }
 
 caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_error_t *err)
@@ -566,8 +589,12 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
         return refuse(err, CAEKF_SETTING_BAD_BODY, (unsigned)bad);
     }
     for (i = 0; i < (unsigned)s->model.sensors; ++i) {
-        if (s->model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY && !(s->sigma_rv > 0)) {
+        const int kind = s->model.sensor_kind[i];
+        if (kind == CAEKF_SENSOR_VELOCITY && !(s->sigma_rv > 0) && !(s->sensor_sigma[i] > 0)) {
             return refuse(err, CAEKF_SETTING_NEEDED, CAEKF_PARAM_SIGMA_RV);
+        }
+        if ((kind == CAEKF_SENSOR_ACCELERATION || kind == CAEKF_SENSOR_LINK_FORCE) && !(s->sensor_sigma[i] > 0)) {
+            return refuse(err, CAEKF_SETTING_NEEDED, CAEKF_PARAM_SENSOR_SIGMA + i);
         }
     }
     bad = first_unsized(&s->model);
@@ -589,6 +616,9 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
         return refuse(err, CAEKF_SETTING_UNSUPPORTED, CAEKF_PARAM_ESTIMATE_N);
     }
     bad = first_mech_over(&s->model);
+    if (bad < 0) {
+        bad = first_sensor_over(&s->model);
+    }
     if (bad >= 0) {
         return refuse(err, CAEKF_SIZED ? CAEKF_SETTING_UNSUPPORTED : CAEKF_SETTING_OVER_CAPACITY, (unsigned)bad);
     }

@@ -6,6 +6,7 @@ set(CAEKF_CORE_SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/caekf_filter.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_linalg.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_model.c
+    ${CMAKE_CURRENT_LIST_DIR}/caekf_sensors.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_settings.c
     ${CAEKF_GEN_CORE}/caekf_settings_table.c)
 # Names of statuses, flags, settings and keys, and the text of a refusal: for hosts, logs and tools, in a library of their

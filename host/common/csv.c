@@ -46,9 +46,17 @@ int caekf_csv_columns(const caekf_model_params_t *p, caekf_csv_columns_t *c)
     for (i = 0; i < p->inputs; ++i) {
         caekf_csv_series_name(c->name[k++], "u", i, p->inputs, 0);
     }
-    for (i = 0; i < p->sensors; ++i) {
-        snprintf(c->name[k++], CAEKF_CSV_NAME_LEN, "%s%d", p->sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? "yv" : "y",
-                 p->sensor_body[i] % 1000);
+    for (i = 0; i < p->sensors; ++i) { /* docs/sensors.md: y<body>, yv<body>, ya<body>, yr<body>_<ref>, yf<link> */
+        static const char *const prefix[] = {"y", "yv", "ya", "yr", "yf"};
+        const int kind = (int)p->sensor_kind[i];
+        if (kind == CAEKF_SENSOR_RELATIVE) {
+            snprintf(c->name[k++], CAEKF_CSV_NAME_LEN, "yr%d_%d", p->sensor_body[i] % 1000, p->sensor_ref[i] % 1000);
+        } else if (kind == CAEKF_SENSOR_LINK_FORCE) {
+            snprintf(c->name[k++], CAEKF_CSV_NAME_LEN, "yf%d", p->sensor_link[i] % 1000);
+        } else {
+            snprintf(c->name[k++], CAEKF_CSV_NAME_LEN, "%s%d", prefix[kind >= 0 && kind < 3 ? kind : 0],
+                     p->sensor_body[i] % 1000);
+        }
     }
     c->count = k;
     return 0;

@@ -305,9 +305,19 @@ static int plant_setup(const caekf_scenario_t *sc, const caekf_input_series_t *s
         p->phase[i] = element_value(sc, "input%d_phase", i + 1);
     }
     for (i = 0; i < p->ns; ++i) {
+        const int link = mp->sensor_link[i] - 1;
         p->sensor_body[i] = mp->sensor_body[i] - 1;
-        p->sensor_vel[i] = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
-        p->noise[i] = p->sensor_vel[i] ? sc->noise_std_v : sc->noise_std;
+        p->sensor_kind[i] = (int)mp->sensor_kind[i];
+        p->sensor_ref[i] = mp->sensor_ref[i] - 1;
+        p->sensor_a[i] = link < mp->springs ? mp->spring_a[link] - 1 : -1;
+        p->sensor_b[i] = link < mp->springs ? mp->spring_b[link] - 1 : -1;
+        p->sensor_k[i] = link < mp->springs ? (double)mp->spring_k[link] : 0;
+        p->sensor_c[i] = link < mp->springs ? (double)mp->spring_c[link] : 0;
+        p->noise[i] = element_value(sc, "sensor%d_noise", i + 1);
+        if (!(p->noise[i] > 0)) {
+            p->noise[i] = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? sc->noise_std_v : sc->noise_std;
+        }
+        p->bias[i] = element_value(sc, "sensor%d_bias", i + 1);
     }
     for (i = 0; i < p->nc; ++i) {
         p->ca[i] = mp->contact_a[i] - 1;
@@ -345,6 +355,24 @@ static double rate_of(const plant_t *p, int c, const double *x)
     return side(x + p->nq, p->ca[c]) - side(x + p->nq, p->cb[c]);
 }
 
+static void rhs(const plant_t *p, double t, const double *x, double *f);
+
+/* What sensor i reads at the state x at time t, noise-free and without its offset (docs/sensors.md). */
+static double sensor_value(const plant_t *p, int i, double t, const double *x)
+{
+    const int b = p->sensor_body[i], nq = p->nq;
+    double f[CAEKF_TRUTH_N];
+    switch (p->sensor_kind[i]) {
+    case CAEKF_SENSOR_VELOCITY: return x[nq + b];
+    case CAEKF_SENSOR_ACCELERATION: rhs(p, t, x, f); return f[nq + b];
+    case CAEKF_SENSOR_RELATIVE: return x[b] - side(x, p->sensor_ref[i]);
+    case CAEKF_SENSOR_LINK_FORCE:
+        return p->sensor_k[i] * (side(x, p->sensor_a[i]) - side(x, p->sensor_b[i])) +
+               p->sensor_c[i] * (side(x + nq, p->sensor_a[i]) - side(x + nq, p->sensor_b[i]));
+    default: return x[b];
+    }
+}
+
 /* Fills a sample from the state and adds the measurement noise. */
 static void sample_fill(const plant_t *p, const caekf_scenario_t *sc, long k, const double *x, uint64_t *rng,
                         caekf_truth_sample_t *out)
@@ -364,7 +392,7 @@ static void sample_fill(const plant_t *p, const caekf_scenario_t *sc, long k, co
         out->delta[i] = delta_of(p, i, x);
     }
     for (i = 0; i < p->ns; ++i) {
-        out->y[i] = p->sensor_vel[i] ? out->v[p->sensor_body[i]] : out->q[p->sensor_body[i]];
+        out->y[i] = sensor_value(p, i, out->t, x) + p->bias[i];
     }
     for (i = 0; i < p->ns; ++i) {
         if (p->noise[i] > 0) {

@@ -71,9 +71,13 @@ typedef struct {
     const caekf_input_series_t *series;
     int nq, nc, ni, ns, n;
     double amp[CAEKF_MAX_INPUTS], freq[CAEKF_MAX_INPUTS], phase[CAEKF_MAX_INPUTS];
-    int input_body[CAEKF_MAX_INPUTS]; /* 0-based */
-    int sensor_body[CAEKF_MAX_SENSORS], sensor_vel[CAEKF_MAX_SENSORS];
-    double noise[CAEKF_MAX_SENSORS];                    /* std of each sensor's noise */
+    int input_body[CAEKF_MAX_INPUTS];                                   /* 0-based */
+    int sensor_body[CAEKF_MAX_SENSORS], sensor_kind[CAEKF_MAX_SENSORS]; /* 0-based body; caekf_sensor_kind_t */
+    int sensor_ref[CAEKF_MAX_SENSORS]; /* a relative sensor's reference body (0-based, -1 = ground) */
+    int sensor_a[CAEKF_MAX_SENSORS], sensor_b[CAEKF_MAX_SENSORS];    /* a link-force sensor's link ends */
+    double sensor_k[CAEKF_MAX_SENSORS], sensor_c[CAEKF_MAX_SENSORS]; /* and its stiffness and damper */
+    double noise[CAEKF_MAX_SENSORS];                                 /* std of each sensor's noise */
+    double bias[CAEKF_MAX_SENSORS];                     /* each sensor's constant offset (truth key sensor{i}_bias) */
     int ca[CAEKF_MAX_CONTACTS], cb[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     double gap[CAEKF_MAX_CONTACTS], cn[CAEKF_MAX_CONTACTS], lam[CAEKF_MAX_CONTACTS], gamma[CAEKF_MAX_CONTACTS];
     double minv[CAEKF_MAX_BODIES];

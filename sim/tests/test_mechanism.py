@@ -71,7 +71,7 @@ def test_five_body_matrices(five):
     ({"sensor1_body": 0}, "sensor1_body"),  # a sensor on the ground
     ({"sensor3_body": 1}, "sensor3_body"),  # the same sensor twice
     ({"sensor2_kind": "force"}, "sensor2_kind"),
-    ({"sensor2_kind": 2}, "sensor2_kind"),
+    ({"sensor2_kind": 5}, "sensor2_kind"),
     ({"contact2_b": 0}, "contact2_b"),  # ground against ground
     ({"contact1_b": 7}, "contact1_b"),
     ({"contact1_n": 0.5}, "contact1_n"),

@@ -200,6 +200,9 @@ static caekf_scalar_t *model_real_field(caekf_settings_t *s, unsigned id)
     if (IN(CAEKF_PARAM_SPRING_K_SIGMA, CAEKF_MAX_SPRINGS)) return &m->spring_k_sigma[id - CAEKF_PARAM_SPRING_K_SIGMA];
     if (IN(CAEKF_PARAM_SPRING_C_SIGMA, CAEKF_MAX_SPRINGS)) return &m->spring_c_sigma[id - CAEKF_PARAM_SPRING_C_SIGMA];
     if (IN(CAEKF_PARAM_INPUT_SIGMA, CAEKF_MAX_INPUTS)) return &s->input_sigma[id - CAEKF_PARAM_INPUT_SIGMA];
+    if (IN(CAEKF_PARAM_SENSOR_SIGMA, CAEKF_MAX_SENSORS)) return &s->sensor_sigma[id - CAEKF_PARAM_SENSOR_SIGMA];
+    if (IN(CAEKF_PARAM_SENSOR_BIAS_SIGMA, CAEKF_MAX_SENSORS))
+        return &m->sensor_bias_sigma[id - CAEKF_PARAM_SENSOR_BIAS_SIGMA];
     switch (id) {
     case CAEKF_PARAM_DT: return &m->dt;
     case CAEKF_PARAM_SIGMA_Q0: return &s->sigma_q0;
@@ -227,6 +230,8 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     if (IN(CAEKF_PARAM_INPUT_BODY, CAEKF_MAX_INPUTS)) return &m->input_body[id - CAEKF_PARAM_INPUT_BODY];
     if (IN(CAEKF_PARAM_SENSOR_BODY, CAEKF_MAX_SENSORS)) return &m->sensor_body[id - CAEKF_PARAM_SENSOR_BODY];
     if (IN(CAEKF_PARAM_SENSOR_KIND, CAEKF_MAX_SENSORS)) return &m->sensor_kind[id - CAEKF_PARAM_SENSOR_KIND];
+    if (IN(CAEKF_PARAM_SENSOR_REF, CAEKF_MAX_SENSORS)) return &m->sensor_ref[id - CAEKF_PARAM_SENSOR_REF];
+    if (IN(CAEKF_PARAM_SENSOR_LINK, CAEKF_MAX_SENSORS)) return &m->sensor_link[id - CAEKF_PARAM_SENSOR_LINK];
     if (IN(CAEKF_PARAM_CONTACT_A, CAEKF_MAX_CONTACTS)) return &m->contact_a[id - CAEKF_PARAM_CONTACT_A];
     if (IN(CAEKF_PARAM_CONTACT_B, CAEKF_MAX_CONTACTS)) return &m->contact_b[id - CAEKF_PARAM_CONTACT_B];
     if (IN(CAEKF_PARAM_ESTIMATE_N, CAEKF_MAX_CONTACTS)) return &m->contact_estimate_n[id - CAEKF_PARAM_ESTIMATE_N];

@@ -16,6 +16,7 @@
  *                            gammas: 3 per contact, or exactly the sized scenario's (generated too).
  *   CAEKF_MAX_MECH_PARAMS    mechanism parameters (masses, stiffnesses, dampers) the build can estimate
  *                            (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0)
+ *   CAEKF_MAX_BIASES         sensor offsets the build can estimate (setting sensor{i}_bias_sigma > 0)
  *   CAEKF_SIZED_METHOD       generated (caekf/caekf_capacity.h), 1 in a build sized for one configuration
  *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
  *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
@@ -108,18 +109,30 @@ typedef double caekf_scalar_t;
 #define CAEKF_HAS_DAMPING 1
 #endif
 
+/* Sensors that read more than one state (acceleration, relative, link force, or an estimated offset): the
+ * correction takes their rows of H. A build sized for one scenario compiles that in only where its sensors
+ * need it (CAEKF_SIZED_SENSOR_ROWS, generated). */
+#if CAEKF_SIZED
+#define CAEKF_HAS_SENSOR_ROWS CAEKF_SIZED_SENSOR_ROWS
+#else
+#define CAEKF_HAS_SENSOR_ROWS 1
+#endif
+
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses
  * n = 2 bodies + contacts + the n, lambda and gap it estimates). */
 /* A sized build's state: 2 bodies, the gammas, the law's and the mechanism's parameters (one definition for
  * every file that takes the sized n as a constant). */
 #if CAEKF_SIZED
-#define CAEKF_SIZED_N (2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS + CAEKF_SIZED_MECH_PARAMS)
+#define CAEKF_SIZED_N                                                                                   \
+    (2 * CAEKF_SIZED_BODIES + CAEKF_SIZED_CONTACTS + CAEKF_SIZED_LAW_PARAMS + CAEKF_SIZED_MECH_PARAMS + \
+     CAEKF_SIZED_BIASES)
 #endif
 
 #define CAEKF_NQ CAEKF_MAX_BODIES
-/* estimated parameters: the contacts' gammas and law parameters, then the mechanism's (masses, links) */
-#define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS + CAEKF_MAX_MECH_PARAMS)
+/* estimated parameters: the contacts' gammas and law parameters, then the mechanism's (masses, links), then
+ * the sensors' offsets */
+#define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS + CAEKF_MAX_MECH_PARAMS + CAEKF_MAX_BIASES)
 #define CAEKF_MECH_STORE (CAEKF_MAX_MECH_PARAMS > 0 ? CAEKF_MAX_MECH_PARAMS : 1)
 #define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_NP)
 /* Arrays with one element per estimated parameter: at least one (C has no empty arrays). */

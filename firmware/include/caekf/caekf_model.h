@@ -77,6 +77,10 @@ typedef struct {
     unsigned char mech_kind[CAEKF_MECH_STORE], mech_elem[CAEKF_MECH_STORE];
     signed char mech_a[CAEKF_MECH_STORE], mech_b[CAEKF_MECH_STORE];
     caekf_scalar_t mech_value[CAEKF_MECH_STORE];
+    /* The sensors' estimated offsets (setting sensor{i}_bias_sigma > 0): the last nb states, in sensor
+     * order; sensor_bias[k] is sensor k's offset state, 0 when it has none. */
+    int nb;
+    unsigned char sensor_bias[CAEKF_MAX_SENSORS];
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
     /* The implicit stage: the momentum rows are scaled so that their v_k-derivative is
@@ -129,7 +133,8 @@ typedef struct {
 typedef struct {
     int nq, n;                           /* bodies; states */
     int ny;                              /* sensors */
-    int h[CAEKF_MAX_SENSORS];            /* state index each sensor measures */
+    int rows;                            /* 0: each sensor reads one state (h); 1: the correction's rows */
+    int h[CAEKF_MAX_SENSORS];            /* state index each sensor measures (rows == 0) */
     caekf_scalar_t r[CAEKF_MAX_SENSORS]; /* scaled R diagonal */
     uint8_t policy[CAEKF_NP_STORE];      /* how parameter k (state 2 nq + k) is handled this step */
 } caekf_filter_dims_t;
@@ -138,6 +143,11 @@ typedef struct {
 typedef struct {
     caekf_scalar_t gain[CAEKF_N][CAEKF_MAX_SENSORS];
     caekf_scalar_t hp[CAEKF_MAX_SENSORS][CAEKF_N];
+    /* Sensors other than one state each (dims rows == 1): H's rows and h(x-), scaled (the caller's), and
+     * H P H^T (the correction's). */
+    caekf_scalar_t row[CAEKF_MAX_SENSORS][CAEKF_N];
+    caekf_scalar_t hx[CAEKF_MAX_SENSORS];
+    caekf_scalar_t hph[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
 } caekf_correct_work_t;
 
 /* One contact's law at a state: penetration and the force with its derivatives (the gap's is
@@ -185,6 +195,12 @@ int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
  * columns of fv. Returns 0, or -1 when A is singular. */
 int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                              const caekf_scalar_t xk[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+
+/* What sensor k reads at the augmented state x with the inputs u (docs/sensors.md): *value = h_k(x) and
+ * row = dh_k/dx, both in physical units (a mechanism parameter's column per ln(value), an offset's per its
+ * unit). p: the settings the model was initialised from. */
+void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, int k, const caekf_scalar_t *x,
+                        const caekf_scalar_t *u, caekf_scalar_t *value, caekf_scalar_t row[CAEKF_N]);
 
 /* Contact c's law at the augmented state x: positions, velocities, its gamma and its estimated law
  * parameters (the others are the model's). */

@@ -531,7 +531,7 @@ static PyObject *est_set_raw(EstObject *self, PyObject *arg)
  * corrections and the switched filter's consider update (the gain rows of q and v are optimal); not for
  * steps whose constraint or covariance repair changed P afterwards (flags CONSTRAINT_APPLIED,
  * COV_REPAIRED) nor steps without a correction: NaN there. */
-static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags)
+static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags, const caekf_scalar_t *u)
 {
     const uint32_t skip = CAEKF_FLAG_NO_MEASUREMENT | CAEKF_FLAG_INPUT_REJECTED | CAEKF_FLAG_NUMERIC_ROLLBACK |
                           CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED;
@@ -542,7 +542,35 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
     if (st != CAEKF_OK || (flags & skip)) {
         return (double)NAN;
     }
-    for (i = 0; i < ny; ++i) {
+    if (e->dims.rows) { /* sensors read rows of H (docs/sensors.md): B from the rows at the posterior state */
+        caekf_scalar_t hrow[CAEKF_MAX_SENSORS][CAEKF_N];
+        caekf_scalar_t xs[CAEKF_N], hv;
+        for (i = 0; i < n; ++i) {
+            xs[i] = e->z[i] * e->scale[i];
+        }
+        for (i = 0; i < ny; ++i) {
+            const double sd = e->cfg.sensor_sigma[i] > 0 ? (double)e->cfg.sensor_sigma[i]
+                              : e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
+                                                                                      : (double)e->cfg.sigma_r;
+            caekf_model_sensor(&e->model, &e->cfg.model, i, xs, u, &hv, hrow[i]);
+            r[i] = (double)e->dims.r[i] * sd * sd;
+            log_r2 += 2.0 * log(r[i]);
+        }
+        for (i = 0; i < ny; ++i) {
+            for (j = 0; j < ny; ++j) {
+                double b = 0.0;
+                int p, q;
+                for (p = 0; p < n; ++p) {
+                    for (q = 0; q < n; ++q) {
+                        b += (double)hrow[i][p] * (double)(e->P[p * n + q] * e->scale[p] * e->scale[q]) *
+                             (double)hrow[j][q];
+                    }
+                }
+                a[i][j] = (i == j ? r[i] : 0.0) - b;
+            }
+        }
+    }
+    for (i = 0; i < ny && !e->dims.rows; ++i) {
         const double sd = e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
                                                                                  : (double)e->cfg.sigma_r;
         r[i] = sd * sd;
@@ -684,7 +712,7 @@ static PyObject *est_run(EstObject *self, PyObject *args)
             }
         }
         if (logdet != NULL) {
-            logdet[k] = log_det_s(self, st, rep.flags);
+            logdet[k] = log_det_s(self, st, rep.flags, us);
         }
         if (pnorm != NULL) {
             caekf_scalar_t pn = 0;

@@ -54,13 +54,14 @@ import copy
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import flags as fl
-from .mechanism import (Mechanism, body_values, contact_values, law_column_names, law_derivatives, law_layout,
-                        mech_column_names, mech_layout, scenario_value)
+from .mechanism import (ACCELERATION, LINK_FORCE, VELOCITY, Mechanism, bias_layout, body_values, contact_law,
+                        contact_values, law_column_names, law_derivatives, law_layout, mech_column_names, mech_layout,
+                        scenario_value, sensor_sigmas)
 from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_inputs
 from .scenario import Scenario
 
@@ -153,6 +154,15 @@ def _set_block(A: np.ndarray, rows: Index, cols: Index, value: np.ndarray) -> No
         A[np.ix_(np.arange(A.shape[0])[rows], np.arange(A.shape[1])[cols])] = value
 
 
+def _pin_to_bounds(x: np.ndarray, P: np.ndarray, violated: Sequence[Tuple[int, float]]) -> None:
+    """A perfect measurement leaves the parameter on its bound and a zero row/column in exact arithmetic;
+    restore that, else round-off (P_gg ~ -1e-15 P_gg^-) makes P indefinite."""
+    for g, bound in violated:
+        x[g] = bound
+        P[g, :] = 0.0
+        P[:, g] = 0.0
+
+
 class AugmentedEKF:
     """State (x, P) plus the constant matrices; `step` advances one sample."""
 
@@ -171,8 +181,12 @@ class AugmentedEKF:
         self.base = p
         self.mech = mech_layout(sc)
         self.nm = nm = len(self.mech)
-        self.n = n = 2 * nq + nc + len(self.law) + nm
-        self.im = list(range(n - nm, n))
+        # The sensors' estimated offsets (sensor{i}_bias_sigma > 0, docs/sensors.md): the last nb states.
+        self.biases = bias_layout(sc)
+        self.nb = nb = len(self.biases)
+        self.n = n = 2 * nq + nc + len(self.law) + nm + nb
+        self.im = list(range(n - nm - nb, n - nb))
+        self.ib = list(range(n - nb, n))
         self.mech_setting = np.array([float(getattr(p, "m" if kind == "m" else f"spring_{kind}")[e])
                                       for kind, e, _ in self.mech])
         mech_sigma = np.array([sigma for _, _, sigma in self.mech])
@@ -196,11 +210,20 @@ class AugmentedEKF:
         self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
         self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
         self.dt = sc.dt
-        self.H = measurement_matrix(p, len(self.law) + nm)
+        self.H = measurement_matrix(p, len(self.law) + nm + nb)
         self.Hx = self.H[:, : self.nx]
-        sig_r = float(scenario_value(sc, "sigma_r"))
-        sig_rv = float(scenario_value(sc, "sigma_rv"))
-        self.R = np.diag([sig_r**2 if k == 0 else sig_rv**2 for k in p.sensor_kind.tolist()])
+        # Sensors other than one state each (acceleration, relative, link force, an offset): rows of H from
+        # the state every step (`sensor_rows`), else the constant selection H.
+        self.rows = nb > 0 or bool(np.any(p.sensor_kind > VELOCITY))
+        self.sensor_sigma = sensor_sigmas(sc, p)
+        r = self.sensor_sigma**2
+        for i, (b, k) in enumerate(zip(p.sensor_body.tolist(), p.sensor_kind.tolist())):
+            if k == ACCELERATION:  # a measured force's noise, read through 1 / m
+                r[i] += sum((self.input_sigma[j] / p.m[b]) ** 2 for j, ib in enumerate(p.input_body.tolist())
+                            if ib == b)
+        self.R = np.diag(r)
+        self._h: Optional[np.ndarray] = None  # the step's h(x-) and H (sensor_rows), None: the selection
+        self._Hk: np.ndarray = self.H
         self.gamma_min = contact_values(sc, "gamma_min", nc)
         g0 = contact_values(sc, "gamma0", nc)
         # ln gamma: P0, Q and the state relative to gamma0 (sigma / gamma0 is ln gamma's std to first order)
@@ -211,17 +234,18 @@ class AugmentedEKF:
             return np.array([float(scenario_value(sc, f"contact{c + 1}_{key.format(p=name)}"))
                              for c, name in self.law])
 
+        bias_sigma = np.array([sigma for _, sigma in self.biases])
+        q_mech = float(scenario_value(sc, "sigma_q_mech"))
         self.Q = np.diag(np.r_[[sc.sigma_qx_q**2] * nq, [sc.sigma_qx_v**2] * nq, self.q_gamma,
-                               law_value("sigma_q_{p}") ** 2,
-                               (float(scenario_value(sc, "sigma_q_mech")) * mech_sigma) ** 2])
+                               law_value("sigma_q_{p}") ** 2, (q_mech * mech_sigma) ** 2, (q_mech * bias_sigma) ** 2])
         self.Qx = self.Q[: self.nx, : self.nx]
         self.Qx_settings = np.diag(self.Qx).copy()
         self.nis_mean, self.q_scale = 1.0, 1.0  # the model-mismatch monitor
         self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq),
-                       np.log(g0) if cfg.gamma_log else g0, law_value("{p}0"), np.zeros(nm)]
+                       np.log(g0) if cfg.gamma_log else g0, law_value("{p}0"), np.zeros(nm + nb)]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
                                (contact_values(sc, "sigma_gamma0", nc) / rel) ** 2, law_value("sigma_{p}0") ** 2,
-                               mech_sigma**2])
+                               mech_sigma**2, bias_sigma**2])
         # Bounds (state, minimum, maximum or None), in state order: gamma's when constrained (eqs. 28-30),
         # an estimated law parameter's always. A maximum of 0 is none.
         self.bounds: List[Tuple[int, float, Optional[float]]] = []
@@ -564,10 +588,88 @@ class AugmentedEKF:
         return out
 
     # ---- correction -------------------------------------------------------------------
+    def sensor_rows(self, x: np.ndarray, u: Any) -> Tuple[np.ndarray, np.ndarray]:
+        """(h(x), H = dh/dx) of every sensor at the augmented state x with the inputs u (docs/sensors.md): the
+        mechanism's linear rows (position, velocity, relative, link force at the current values), the
+        acceleration's M^-1 (B_u u - K q - C v + signed contact forces) with its derivatives, a mechanism
+        parameter's column per ln(value), an offset's 1."""
+        p, nq, nx = self.plant, self.nq, self.nx
+        q, v = x[:nq], x[nq:nx]
+        H = np.zeros((p.n_sensors, self.n))
+        H[:, :nx] = p.H
+        h = p.H @ x[:nx]
+        mech_state = {(kind, e): j for (kind, e, _), j in zip(self.mech, self.im)}
+        uu = np.atleast_1d(np.asarray(u, dtype=float)) if p.n_inputs else np.zeros(0)
+
+        def diff(z: np.ndarray, a: int, b: int) -> float:
+            return (z[a] if a >= 0 else 0.0) - (z[b] if b >= 0 else 0.0)
+
+        for i, (b, k, link) in enumerate(zip(p.sensor_body.tolist(), p.sensor_kind.tolist(),
+                                             p.sensor_link.tolist())):
+            if k == LINK_FORCE:
+                ea, eb = int(p.spring_a[link]), int(p.spring_b[link])
+                for kind, z, value in (("k", q, p.spring_k[link]), ("c", v, p.spring_c[link])):
+                    if (kind, link) in mech_state:
+                        H[i, mech_state[(kind, link)]] = value * diff(z, ea, eb)
+            elif k == ACCELERATION:
+                h[i], H[i] = self._acceleration_row(x, b, uu, mech_state)
+        for (i, _), j in zip(self.biases, self.ib):
+            h[i] += x[j]
+            H[i, j] = 1.0
+        return h, H
+
+    def _acceleration_row(self, x: np.ndarray, b: int, u: np.ndarray,
+                          mech_state: Dict[Tuple[str, int], int]) -> Tuple[float, np.ndarray]:
+        """Body b's acceleration at x and its row of H (sensor_rows)."""
+        p, nq, nx = self.plant, self.nq, self.nx
+        q, v = x[:nq], x[nq:nx]
+        row = np.zeros(self.n)
+        force = float(u[p.input_body == b].sum()) - float(p.K[b] @ q) - float(p.C[b] @ v)
+        row[:nq] -= p.K[b]
+        row[nq:nx] -= p.C[b]
+        for link in range(len(p.spring_k)):
+            ea, eb = int(p.spring_a[link]), int(p.spring_b[link])
+            side = 1.0 if ea == b else -1.0 if eb == b else 0.0
+            for kind, z, value in (("k", q, p.spring_k[link]), ("c", v, p.spring_c[link])):
+                if side != 0.0 and (kind, link) in mech_state:
+                    dz = (z[ea] if ea >= 0 else 0.0) - (z[eb] if eb >= 0 else 0.0)
+                    row[mech_state[(kind, link)]] -= side * value * dz
+        gammas = self.gammas_of(x[nx:]).tolist()
+        for c, ((ca, cb, gap, ne, lam), g) in enumerate(zip(self.laws(x[nx:]), gammas)):
+            side = (-1.0 if ca == b else 0.0) + (1.0 if cb == b else 0.0)
+            if side == 0.0:
+                continue
+            d = (q[ca] if ca >= 0 else 0.0) - (q[cb] if cb >= 0 else 0.0) - gap
+            dd = (v[ca] if ca >= 0 else 0.0) - (v[cb] if cb >= 0 else 0.0)
+            fc, fd, fdd, fg = contact_law(d, dd, g, ne, lam)
+            force += side * fc
+            slr = self.solver.slr_tangents(c, d, g, ne)  # the step's statistically linearised tangents
+            if slr is not None:
+                fd, fdd, fg = slr[0], 0.0, slr[1]
+            for e, sign in ((ca, 1.0), (cb, -1.0)):
+                if e >= 0:
+                    row[e] += side * sign * fd
+                    row[nq + e] += side * sign * fdd
+            row[self.ig[c]] += side * (g * fg if self.cfg.gamma_log else fg)
+            st = self.law_state[c]
+            if "n" in st and fc != 0.0:
+                row[st["n"]] += side * fc * math.log(d)
+            if "lambda" in st and fg != 0.0:
+                row[st["lambda"]] += side * g * fg / (1.0 + lam * dd) * dd
+            if "gap" in st:
+                row[st["gap"]] -= side * fd
+        mass = float(p.m[b])
+        a = force / mass
+        row /= mass
+        if ("m", b) in mech_state:
+            row[mech_state[("m", b)]] -= a
+        return a, row
+
+
     def _index(self, live: Sequence[int]) -> Index:
         """The live block: the physical states plus the live contacts' parameter states (a slice when
         contiguous)."""
-        idx = list(range(self.nx)) + sorted(g for c in live for g in self.pstates[c]) + self.im
+        idx = list(range(self.nx)) + sorted(g for c in live for g in self.pstates[c]) + self.im + self.ib
         return slice(0, len(idx)) if idx == list(range(len(idx))) else idx
 
     def _correct(
@@ -578,9 +680,11 @@ class AugmentedEKF:
         variance (eqs. 25-27), their cross-covariance with L Schmidt-updated when `schmidt`. `violated`
         (state, bound) pairs add the perfect measurements x_state = bound of eqs. (28)-(30); `held` states
         (outside L) are held as the frozen contacts' are. Returns (x, P, used_pinv)."""
-        HL = self.H[:, L]
+        if self._h is not None:
+            return self._correct_rows(xp, P, y, L, frozen, schmidt, violated, held)
+        HL = self._Hk[:, L]
         R = self.R
-        resid = y - self.H @ xp
+        resid = y - (self._Hk @ xp if self._h is None else self._h)
         PLL = _block(P, L, L)
         used_pinv = False
         if violated:
@@ -624,18 +728,59 @@ class AugmentedEKF:
                 Pn[L, g] = col
                 Pn[g, L] = col
         if violated and not used_pinv:
-            # A perfect measurement leaves the parameter on its bound and a zero row/column in exact
-            # arithmetic; restore that, else round-off (P_gg ~ -1e-15 P_gg^-) makes P indefinite.
-            for g, bound in violated:
-                x[g] = bound
-                Pn[g, :] = 0.0
-                Pn[:, g] = 0.0
+            _pin_to_bounds(x, Pn, violated)
+        return x, Pn, used_pinv
+
+    def _correct_rows(
+        self, xp: np.ndarray, P: np.ndarray, y: np.ndarray, L: Index, frozen: Sequence[int], schmidt: bool,
+        violated: Sequence[Tuple[int, float]], held: Sequence[int],
+    ) -> Tuple[np.ndarray, np.ndarray, bool]:
+        """_correct for sensors whose rows of H reach states outside L (an accelerometer's gamma column): the
+        Schmidt-Kalman ("consider") correction, S = H P H^T + R over every state, the gain on L only,
+        P_LL - G (H P)_L (Joseph: symmetric), the held states' cross-covariance P_Lg - G (H P)_g."""
+        lidx = list(range(self.n))[L] if isinstance(L, slice) else list(L)
+        H, R, resid = self._Hk, self.R, y - self._h
+        if violated:
+            D = np.zeros((len(violated), self.n))
+            for i, (g, _) in enumerate(violated):
+                D[i, g] = 1.0
+            H = np.vstack([H, D])
+            R = np.pad(R, ((0, len(violated)), (0, len(violated))))
+            resid = np.r_[resid, [bound - xp[g] for g, bound in violated]]
+        HP = H @ P
+        S = HP @ H.T + R
+        S = 0.5 * (S + S.T)
+        d = np.sqrt(np.abs(np.diag(S)))
+        d[d == 0.0] = 1.0
+        Sn = S / np.outer(d, d)
+        used_pinv = False
+        try:
+            if violated and np.linalg.cond(Sn) > 1e14:
+                raise np.linalg.LinAlgError("ill-conditioned")
+            G = (np.linalg.solve(Sn, HP[:, lidx] / d[:, None]) / d[:, None]).T
+        except np.linalg.LinAlgError:
+            G = (HP[:, lidx] / d[:, None]).T @ np.linalg.pinv(Sn, rcond=1e-14) / d
+            used_pinv = True
+        x = xp.copy()
+        x[lidx] += G @ resid
+        GHP = G @ HP
+        Pn = P.copy()
+        block = GHP[:, lidx]
+        new = P[np.ix_(lidx, lidx)] - (block + block.T - G @ S @ G.T if self.cfg.joseph else block)
+        Pn[np.ix_(lidx, lidx)] = new
+        if schmidt:
+            for g in [g for c in frozen for g in self.pstates[c]] + list(held):
+                col = P[lidx, g] - GHP[:, g]
+                Pn[lidx, g] = col
+                Pn[g, lidx] = col
+        if violated and not used_pinv:
+            _pin_to_bounds(x, Pn, violated)
         return x, Pn, used_pinv
 
     def _nis(self, xp: np.ndarray, P: np.ndarray, y: np.ndarray) -> float:
         """Normalised innovation squared e^T S^-1 e of the full correction."""
-        e = y - self.H @ xp
-        S = self.H @ P @ self.H.T + self.R
+        e = y - (self._Hk @ xp if self._h is None else self._h)
+        S = self._Hk @ P @ self._Hk.T + self.R
         return float(e @ np.linalg.solve(S, e))
 
     def _monitor(self, nis: float) -> int:
@@ -719,10 +864,13 @@ class AugmentedEKF:
             Pm[: self.nx, : self.nx] += (G * self.input_sigma**2) @ G.T
         if predict and cfg.law_second_order and (self.law or cfg.gamma_log):
             Pm = self._second_order_noise(xp, Pm)
-        if (live or self.nm) and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
-            # every live parameter (the mechanism's too) held this step, as a consider state
+        if self.rows:  # the sensors' rows of H at x- (docs/sensors.md)
+            self._h, self._Hk = self.sensor_rows(xp, u)
+        if (live or self.nm or self.nb) and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
+            # every live parameter (the mechanism's and the offsets too) held this step, as a consider state
             status |= fl.GAMMA_GATED
-            x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True, held=self.im)
+            x, Pp, _ = self._correct(xp, Pm, y, slice(0, self.nx), list(range(self.nc)), True,
+                                     held=self.im + self.ib)
         else:
             x, Pp, _ = self._correct(xp, Pm, y, L, frozen, consistent)
             # Eqs. (28)-(30) over the active set: in state order, each live parameter outside a bound

@@ -36,7 +36,8 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .mechanism import POSITION, Mechanism, contact_law, contact_values, scenario_value
+from .mechanism import Mechanism, MechanismError, contact_law, contact_values, scenario_value
+from .mechanism import sensor_sigmas as mechanism_sensor_sigmas
 from .scenario import require_truth
 from .schema import setting_of
 from .truth import TRUTH_ATOL_Q, TRUTH_ATOL_V, input_function, integrate_modes
@@ -130,15 +131,11 @@ def initial_state_params(sc: Any, mech: Mechanism) -> List[Param]:
 
 
 def sensor_sigmas(sc: Any, mech: Mechanism) -> np.ndarray:
-    """R's standard deviation per sensor: sigma_r (position) or sigma_rv (velocity)."""
-    out = []
-    for kind in mech.sensor_kind.tolist():
-        key = "sigma_r" if kind == POSITION else "sigma_rv"
-        s = float(scenario_value(sc, key))
-        if not s > 0.0:
-            raise IdentifiabilityError(f"{key} = {s:g}: R needs > 0 for every sensor of that kind")
-        out.append(s)
-    return np.array(out)
+    """R's standard deviation per sensor (mechanism.sensor_sigmas), refusals in this module's words."""
+    try:
+        return mechanism_sensor_sigmas(sc, mech)
+    except MechanismError as e:
+        raise IdentifiabilityError(str(e)) from None
 
 
 @dataclass(frozen=True)

@@ -34,9 +34,12 @@ MAX_INPUTS = SCHEMA.capacity["inputs"]
 MAX_SENSORS = SCHEMA.capacity["sensors"]
 MAX_CONTACTS = SCHEMA.capacity["contacts"]
 
-POSITION = 0
-VELOCITY = 1
-SENSOR_KINDS = ("position", "velocity")
+# What a sensor reads (docs/sensors.md; the schema's sensor_kind, in its order).
+SENSOR_KINDS: Tuple[str, ...] = tuple(SCHEMA.by_name("sensor_kind").values)
+POSITION, VELOCITY, ACCELERATION, RELATIVE, LINK_FORCE = (SENSOR_KINDS.index(k) for k in (
+    "position", "velocity", "acceleration", "relative", "link_force"))
+# The sensor column's prefix per kind: y<body>, yv<body>, ya<body>, yr<body>_<ref>, yf<link>.
+SENSOR_PREFIX = {POSITION: "y", VELOCITY: "yv", ACCELERATION: "ya", RELATIVE: "yr", LINK_FORCE: "yf"}
 
 # Canonical key -> the paper's name for it (the schema's aliases, reversed).
 ALIASES: Dict[str, str] = {canon: alias for alias, canon in SCHEMA_ALIASES.items()}
@@ -234,6 +237,36 @@ def mech_layout(sc: Any) -> Tuple[Tuple[str, int, float], ...]:
     return tuple(out)
 
 
+def bias_layout(sc: Any) -> Tuple[Tuple[int, float], ...]:
+    """The sensors whose offset is estimated (sensor{i}_bias_sigma > 0), in state order (after the mechanism's
+    parameters): (sensor 0-based, sigma in the sensor's unit)."""
+    count = int(float(scenario_value(sc, "sensors")))
+    return tuple((i, s) for i in range(count) if (s := _real(sc, f"sensor{i + 1}_bias_sigma", 0.0)) > 0.0)
+
+
+def bias_column_names(layout: Sequence[Tuple[int, float]]) -> Tuple[str, ...]:
+    """Column names of the estimated offsets: sensor<i>_bias."""
+    return tuple(f"sensor{i + 1}_bias" for i, _ in layout)
+
+
+def sensor_sigmas(sc: Any, mech: "Mechanism") -> np.ndarray:
+    """R's standard deviation per sensor (docs/sensors.md): sensor{i}_sigma, or 0 there for sigma_r (position,
+    relative) or sigma_rv (velocity); acceleration and link-force sensors need their own."""
+    out = []
+    for i, kind in enumerate(mech.sensor_kind.tolist(), start=1):
+        key = f"sensor{i}_sigma"
+        s = float(scenario_value(sc, key))
+        if not s > 0.0:
+            if kind in (ACCELERATION, LINK_FORCE):
+                raise MechanismError(key, s, f"must be > 0: sensor{i} reads {SENSOR_KINDS[kind]}")
+            key = "sigma_rv" if kind == VELOCITY else "sigma_r"
+            s = float(scenario_value(sc, key))
+            if not s > 0.0:
+                raise MechanismError(key, s, "R needs > 0 for every sensor of that kind")
+        out.append(s)
+    return np.array(out)
+
+
 def mech_column_names(layout: Sequence[Tuple[str, int, float]]) -> Tuple[str, ...]:
     """Column names of estimated mechanism parameters: the value's own key (m1, spring2_k, spring3_c)."""
     return tuple(mech_value_key(kind, e) for kind, e, _ in layout)
@@ -261,12 +294,14 @@ class Mechanism:
     input_freq: np.ndarray  # [Hz]
     input_phase: np.ndarray  # [rad]
     sensor_body: np.ndarray  # (ns,) int
-    sensor_kind: np.ndarray  # (ns,) POSITION | VELOCITY
+    sensor_kind: np.ndarray  # (ns,) POSITION | VELOCITY | ACCELERATION | RELATIVE | LINK_FORCE
     contact_a: np.ndarray  # (nc,) int
     contact_b: np.ndarray
     contact_gap: np.ndarray  # [m]
     contact_n: np.ndarray  # exponent >= 1
     contact_lambda: np.ndarray  # Hunt-Crossley damping [s/m]
+    sensor_ref: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # relative: 0-based, -1
+    sensor_link: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # link force: 0-based
     # derived
     K: np.ndarray = field(init=False)
     C: np.ndarray = field(init=False)
@@ -297,8 +332,26 @@ class Mechanism:
             if ib >= 0:
                 B_c[c, ib] -= 1.0
         set_(self, "B_c", B_c)
-        H = np.zeros((len(self.sensor_body), 2 * nq))
-        H[np.arange(len(self.sensor_body)), self.sensor_body + nq * self.sensor_kind] = 1.0
+        ns = len(self.sensor_body)
+        if len(self.sensor_ref) != ns:  # a mechanism built without them: none relative, link 1
+            set_(self, "sensor_ref", np.full(ns, -1, dtype=np.int64))
+        if len(self.sensor_link) != ns:
+            set_(self, "sensor_link", np.zeros(ns, dtype=np.int64))
+        H = np.zeros((ns, 2 * nq))  # the sensors linear in [q; v] (an acceleration's row: sensor_rows)
+        for i, (b, k, r, link) in enumerate(zip(self.sensor_body.tolist(), self.sensor_kind.tolist(),
+                                                self.sensor_ref.tolist(), self.sensor_link.tolist())):
+            if k in (POSITION, VELOCITY):
+                H[i, b + nq * k] = 1.0
+            elif k == RELATIVE:
+                H[i, b] = 1.0
+                if r >= 0:
+                    H[i, r] -= 1.0
+            elif k == LINK_FORCE:
+                a, bb = int(self.spring_a[link]), int(self.spring_b[link])
+                for end, sign in ((a, 1.0), (bb, -1.0)):
+                    if end >= 0:
+                        H[i, end] += sign * self.spring_k[link]
+                        H[i, nq + end] += sign * self.spring_c[link]
         set_(self, "H", H)
 
     def with_values(self, m: np.ndarray, spring_k: np.ndarray, spring_c: np.ndarray) -> "Mechanism":
@@ -332,12 +385,21 @@ class Mechanism:
         freq = [_excitation(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]
         phase = [_excitation(sc, f"input{i}_phase") for i in range(1, ni + 1)]
         ns = _count(sc, "sensors", 1, MAX_SENSORS)
-        sens: List[Tuple[int, int]] = []
+        sens: List[Tuple[int, int, int, int]] = []
         for i in range(1, ns + 1):
-            s = (_body(sc, f"sensor{i}_body", nq, False), _kind(sc, f"sensor{i}_kind"))
+            body, kind = _body(sc, f"sensor{i}_body", nq, False), _kind(sc, f"sensor{i}_kind")
+            ref = _body(sc, f"sensor{i}_ref", nq, True) if kind == RELATIVE else -1
+            if kind == RELATIVE and ref == body:
+                raise MechanismError(f"sensor{i}_ref", ref + 1, f"must differ from sensor{i}_body")
+            link = 0
+            if kind == LINK_FORCE:
+                if n_springs == 0:
+                    raise MechanismError(f"sensor{i}_kind", "link_force", "needs a link (springs = 0)")
+                link = _count(sc, f"sensor{i}_link", 1, n_springs) - 1
+                body = -1  # a link force reads no one body
+            s = (body, kind, ref, link)
             if s in sens:
-                raise MechanismError(f"sensor{i}_body", s[0] + 1,
-                                     f"same body and kind as sensor{sens.index(s) + 1}")
+                raise MechanismError(f"sensor{i}_body", body + 1, f"reads what sensor{sens.index(s) + 1} reads")
             sens.append(s)
         nc = _count(sc, "contacts", 0, MAX_CONTACTS)
         ca, cb = _links(sc, "contact", nc, nq)
@@ -349,7 +411,8 @@ class Mechanism:
         return Mechanism(
             m=m, spring_a=ints(sa), spring_b=ints(sb), spring_k=reals(sk), spring_c=reals(scc),
             input_body=ints(ib), input_amp=reals(amp), input_freq=reals(freq), input_phase=reals(phase),
-            sensor_body=ints([s[0] for s in sens]), sensor_kind=ints([s[1] for s in sens]),
+            sensor_body=ints([max(s[0], 0) for s in sens]), sensor_kind=ints([s[1] for s in sens]),
+            sensor_ref=ints([s[2] for s in sens]), sensor_link=ints([s[3] for s in sens]),
             contact_a=ints(ca), contact_b=ints(cb), contact_gap=reals(gap), contact_n=reals(n),
             contact_lambda=reals(lam))
 
@@ -381,11 +444,30 @@ class Mechanism:
         return contact_forces(self.penetrations(q), self.penetration_rates(v), np.asarray(gamma, dtype=float),
                               self.contact_n, self.contact_lambda)
 
-    def measure(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Noise-free sensor readings (..., ns): each sensor copies its body's q or v."""
-        src = (np.asarray(q), np.asarray(v))
-        cols = [src[k][..., b] for b, k in zip(self.sensor_body.tolist(), self.sensor_kind.tolist())]
-        return np.stack(cols, axis=-1)
+    def accelerations(self, q: np.ndarray, v: np.ndarray, u: np.ndarray, gamma: "np.ndarray | Sequence[float]"
+                      ) -> np.ndarray:
+        """The bodies' accelerations (..., nq) at states (q, v) with inputs u (..., ni) and stiffnesses gamma:
+        M^-1 (B_u u - K q - C v + B_c^T-signed contact forces: -f on a contact's body a, +f on b)."""
+        q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+        f = -(q @ self.K.T) - v @ self.C.T + np.asarray(u, dtype=float).reshape(q.shape[:-1] + (-1,)) @ self.B_u.T
+        f = f - self.forces(q, v, np.asarray(gamma, dtype=float).tolist()) @ self.B_c
+        return f / self.m
+
+    def measure(self, q: np.ndarray, v: np.ndarray, a: Optional[np.ndarray] = None) -> np.ndarray:
+        """Noise-free sensor readings (..., ns) from states (q, v) and, with an acceleration sensor, the
+        bodies' accelerations a (docs/sensors.md)."""
+        x = np.concatenate([np.asarray(q, dtype=float), np.asarray(v, dtype=float)], axis=-1)
+        y = x @ self.H.T
+        for i, (b, k) in enumerate(zip(self.sensor_body.tolist(), self.sensor_kind.tolist())):
+            if k == ACCELERATION:
+                if a is None:
+                    raise ValueError(f"sensor{i + 1} reads an acceleration: measure needs the accelerations")
+                y[..., i] = np.asarray(a)[..., b]
+        return y
+
+    @property
+    def has_acceleration(self) -> bool:
+        return bool(np.any(self.sensor_kind == ACCELERATION))
 
     # ---- inputs -------------------------------------------------------------------------
     def inputs(self, t: "np.ndarray | float") -> np.ndarray:
@@ -401,9 +483,14 @@ class Mechanism:
 
     # ---- names --------------------------------------------------------------------------
     def sensor_names(self) -> Tuple[str, ...]:
-        """y<body> for a position sensor, yv<body> for a velocity sensor (the paper: y1, y4)."""
-        return tuple(("y" if k == POSITION else "yv") + str(b + 1)
-                     for b, k in zip(self.sensor_body.tolist(), self.sensor_kind.tolist()))
+        """y<body> (position), yv<body> (velocity), ya<body> (acceleration), yr<body>_<ref> (relative),
+        yf<link> (link force): the paper's y1, y4."""
+        out = []
+        for b, k, r, link in zip(self.sensor_body.tolist(), self.sensor_kind.tolist(), self.sensor_ref.tolist(),
+                                 self.sensor_link.tolist()):
+            tail = f"{b + 1}_{r + 1}" if k == RELATIVE else str(link + 1) if k == LINK_FORCE else str(b + 1)
+            out.append(SENSOR_PREFIX[k] + tail)
+        return tuple(out)
 
     def input_names(self) -> Tuple[str, ...]:
         return ("u",) if self.n_inputs == 1 else tuple(f"u{i}" for i in range(1, self.n_inputs + 1))

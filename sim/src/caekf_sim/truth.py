@@ -32,7 +32,7 @@ from typing import Any, Callable, List, Optional, Tuple, Union
 
 import numpy as np
 
-from .mechanism import InputSeries, Mechanism, contact_law, contact_values, scenario_value
+from .mechanism import VELOCITY, InputSeries, Mechanism, contact_law, contact_values, scenario_value
 from .model import StepSolver
 from .scenario import Scenario, require_truth
 
@@ -204,12 +204,18 @@ def _sampled(sc: Scenario, mech: Mechanism, ufn: InputFn, q: np.ndarray, v: np.n
     """Samples k = 1..N from the states: time grid, input, seeded noisy measurements, penetration."""
     n = sc.n_steps
     t = np.arange(1, n + 1, dtype=float) * sc.dt
-    std = np.array([float(scenario_value(sc, "noise_std" if k == 0 else "noise_std_v"))
-                    for k in mech.sensor_kind.tolist()])
+    std = np.array([float(scenario_value(sc, f"sensor{i}_noise")) or
+                    float(scenario_value(sc, "noise_std_v" if k == VELOCITY else "noise_std"))
+                    for i, k in enumerate(mech.sensor_kind.tolist(), start=1)])
+    bias = np.array([float(scenario_value(sc, f"sensor{i}_bias")) for i in range(1, mech.n_sensors + 1)])
     noise = np.random.default_rng(sc.seed).standard_normal((n, mech.n_sensors))
     noise = noise * (std[0] if np.all(std == std[0]) else std)
-    y = mech.measure(q, v) + noise
     u = np.asarray(ufn(t))
+    a = (mech.accelerations(q, v, u.reshape(n, -1), contact_values(sc, "gamma", mech.n_contacts))
+         if mech.has_acceleration else None)
+    y = mech.measure(q, v, a) + noise
+    if np.any(bias != 0.0):
+        y = y + bias
     delta = mech.penetrations(q)
     return Truth(t=t, u=u[:, 0] if mech.n_inputs == 1 else u, y=y, q=q, v=v,
                  delta=delta[:, 0] if mech.n_contacts == 1 else delta, y_names=mech.sensor_names())

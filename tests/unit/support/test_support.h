@@ -55,6 +55,7 @@ static inline void paper_filter_dims(caekf_filter_dims_t *d, caekf_scalar_t r, c
     d->nq = PAPER_NQ;
     d->n = PAPER_N;
     d->ny = 2;
+    d->rows = 0;
     d->h[0] = PAPER_IY1;
     d->h[1] = PAPER_IY4;
     d->r[0] = r;

@@ -482,6 +482,13 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
         mech = sum(1 for name, cap in MECH_SIGMAS for i in range(1, counts[cap] + 1)
                    if float(given.get(schema.by_name(name).keys[i - 1], 0.0)) > 0)
         lines.append(f"#define CAEKF_SIZED_MECH_PARAMS {mech} /* masses, stiffnesses, dampers estimated */")
+        bias_key = schema.by_name("sensor_bias_sigma").keys
+        biases = sum(1 for i in range(counts["sensors"]) if float(given.get(bias_key[i], 0.0)) > 0)
+        lines.append(f"#define CAEKF_SIZED_BIASES {biases} /* sensor offsets estimated */")
+        kind = schema.by_name("sensor_kind")
+        kinds = [given.get(kind.keys[i], kind.default_value(index=i)) for i in range(counts["sensors"])]
+        rows = biases > 0 or any((kind.values.index(k) if isinstance(k, str) else int(float(k))) >= 2 for k in kinds)
+        lines.append(f"#define CAEKF_SIZED_SENSOR_ROWS {int(rows)} /* a sensor reads more than one state */")
         # Hunt-Crossley damping in any contact: a nonzero lambda, or lambda estimated (CAEKF_HAS_DAMPING).
         lam = schema.by_name("contact_lambda")
         damped = any(flags[f"contact{i + 1}_estimate_lambda"] or
@@ -519,6 +526,8 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
     # exactly those the sized scenario declares uncertain.
     mech_cap = mech if mechanism is not None else sum(counts[cap] for _, cap in MECH_SIGMAS)
     lines.append(f"#define CAEKF_MAX_MECH_PARAMS {mech_cap}")
+    # The sensors' offsets estimated (states after the mechanism's): every sensor's, or the sized scenario's.
+    lines.append(f"#define CAEKF_MAX_BIASES {biases if mechanism is not None else counts['sensors']}")
     return "\n".join(lines + ["", "#endif", ""])
 
 
