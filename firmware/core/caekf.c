@@ -297,7 +297,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         }
     }
 #endif
-    for (i = 0; i < est->model.nm; ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
+    for (i = 0; i < CAEKF_DIM_NM(&est->model); ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
         const int k = CAEKF_DIM_MECH0(&est->model) + i;
         (void)caekf_model_mech_setting(&est->model, mp, i, &est->scale[k]);
         est->q_diag[k] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
@@ -1049,7 +1049,7 @@ static caekf_scalar_t state_value(const caekf_t *est, int i, caekf_scalar_t *fac
         *factor = est->scale[i] * gamma;
         return gamma;
     }
-    if (i >= CAEKF_DIM_MECH0(&est->model) && i < CAEKF_DIM_MECH0(&est->model) + est->model.nm) {
+    if (i >= CAEKF_DIM_MECH0(&est->model) && i < CAEKF_DIM_MECH0(&est->model) + CAEKF_DIM_NM(&est->model)) {
         /* a mechanism parameter: the setting times exp(ln(value / setting)) */
         const caekf_scalar_t value =
             caekf_model_mech_setting(&est->model, &est->cfg.model, i - CAEKF_DIM_MECH0(&est->model), 0) * CAEKF_EXP(v);
