@@ -142,3 +142,24 @@ def test_rig_estimates_gamma_and_the_offset(rig, paper):
     assert abs(r.x[-1, 8] / rig.gamma - 1.0) < 0.02
     bias, sd = r.x[-1, -1], np.sqrt(r.P_diag[-1, -1])
     assert abs(bias - 5e-7) < 3 * sd and sd < 2e-7
+
+
+def test_sensitivities_of_every_kind_are_the_truths_central_differences(rig):
+    """The Cramer-Rao bound's dy/dp (identifiability.sensitivities) for the rig's four kinds, with gamma, a mass,
+    the load cell's own stiffness and damper and the offset unknown, through the first contact episode: against
+    central differences of the scipy truth's noise-free readings."""
+    from caekf_sim.identifiability import law_params, mechanism_params, sensitivities
+    from caekf_sim.truth import simulate
+
+    d = rig.replace(t_end=13.5, noise_std=0.0, sensor1_noise=0.0, sensor3_noise=0.0, **UNCERTAIN)
+    params = law_params(d, ["gamma"], [1]) + mechanism_params(d)
+    assert [p.key for p in params] == ["contact1_gamma", "m2", "spring2_k", "spring2_c", "sensor4_bias"]
+    sens = sensitivities(d, params, initial_state=False)
+    assert sens.events >= 1
+    for j, p in enumerate(params):
+        h = 1e-4 * (abs(p.value) if p.value else 1e-6)
+        ys = [simulate(d.replace(**{p.key if p.mech != "b" else "sensor4_bias": p.value + s * h})).y
+              for s in (1.0, -1.0)]
+        fd = (ys[0] - ys[1]) / (2 * h) * p.scale
+        big = np.max(np.abs(sens.dy[:, :, j]), axis=0)
+        assert np.all(np.max(np.abs(fd - sens.dy[:, :, j]), axis=0) <= 2e-3 * big + 1e-12), p.key

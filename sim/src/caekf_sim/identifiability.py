@@ -36,7 +36,8 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .mechanism import Mechanism, MechanismError, contact_law, contact_values, scenario_value
+from .mechanism import (ACCELERATION, LINK_FORCE, Mechanism, MechanismError, bias_layout, contact_law, contact_values,
+                        scenario_value)
 from .mechanism import sensor_sigmas as mechanism_sensor_sigmas
 from .scenario import require_truth
 from .schema import setting_of
@@ -63,8 +64,9 @@ class Param:
     name: str  # gamma | n | lambda | gap, q0_<body> / v0_<body>, or the value's key m<i> / spring<i>_k / spring<i>_c
     value: float
     scale: float  # the column scale of the integration (SI units of the parameter)
-    mech: str = ""  # a mechanism parameter's kind: "m" (a mass), "k" (a link's stiffness), "c" (its damper)
-    element: int = -1  # its body or link, 0-based
+    mech: str = ""  # a mechanism parameter's kind: "m" (a mass), "k" (a link's stiffness), "c" (its damper),
+    # or "b" (a sensor's offset)
+    element: int = -1  # its body, link or sensor, 0-based
     prior: float = math.inf  # its prior std in SI (the declared sigma times the value; inf: none)
 
     @property
@@ -102,7 +104,8 @@ def mechanism_params(sc: Any) -> List[Param]:
     """The scenario's declared mechanism parameters (m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0),
     in the filter's state order (binding.mech_layout: masses, stiffnesses, dampers): the unknown is the
     value, its column scale the value itself, so a column is dy/d ln(value) and the relative bound that of
-    ln(value); the declared sigma times the value is its prior std."""
+    ln(value); the declared sigma times the value is its prior std. Then the sensors' declared offsets
+    (sensor{i}_bias_sigma > 0), each scaled and its prior std its declared sigma (docs/sensors.md)."""
     from .binding import mech_layout
 
     out = []
@@ -115,6 +118,8 @@ def mechanism_params(sc: Any) -> List[Param]:
             head, kind = key.rsplit("_", 1)
             elem = int(head[len("spring"):]) - 1
         out.append(Param(0, key, value, value, mech=kind, element=elem, prior=sigma * value))
+    for i, sigma in bias_layout(sc):  # the sensors' offsets (sensor{i}_bias_sigma > 0): unknown from 0
+        out.append(Param(0, f"sensor{i + 1}_bias", 0.0, sigma, mech="b", element=i, prior=sigma))
     return out
 
 
@@ -236,9 +241,27 @@ def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, 
     out, events, _ = integrate_modes(rhs, z0, mech, ts, "DOP853", rtol, atol)
     q, v = out[:, :nq], out[:, nq:n2]
     S = out[:, n2:].reshape(n, n2, m)
-    dy = np.einsum("sx,kxm->ksm", mech.H, S)
-    return Sensitivity(t=ts, y=mech.measure(q, v), delta=mech.penetrations(q), dy=dy, params=tuple(unknowns),
-                       events=events, x=np.hstack([q, v]))
+    dy = np.einsum("sx,kxm->ksm", mech.H, S)  # the sensors linear in [q; v] (docs/sensors.md)
+    a = None
+    if mech.has_acceleration:  # an accelerometer reads the model's acceleration: the right-hand side's
+        every = rhs(tuple([True] * nc))  # the law itself is 0 where a contact is open
+        fz = np.array([every(float(t), z) for t, z in zip(ts.tolist(), out)])
+        a = fz[:, nq:n2]
+        dA = fz[:, n2:].reshape(n, n2, m)[:, nq:]
+    for i, (b, kind, link) in enumerate(zip(mech.sensor_body.tolist(), mech.sensor_kind.tolist(),
+                                            mech.sensor_link.tolist())):
+        if kind == ACCELERATION:
+            dy[:, i, :] = dA[:, b, :]
+        elif kind == LINK_FORCE:  # the link's own stiffness or damper: d/d ln(value) = its term
+            for j, e, scale, on_v in link_cols:
+                if unknowns[j].element == link:
+                    dy[:, i, j] += scale * ((v if on_v else q) @ e)
+    for j, p in enumerate(unknowns):
+        if p.mech == "b":  # an offset: y + b
+            dy[:, p.element, j] = p.scale
+    offsets = np.array([float(scenario_value(sc, f"sensor{i}_bias")) for i in range(1, mech.n_sensors + 1)])
+    return Sensitivity(t=ts, y=mech.measure(q, v, a) + offsets, delta=mech.penetrations(q), dy=dy,
+                       params=tuple(unknowns), events=events, x=np.hstack([q, v]))
 
 
 def information(sens: Sensitivity, sigma: np.ndarray, stride: int = 1, t_from: float = 0.0
@@ -258,10 +281,12 @@ def information(sens: Sensitivity, sigma: np.ndarray, stride: int = 1, t_from: f
     return sens.t[ends - 1], np.cumsum(per, axis=0)
 
 
-def noise_dynamics(sc: Any, sens: Sensitivity) -> Tuple[np.ndarray, np.ndarray]:
+def noise_dynamics(sc: Any, sens: Sensitivity, rates: bool = False) -> Tuple[np.ndarray, ...]:
     """(F (N, 2 nq, 2 nq), G (N, 2 nq, inputs)): the continuous model linearised at the truth's state of each
     sample k (contacts' stiffness and damping included) over one sample dt, x_{k+1} = F_k x_k + G_k u_k with
-    the force held over the sample (zero-order hold): expm of [[A, B], [0, 0]] dt."""
+    the force held over the sample (zero-order hold): expm of [[A, B], [0, 0]] dt. With `rates`, a third
+    array (N, nq, 2 nq + inputs): the accelerations' rows of [A, B] at each sample (an accelerometer's H and
+    feedthrough)."""
     from scipy.linalg import expm
 
     if sens.x is None:
@@ -295,6 +320,8 @@ def noise_dynamics(sc: Any, sens: Sensitivity) -> Tuple[np.ndarray, np.ndarray]:
     E[:] = expm(augmented(np.zeros((nq, nq)), np.zeros((nq, nq))))
     if closed.size:
         E[closed] = expm(augmented(kc[closed], cc[closed]))
+    if rates:
+        return E[:, :n2, :n2], E[:, :n2, n2:], augmented(kc, cc)[:, nq:n2, :] / sc.dt
     return E[:, :n2, :n2], E[:, :n2, n2:]
 
 
@@ -307,12 +334,18 @@ def information_input_noise(sc: Any, sens: Sensitivity, sigma: np.ndarray, sigma
     is summed from the innovations of the Kalman filter of that noise model run over the sensitivities (the
     whitening of Sigma = R + the noise response's covariance; exact for the linearised model). It is never
     larger than `information`'s: the bounds only grow."""
-    F, G = noise_dynamics(sc, sens)
-    H = Mechanism.from_scenario(sc).H
+    mech = Mechanism.from_scenario(sc)
+    acc = [(i, b) for i, (b, k) in enumerate(zip(mech.sensor_body.tolist(), mech.sensor_kind.tolist()))
+           if k == ACCELERATION]
+    F, G, *more = noise_dynamics(sc, sens, rates=bool(acc))
+    H0 = mech.H
     R = np.diag(np.asarray(sigma, float) ** 2)
     Qw = np.diag(np.asarray(sigma_u, float) ** 2)
-    n, _, m = sens.dy.shape
     n2 = F.shape[1]
+    for i, b in acc:  # an accelerometer feels the input noise directly (its correlation with e_k+1 neglected)
+        d = more[0][0, b, n2:]
+        R[i, i] += float(d @ Qw @ d)
+    n, _, m = sens.dy.shape
     X = np.zeros((n2, m))  # the noise state's prediction of each sensitivity column
     P = G[0] @ Qw @ G[0].T  # e_1 = G_0 w_0
     use = sens.t >= t_from
@@ -321,6 +354,11 @@ def information_input_noise(sc: Any, sens: Sensitivity, sigma: np.ndarray, sigma
     J = np.zeros((m, m))
     e = 0
     for k in range(n):
+        H = H0
+        if acc:  # an accelerometer's row: the linearised acceleration at this sample
+            H = H0.copy()
+            for i, b in acc:
+                H[i] = more[0][k, b, :n2]
         if use[k]:
             PHt = P @ H.T
             S = H @ PHt + R
@@ -403,7 +441,7 @@ class Analysis:
         return self.rank.observable[self.sel]
 
     def rel(self, which: str = "crb") -> np.ndarray:
-        vals = np.array([abs(p.value) for p in self.params])
+        vals = np.array([abs(p.value) if p.value else (p.scale if p.mech == "b" else 0.0) for p in self.params])
         b = self.crb if which == "crb" else self.crb_post
         return np.divide(b, vals, out=np.full_like(b, np.inf), where=vals > 0)
 

@@ -166,8 +166,8 @@ def admission_verdict(sc: Scenario, layout: Sequence[Tuple[int, str]]) -> Dict[s
     out: Dict[str, Any] = {"crb_gamma_declared": worst, "crb_gamma_declared_fisher": max(fisher, default=math.inf),
                            "crb_admitted": bool(ADMIT_SIGMAS * worst <= ADMIT_TOL)}
     for i, p in enumerate(an.params):
-        if p.mech:
-            out[f"crb_{p.key}"] = float(an.crb_post[-1, i]) / abs(p.value)
+        if p.mech:  # relative to the value; an offset's (value 0) in its own unit
+            out[f"crb_{p.key}"] = float(an.crb_post[-1, i]) / (abs(p.value) if p.mech != "b" else 1.0)
     return out
 
 
