@@ -34,9 +34,11 @@ Outcome of a mutant:
 Score = killed / (killed + survived + not covered).
 
 Suites: the Unity tests ctest registers under tests/unit (core) and tests/unit/protocol (protocol); with
---also-app the app's suites (tests/unit/app) are added to both. --sample draws a deterministic random sample
-(Python's random with --seed) of a folder's mutants; FOLDER=N samples that folder only.
-Exit status: 0 when the run completed, 1 when the unmutated suites fail, 2 usage.
+--also-app the app's suites (tests/unit/app) are added to both. --sample draws a deterministic sample
+(the smallest hashes of --seed and each mutant's file, line text and mutation: a mutant stays in or out while
+its line is unchanged) of a folder's mutants; FOLDER=N samples that folder only.
+Exit status: 0 when the run completed, 1 when the unmutated suites fail, 2 usage, 3 when a folder's score is
+below its --min-score floor.
 """
 
 from __future__ import annotations
@@ -48,7 +50,6 @@ import hashlib
 import io
 import json
 import os
-import random
 import re
 import shutil
 import subprocess
@@ -146,6 +147,7 @@ class Mutant:
     line: int
     col: int
     orig: str
+    text: str = ""  # the unmutated source line, stripped
     outcome: str = ""
     detail: str = ""
     seconds: float = 0.0
@@ -283,28 +285,36 @@ def generate(path: str, folder: str, src: str) -> list[Mutant]:
 
     def add(start: int, end: int, repl: str, op: str) -> None:
         line, col = line_col(src, start)
-        out.append(Mutant(path, folder, start, end, repl, op, line, col, src[start:end]))
+        a, b = src.rfind("\n", 0, start) + 1, src.find("\n", start)
+        text = squash(src[a: b if b >= 0 else len(src)], 200)
+        out.append(Mutant(path, folder, start, end, repl, op, line, col, src[start:end], text))
 
     # not code to mutate: typedefs, static asserts, the sizes of declared arrays
     skip: set[int] = set()
+    decl = False  # the statement begins with a type: a declaration
     i = 0
     while i < len(toks):
-        if toks[i].text in ("typedef", "_Static_assert"):
+        x = toks[i].text
+        if i == 0 or toks[i - 1].text in (";", "{", "}"):
+            decl = is_type_name(toks[i]) or x in ("static", "extern", "register")
+        if x in ("typedef", "_Static_assert"):
             j = i
             while j < len(toks) and toks[j].text != ";":
                 skip.add(j)
                 j += 1
             i = j
-        elif (toks[i].text == "[" and i >= 2 and toks[i - 1].kind == "id" and toks[i - 2].kind == "id"
-              and toks[i - 2].text not in ("return", "case", "sizeof", "else")) or (
-                toks[i].text == "[" and i >= 2 and toks[i - 1].kind == "id" and toks[i - 2].text == "*"
-                and i >= 3 and is_type_name(toks[i - 3])):
+        elif x == "[" and i >= 2 and toks[i - 1].kind == "id" and (
+                (toks[i - 2].kind == "id" and toks[i - 2].text not in ("return", "case", "sizeof", "else"))
+                or (toks[i - 2].text == "*" and i >= 3 and (is_type_name(toks[i - 3]) or toks[i - 3].text == "const"))
+                or (decl and toks[i - 2].text in (",", "*"))):
             d = 0
-            for j in range(i, len(toks)):
+            j = i
+            while j < len(toks):  # this [..] and any that follow it: H[4][4]
                 skip.add(j)
                 d += (toks[j].text == "[") - (toks[j].text == "]")
-                if d == 0:
+                if d == 0 and not (j + 1 < len(toks) and toks[j + 1].text == "["):
                     break
+                j += 1
             i = j
         i += 1
 
@@ -362,16 +372,53 @@ def apply(src: str, m: Mutant) -> str:
 
 # ---- reviewed equivalents ----------------------------------------------------------------------------------
 
-def read_equivalents(path: Path) -> dict[tuple[str, str], str]:
-    """{(path:line:col, mutation): why} from the table rows of docs/mutation-equivalent.md."""
-    eq: dict[tuple[str, str], str] = {}
-    if not path.exists():
-        return eq
-    for line in path.read_text(encoding="utf-8").splitlines():
-        m = re.match(r"\|\s*`([^`]+:\d+:\d+)`\s*\|(.*)\|(.*)\|\s*$", line)
-        if m:
-            eq[(m.group(1), squash(m.group(2)))] = m.group(3).strip()
-    return eq
+@dataclass
+class EquivalentRow:
+    key: str  # path:line:col
+    mutation: str
+    text: str  # the source line
+    why: str
+
+    @property
+    def path(self) -> str:
+        return self.key.rsplit(":", 2)[0]
+
+
+def read_equivalents(path: Path) -> list[EquivalentRow]:
+    """The table rows of docs/mutation-equivalent.md: | `path:line:col` | mutation | `source line` | why |."""
+    rows = []
+    if path.exists():
+        for line in path.read_text(encoding="utf-8").splitlines():
+            m = re.match(r"\|\s*`([^`]+:\d+:\d+)`\s*\|(.*?)\|\s*`(.*?)`\s*\|(.*)\|\s*$", line)
+            if m:
+                rows.append(EquivalentRow(m.group(1), squash(m.group(2)), squash(m.group(3), 200), m.group(4).strip()))
+    return rows
+
+
+def match_equivalents(rows: list[EquivalentRow], population: list[Mutant]) -> tuple[dict[int, EquivalentRow],
+                                                                                   list[EquivalentRow]]:
+    """({id(mutant): row}, rows naming no mutant) for the rows of the files in population. A row names the mutant
+    at its place with its mutation; else, when its line moved, the one mutant of its file with that mutation on a
+    line of that text."""
+    by_key = {(m.key, squash(m.mutation)): m for m in population}
+    by_text: dict[tuple[str, str, str], list[Mutant]] = {}
+    for m in population:
+        by_text.setdefault((m.path, squash(m.mutation), m.text), []).append(m)
+    files = {m.path for m in population}
+    found: dict[int, EquivalentRow] = {}
+    stale = []
+    for r in rows:
+        if r.path not in files:
+            continue
+        m = by_key.get((r.key, r.mutation))
+        if m is None or m.text != r.text:
+            moved = by_text.get((r.path, r.mutation, r.text), [])
+            m = moved[0] if len(moved) == 1 else None
+        if m is None:
+            stale.append(r)
+        else:
+            found[id(m)] = r
+    return found, stale
 
 
 # ---- the build ---------------------------------------------------------------------------------------------
@@ -662,6 +709,19 @@ def mutated_line(src: str, m: Mutant) -> str:
 
 # ---- main --------------------------------------------------------------------------------------------------
 
+def sample(ms: list[Mutant], n: int, seed: int) -> list[Mutant]:
+    """The n mutants with the smallest hash of (seed, file, source line, mutation, occurrence): deterministic, and
+    stable when other lines of the file change (a mutant keeps its rank as long as its line reads the same)."""
+    seen: dict[tuple[str, str, str, str, str], int] = {}
+    ranked = []
+    for m in ms:
+        ident = (m.path, m.text, m.op, m.orig, m.repl)
+        seen[ident] = seen.get(ident, 0) + 1
+        h = hashlib.sha256(repr((seed,) + ident + (seen[ident],)).encode()).hexdigest()
+        ranked.append((h, m.start, m))
+    return [m for _, _, m in sorted(ranked, key=lambda r: r[0])[:n]]
+
+
 def parse_sample(values: list[str], folders: list[str]) -> dict[str, int]:
     out: dict[str, int] = {}
     for v in values:
@@ -677,7 +737,7 @@ def parse_sample(values: list[str], folders: list[str]) -> dict[str, int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--folders", nargs="+", choices=list(FOLDERS), default=list(FOLDERS))
     ap.add_argument("--files", nargs="+", default=[], help="only files matching these globs (repository paths)")
@@ -691,6 +751,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="write every mutant and its outcome here")
     ap.add_argument("--no-coverage", action="store_true", help="build every mutant, whether a suite runs its line")
     ap.add_argument("--also-app", action="store_true", help="run the app's Unity suites too")
+    ap.add_argument("--min-score", nargs="+", default=[], metavar="FOLDER=PCT",
+                    help="exit 3 when a folder's score is below PCT (the CI sample's floor)")
     ap.add_argument("--list", action="store_true", help="list the mutants (after sampling) and stop")
     ap.add_argument("--only", nargs="+", default=[], metavar="PATH:LINE[:COL]",
                     help="only the mutants at these places (to check that a test kills them)")
@@ -729,7 +791,7 @@ def main(argv: list[str] | None = None) -> int:
     mutants: list[Mutant] = []
     for folder, ms in population.items():
         if folder in samples and samples[folder] < len(ms):
-            ms = random.Random(args.seed).sample(ms, samples[folder])
+            ms = sample(ms, samples[folder], args.seed)
         mutants.extend(sorted(ms, key=lambda m: (m.path, m.start, m.op, m.repl)))
     pop_desc = ", ".join(
         f"{f}: {len([m for m in mutants if m.folder == f])} of {len(ms)}" for f, ms in population.items())
@@ -742,16 +804,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     # equivalents
-    equiv = read_equivalents(EQUIV_DOC)
-    seen: set[tuple[str, str]] = set()
+    everything = [m for ms in population.values() for m in ms]
+    found, stale_rows = match_equivalents(read_equivalents(EQUIV_DOC), everything)
     for m in mutants:
-        k = (m.key, squash(m.mutation))
-        if k in equiv:
-            m.equivalent_reason = equiv[k]
-            seen.add(k)
-    all_keys = {(m.key, squash(m.mutation)) for ms in population.values() for m in ms}
-    stale = [f"`{k}` {mu}" for (k, mu) in equiv if (k, mu) not in all_keys
-             and any(k.startswith(rel + ":") for _, rel in files)]
+        if id(m) in found:
+            m.equivalent_reason = found[id(m)].why
+    stale = [f"`{r.key}` {r.mutation} (`{r.text}`): no such mutant" for r in stale_rows]
 
     # the builds
     log("building the unmutated reference data (ref)")
@@ -859,7 +917,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         args.json.write_text(json.dumps([asdict(m) for m in mutants], indent=1), encoding="utf-8")
     log(f"done in {elapsed:.0f} s")
-    return 0
+    rc = 0
+    for spec in args.min_score:
+        folder, _, pct = spec.partition("=")
+        k, n, score_pct = score([m for m in mutants if m.folder == folder])
+        if n and score_pct < float(pct):
+            log(f"{folder}: score {score_pct:.1f} % ({k}/{n}) is below its floor {float(pct):.1f} %")
+            rc = 3
+    return rc
 
 
 if __name__ == "__main__":
