@@ -178,6 +178,182 @@ static void test_bad_settings_are_refused(void)
     }
 }
 
+/* The mechanism's references name bodies it has (a body past the last is refused, naming the element), and
+ * the derived values that multiply two settings are checked as products (k dt, (sigma_q_gamma / sigma_gamma0)^2
+ * q_gamma_scale): finite each, refused once the product overflows. */
+static void test_bodies_referenced_and_products_of_settings(void)
+{
+    caekf_settings_t b = good;
+    const int past = good.model.bodies + 1;
+    b.model.contact_a[0] = past;
+    expect_refused(&b, CAEKF_PARAM_CONTACT_A, CAEKF_SETTING_BAD_BODY, "contact a past the last body");
+    b = good;
+    b.model.contact_b[0] = b.model.contact_a[0];
+    expect_refused(&b, CAEKF_PARAM_CONTACT_B, CAEKF_SETTING_BAD_BODY, "contact b = a");
+    b = good;
+    b.model.sensor_body[1] = past;
+    expect_refused(&b, CAEKF_PARAM_SENSOR_BODY + 1, CAEKF_SETTING_BAD_BODY, "sensor past the last body");
+    b = good;
+    b.model.input_body[0] = past;
+    expect_refused(&b, CAEKF_PARAM_INPUT_BODY, CAEKF_SETTING_BAD_BODY, "input past the last body");
+    b = good;
+    b.model.spring_a[2] = past;
+    expect_refused(&b, CAEKF_PARAM_SPRING_A + 2, CAEKF_SETTING_BAD_BODY, "spring past the last body");
+    b = good;
+#if CAEKF_USE_FLOAT
+    b.model.spring_k[0] = 1e36f;
+    b.model.dt = 1e3f; /* k dt overflows, k / dt would not */
+#else
+    b.model.spring_k[0] = 1e306;
+    b.model.dt = 1e3;
+#endif
+    expect_refused(&b, CAEKF_PARAM_DT, CAEKF_SETTING_NOT_SCALABLE, "k dt overflows");
+    b = good;
+#if CAEKF_USE_FLOAT
+    b.sigma_q_gamma[0] = b.sigma_gamma0[0] * 1e15f;
+    b.q_gamma_scale = 1e10f; /* the ratio squared is finite, times the scale not */
+#else
+    b.sigma_q_gamma[0] = b.sigma_gamma0[0] * 1e150;
+    b.q_gamma_scale = 1e10;
+#endif
+    expect_refused(&b, CAEKF_PARAM_SIGMA_Q_GAMMA, CAEKF_SETTING_NOT_SCALABLE, "Q_gamma times its scale overflows");
+}
+
+/* More rules of validation, each at its edge: a spring's ends must differ; a stiffness whose square would
+ * overflow is still a stiffness (k dt is what the step takes); every velocity sensor needs sigma_rv, not only
+ * the first; the defaults write the settings and nothing after them. */
+static void test_more_rules_at_their_edges(void)
+{
+    struct {
+        caekf_settings_t s;
+        unsigned char guard[16];
+    } d;
+    caekf_settings_t b = good;
+    caekf_setting_error_t err;
+    b.model.spring_b[1] = b.model.spring_a[1];
+    expect_refused(&b, CAEKF_PARAM_SPRING_B + 1, CAEKF_SETTING_BAD_BODY, "spring b = a");
+    b = good;
+#if CAEKF_USE_FLOAT
+    b.model.spring_k[0] = 1e30f; /* k^2 overflows float, k dt does not */
+#else
+    b.model.spring_k[0] = 1e200;
+#endif
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&b, &err));
+    b = good;
+    b.model.sensor_kind[1] = CAEKF_SENSOR_VELOCITY;
+    b.sigma_rv = 0;
+    expect_refused(&b, CAEKF_PARAM_SIGMA_RV, CAEKF_SETTING_NEEDED, "the second sensor a velocity without sigma_rv");
+    memset(d.guard, 0xA5, sizeof d.guard);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_default(&d.s));
+    TEST_ASSERT_EQUAL_HEX8(0xA5, d.guard[0]);
+    {
+        double v = 0;
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_settings_get(NULL, CAEKF_PARAM_DT, &v));
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_settings_get(&good, CAEKF_PARAM_DT, NULL));
+    }
+}
+
+#if !CAEKF_SIZED
+/* A sensor's estimated offset (sensor{i}_bias_sigma), the first sensor's too: a state after the mechanism's,
+ * starting at 0, read back as it is. */
+static void test_a_sensor_offset_is_a_state_from_zero(void)
+{
+    caekf_settings_t b = good;
+    caekf_scalar_t x[CAEKF_N];
+    int n, ny, nu;
+    b.model.sensor_bias_sigma[0] = (caekf_scalar_t)1e-6;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &b));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_sizes(&est, &n, &ny, &nu));
+    TEST_ASSERT_EQUAL_INT(PAPER_N + 1, n);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, x));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)x[PAPER_N]);
+}
+#endif
+
+#if !CAEKF_SIZED && CAEKF_MAX_CONTACTS >= 2 && CAEKF_MAX_LAW_PARAMS >= 6
+/* A second contact (bodies 3 and 4): its gamma0 is checked against its own gamma_min, and every law parameter
+ * of both contacts (the state's whole room for them) is a valid mechanism. */
+static void test_a_second_contact_is_checked_and_fills_the_law_room(void)
+{
+    caekf_settings_t b = good;
+    caekf_setting_error_t err;
+    caekf_model_t m;
+    int c;
+    b.model.contacts = 2;
+    b.model.contact_a[1] = 3;
+    b.model.contact_b[1] = 4;
+    b.model.contact_gap[1] = b.model.contact_gap[0];
+    b.model.contact_n[1] = b.model.contact_n[0];
+    b.gamma0[1] = b.gamma0[0];
+    b.sigma_gamma0[1] = b.sigma_gamma0[0];
+    b.sigma_q_gamma[1] = b.sigma_q_gamma[0];
+    b.gamma_min[1] = b.gamma_min[0];
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&b, &err));
+    b.gamma_min[1] = b.gamma0[1] * 2; /* contact 2's gamma0 below its minimum, the constraint on */
+    expect_refused(&b, CAEKF_PARAM_GAMMA0 + 1, CAEKF_SETTING_BELOW_GAMMA_MIN, "contact 2 below gamma_min");
+    b.gamma_min[1] = b.gamma_min[0];
+#if CAEKF_USE_FLOAT
+    b.sigma_q_gamma[1] = b.sigma_gamma0[1] * 1e20f; /* contact 2's Q_gamma not scalable: blamed on contact 2 */
+#else
+    b.sigma_q_gamma[1] = b.sigma_gamma0[1] * 1e160;
+#endif
+    expect_refused(&b, CAEKF_PARAM_SIGMA_Q_GAMMA + 1, CAEKF_SETTING_NOT_SCALABLE, "contact 2's Q_gamma overflows");
+    b.sigma_q_gamma[1] = b.sigma_q_gamma[0];
+    for (c = 0; c < 2; ++c) {
+        b.model.contact_estimate_n[c] = b.model.contact_estimate_lambda[c] = b.model.contact_estimate_gap[c] = 1;
+    }
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &b.model));
+    TEST_ASSERT_EQUAL_INT(2 * PAPER_NQ + 2 + 6, m.n);
+    for (c = 0; c < 2; ++c) { /* each law state belongs to its own contact (its switch-off follows that gamma) */
+        int k;
+        for (k = 0; k < CAEKF_LAW_COUNT; ++k) {
+            TEST_ASSERT_EQUAL_INT(c, m.param_contact[m.law_state[c][k] - 2 * PAPER_NQ]);
+        }
+        TEST_ASSERT_EQUAL_INT(c, m.param_contact[c]);
+    }
+}
+#endif
+
+#if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_MECH_PARAMS <= CAEKF_MAX_BODIES + 2 * CAEKF_MAX_SPRINGS
+/* As many uncertain mechanism parameters as the build has room for are accepted; one more is refused. */
+static void test_mechanism_parameters_up_to_the_capacity(void)
+{
+    static caekf_settings_t b;
+    caekf_setting_error_t err;
+    int i, count = 0;
+    b = good;
+    b.model.bodies = CAEKF_MAX_BODIES;
+    b.model.springs = CAEKF_MAX_SPRINGS;
+    for (i = 0; i < CAEKF_MAX_BODIES; ++i) {
+        b.model.m[i] = 1;
+    }
+    for (i = 0; i < CAEKF_MAX_SPRINGS; ++i) { /* a ring of the bodies, then links two bodies apart */
+        b.model.spring_a[i] = i % CAEKF_MAX_BODIES + 1;
+        b.model.spring_b[i] =
+            i < CAEKF_MAX_BODIES ? (i + 1) % CAEKF_MAX_BODIES + 1 : (b.model.spring_a[i] + 1) % CAEKF_MAX_BODIES + 2;
+        b.model.spring_k[i] = 1000;
+        b.model.spring_c[i] = 1;
+    }
+    for (i = 0; i < CAEKF_MAX_BODIES && count < CAEKF_MAX_MECH_PARAMS; ++i, ++count) {
+        b.model.m_sigma[i] = (caekf_scalar_t)0.03;
+    }
+    for (i = 0; i < CAEKF_MAX_SPRINGS && count < CAEKF_MAX_MECH_PARAMS; ++i, ++count) {
+        b.model.spring_k_sigma[i] = (caekf_scalar_t)0.03;
+    }
+    for (i = 0; i < CAEKF_MAX_SPRINGS && count < CAEKF_MAX_MECH_PARAMS; ++i, ++count) {
+        b.model.spring_c_sigma[i] = (caekf_scalar_t)0.03;
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&b, &err));
+    for (i = 0; i < CAEKF_MAX_SPRINGS && b.model.spring_c_sigma[i] > 0; ++i) {
+    }
+    if (i < CAEKF_MAX_SPRINGS) { /* room for one more sigma in the table: over the capacity */
+        b.model.spring_c_sigma[i] = (caekf_scalar_t)0.03;
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_settings_validate(&b, &err));
+        TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_OVER_CAPACITY, err.reason);
+    }
+}
+#endif
+
 static void test_newton_bound_is_a_capacity(void)
 {
     caekf_settings_t b = good;
@@ -291,6 +467,11 @@ static void test_refusal_text_names_element_value_and_rule(void)
     (void)caekf_settings_validate(&b, &err);
     (void)caekf_setting_error_text(&err, &b, text, sizeof text);
     TEST_ASSERT_EQUAL_STRING("sigma_r = 0: must be finite and > 0", text);
+    b = good; /* an element of a two-element setting is named with its index too */
+    b.model.contact_gap[0] = -1;
+    (void)caekf_settings_validate(&b, &err);
+    (void)caekf_setting_error_text(&err, &b, text, sizeof text);
+    TEST_ASSERT_EQUAL_STRING("contact_gap[0] = -1: must be finite and >= 0", text);
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&good, &err));
     TEST_ASSERT_EQUAL_UINT(CAEKF_SETTING_OK, err.reason);
 }
@@ -406,6 +587,71 @@ static void test_predict_only_moves_the_model_not_gamma(void)
     TEST_ASSERT_TRUE(EST_P(&est, 0, 0) > EST_P(&copy, 0, 0)); /* and its uncertainty grew by Q */
 }
 
+/* The accessors write all CAEKF_N entries: the state's n, zeros after them (over whatever the caller's
+ * arrays held, and whatever the stack held). */
+static void test_accessors_give_zeros_beyond_the_state(void)
+{
+    static caekf_scalar_t P[CAEKF_N][CAEKF_N];
+    caekf_scalar_t x[CAEKF_N], var[CAEKF_N];
+    int n, ny, nu, i, j;
+    run_into_contact();
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_sizes(&est, &n, &ny, &nu));
+    for (i = 0; i < CAEKF_N; ++i) {
+        x[i] = var[i] = 7;
+        for (j = 0; j < CAEKF_N; ++j) {
+            P[i][j] = 7;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, x));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_variances(&est, var));
+    test_fill_stack(0xFF); /* a local read before it is written: a NaN */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_covariance(&est, P));
+    for (i = 0; i < CAEKF_N; ++i) {
+        TEST_ASSERT_TRUE(i < n ? x[i] != 0 && var[i] > 0 : x[i] == 0 && var[i] == 0);
+        for (j = 0; j < CAEKF_N; ++j) {
+            if (i >= n || j >= n) {
+                TEST_ASSERT_TRUE(P[i][j] == 0);
+            } else {
+                TEST_ASSERT_TRUE(isfinite((double)P[i][j]));
+            }
+        }
+        TEST_ASSERT_TRUE(i >= n || P[i][i] == var[i]);
+    }
+}
+
+/* A call refused before it starts (no instance, not initialised) reports an empty step, whatever the caller's
+ * report held: no flags, no iterations, no penetration, no NIS; a prediction has no NIS either. */
+static void test_a_refused_call_and_a_prediction_report_no_correction(void)
+{
+    caekf_t blank;
+    caekf_report_t rep;
+    const caekf_scalar_t y[2] = {0, 0}, u[1] = {0};
+    memset(&blank, 0, sizeof blank);
+    memset(&rep, 0xFF, sizeof rep);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_step(NULL, u, y, &rep));
+    TEST_ASSERT_TRUE(rep.flags == 0 && rep.newton_iters == 0 && rep.delta == 0 && rep.nis == 0);
+    memset(&rep, 0xFF, sizeof rep);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NOT_INIT, caekf_step(&blank, u, y, &rep));
+    TEST_ASSERT_TRUE(rep.flags == 0 && rep.newton_iters == 0 && rep.delta == 0 && rep.nis == 0);
+    run_into_contact();
+    {
+        const caekf_scalar_t bad_y[2] = {(caekf_scalar_t)NAN, 0};
+        int n, ny, nu;
+        memcpy(&copy, &est, sizeof est);
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_INPUT, caekf_step(&est, u, bad_y, NULL));  /* no report to fill */
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_correct(&est, u, NULL, &rep)); /* a correction needs y */
+        TEST_ASSERT_TRUE(memcmp(&copy, &est, sizeof est) == 0);
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_get_sizes(&est, &n, NULL, &nu));
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_get_sizes(&est, &n, &ny, NULL));
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NOT_INIT, caekf_get_sizes(&blank, &n, &ny, &nu));
+    }
+    memset(&rep, 0xFF, sizeof rep);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&est, u, &rep));
+    TEST_ASSERT_TRUE(rep.nis == 0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, u, y, &rep));
+    TEST_ASSERT_TRUE(rep.nis > 0);
+}
+
 /* caekf_init determines every byte of the instance after the settings: an instance that has run into
  * contact (every work buffer dirty) and one of other garbage come out of init identical to a fresh one, so
  * no stale value can leak into the next run. */
@@ -432,6 +678,17 @@ int main(void)
     RUN_TEST(test_null_and_uninitialised);
     RUN_TEST(test_bad_settings_are_refused);
     RUN_TEST(test_newton_bound_is_a_capacity);
+    RUN_TEST(test_bodies_referenced_and_products_of_settings);
+    RUN_TEST(test_more_rules_at_their_edges);
+#if !CAEKF_SIZED
+    RUN_TEST(test_a_sensor_offset_is_a_state_from_zero);
+#endif
+#if !CAEKF_SIZED && CAEKF_MAX_CONTACTS >= 2 && CAEKF_MAX_LAW_PARAMS >= 6
+    RUN_TEST(test_a_second_contact_is_checked_and_fills_the_law_room);
+#endif
+#if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_MECH_PARAMS <= CAEKF_MAX_BODIES + 2 * CAEKF_MAX_SPRINGS
+    RUN_TEST(test_mechanism_parameters_up_to_the_capacity);
+#endif
 #if CAEKF_SIZED_METHOD
     RUN_TEST(test_a_method_sized_build_refuses_other_methods);
 #endif
@@ -445,5 +702,7 @@ int main(void)
     RUN_TEST(test_the_compact_table_decodes_every_row);
     RUN_TEST(test_predict_only_moves_the_model_not_gamma);
     RUN_TEST(test_init_leaves_nothing_of_what_was_there);
+    RUN_TEST(test_accessors_give_zeros_beyond_the_state);
+    RUN_TEST(test_a_refused_call_and_a_prediction_report_no_correction);
     return UNITY_END();
 }

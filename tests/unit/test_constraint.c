@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "caekf_filter.h"
+#include "caekf_linalg.h"
 #include "test_support.h"
 #include "unity.h"
 
@@ -201,6 +202,98 @@ static void test_singular_innovation_is_refused_with_a_flag(void)
     TEST_ASSERT_TRUE(memcmp(zb, z, sizeof z) == 0);
 }
 
+#if !(CAEKF_SIZED && CAEKF_SIZED_CONTACTS == 1 && CAEKF_SIZED_LAW_PARAMS == 0) /* else gamma is the only bound */
+/* A bound on a state with states after it (a law parameter, another contact's gamma): the perfect measurement
+ * is the rank-one update z + P e_g (zb - z_g) / P_gg, P - P e_g e_g^T P / P_gg, on every entry before and after
+ * the state, lower and upper bound alike. */
+static void test_a_bound_on_a_middle_state_is_the_rank_one_update(void)
+{
+    const int g = 3;
+    int is_max;
+    for (is_max = 0; is_max < 2; ++is_max) {
+        caekf_scalar_t P[N][N], z[N];
+        double Pd[N][N], zd[N], zb;
+        uint32_t flags = 0;
+        int i, j;
+        test_spd_matrix(P);
+        for (i = 0; i < N; ++i) {
+            z[i] = (caekf_scalar_t)(0.1 * i - 0.3);
+            zd[i] = (double)z[i];
+            for (j = 0; j < N; ++j) Pd[i][j] = (double)P[i][j];
+        }
+        zb = zd[g] + (is_max ? -0.4 : 0.4); /* z_g violates it */
+        TEST_ASSERT_EQUAL_INT(
+            1, caekf_constrain_upper(z, &P[0][0], N, g, (caekf_scalar_t)zb, is_max, 1, (caekf_scalar_t)zb, &flags));
+        caekf_mirror_upper(&P[0][0], N);
+        TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_CONSTRAINT_APPLIED, flags);
+        for (i = 0; i < N; ++i) {
+            const double ze = i == g ? zb : zd[i] + Pd[i][g] / Pd[g][g] * (zb - zd[g]);
+            TEST_ASSERT_DOUBLE_WITHIN(EQ_RTOL * (1 + fabs(ze)), ze, (double)z[i]);
+            for (j = 0; j < N; ++j) {
+                const double pe = i == g || j == g ? 0.0 : Pd[i][j] - Pd[i][g] * Pd[g][j] / Pd[g][g];
+                TEST_ASSERT_DOUBLE_WITHIN(EQ_RTOL * 10, pe, (double)P[i][j]);
+            }
+        }
+    }
+}
+#endif
+
+/* z = 0 and P the identity but P_jj = 4 and P_jk = P_kj = c: the correlation of states j and k is c / 2. */
+static void correlated_pair(caekf_scalar_t z[N], paper_mat_t P, int j, int k, caekf_scalar_t c)
+{
+    int a, b;
+    for (a = 0; a < N; ++a) {
+        z[a] = 0;
+        for (b = 0; b < N; ++b) P[a][b] = a == b ? 1 : 0;
+    }
+    P[j][j] = 4;
+    P[j][k] = P[k][j] = c;
+}
+
+/* A state perfectly correlated with gamma (P_ig^2 = P_ii P_gg exactly, a valid semidefinite covariance: e.g.
+ * after another perfect measurement) keeps the update usable; a correlation of 1.2 does not (clamped). */
+static void test_perfect_correlation_is_usable_and_more_is_clamped(void)
+{
+    caekf_scalar_t P[N][N], z[N];
+    uint32_t flags = 0;
+    correlated_pair(z, P, 0, IG, 2); /* corr(q1, gamma) = 1 */
+    constrain_full(z, P, 1, 1, 1, &flags);
+    TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_CONSTRAINT_APPLIED, flags);
+    TEST_ASSERT_EQUAL_DOUBLE(2.0, (double)z[0]); /* q1 moves with gamma: 2 dz */
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)P[0][0]);
+    correlated_pair(z, P, 0, IG, (caekf_scalar_t)2.4); /* corr 1.2: no covariance */
+    flags = 0;
+    constrain_full(z, P, 1, 1, 1, &flags);
+    TEST_ASSERT_TRUE(flags & CAEKF_FLAG_CONSTRAINT_CLAMPED);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)z[0]);
+}
+
+/* The covariance's health: a perfect correlation is healthy (semidefinite, not indefinite); an indefinite
+ * upper triangle is repaired as the symmetric matrix it stands for, whatever the lower triangle holds. */
+static void test_health_accepts_perfect_correlation_and_repairs_the_upper_triangle(void)
+{
+    static caekf_scalar_t P[N][N], Q[N][N], scratch[N * N];
+    caekf_scalar_t z[N];
+    uint32_t flags = 0;
+    int i, j;
+    correlated_pair(z, P, 0, 3, 2);
+    TEST_ASSERT_EQUAL_INT(1, caekf_covariance_health(&P[0][0], z, N, 1, 1, scratch, &flags));
+    TEST_ASSERT_EQUAL_UINT32(0, flags);
+    TEST_ASSERT_EQUAL_DOUBLE(2.0, (double)P[0][3]);
+    /* indefinite: corr(q1, q2) = 1.5 in the upper triangle, the lower one stale */
+    test_spd_matrix(P);
+    for (i = 0; i < N; ++i)
+        for (j = 0; j < N; ++j) P[i][j] = i == j ? 1 : (j > i ? P[i][j] / 10 : 0);
+    P[0][1] = (caekf_scalar_t)1.5;
+    memcpy(Q, P, sizeof P);
+    caekf_mirror_upper(&Q[0][0], N);
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_repair(&Q[0][0], N, scratch));
+    TEST_ASSERT_EQUAL_INT(1, caekf_covariance_health(&P[0][0], z, N, 1, 1, scratch, &flags));
+    TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_COV_INDEFINITE | CAEKF_FLAG_COV_REPAIRED, flags);
+    for (i = 0; i < N; ++i)
+        for (j = i; j < N; ++j) TEST_ASSERT_DOUBLE_WITHIN(EQ_RTOL, (double)Q[i][j], (double)P[i][j]);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -209,5 +302,10 @@ int main(void)
     RUN_TEST(test_zero_gamma_variance_falls_back_to_clamp);
     RUN_TEST(test_inconsistent_gamma_column_falls_back_to_clamp);
     RUN_TEST(test_singular_innovation_is_refused_with_a_flag);
+#if !(CAEKF_SIZED && CAEKF_SIZED_CONTACTS == 1 && CAEKF_SIZED_LAW_PARAMS == 0)
+    RUN_TEST(test_a_bound_on_a_middle_state_is_the_rank_one_update);
+#endif
+    RUN_TEST(test_perfect_correlation_is_usable_and_more_is_clamped);
+    RUN_TEST(test_health_accepts_perfect_correlation_and_repairs_the_upper_triangle);
     return UNITY_END();
 }

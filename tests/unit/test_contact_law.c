@@ -19,9 +19,11 @@
 #if CAEKF_USE_FLOAT
 #define JAC_RTOL 3e-2
 #define F_RTOL 3e-3
+#define SECOND_ORDER_RTOL 0.3
 #else
 #define JAC_RTOL 1e-6
 #define F_RTOL 1e-8
+#define SECOND_ORDER_RTOL 1e-4
 #endif
 
 #if CAEKF_MAX_LAW_PARAMS >= 3
@@ -153,6 +155,9 @@ typedef struct {
     int seen_contact;     /* the contact has closed once */
     caekf_scalar_t prev[CAEKF_N];
     double n_max;
+    double gap_max;        /* the gap's maximum (0: none) */
+    int above_gap_max;     /* the gap above it after a step */
+    double n_top, gap_top; /* the largest n and gap after a step */
 } run_ctx_t;
 
 static void watch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *truth,
@@ -172,6 +177,9 @@ static void watch(const caekf_t *est, const caekf_report_t *rep, caekf_status_t 
     }
     ctx->applied += (rep->flags & CAEKF_FLAG_CONSTRAINT_APPLIED) != 0;
     ctx->above_max |= (double)x[IN] > ctx->n_max;
+    ctx->above_gap_max |= ctx->gap_max > 0 && (double)x[IGAP] > ctx->gap_max;
+    ctx->n_top = ctx->steps == 0 || (double)x[IN] > ctx->n_top ? (double)x[IN] : ctx->n_top;
+    ctx->gap_top = ctx->steps == 0 || (double)x[IGAP] > ctx->gap_top ? (double)x[IGAP] : ctx->gap_top;
     memcpy(ctx->prev, x, sizeof x);
     ctx->steps++;
 }
@@ -193,9 +201,138 @@ static void test_law_states_freeze_and_respect_their_bounds(void)
     TEST_ASSERT_FALSE(ctx.moved_while_open);
     TEST_ASSERT_TRUE(ctx.applied > 0);
     TEST_ASSERT_FALSE(ctx.above_max);
+    /* held on the bound itself, not short of it: within two roundings of n_max */
+    TEST_ASSERT_TRUE(ctx.n_top >= ctx.n_max * (1 - 2.5 * (double)CAEKF_EPS));
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_contact_law(&est, 0, &g, &n, &lambda, &gap));
     TEST_ASSERT_TRUE(g > 0 && (double)n <= ctx.n_max && lambda >= 0 && gap > 0);
     TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_get_contact_law(&est, 1, &g, 0, 0, 0));
+}
+
+/* A maximum below 1 (a gap in metres) is a bound too: the gap started and held below the truth, on its maximum
+ * (within two roundings) and never above it. */
+static void test_a_gap_maximum_below_the_truth_holds(void)
+{
+    caekf_settings_t s;
+    caekf_t est;
+    run_ctx_t ctx;
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    s.gap0[0] = (caekf_scalar_t)0.9997e-3;
+    s.gap_max[0] = (caekf_scalar_t)0.9999e-3; /* the truth is 1e-3 */
+    memset(&ctx, 0, sizeof ctx);
+    ctx.n_max = 1e300;
+    ctx.gap_max = (double)s.gap_max[0];
+    TEST_ASSERT_EQUAL_INT(paper_steps(), run_paper(&est, &s, watch, &ctx));
+    TEST_ASSERT_TRUE(ctx.applied > 0);
+    TEST_ASSERT_FALSE(ctx.above_gap_max);
+    TEST_ASSERT_TRUE(ctx.gap_top >= ctx.gap_max * (1 - 2.5 * (double)CAEKF_EPS));
+}
+
+/* The law's second-order term (the Gaussian second-order filter's process noise, docs/contact-law.md): a
+ * prediction in contact adds to the velocities of the contact's bodies a and b the variance
+ * 1/2 tr(H P H P) (hs / m_a)(hs / m_b), H the Hessian of the force in the law's states (ln gamma, n, lambda,
+ * gap), P their predicted covariance. With the states' and the parameters' blocks uncorrelated and the
+ * parameters' block scaled by t, everything else a prediction does is linear in t: the second difference
+ * over t = 0, 1, 2 of the velocities' covariance is tr((H P)^2) (hs / m_a)(hs / m_b) alone. H here by central
+ * differences of the force (caekf_model_contact). */
+static double sq_m(caekf_scalar_t v) { return (double)v * (double)v; }
+
+static double force_at(const caekf_model_t *m, const caekf_scalar_t *x0, const int *idx, const double *dx)
+{
+    caekf_scalar_t x[CAEKF_N];
+    caekf_contact_t ct;
+    int i;
+    memcpy(x, x0, sizeof x);
+    for (i = 0; i < 4; ++i) {
+        x[idx[i]] = (caekf_scalar_t)((double)x0[idx[i]] + dx[i]);
+    }
+    caekf_model_contact(m, 0, x, &ct);
+    return (double)ct.fc;
+}
+
+static void check_second_order(int gamma_log)
+{
+    static caekf_t est, start;
+    caekf_settings_t s;
+    truth_rec_t r;
+    caekf_report_t rep;
+    caekf_scalar_t x[CAEKF_N], u[1] = {0};
+    const int idx[4] = {PAPER_IG, IN, IL, IGAP};
+    const double h[4] = {gamma_log ? 1e-3 : 1e5, 1e-4, 1.0, 1e-9};
+    double dP[3] = {0, 0, 0}, H[4][4], Pt[4][4], c = 0;
+    int t, i, j, k, n, nq, a, b;
+    law_settings(&s, CAEKF_DISCRETISATION_BACKWARD_EULER, gamma_log);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    while (truth_next(&r) == 1 && r.t < 13.0) {
+        const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
+        u[0] = (caekf_scalar_t)r.u;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, u, y, &rep));
+    }
+    truth_close();
+    TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
+    memcpy(&start, &est, sizeof est);
+    n = est.model.n;
+    nq = est.model.nq;
+    a = CAEKF_CONTACT_I(&est.model, 0);
+    b = CAEKF_CONTACT_J(&est.model, 0);
+    for (t = 0; t <= 2; ++t) {
+        memcpy(&est, &start, sizeof est);
+        for (i = 0; i < n; ++i) {
+            for (j = 0; j < n; ++j) {
+                const int pi = i >= 2 * nq, pj = j >= 2 * nq;
+                est.P[i * n + j] = pi != pj ? 0 : pi ? est.P[i * n + j] * (caekf_scalar_t)t : est.P[i * n + j];
+            }
+        }
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&est, u, &rep));
+        TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
+        dP[0] += (t == 1 ? -2 : 1) * (double)est.P[(nq + a) * n + nq + a];
+        dP[1] += (t == 1 ? -2 : 1) * (double)est.P[(nq + a) * n + nq + b];
+        dP[2] += (t == 1 ? -2 : 1) * (double)est.P[(nq + b) * n + nq + b];
+    }
+    /* the predicted state in the law's units (ln gamma), and the parameters' covariance there at t = 1 */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, x));
+    if (gamma_log) {
+        x[PAPER_IG] = (caekf_scalar_t)log((double)x[PAPER_IG]);
+    }
+    for (i = 0; i < 4; ++i) {
+        for (j = 0; j < 4; ++j) {
+            double pp[4] = {0, 0, 0, 0}, pm[4] = {0, 0, 0, 0}, mp[4] = {0, 0, 0, 0}, mm[4] = {0, 0, 0, 0};
+            pp[i] += h[i];
+            pp[j] += h[j];
+            pm[i] += h[i];
+            pm[j] -= h[j];
+            mp[i] -= h[i];
+            mp[j] += h[j];
+            mm[i] -= h[i];
+            mm[j] -= h[j];
+            H[i][j] = (force_at(&est.model, x, idx, pp) - force_at(&est.model, x, idx, pm) -
+                       force_at(&est.model, x, idx, mp) + force_at(&est.model, x, idx, mm)) /
+                      (4 * h[i] * h[j]);
+            Pt[i][j] = (double)start.P[idx[i] * n + idx[j]] * (double)start.scale[idx[i]] * (double)start.scale[idx[j]];
+        }
+    }
+    for (i = 0; i < 4; ++i) { /* tr((H P)^2) */
+        for (j = 0; j < 4; ++j) {
+            double hp_ij = 0, hp_ji = 0;
+            for (k = 0; k < 4; ++k) {
+                hp_ij += H[i][k] * Pt[k][j];
+                hp_ji += H[j][k] * Pt[k][i];
+            }
+            c += hp_ij * hp_ji;
+        }
+    }
+    c /= (double)start.scale[nq] * (double)start.scale[nq]; /* in the velocities' scaled units */
+    TEST_ASSERT_TRUE(c > 0);
+    TEST_ASSERT_DOUBLE_WITHIN(SECOND_ORDER_RTOL * c / sq_m(est.model.m_dt[a]), c / sq_m(est.model.m_dt[a]), dP[0]);
+    TEST_ASSERT_DOUBLE_WITHIN(SECOND_ORDER_RTOL * c / sq_m(est.model.m_dt[a]),
+                              -c / ((double)est.model.m_dt[a] * (double)est.model.m_dt[b]), dP[1]);
+    TEST_ASSERT_DOUBLE_WITHIN(SECOND_ORDER_RTOL * c / sq_m(est.model.m_dt[b]), c / sq_m(est.model.m_dt[b]), dP[2]);
+}
+
+static void test_second_order_term_is_half_the_trace_of_h_p_squared(void)
+{
+    check_second_order(1); /* ln gamma: the law is nonlinear in gamma too */
+    check_second_order(0);
 }
 
 /* caekf_settings_validate names the law setting at fault. */
@@ -224,6 +361,20 @@ static void test_validation_of_law_settings(void)
     law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 1);
     s.gamma0[0] = 0;
     expect_refusal(&s, CAEKF_PARAM_GAMMA0, CAEKF_SETTING_NOT_POSITIVE);
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    s.n_min[0] = s.n0[0]; /* the initial value on its minimum: within */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&s, 0));
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+#if CAEKF_USE_FLOAT
+    s.sigma_n0[0] = 1e-44f; /* n0 / sigma_n0 overflows */
+#else
+    s.sigma_n0[0] = 1e-320;
+#endif
+    expect_refusal(&s, CAEKF_PARAM_SIGMA_N0, CAEKF_SETTING_NOT_SCALABLE);
+    law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
+    s.n_max[0] = 0; /* no maximum: any minimum goes with it */
+    s.n_min[0] = (caekf_scalar_t)1.2;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&s, 0));
     law_settings(&s, CAEKF_DISCRETISATION_TRAPEZOIDAL, 0);
     s.model.contact_estimate_gap[0] = 2; /* a bool */
     expect_refusal(&s, CAEKF_PARAM_ESTIMATE_GAP, CAEKF_SETTING_OUT_OF_RANGE);
@@ -267,6 +418,8 @@ int main(void)
     RUN_TEST(test_jacobians_with_log_gamma);
     RUN_TEST(test_transition_with_law_states);
     RUN_TEST(test_law_states_freeze_and_respect_their_bounds);
+    RUN_TEST(test_a_gap_maximum_below_the_truth_holds);
+    RUN_TEST(test_second_order_term_is_half_the_trace_of_h_p_squared);
     RUN_TEST(test_validation_of_law_settings);
     RUN_TEST(test_log_gamma_accessors);
 #endif

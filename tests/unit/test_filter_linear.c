@@ -89,11 +89,13 @@ static void kf_init(linear_kf_t *kf, const caekf_settings_t *s)
 }
 
 /* One sample: a time update (unless `predict` is 0, a sample at the estimate's own time), then the
- * correction. */
-static void kf_step(linear_kf_t *kf, double u, double y1, double y4, int predict)
+ * correction by the sensors h (state indices) with variances rv, ny of them. */
+static double kf_step_sensors(linear_kf_t *kf, double u, const double *y, const int *h, const double *rv, int ny,
+                              int predict)
 {
-    double xp[NX], T[NX][NX], Pp[NX][NX], S[2][2], Si[2][2], G[NX][2], det, e[2];
-    int i, j, k;
+    double nis = 0;
+    double xp[NX], T[NX][NX], Pp[NX][NX], S[4 * 4], Si[4 * 4], G[NX][4], e[4];
+    int i, j, k, l;
     const double u0 = kf->u_prev_known ? kf->u_prev : u;
     kf->u_prev = u;
     kf->u_prev_known = 1;
@@ -119,24 +121,36 @@ static void kf_step(linear_kf_t *kf, double u, double y1, double y4, int predict
                 Pp[i][j] = acc;
             }
     }
-    S[0][0] = Pp[0][0] + kf->r;
-    S[0][1] = Pp[0][3];
-    S[1][0] = Pp[3][0];
-    S[1][1] = Pp[3][3] + kf->r;
-    det = S[0][0] * S[1][1] - S[0][1] * S[1][0];
-    Si[0][0] = S[1][1] / det;
-    Si[1][1] = S[0][0] / det;
-    Si[0][1] = -S[0][1] / det;
-    Si[1][0] = -S[1][0] / det;
-    for (i = 0; i < NX; ++i) {
-        G[i][0] = Pp[i][0] * Si[0][0] + Pp[i][3] * Si[1][0];
-        G[i][1] = Pp[i][0] * Si[0][1] + Pp[i][3] * Si[1][1];
+    for (k = 0; k < ny; ++k) {
+        for (l = 0; l < ny; ++l) S[k * ny + l] = Pp[h[k]][h[l]] + (k == l ? rv[k] : 0);
+        e[k] = y[k] - xp[h[k]];
     }
-    e[0] = y1 - xp[0];
-    e[1] = y4 - xp[3];
-    for (i = 0; i < NX; ++i) kf->x[i] = xp[i] + G[i][0] * e[0] + G[i][1] * e[1];
+    TEST_ASSERT_EQUAL_INT(0, test_invert(S, Si, ny));
+    for (k = 0; k < ny; ++k)
+        for (l = 0; l < ny; ++l) nis += e[k] * Si[k * ny + l] * e[l];
     for (i = 0; i < NX; ++i)
-        for (j = 0; j < NX; ++j) kf->P[i][j] = Pp[i][j] - G[i][0] * Pp[0][j] - G[i][1] * Pp[3][j];
+        for (k = 0; k < ny; ++k) {
+            G[i][k] = 0;
+            for (l = 0; l < ny; ++l) G[i][k] += Pp[i][h[l]] * Si[l * ny + k];
+        }
+    for (i = 0; i < NX; ++i) {
+        kf->x[i] = xp[i];
+        for (k = 0; k < ny; ++k) kf->x[i] += G[i][k] * e[k];
+    }
+    for (i = 0; i < NX; ++i)
+        for (j = 0; j < NX; ++j) {
+            kf->P[i][j] = Pp[i][j];
+            for (k = 0; k < ny; ++k) kf->P[i][j] -= G[i][k] * Pp[h[k]][j];
+        }
+    return nis;
+}
+
+/* The paper's two position sensors, bodies 1 and 4. */
+static void kf_step(linear_kf_t *kf, double u, double y1, double y4, int predict)
+{
+    const double y[2] = {y1, y4}, rv[2] = {kf->r, kf->r};
+    const int h[2] = {0, 3};
+    (void)kf_step_sensors(kf, u, y, h, rv, 2, predict);
 }
 
 static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0)
@@ -151,11 +165,13 @@ static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0
     paper_settings(&s, EXP_SWITCHED);
     s.mode = mode;
     s.model.discretisation = discretisation;
-    s.model.contact_gap[0] = 1;     /* 1 m: contact is never active */
-    s.v0[0] = (caekf_scalar_t)2e-3; /* not at rest: a time shift would show */
+    s.model.contact_gap[0] = 1;                         /* 1 m: contact is never active */
+    s.v0[0] = (caekf_scalar_t)2e-3;                     /* not at rest: a time shift would show */
+    s.q0[0] = (caekf_scalar_t)(start_at_t0 ? 2e-4 : 0); /* the correction at t0 starts from every state */
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
     (void)caekf_get_gamma(&est, &gamma0);
     kf_init(&kf, &s);
+    kf.x[0] = (double)s.q0[0];
     kf.x[4] = (double)s.v0[0];
     TEST_ASSERT_EQUAL_INT(0, truth_open());
     while (n < STEPS && truth_next(&r) == 1) {
@@ -195,6 +211,90 @@ static void compare_with_linear_kf(int mode, int discretisation, int start_at_t0
     }
 }
 
+#if !CAEKF_SIZED /* a build sized for one scenario has its sensors only */
+/* Other sensor sets than the paper's two positions, the Kalman filter still: one sensor (the scalar
+ * innovation), three (a general S^-1, a velocity among them). kinds[k]: 0 position, 1 velocity. */
+static void compare_sensors_with_linear_kf(int ny, const int *bodies, const int *kinds, int discretisation,
+                                           int cov_update)
+{
+    caekf_settings_t s;
+    linear_kf_t kf;
+    static caekf_t est;
+    truth_rec_t r;
+    int h[4], i, j, k;
+    double rv[4], nis;
+    caekf_scalar_t gamma0;
+    long n = 0;
+    paper_settings(&s, EXP_SWITCHED);
+    s.model.discretisation = discretisation;
+    s.cov_update = cov_update;
+    s.model.contact_gap[0] = 1; /* contact never active */
+    s.v0[1] = (caekf_scalar_t)-1e-3;
+    s.model.sensors = ny;
+    s.sigma_rv = (caekf_scalar_t)3e-5;
+    for (k = 0; k < ny; ++k) {
+        s.model.sensor_body[k] = bodies[k];
+        s.model.sensor_kind[k] = kinds[k] ? CAEKF_SENSOR_VELOCITY : CAEKF_SENSOR_POSITION;
+        h[k] = (kinds[k] ? 4 : 0) + bodies[k] - 1;
+        rv[k] = kinds[k] ? (double)s.sigma_rv * (double)s.sigma_rv : (double)s.sigma_r * (double)s.sigma_r;
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    (void)caekf_get_gamma(&est, &gamma0);
+    kf_init(&kf, &s);
+    kf.x[5] = (double)s.v0[1];
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    while (n < 1500 && truth_next(&r) == 1) {
+        caekf_scalar_t y[4], x[CAEKF_N], P[CAEKF_N][CAEKF_N];
+        double yd[4];
+        caekf_report_t rep;
+        for (k = 0; k < ny; ++k) {
+            yd[k] = kinds[k] ? r.v[bodies[k] - 1] : r.q[bodies[k] - 1];
+            y[k] = (caekf_scalar_t)yd[k];
+        }
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep));
+        nis = kf_step_sensors(&kf, r.u, yd, h, rv, ny, 1);
+        TEST_ASSERT_DOUBLE_WITHIN(P_RTOL * (nis + 1) * 10, nis, (double)rep.nis); /* the innovation's NIS */
+        (void)caekf_get_state(&est, x);
+        TEST_ASSERT_TRUE(memcmp(&x[PAPER_IG], &gamma0, sizeof gamma0) == 0); /* open: gamma frozen */
+        (void)caekf_get_covariance(&est, P);
+        for (i = 0; i < NX; ++i) {
+            TEST_ASSERT_DOUBLE_WITHIN(X_RTOL * (fabs(kf.x[i]) + 1e-9), kf.x[i], (double)x[i]);
+            for (j = 0; j < NX; ++j) {
+                TEST_ASSERT_DOUBLE_WITHIN(P_RTOL * sqrt(kf.P[i][i] * kf.P[j][j]), kf.P[i][j], (double)P[i][j]);
+            }
+        }
+        n++;
+    }
+    truth_close();
+    TEST_ASSERT_EQUAL_INT32(1500, n);
+}
+
+/* The correction's two forms (standard and Joseph) are the same filter. */
+static void test_one_position_sensor_is_a_linear_kf(void)
+{
+    const int bodies[1] = {3}, kinds[1] = {0};
+    compare_sensors_with_linear_kf(1, bodies, kinds, CAEKF_DISCRETISATION_BACKWARD_EULER, CAEKF_COV_STANDARD);
+    compare_sensors_with_linear_kf(1, bodies, kinds, CAEKF_DISCRETISATION_BACKWARD_EULER, CAEKF_COV_JOSEPH);
+}
+
+static void test_three_sensors_with_a_velocity_are_a_linear_kf(void)
+{
+    const int bodies[3] = {1, 4, 2}, kinds[3] = {0, 0, 1};
+    compare_sensors_with_linear_kf(3, bodies, kinds, CAEKF_DISCRETISATION_BACKWARD_EULER, CAEKF_COV_STANDARD);
+    compare_sensors_with_linear_kf(3, bodies, kinds, CAEKF_DISCRETISATION_BACKWARD_EULER, CAEKF_COV_JOSEPH);
+}
+
+#if CAEKF_MAX_SENSORS >= 4
+/* As many sensors as the build has room for (four), two of them velocities. */
+static void test_four_sensors_are_a_linear_kf(void)
+{
+    const int bodies[4] = {2, 3, 1, 4}, kinds[4] = {0, 1, 1, 0};
+    compare_sensors_with_linear_kf(4, bodies, kinds, CAEKF_DISCRETISATION_BACKWARD_EULER, CAEKF_COV_STANDARD);
+    compare_sensors_with_linear_kf(4, bodies, kinds, CAEKF_DISCRETISATION_BACKWARD_EULER, CAEKF_COV_JOSEPH);
+}
+#endif
+#endif
+
 #define BE CAEKF_DISCRETISATION_BACKWARD_EULER
 #define TRAP CAEKF_DISCRETISATION_TRAPEZOIDAL
 static void test_switched_without_contact_is_a_linear_kf(void) { compare_with_linear_kf(CAEKF_MODE_SWITCHED, BE, 0); }
@@ -218,5 +318,12 @@ int main(void)
     RUN_TEST(test_a_sample_at_t0_is_a_correction_only);
 #endif
     RUN_TEST(test_a_sample_at_t0_is_a_correction_only_be);
+#if !CAEKF_SIZED
+    RUN_TEST(test_one_position_sensor_is_a_linear_kf);
+    RUN_TEST(test_three_sensors_with_a_velocity_are_a_linear_kf);
+#if CAEKF_MAX_SENSORS >= 4
+    RUN_TEST(test_four_sensors_are_a_linear_kf);
+#endif
+#endif
     return UNITY_END();
 }

@@ -93,15 +93,21 @@ static void test_lu4_solves_and_refuses(void)
  * an exchange hands over to the general loop at step 0, 1 or 2 or a step refuses. */
 static void test_lu4_is_the_general_lu(void)
 {
-    static const caekf_scalar_t cases[6][16] = {
+    static const caekf_scalar_t cases[8][16] = {
         {4, 1, 0, 0, 1, 5, 2, 0, 0, 2, 6, 1, 0, 0, 1, 3},                     /* diagonally dominant */
         {1, 2, 3, 4, 5, 6, 7, 8, 2, 1, 9, 3, 4, 4, 1, 7},                     /* exchange at step 0 */
         {9, 1, 2, 3, 1, 1, 2, 1, 2, 8, 1, 1, 3, 1, 1, 9},                     /* exchange at step 1 */
         {9, 1, 1, 1, 1, 9, 1, 1, 1, 1, 1, 1, 1, 1, 8, 9},                     /* exchange at step 2 */
         {2, 1, 0, 0, 1, 2, 1, 0, 0, 1, 2, 1, 2, 4, 2, (caekf_scalar_t)1e-30}, /* late refusal */
-        {-3, 1, 1, 1, 1, -3, (caekf_scalar_t)0.5f, 0, 1, 0, 4, 1, 0, 1, 1, -5}};
+        {-3, 1, 1, 1, 1, -3, (caekf_scalar_t)0.5f, 0, 1, 0, 4, 1, 0, 1, 1, -5},
+        /* exchange at step 1 for row 2 although the multiplier l10 (0.9) exceeds it */
+        {1, 0, 1, 2, (caekf_scalar_t)0.9, (caekf_scalar_t)0.1, 3, 1, 0, (caekf_scalar_t)0.5, 2, 1, 0,
+         (caekf_scalar_t)0.2, 1, 4},
+        /* exchange at step 1 for row 3, its next entry small */
+        {1, 0, 1, 2, (caekf_scalar_t)0.5, (caekf_scalar_t)0.3, 3, 1, 0, (caekf_scalar_t)0.1, 2, 1, 0,
+         (caekf_scalar_t)0.8, (caekf_scalar_t)0.05, 4}};
     int c;
-    for (c = 0; c < 6; ++c) {
+    for (c = 0; c < 8; ++c) {
         caekf_scalar_t a[16], b[16];
         int pa[4] = {-1, -1, -1, -1}, pb[4] = {-1, -1, -1, -1};
         int ra, rb;
@@ -113,6 +119,48 @@ static void test_lu4_is_the_general_lu(void)
         TEST_ASSERT_EQUAL_MEMORY(a, b, sizeof a);
         if (ra == CAEKF_LA_OK) {
             TEST_ASSERT_EQUAL_INT_ARRAY(pa, pb, 4);
+        }
+    }
+    { /* a pivot equal to the threshold is refused by both, at the last step too */
+        caekf_scalar_t a[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, (caekf_scalar_t)0.25}, b[16];
+        int pa[4], pb[4];
+        memcpy(b, a, sizeof a);
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_lu_factor_tol(a, 4, pa, (caekf_scalar_t)0.25));
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_lu4_factor_tol(b, pb, (caekf_scalar_t)0.25));
+    }
+}
+#endif
+
+#if CAEKF_LA_GENERAL_LU && CAEKF_LA_LU4
+/* The 4 x 4 solve is the general solve bit for bit, with dense factors (every L and U entry used) and the row
+ * exchanges of each case, for two right-hand sides in a wider array (ldb 3: its third column untouched). */
+static void test_lu4_solve_is_the_general_solve(void)
+{
+    static const caekf_scalar_t cases[5][16] = {
+        {4, 1, 2, 3, 1, 5, 2, 1, 2, 2, 6, 1, 3, 1, 1, 7},  /* dense, no exchange */
+        {1, 2, 3, 4, 5, 6, 7, 8, 2, 1, 9, 3, 4, 4, 1, 7},  /* exchange at step 0 */
+        {9, 1, 2, 3, 1, 1, 2, 1, 2, 8, 1, 1, 3, 1, 1, 9},  /* exchange at step 1 */
+        {9, 1, 1, 1, 1, 9, 1, 1, 1, 1, 1, 1, 1, 1, 8, 9},  /* exchange at step 2 */
+        {1, 2, 3, 4, 2, 5, 1, 3, 8, 1, 2, 2, 3, 3, 9, 1}}; /* exchanges at several steps */
+    int c, i;
+    for (c = 0; c < 5; ++c) {
+        caekf_scalar_t a[16], b[16], x[12], y[12], rhs[12];
+        int pa[4], pb[4];
+        memcpy(a, cases[c], sizeof a);
+        memcpy(b, cases[c], sizeof b);
+        for (i = 0; i < 12; ++i) {
+            rhs[i] = x[i] = y[i] = (caekf_scalar_t)(i % 3 == 2 ? 99 : 1 + i * (i % 2 ? -1 : 2));
+        }
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu_factor_tol(a, 4, pa, CAEKF_EPS * 16 * 9));
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu4_factor_tol(b, pb, CAEKF_EPS * 16 * 9));
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu_solve(a, 4, pa, x, 2, 3));
+        caekf_lu4_solve(b, pb, y, 2, 3);
+        TEST_ASSERT_EQUAL_MEMORY(x, y, sizeof x);
+        for (i = 0; i < 4; ++i) { /* and it is the solution: A x = b for the first column */
+            const double r = (double)cases[c][4 * i] * (double)x[0] + (double)cases[c][4 * i + 1] * (double)x[3] +
+                             (double)cases[c][4 * i + 2] * (double)x[6] + (double)cases[c][4 * i + 3] * (double)x[9];
+            TEST_ASSERT_DOUBLE_WITHIN(TOL * 100, (double)rhs[3 * i], r);
+            TEST_ASSERT_EQUAL_DOUBLE(99.0, (double)x[3 * i + 2]);
         }
     }
 }
@@ -276,6 +324,119 @@ static void test_sym2_inverse_and_refusals(void)
     TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse((caekf_scalar_t)NAN, 0, 1, CAEKF_EPS * 16, inv));
 }
 
+/* The refusal threshold is relative to a c, whatever a and c are on their own: a = 100, c = 0.01 (a c = 1) with
+ * the determinant at half and at twice rel_tol, and the same with a and c exchanged. */
+static void test_sym2_inverse_threshold_is_relative_to_a_times_c(void)
+{
+    const caekf_scalar_t rel_tol = (caekf_scalar_t)1e-6;
+    caekf_scalar_t inv[3];
+    const caekf_scalar_t b_half = CAEKF_SQRT((caekf_scalar_t)100 * (caekf_scalar_t)0.01 - (caekf_scalar_t)5e-7);
+    const caekf_scalar_t b_twice = CAEKF_SQRT((caekf_scalar_t)100 * (caekf_scalar_t)0.01 - (caekf_scalar_t)2e-6);
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse(100, b_half, (caekf_scalar_t)0.01, rel_tol, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_SINGULAR, caekf_sym2_inverse((caekf_scalar_t)0.01, b_half, 100, rel_tol, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym2_inverse(100, b_twice, (caekf_scalar_t)0.01, rel_tol, inv));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym2_inverse((caekf_scalar_t)0.01, b_twice, 100, rel_tol, inv));
+}
+
+#if CAEKF_LA_GENERAL_LU
+/* Sizes: 1 x 1 is a matrix; 0, a right-hand side count below 1 or a leading dimension below it are refused. */
+static void test_sizes_from_one_and_refused_shapes(void)
+{
+    caekf_scalar_t a[1] = {4}, b[4] = {8, 0, 0, 0}, w[4];
+    int piv[1];
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu_factor_tol(a, 1, piv, (caekf_scalar_t)1e-12));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_lu_solve(a, 1, piv, b, 1, 1));
+    TEST_ASSERT_EQUAL_DOUBLE(2.0, (double)b[0]);
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_BAD_SIZE, caekf_lu_solve(a, 0, piv, b, 1, 1));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_BAD_SIZE, caekf_lu_solve(a, 1, piv, b, 0, 1));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_BAD_SIZE, caekf_lu_solve(a, 1, piv, b, 2, 1));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(a, 1, CAEKF_EPS * 1024, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym_eigen(a, 1, w));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_BAD_SIZE, caekf_sym_eigen(a, 0, w));
+}
+#endif
+
+static void rotated(caekf_scalar_t a[3][3], const double d[3], double angle);
+
+/* Jacobi: a tridiagonal matrix (every coupling next to the diagonal: 2 - sqrt 2, 2, 2 + sqrt 2), and a matrix
+ * of tiny entries (1e-9: the convergence test is relative to the diagonal) rebuilt from its eigenvectors. */
+static void test_eigen_tridiagonal_and_tiny_matrices(void)
+{
+    caekf_scalar_t t[9] = {2, 1, 0, 1, 2, 1, 0, 1, 2}, v[9], a[9], w[9];
+    const double r2 = sqrt(2.0), expect[3] = {2 - r2, 2, 2 + r2};
+    double got[3], tmp;
+    int i, j, k;
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym_eigen(t, 3, v));
+    for (i = 0; i < 3; ++i) {
+        got[i] = (double)t[4 * i];
+    }
+    for (i = 0; i < 3; ++i) { /* sorted */
+        for (j = i + 1; j < 3; ++j) {
+            if (got[j] < got[i]) {
+                tmp = got[i];
+                got[i] = got[j];
+                got[j] = tmp;
+            }
+        }
+        TEST_ASSERT_DOUBLE_WITHIN(TOL * 10, expect[i], got[i]);
+    }
+    {
+        const double d[3] = {3e-9, 1e-9, 2e-9};
+        caekf_scalar_t r[3][3];
+        rotated(r, d, 0.4);
+        memcpy(a, r, sizeof a);
+        memcpy(w, r, sizeof w);
+        TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_sym_eigen(w, 3, v));
+        for (i = 0; i < 3; ++i) {
+            for (j = 0; j < 3; ++j) {
+                double s = 0;
+                for (k = 0; k < 3; ++k) {
+                    s += (double)v[i * 3 + k] * (double)w[k * 3 + k] * (double)v[j * 3 + k];
+                }
+                TEST_ASSERT_DOUBLE_WITHIN(TOL * 1e-8, (double)a[i * 3 + j], s);
+            }
+        }
+    }
+}
+
+/* The PSD test reads its n x n workspace's upper triangle only: stale values elsewhere in it (and after it)
+ * change nothing, also on a zero pivot's coupling check. */
+static void test_psd_check_ignores_stale_workspace(void)
+{
+    caekf_scalar_t w[16];
+    caekf_scalar_t semidef[3][3] = {{1, 1, 0}, {1, 1, 0}, {0, 0, 2}}; /* zero pivot at step 1 */
+    int i;
+    for (i = 0; i < 16; ++i) {
+        w[i] = (caekf_scalar_t)1e30;
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_check(&semidef[0][0], 3, CAEKF_EPS * 1024, w));
+}
+
+/* A zero or negative variance: its row and column are dropped, in place, and nothing outside the n x n matrix
+ * is touched (a guard after it). */
+static void test_psd_repair_drops_rows_of_non_positive_variance(void)
+{
+    caekf_scalar_t buf[9 + 4], v[9];
+    const caekf_scalar_t a[9] = {4, 1, 2, 1, 0, 1, 2, 1, 9};
+    int i;
+    for (i = 0; i < 13; ++i) {
+        buf[i] = i < 9 ? a[i] : 77;
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_OK, caekf_psd_repair(buf, 3, v));
+    for (i = 0; i < 3; ++i) {
+        TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)buf[3 + i]);
+        TEST_ASSERT_EQUAL_DOUBLE(0.0, (double)buf[3 * i + 1]);
+    }
+    /* the remaining 2 x 2 [4 2; 2 9] is positive definite: kept */
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 10, 4.0, (double)buf[0]);
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 10, 2.0, (double)buf[2]);
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 10, 2.0, (double)buf[6]);
+    TEST_ASSERT_DOUBLE_WITHIN(TOL * 100, 9.0, (double)buf[8]);
+    for (i = 9; i < 13; ++i) {
+        TEST_ASSERT_EQUAL_DOUBLE(77.0, (double)buf[i]);
+    }
+}
+
 static void test_psd_check_cases(void)
 {
     caekf_scalar_t w[9];
@@ -371,12 +532,20 @@ int main(void)
 #endif
 #if CAEKF_LA_GENERAL_LU && CAEKF_LA_LU4
     RUN_TEST(test_lu4_is_the_general_lu);
+    RUN_TEST(test_lu4_solve_is_the_general_solve);
 #endif
 #if CAEKF_LA_GENERAL_LU
     RUN_TEST(test_lu_solves_several_rhs_with_pivoting);
     RUN_TEST(test_lu_refuses_singular_and_nan);
 #endif
     RUN_TEST(test_sym2_inverse_and_refusals);
+    RUN_TEST(test_sym2_inverse_threshold_is_relative_to_a_times_c);
+#if CAEKF_LA_GENERAL_LU
+    RUN_TEST(test_sizes_from_one_and_refused_shapes);
+#endif
+    RUN_TEST(test_eigen_tridiagonal_and_tiny_matrices);
+    RUN_TEST(test_psd_check_ignores_stale_workspace);
+    RUN_TEST(test_psd_repair_drops_rows_of_non_positive_variance);
     RUN_TEST(test_psd_check_cases);
     RUN_TEST(test_psd_check_zero_variances);
     RUN_TEST(test_eigen_norm_and_repair);

@@ -189,6 +189,70 @@ static void test_the_estimator_learns_a_spring(void)
     TEST_ASSERT_EQUAL_UINT8(CAEKF_PARAM_M_SIGMA, err.param_id);
 }
 
+/* A measured input's noise (input{i}_sigma): a prediction adds sigma_u^2 g g^T to the bodies' covariance,
+ * g = dx_k/du_k of the step (the trapezoidal rule takes each sample in two steps: twice the one-end gain),
+ * g here by central differences of the Newton step itself. Two instances alike but for the input's sigma,
+ * one prediction each from the same state: the difference of their covariances is that term, and nothing
+ * else moves. */
+static void check_input_noise(int discretisation)
+{
+    static caekf_t with, without;
+    caekf_scalar_t x[CAEKF_N], xp[CAEKF_N], xm[CAEKF_N], work[4 * CAEKF_NQ];
+    const caekf_scalar_t u[1] = {(caekf_scalar_t)0.3};
+    const double h = 1e-3, sigma_u = 0.05, factor = discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? 2 : 1;
+    caekf_report_t rep;
+    double g[2 * NQ], big = 0;
+    int i, j, it, n;
+    if (CAEKF_USE_FLOAT) {
+        TEST_IGNORE_MESSAGE("central differences of the step: the double build checks them");
+    }
+    paper_settings(&settings, EXP_SWITCHED);
+    settings.model.discretisation = discretisation;
+    settings.v0[0] = (caekf_scalar_t)1e-3;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&without, &settings));
+    settings.input_sigma[0] = (caekf_scalar_t)sigma_u;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&with, &settings));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&with, x));
+    {
+        const caekf_scalar_t up[1] = {(caekf_scalar_t)(0.3 + h)}, um[1] = {(caekf_scalar_t)(0.3 - h)};
+        /* the first step holds u over its interval: u_{k-1} = u_k = 0.3, and the gain is the end's */
+        TEST_ASSERT_EQUAL_INT(
+            0, caekf_model_newton(&with.model, x, u, up, CAEKF_NEWTON_MAX_ITER, (caekf_scalar_t)1e-15, xp, &it, work));
+        TEST_ASSERT_EQUAL_INT(
+            0, caekf_model_newton(&with.model, x, u, um, CAEKF_NEWTON_MAX_ITER, (caekf_scalar_t)1e-15, xm, &it, work));
+    }
+    for (i = 0; i < 2 * NQ; ++i) {
+        g[i] = factor * ((double)xp[i] - (double)xm[i]) / (2 * h) / (double)with.scale[i]; /* scaled */
+    }
+    test_fill_stack(0xFF); /* a local read before it is written: a NaN */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&with, u, &rep));
+    TEST_ASSERT_EQUAL_UINT32(0, rep.flags & CAEKF_FLAG_NUMERIC_ROLLBACK);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&without, u, &rep));
+    n = with.model.n;
+    for (i = 0; i < 2 * NQ; ++i) {
+        big = fmax(big, sigma_u * sigma_u * g[i] * g[i]);
+    }
+    TEST_ASSERT_TRUE(big > 0);
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            const double added = (double)with.P[i * n + j] - (double)without.P[i * n + j];
+            const double expected = i < 2 * NQ && j < 2 * NQ ? sigma_u * sigma_u * g[i] * g[j] : 0.0;
+            TEST_ASSERT_DOUBLE_WITHIN(1e-5 * big, expected, added);
+        }
+        TEST_ASSERT_TRUE(with.z[i] == without.z[i]);
+    }
+}
+
+static void test_input_noise_is_the_step_gain_squared_backward_euler(void)
+{
+    check_input_noise(CAEKF_DISCRETISATION_BACKWARD_EULER);
+}
+
+static void test_input_noise_is_the_step_gain_squared_trapezoidal(void)
+{
+    check_input_noise(CAEKF_DISCRETISATION_TRAPEZOIDAL);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -198,5 +262,7 @@ int main(void)
     RUN_TEST(test_columns_match_the_step_trapezoidal_open);
     RUN_TEST(test_the_model_follows_the_values);
     RUN_TEST(test_the_estimator_learns_a_spring);
+    RUN_TEST(test_input_noise_is_the_step_gain_squared_backward_euler);
+    RUN_TEST(test_input_noise_is_the_step_gain_squared_trapezoidal);
     return UNITY_END();
 }

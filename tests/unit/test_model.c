@@ -28,18 +28,39 @@ static int discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER; /* of the tests
 static double contact_lambda = 0; /* Hunt-Crossley damping of the substep product's test [s/m] */
 #endif
 static const caekf_scalar_t u_prev[1] = {(caekf_scalar_t)0.2}, u_now[1] = {(caekf_scalar_t)0.3};
+/* The contact's ends: 0 the paper's (bodies 2 and 3); 1 body 1 into body 2; 2 body 2 into body 1 (the first body,
+ * index 0, at either end). */
+static int contact_ends = 0;
+
+/* The settings' contact ends, and those of the first body's variants. */
+static void set_contact_ends(caekf_settings_t *s)
+{
+    if (contact_ends != 0) {
+        s->model.contact_a[0] = contact_ends == 1 ? 1 : 2;
+        s->model.contact_b[0] = contact_ends == 1 ? 2 : 1;
+    }
+}
 
 void setUp(void)
 {
     caekf_settings_t s;
     paper_settings(&s, EXP_SWITCHED);
     s.model.discretisation = discretisation;
+    set_contact_ends(&s);
     TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&model, &s.model));
 }
 void tearDown(void) {}
 
 /* A state with penetration `delta` (<= 0: no contact) and some motion. */
-static void make_state(caekf_scalar_t x[CAEKF_N], double delta) { paper_moving_state(x, 1.0e-3, delta, 1.1e8); }
+static void make_state(caekf_scalar_t x[CAEKF_N], double delta)
+{
+    paper_moving_state(x, 1.0e-3, delta, 1.1e8);
+    if (contact_ends == 1) { /* q1 - q2 - gap = delta */
+        x[0] = (caekf_scalar_t)((double)x[1] + 1.0e-3 + delta);
+    } else if (contact_ends == 2) { /* q2 - q1 - gap = delta */
+        x[1] = (caekf_scalar_t)((double)x[0] + 1.0e-3 + delta);
+    }
+}
 
 #if CAEKF_MODEL_ORACLES /* the library has the reference residual, Jacobians and F */
 static void check_jacobians_at(double delta)
@@ -287,9 +308,15 @@ static void test_substep_product_is_the_product_of_the_substep_maps(void)
     s.model.discretisation = discretisation;
     s.contact_substeps = 4;
     s.model.contact_lambda[0] = (caekf_scalar_t)contact_lambda;
+    set_contact_ends(&s);
     s.q0[0] = (caekf_scalar_t)1.2e-3;
     s.q0[1] = (caekf_scalar_t)(1.0e-3 + 3e-6); /* body 2 into body 3: the contact is closed at the start */
     s.v0[1] = (caekf_scalar_t)1e-3;
+    if (contact_ends != 0) { /* the first body's contact, closing on the springs' pull during the step */
+        s.q0[contact_ends == 1 ? 0 : 1] = (caekf_scalar_t)((double)s.q0[contact_ends == 1 ? 1 : 0] + 1.0e-3 + 2e-5);
+        s.v0[0] = (caekf_scalar_t)(contact_ends == 1 ? 3e-2 : 0);
+        s.v0[1] = (caekf_scalar_t)(contact_ends == 1 ? 0 : 3e-2);
+    }
     y[0] = s.q0[0];
     y[1] = s.q0[3];
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
@@ -455,6 +482,83 @@ static void test_slr_tangents_are_the_law_expected_over_the_penetration(void)
 }
 #endif
 
+#if !CAEKF_SIZED_METHOD /* a build sized for one configuration fixes its contact's ends */
+/* A correction at t0 (caekf_correct) judges the contacts at the initial state itself: every body's position, the
+ * first body's too (body 1 into body 2, closed from the start). */
+static void test_a_correction_at_t0_sees_the_initial_contacts(void)
+{
+    static caekf_t est;
+    caekf_settings_t s;
+    caekf_report_t rep;
+    const caekf_scalar_t u[1] = {0};
+    caekf_scalar_t y[2];
+    paper_settings(&s, EXP_SWITCHED);
+    s.model.contact_a[0] = 1;
+    s.model.contact_b[0] = 2;
+    s.q0[1] = (caekf_scalar_t)1e-5;
+    s.q0[0] = (caekf_scalar_t)(1e-5 + 1.0e-3 + 3e-6);
+    y[0] = s.q0[0];
+    y[1] = s.q0[3];
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_correct(&est, u, y, &rep));
+    TEST_ASSERT_TRUE(rep.flags & CAEKF_FLAG_CONTACT_ACTIVE);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 3e-6, (double)rep.delta);
+}
+#endif
+
+#if CAEKF_MODEL_ORACLES && !CAEKF_SIZED
+/* Chains of three and five bodies (nq not 4: the LU of any size instead of the 4 x 4 kernel), springs to the
+ * ground at both ends, bodies 2 and 3 in contact: the Newton step solves the residual. */
+static void check_newton_on_a_chain(int bodies)
+{
+    caekf_settings_t s;
+    caekf_model_t m;
+    caekf_scalar_t xp[CAEKF_N], xk[CAEKF_N], g0[CAEKF_N], g[CAEKF_N], work[4 * CAEKF_NQ];
+    double r0 = 0, r = 0;
+    int i, it;
+    paper_settings(&s, EXP_SWITCHED);
+    s.model.discretisation = discretisation;
+    s.model.bodies = bodies;
+    s.model.springs = bodies + 1;
+    for (i = 0; i <= bodies; ++i) { /* ground - 1 - 2 - ... - bodies - ground */
+        s.model.spring_a[i] = i == 0 ? 1 : i;
+        s.model.spring_b[i] = i == 0 || i == bodies ? 0 : i + 1;
+        s.model.spring_k[i] = 1e4;
+        s.model.spring_c[i] = 5;
+    }
+    for (i = 0; i < bodies; ++i) {
+        s.model.m[i] = (caekf_scalar_t)(1 + 0.25 * i);
+    }
+    s.model.sensor_body[1] = bodies;
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &s.model));
+    TEST_ASSERT_EQUAL_INT(2 * bodies + 1, m.n);
+    for (i = 0; i < CAEKF_N; ++i) {
+        xp[i] = 0;
+    }
+    for (i = 0; i < bodies; ++i) {
+        xp[bodies + i] = (caekf_scalar_t)(1e-3 * (i % 2 ? -1 : 1));
+    }
+    xp[1] = (caekf_scalar_t)(1.0e-3 + 2e-6); /* body 2 into body 3 */
+    xp[2 * bodies] = (caekf_scalar_t)1e8;
+    caekf_model_residual(&m, xp, xp, u_prev, u_now, g0);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_newton(&m, xp, u_prev, u_now, CAEKF_NEWTON_MAX_ITER,
+                                                (caekf_scalar_t)(CAEKF_USE_FLOAT ? 1e-5 : 1e-13), xk, &it, work));
+    caekf_model_residual(&m, xk, xp, u_prev, u_now, g);
+    for (i = 0; i < 2 * bodies; ++i) {
+        r0 = fmax(r0, fabs((double)g0[i]));
+        r = fmax(r, fabs((double)g[i]));
+    }
+    TEST_ASSERT_TRUE(r0 > 0);
+    TEST_ASSERT_TRUE(r <= (CAEKF_USE_FLOAT ? 1e-3 : 1e-9) * r0);
+}
+
+static void test_newton_solves_chains_of_three_and_five_bodies(void)
+{
+    check_newton_on_a_chain(3);
+    check_newton_on_a_chain(5);
+}
+#endif
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -469,6 +573,12 @@ int main(void)
     RUN_TEST(test_newton_converges_over_the_reference_scenario);
     RUN_TEST(test_transition_at_given_contacts_is_the_same);
     RUN_TEST(test_forced_newton_failure_is_reported);
+#if CAEKF_MODEL_ORACLES && !CAEKF_SIZED
+    RUN_TEST(test_newton_solves_chains_of_three_and_five_bodies);
+#endif
+#if !CAEKF_SIZED_METHOD
+    RUN_TEST(test_a_correction_at_t0_sees_the_initial_contacts);
+#endif
 #if CAEKF_HAS_TRAPEZOIDAL /* the build runs it */
     discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
 #if CAEKF_MODEL_ORACLES
@@ -498,6 +608,25 @@ int main(void)
     RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
     contact_lambda = 0;
 #endif
+#endif
+#if CAEKF_MODEL_ORACLES /* a contact of the first body (index 0) at either end, both rules */
+    for (contact_ends = 1; contact_ends <= 2; ++contact_ends) {
+        discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
+        RUN_TEST(test_jacobians_match_finite_differences_in_contact);
+        RUN_TEST(test_structured_transition_equals_eq10);
+#if CAEKF_HAS_TRAPEZOIDAL
+        discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
+        RUN_TEST(test_jacobians_match_finite_differences_in_contact);
+        RUN_TEST(test_structured_transition_equals_eq10);
+#endif
+#if CAEKF_HAS_SUBSTEPS
+        contact_lambda = 300;
+        RUN_TEST(test_substep_product_is_the_product_of_the_substep_maps);
+        contact_lambda = 0;
+#endif
+    }
+    contact_ends = 0;
+    discretisation = CAEKF_DISCRETISATION_BACKWARD_EULER;
 #endif
     return UNITY_END();
 }

@@ -11,15 +11,19 @@
 #define IG PAPER_IG
 /* The monitor's mean against the formula in double: its own scalar's rounding over 60,000 steps. */
 #define MEAN_TOL (CAEKF_USE_FLOAT ? 1e-2 : 1e-9)
+/* Steps whose flag may differ from the formula's in double: float's mean can sit on the other side of the ratio. */
+#define FLAG_TOL (CAEKF_USE_FLOAT ? 100 : 0)
 
 void setUp(void) {}
 void tearDown(void) {}
 
 typedef struct {
     long steps, flagged, gated_late; /* steps; steps flagged MODEL_MISMATCH; gated in the last 10 s */
+    long flag_wrong;                 /* steps whose MODEL_MISMATCH flag is not the formula's */
     uint32_t last_flags;
     double nis_mean, q_scale; /* at the end */
     double mean_ref_err;      /* largest |caekf_get_mismatch's mean - the formula's from rep.nis| */
+    double q_ref_err;         /* largest relative |caekf_get_mismatch's q_scale - the formula's| */
     caekf_scalar_t x[CAEKF_N];
 } mm_run_t;
 
@@ -32,7 +36,7 @@ static mm_run_t run(int window, double ratio, int adapt, double k1_factor)
     caekf_settings_t s;
     mm_run_t res;
     truth_rec_t r;
-    double mean = 1;
+    double mean = 1, q = 1;
     memset(&res, 0, sizeof res);
     paper_settings(&s, EXP_SWITCHED);
     s.mismatch_window = window;
@@ -44,24 +48,31 @@ static mm_run_t run(int window, double ratio, int adapt, double k1_factor)
     while (truth_next(&r) == 1) {
         const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
         caekf_report_t rep;
-        caekf_scalar_t m, q;
+        caekf_scalar_t m, qs;
         const caekf_status_t st = caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep);
-        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &m, &q));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &m, &qs));
         if (st != CAEKF_OK) { /* a wrong model may drive float into a rolled-back step: the monitor kept */
             TEST_ASSERT_TRUE(st == CAEKF_ERR_SINGULAR || st == CAEKF_ERR_NUMERIC);
-            TEST_ASSERT_TRUE(res.steps == 0 || ((double)m == res.nis_mean && (double)q == res.q_scale));
+            TEST_ASSERT_TRUE(res.steps == 0 || ((double)m == res.nis_mean && (double)qs == res.q_scale));
             res.steps++;
             continue;
         }
         if (window > 0 && !(rep.flags & CAEKF_FLAG_SINGULAR_INNOVATION)) { /* a correction was computed */
             mean += (fmin((double)rep.nis / 2, 100.0) - mean) / window;
             res.mean_ref_err = fmax(res.mean_ref_err, fabs((double)m - mean) / fmax(mean, 1.0));
+            if (adapt && (q > 1 || mean > ratio)) { /* Q_x's factor: q (1 + (mean - 1) / window) within [1, 1e12] */
+                q = fmin(fmax(q * (1 + (mean - 1) / window), 1.0), 1e12);
+            }
+            res.q_ref_err = fmax(res.q_ref_err, fabs((double)qs - q) / q);
+        }
+        if (window > 0) {
+            res.flag_wrong += ((rep.flags & CAEKF_FLAG_MODEL_MISMATCH) != 0) != (mean > ratio || q > 1);
         }
         res.flagged += (rep.flags & CAEKF_FLAG_MODEL_MISMATCH) != 0;
         res.gated_late += res.steps >= paper_steps() - 10000 && (rep.flags & CAEKF_FLAG_GAMMA_GATED) != 0;
         res.last_flags = rep.flags;
         res.nis_mean = (double)m;
-        res.q_scale = (double)q;
+        res.q_scale = (double)qs;
         res.steps++;
     }
     truth_close();
@@ -103,9 +114,22 @@ static void test_adapting_q_lets_the_gate_go(void)
 {
     const mm_run_t held = run(500, 3.0, 0, 1.03), adapted = run(500, 3.0, 1, 1.03);
     TEST_ASSERT_TRUE(adapted.q_scale > 1.0);
+    /* the factor and the flag follow their formulas step by step, while the factor grows and once it is above 1 */
+    TEST_ASSERT_TRUE(adapted.q_ref_err < MEAN_TOL);
+    TEST_ASSERT_TRUE(adapted.flag_wrong <= FLAG_TOL);
+    TEST_ASSERT_TRUE(held.flag_wrong <= FLAG_TOL);
     TEST_ASSERT_TRUE(adapted.last_flags & CAEKF_FLAG_MODEL_MISMATCH); /* still said while Q_x is adapted */
     TEST_ASSERT_TRUE(held.gated_late > 0);
     TEST_ASSERT_TRUE(adapted.gated_late < held.gated_late / 10);
+}
+
+/* A window of one step: the mean is the last step's NIS per sensor (clipped), and the monitor still works. */
+static void test_a_window_of_one_step_is_a_monitor(void)
+{
+    const mm_run_t one = run(1, 3.0, 0, 1.03);
+    TEST_ASSERT_TRUE(one.flagged > 0);
+    TEST_ASSERT_TRUE(one.mean_ref_err < MEAN_TOL);
+    TEST_ASSERT_TRUE(one.flag_wrong <= FLAG_TOL);
 }
 
 static void test_a_refused_step_leaves_the_monitor_as_it_was(void)
@@ -135,6 +159,7 @@ int main(void)
     RUN_TEST(test_an_exact_model_is_never_flagged_and_its_estimate_is_unchanged);
     RUN_TEST(test_a_spring_three_percent_off_is_flagged);
     RUN_TEST(test_adapting_q_lets_the_gate_go);
+    RUN_TEST(test_a_window_of_one_step_is_a_monitor);
     RUN_TEST(test_a_refused_step_leaves_the_monitor_as_it_was);
     return UNITY_END();
 }

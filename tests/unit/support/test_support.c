@@ -180,3 +180,12 @@ void paper_moving_state(caekf_scalar_t x[CAEKF_N], double gap, double delta, dou
     x[7] = (caekf_scalar_t)-5e-4;
     x[8] = (caekf_scalar_t)gamma;
 }
+
+void test_fill_stack(unsigned char byte)
+{
+    volatile unsigned char area[8192];
+    unsigned i;
+    for (i = 0; i < sizeof area; i++) {
+        area[i] = byte;
+    }
+}

@@ -71,6 +71,11 @@ void test_spd_matrix(paper_mat_t P);
  * gamma `gamma` in state 8, every other entry up to CAEKF_N zero. The model and contact-law suites' point. */
 void paper_moving_state(caekf_scalar_t x[CAEKF_N], double gap, double delta, double gamma);
 
+/* Fills the stack below the caller with `byte` (0xFF: a NaN in either scalar type), so that the next call's
+ * locals that are read before they are written hold it rather than what an earlier call left (often zeros):
+ * such a read then shows. A call into this separate object: never inlined into the caller's frame. */
+void test_fill_stack(unsigned char byte);
+
 /* Gauss-Jordan inverse with partial pivoting in double, written independently of the library's LU, for
  * reference computations: a (n x n, row-major, destroyed) -> inv. Returns 0, or -1 on a zero pivot. */
 int test_invert(double *a, double *inv, int n);
