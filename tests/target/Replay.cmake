@@ -7,7 +7,9 @@
 #   CAEKF_HOST_REPLAY        the host caekf-replay (double), for the reference trajectory
 # Tests:
 #   target_replay            runs the image, compares with the host: Cortex-M7 (double) every
-#                            snapshot within 1e-9 relative; Cortex-M4F (float) final gamma within 0.5 %
+#                            snapshot within 1e-9 relative; Cortex-M4F (float) each contact's final gamma
+#                            within 0.5 % or, where CAEKF_REPLAY_FLOAT_SIGMA is set, within that many of the
+#                            host estimate's standard deviations
 #   target_replay.stack      the measured stack (painting) of caekf_init and of the steps is within
 #                            CAEKF_STACK_BUDGET (512 B float, 1024 B double); reads target_replay's
 #                            saved output                                          (label budget)
@@ -26,8 +28,13 @@ else()
     set(_stack_default 1024)
 endif()
 set(CAEKF_STACK_BUDGET ${_stack_default} CACHE STRING "Stack budget of caekf_init/caekf_step in bytes")
+# A float replay's final gammas against the double host's: 0.5 %, or (set) this many of the host estimate's
+# standard deviations, for scenarios whose estimate stays uncertain enough that the float and the double run part
+# by more than 0.5 % (tests/target/check_replay.py; the sized presets of CMakePresets.json that need it set it).
+set(CAEKF_REPLAY_FLOAT_SIGMA "0" CACHE STRING "Float replay: a final gamma may lie within this many standard deviations")
 # The reference run's max step: issue 10's 9,646 (the worst contact + constraint + max Newton step's 8,000 is
-# tools/mcu-report.py's, which finds that step); a benchmark gate, left out of tools/run-tests.sh (-LE icount).
+# tools/mcu-report.py's, which finds that step); a benchmark gate, left out of the MCU test presets (their filter
+# excludes the label icount: `ctest --test-dir build/cortex-m4f -L icount` runs it).
 set(CAEKF_ICOUNT_BUDGET 9646 CACHE STRING "Max instructions per caekf_step of the reference run (Cortex-M4F)")
 
 find_package(Python3 COMPONENTS Interpreter)
@@ -113,7 +120,7 @@ foreach(_variant IN LISTS _variants)
         endif()
         add_test(NAME ${_image}
             COMMAND "${Python3_EXECUTABLE}" "${_dir}/check_replay.py" --mode ${_mode}
-                    --reference "${_ref}" --output "${CMAKE_CURRENT_BINARY_DIR}/${_image}.out"
+                    --float-sigma ${CAEKF_REPLAY_FLOAT_SIGMA} --reference "${_ref}" --output "${CMAKE_CURRENT_BINARY_DIR}/${_image}.out"
                     -- ${CAEKF_QEMU_RUN} --timeout 600 $<TARGET_FILE:${_image}>)
         set_tests_properties(${_image} PROPERTIES LABELS "target;replay" TIMEOUT 700
             FIXTURES_SETUP ${_image}_output)
