@@ -15,6 +15,9 @@
 #   3. Python venv at .venv; `pip install -e ./sim[dev]` when sim/pyproject.toml
 #      exists, re-run only when that file, the interpreter or the C sources of the
 #      estimator binding (core, the settings schema, host/common scenario/truth, sim/src/caekf_sim/_caekf.c) changed.
+#   4. CMake 3.25 or newer (CMakePresets.json's workflow presets): where the distribution's is older
+#      (Ubuntu 22.04: 3.22), the venv's (PyPI's cmake package) linked in .cache/cmake/bin, which
+#      tools/run-tests.sh and tools/run-main.sh then put first on PATH.
 #
 # Environment knobs:
 #   CAEKF_SKIP_APT=1    skip step 1 (e.g. on a machine set up by other means)
@@ -319,10 +322,37 @@ setup_venv() {
     printf '%s' "$want" >"$stamp"
 }
 
+# --- 4. CMake >= 3.25 ----------------------------------------------------------------------
+# Where the distribution's cmake is older, .cache/cmake/bin links the venv's (PyPI's cmake package, which FMPy
+# already brings; installed here if not) and tools/run-tests.sh and tools/run-main.sh put it first on PATH.
+CMAKE_MIN=3.25
+cmake_version() { "$1" --version 2>/dev/null | awk 'NR == 1 { print $3 }'; }
+version_ok() { [ -n "$1" ] && [ "$(printf '%s\n%s\n' "$CMAKE_MIN" "$1" | sort -V | head -n 1)" = "$CMAKE_MIN" ]; }
+setup_cmake() {
+    local v vv
+    v="$(cmake_version cmake)"
+    if version_ok "$v"; then
+        rm -rf "$CACHE/cmake"
+        log "cmake $v (>= $CMAKE_MIN)"
+        return 0
+    fi
+    [ -x "$VENV/bin/python" ] || die "cmake ${v:-none} is older than $CMAKE_MIN and there is no venv to install one into"
+    vv="$(cmake_version "$VENV/bin/cmake")"
+    if ! version_ok "$vv"; then
+        log "cmake ${v:-none} < $CMAKE_MIN: pip install cmake into .venv"
+        "$VENV/bin/python" -m pip install -q "cmake>=$CMAKE_MIN"
+        vv="$(cmake_version "$VENV/bin/cmake")"
+    fi
+    mkdir -p "$CACHE/cmake/bin"
+    ln -sf "$VENV/bin/cmake" "$VENV/bin/ctest" "$VENV/bin/cpack" "$CACHE/cmake/bin/"
+    log "cmake ${v:-none} < $CMAKE_MIN: .cache/cmake/bin has the venv's $vv"
+}
+
 # -------------------------------------------------------------------------------------------
 t0=$SECONDS
 [ "${CAEKF_SKIP_APT:-0}" = 1 ]   || install_apt_packages
 mkdir -p "$CACHE"
 [ "${CAEKF_SKIP_UNITY:-0}" = 1 ] || fetch_unity
 [ "${CAEKF_SKIP_VENV:-0}" = 1 ]  || setup_venv
+setup_cmake
 log "done in $((SECONDS - t0)) s"

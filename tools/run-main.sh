@@ -11,4 +11,6 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$REPO"
 
 tools/bootstrap.sh --hil
+# The distribution's cmake older than 3.25: bootstrap linked a newer one here.
+if [ -d "$REPO/.cache/cmake/bin" ]; then export PATH="$REPO/.cache/cmake/bin:$PATH"; fi
 exec tools/hil-main.sh "$@"
