@@ -17,7 +17,10 @@ hil_prepare() {
 	case "$out/" in "$root"/*) ;; *) echo "$name: OUT_DIR must be inside the repository (shared with the guest)" >&2; exit 2 ;; esac
 	[ -x "$py" ] || { echo "$name: no $py: run tools/bootstrap.sh --hil" >&2; exit 1; }
 	local log=$out/build.log
-	{ cmake --preset host-double && cmake --build --preset host-double; } >"$log" 2>&1 ||
+	# under tools/run-tests.sh's lock: its stages that use build/host-double run side by side
+	mkdir -p "$root/build"
+	flock "$root/build/.host-double.lock" sh -c 'cmake --preset host-double && cmake --build --preset host-double' \
+		>"$log" 2>&1 ||
 		{ tail -n 30 "$log" >&2; echo "$name: building host-double failed (log: $log)" >&2; exit 1; }
 	"$build/host/caekf-truth" --scenario "$scenario" --out "$out/truth.csv" --quiet
 }
