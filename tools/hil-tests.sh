@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The HIL test suite (tests/hil, pytest) in ONE vcan0 session: native vcan0 if this kernel has it,
-# otherwise one QEMU VM boot (tools/with-vcan.sh). Builds host-double and the truth here first.
+# The HIL test suite (tests/hil, pytest), each pass in ONE vcan0 session: native vcan0 if this kernel has it,
+# otherwise one user-mode Linux boot (tools/with-vcan.sh). Builds host-double and the truth here first.
 #
 #   tools/hil-tests.sh [PYTEST ARGS...]     e.g. tools/hil-tests.sh -k bad_traffic
 #
