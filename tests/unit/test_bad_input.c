@@ -254,6 +254,20 @@ static void test_more_rules_at_their_edges(void)
 }
 
 #if !CAEKF_SIZED
+/* Settings beyond the counts in use are not read: an uncertain mass of a body the mechanism does not have and
+ * a stiffness sigma of a spring past the last add no state. */
+static void test_settings_beyond_the_counts_are_not_read(void)
+{
+    caekf_settings_t b = good;
+    int n, ny, nu;
+    b.model.m_sigma[b.model.bodies] = (caekf_scalar_t)0.03;
+    b.model.spring_k_sigma[b.model.springs] = (caekf_scalar_t)0.03;
+    b.model.spring_c_sigma[b.model.springs] = (caekf_scalar_t)0.03;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &b));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_sizes(&est, &n, &ny, &nu));
+    TEST_ASSERT_EQUAL_INT(PAPER_N, n);
+}
+
 /* A sensor's estimated offset (sensor{i}_bias_sigma), the first sensor's too: a state after the mechanism's,
  * starting at 0, read back as it is. */
 static void test_a_sensor_offset_is_a_state_from_zero(void)
@@ -682,6 +696,7 @@ int main(void)
     RUN_TEST(test_more_rules_at_their_edges);
 #if !CAEKF_SIZED
     RUN_TEST(test_a_sensor_offset_is_a_state_from_zero);
+    RUN_TEST(test_settings_beyond_the_counts_are_not_read);
 #endif
 #if !CAEKF_SIZED && CAEKF_MAX_CONTACTS >= 2 && CAEKF_MAX_LAW_PARAMS >= 6
     RUN_TEST(test_a_second_contact_is_checked_and_fills_the_law_room);

@@ -483,6 +483,34 @@ static void test_slr_tangents_are_the_law_expected_over_the_penetration(void)
 #endif
 
 #if !CAEKF_SIZED_METHOD /* a build sized for one configuration fixes its contact's ends */
+/* The damped law gamma delta^n (1 + lambda r), delta = q_a - q_b - gap, r = v_a - v_b, written here, against the
+ * model's for contacts of the first body at either end. */
+static void test_the_damped_law_of_a_first_body_contact(void)
+{
+    int ends;
+    for (ends = 1; ends <= 2; ++ends) {
+        caekf_settings_t s;
+        caekf_model_t m;
+        caekf_contact_t c;
+        caekf_scalar_t x[CAEKF_N];
+        double delta, rate, f;
+        const int a = ends == 1 ? 0 : 1, b = ends == 1 ? 1 : 0;
+        paper_settings(&s, EXP_SWITCHED);
+        s.model.contact_a[0] = a + 1;
+        s.model.contact_b[0] = b + 1;
+        s.model.contact_lambda[0] = 100; /* 1 + lambda r: 1.5 and 0.5 */
+        TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &s.model));
+        paper_moving_state(x, 1.0e-3, 0, 1.1e8);
+        x[a] = (caekf_scalar_t)((double)x[b] + 1.0e-3 + 2e-6);
+        delta = (double)x[a] - (double)x[b] - 1.0e-3;
+        rate = (double)x[PAPER_NQ + a] - (double)x[PAPER_NQ + b];
+        f = 1.1e8 * pow(delta, (double)s.model.contact_n[0]) * (1 + 100 * rate);
+        caekf_model_contact(&m, 0, x, &c);
+        TEST_ASSERT_DOUBLE_WITHIN((CAEKF_USE_FLOAT ? 1e-3 : 1e-9) * delta, delta, (double)c.delta);
+        TEST_ASSERT_DOUBLE_WITHIN((CAEKF_USE_FLOAT ? 1e-3 : 1e-9) * fabs(f), f, (double)c.fc);
+    }
+}
+
 /* A correction at t0 (caekf_correct) judges the contacts at the initial state itself: every body's position, the
  * first body's too (body 1 into body 2, closed from the start). */
 static void test_a_correction_at_t0_sees_the_initial_contacts(void)
@@ -550,6 +578,31 @@ static void check_newton_on_a_chain(int bodies)
     }
     TEST_ASSERT_TRUE(r0 > 0);
     TEST_ASSERT_TRUE(r <= (CAEKF_USE_FLOAT ? 1e-3 : 1e-9) * r0);
+    if (discretisation == CAEKF_DISCRETISATION_BACKWARD_EULER) {
+        /* and the equations themselves, written here from the settings: m (v - v') / dt + K q + C v - u + the
+         * contact's force (-f on body a, +f on body b) = 0, q - q' = dt v */
+        const double dt = (double)s.model.dt, gap = (double)s.model.contact_gap[0];
+        const double delta = (double)xk[1] - (double)xk[2] - gap;
+        const double f = delta > 0 ? (double)xk[2 * bodies] * pow(delta, (double)s.model.contact_n[0]) : 0;
+        for (i = 0; i < bodies; ++i) {
+            double res = (double)s.model.m[i] * ((double)xk[bodies + i] - (double)xp[bodies + i]) / dt;
+            double mag = fabs(res);
+            int k;
+            for (k = 0; k < bodies + 1; ++k) { /* each spring on body i */
+                const int a = s.model.spring_a[k] - 1, b = s.model.spring_b[k] - 1;
+                const double ext = (double)xk[a] - (b >= 0 ? (double)xk[b] : 0);
+                const double rate = (double)xk[bodies + a] - (b >= 0 ? (double)xk[bodies + b] : 0);
+                const double t = (double)s.model.spring_k[k] * ext + (double)s.model.spring_c[k] * rate;
+                res += i == a ? t : i == b ? -t : 0;
+                mag += i == a || i == b ? fabs(t) : 0;
+            }
+            res -= i == s.model.input_body[0] - 1 ? (double)u_now[0] : 0;
+            res += i == 1 ? f : i == 2 ? -f : 0;
+            TEST_ASSERT_DOUBLE_WITHIN((CAEKF_USE_FLOAT ? 1e-3 : 1e-8) * (mag + fabs(f) + 1), 0.0, res);
+            TEST_ASSERT_DOUBLE_WITHIN((CAEKF_USE_FLOAT ? 1e-6 : 1e-12) * (fabs((double)xk[i]) + 1e-3),
+                                      (double)xp[i] + dt * (double)xk[bodies + i], (double)xk[i]);
+        }
+    }
 }
 
 static void test_newton_solves_chains_of_three_and_five_bodies(void)
@@ -578,6 +631,7 @@ int main(void)
 #endif
 #if !CAEKF_SIZED_METHOD
     RUN_TEST(test_a_correction_at_t0_sees_the_initial_contacts);
+    RUN_TEST(test_the_damped_law_of_a_first_body_contact);
 #endif
 #if CAEKF_HAS_TRAPEZOIDAL /* the build runs it */
     discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;

@@ -165,6 +165,46 @@ static void test_slr_switch_is_the_probability_of_contact(void)
     TEST_ASSERT_TRUE(on.open_active > 0); /* live on the open side while contact is probable */
 }
 
+#if !CAEKF_SIZED_METHOD /* a build sized for one configuration fixes its contact's ends */
+/* The penetration std the statistical linearisation takes: sqrt(b^T P_qq b) over the contact's bodies from
+ * P_{k-1}, b = e_a - e_b (the ground's term absent), for contacts of the first body at either end, of the
+ * paper's bodies and of a body and the ground. */
+static void check_penetration_std(int body_a, int body_b)
+{
+    static caekf_t est;
+    static caekf_scalar_t P[CAEKF_N][CAEKF_N];
+    caekf_settings_t s;
+    truth_rec_t r;
+    int k;
+    const int a = body_a - 1, b = body_b - 1;
+    paper_settings(&s, EXP_SWITCHED);
+    s.contact_slr_p = (caekf_scalar_t)0.01;
+    s.model.contact_a[0] = body_a;
+    s.model.contact_b[0] = body_b;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &s));
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    for (k = 0; k < 50 && truth_next(&r) == 1; ++k) {
+        const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
+        double v = 0;
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_covariance(&est, P)); /* P_{k-1} */
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, 0));
+        v += a >= 0 ? (double)P[a][a] : 0;
+        v += b >= 0 ? (double)P[b][b] : 0;
+        v -= a >= 0 && b >= 0 ? 2 * (double)P[a][b] : 0;
+        TEST_ASSERT_DOUBLE_WITHIN((CAEKF_USE_FLOAT ? 1e-4 : 1e-10) * sqrt(v), sqrt(v), (double)est.model.slr_s[0]);
+    }
+    truth_close();
+}
+
+static void test_slr_penetration_std_of_any_two_bodies(void)
+{
+    check_penetration_std(1, 2);
+    check_penetration_std(2, 1);
+    check_penetration_std(2, 3);
+    check_penetration_std(3, 0);
+}
+#endif
+
 /* A damped law is not linearised statistically (caekf_model_slr_law): its penetration std stays 0 and the
  * switch is eq. (21)'s sign, as with the setting 0 (the switch alone measured worse on such laws). */
 static void test_slr_leaves_a_damped_contact_alone(void)
@@ -248,6 +288,9 @@ int main(void)
     RUN_TEST(test_slr_switch_is_the_probability_of_contact);
     RUN_TEST(test_slr_switch_at_its_threshold);
     RUN_TEST(test_slr_leaves_a_damped_contact_alone);
+#if !CAEKF_SIZED_METHOD
+    RUN_TEST(test_slr_penetration_std_of_any_two_bodies);
+#endif
 #else
     RUN_TEST(test_slr_refused_where_compiled_out);
 #endif
