@@ -384,22 +384,42 @@ class EquivalentRow:
         return self.key.rsplit(":", 2)[0]
 
 
+def md_cell(text: str) -> str:
+    """Text for a markdown table cell: a pipe escaped."""
+    return text.replace("|", "\\|")
+
+
 def read_equivalents(path: Path) -> list[EquivalentRow]:
-    """The table rows of docs/mutation-equivalent.md: | `path:line:col` | mutation | `source line` | why |."""
+    """The table rows of docs/mutation-equivalent.md: | `path:line:col` | mutation | `source line` | why |
+    (a pipe inside a cell escaped as \\|)."""
     rows = []
     if path.exists():
         for line in path.read_text(encoding="utf-8").splitlines():
-            m = re.match(r"\|\s*`([^`]+:\d+:\d+)`\s*\|(.*?)\|\s*`(.*?)`\s*\|(.*)\|\s*$", line)
-            if m:
-                rows.append(EquivalentRow(m.group(1), squash(m.group(2)), squash(m.group(3), 200), m.group(4).strip()))
+            cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line)]
+            if len(cells) != 6 or cells[0] or cells[5]:
+                continue
+            key, mutation, text, why = cells[1:5]
+            if re.fullmatch(r"`[^`]+:\d+:\d+`", key) and text.startswith("`") and text.endswith("`"):
+                rows.append(EquivalentRow(key.strip("`"), squash(mutation), squash(text[1:-1], 200), why))
     return rows
+
+
+def moved_to(r: EquivalentRow, same: list[Mutant]) -> Mutant | None:
+    """The mutant a row names after its line moved: of those with its mutation on a line of its text, the one
+    (at its column, if any is) nearest its old line; None when two are as near."""
+    line, col = (int(v) for v in r.key.rsplit(":", 2)[1:])
+    same = [m for m in same if m.col == col] or same
+    if not same:
+        return None
+    dist = sorted((abs(m.line - line), i) for i, m in enumerate(same))
+    return same[dist[0][1]] if len(dist) == 1 or dist[0][0] < dist[1][0] else None
 
 
 def match_equivalents(rows: list[EquivalentRow], population: list[Mutant]) -> tuple[dict[int, EquivalentRow],
                                                                                    list[EquivalentRow]]:
     """({id(mutant): row}, rows naming no mutant) for the rows of the files in population. A row names the mutant
-    at its place with its mutation; else, when its line moved, the one mutant of its file with that mutation on a
-    line of that text."""
+    at its place with its mutation; else, when its line moved, the nearest mutant of its file with that mutation
+    on a line of that text (moved_to)."""
     by_key = {(m.key, squash(m.mutation)): m for m in population}
     by_text: dict[tuple[str, str, str], list[Mutant]] = {}
     for m in population:
@@ -412,8 +432,7 @@ def match_equivalents(rows: list[EquivalentRow], population: list[Mutant]) -> tu
             continue
         m = by_key.get((r.key, r.mutation))
         if m is None or m.text != r.text:
-            moved = by_text.get((r.path, r.mutation, r.text), [])
-            m = moved[0] if len(moved) == 1 else None
+            m = moved_to(r, by_text.get((r.path, r.mutation, r.text), []))
         if m is None:
             stale.append(r)
         else:
@@ -684,7 +703,7 @@ def report(mutants: list[Mutant], header: list[str], stale: list[str]) -> str:
         if ms:
             lines += ["| mutant | mutation | op | line after the mutation |", "|---|---|---|---|"]
         for m in ms:
-            lines.append(f"| `{m.key}` | {m.mutation} | {m.op} | `{squash(m.detail, 100)}` |")
+            lines.append(f"| `{m.key}` | {md_cell(m.mutation)} | {m.op} | `{md_cell(squash(m.detail, 100))}` |")
     eq = [m for m in mutants if m.outcome == "equivalent"]
     lines += ["", f"## Reviewed equivalents met: {len(eq)} (docs/mutation-equivalent.md)", ""]
     for m in eq:

@@ -128,6 +128,20 @@ def test_equivalent_rows_name_their_mutant_also_after_the_line_moved(tool, mutan
     assert tool.match_equivalents(rows, changed) == ({}, rows)
 
 
+def test_pipes_in_cells_are_escaped_and_a_row_takes_the_nearest_same_line(tool, tmp_path):
+    src = ("int f(int a, int b)\n{\n    if (a && b) {\n        a = 1;\n    }\n"
+           "    if (a && b) {\n        b = 2;\n    }\n    return a;\n}\n")
+    lcr = [m for m in tool.generate("g.c", "core", src) if m.op == "LCR"]
+    assert [m.line for m in lcr] == [3, 6] and lcr[0].mutation == "`&&` → `||`"
+    doc = tmp_path / "eq.md"
+    doc.write_text(f"| `g.c:6:11` | {tool.md_cell(lcr[1].mutation)} | `{tool.md_cell(lcr[1].text)}` | why |\n")
+    rows = tool.read_equivalents(doc)
+    assert [(r.mutation, r.text) for r in rows] == [("`&&` → `||`", "if (a && b) {")]
+    moved = tool.generate("g.c", "core", "/* one line more */\n" + src)
+    found, stale = tool.match_equivalents(rows, moved)
+    assert [m.line for m in moved if id(m) in found] == [7] and stale == []  # the second `if`, moved down one
+
+
 def test_the_repository_equivalents_name_existing_mutants(tool):
     """Every row of docs/mutation-equivalent.md names a mutant the tool makes of the file as it is now."""
     repo = TOOL.parents[1]
