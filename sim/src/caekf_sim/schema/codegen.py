@@ -45,7 +45,8 @@ RULE_MACROS = {"finite": "FINITE", "> 0": "POS", ">= 0": "NONNEG", "(0, 1)": "OP
 CAPACITIES = ("bodies", "springs", "inputs", "sensors", "contacts")
 C_ENUMS = {"mode": ("caekf_mode_t", "CAEKF_MODE_"), "switchoff": ("caekf_switchoff_t", "CAEKF_SWITCHOFF_"),
            "cov_update": ("caekf_cov_update_t", "CAEKF_COV_"), "sensor_kind": ("caekf_sensor_kind_t", "CAEKF_SENSOR_"),
-           "discretisation": ("caekf_discretisation_t", "CAEKF_DISCRETISATION_")}
+           "discretisation": ("caekf_discretisation_t", "CAEKF_DISCRETISATION_"),
+           "input_kind": ("caekf_input_kind_t", "CAEKF_INPUT_")}
 GENERATED = "GENERATED from sim/src/caekf_sim/schema/settings.toml by codegen.py: do not edit"
 
 
@@ -453,6 +454,11 @@ def c_sized_links(schema: Schema, given: Dict[str, float], counts: Dict[str, int
 MECH_SIGMAS = (("m_sigma", "bodies"), ("spring_k_sigma", "springs"), ("spring_c_sigma", "springs"))
 
 
+def _enum_index(setting: "Setting", value: Any) -> int:
+    """An enumerated setting's value as its number (a scenario gives the name or the number)."""
+    return setting.values.index(value) if isinstance(value, str) else int(float(value))
+
+
 def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optional[str] = None) -> str:
     """caekf/caekf_capacity.h: the build's mechanism capacity. Without a mechanism, the wire's (any
     mechanism up to it, sizes at run time); with one (a scenario file), exactly its counts (CAEKF_SIZED:
@@ -487,8 +493,13 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
         lines.append(f"#define CAEKF_SIZED_BIASES {biases} /* sensor offsets estimated */")
         kind = schema.by_name("sensor_kind")
         kinds = [given.get(kind.keys[i], kind.default_value(index=i)) for i in range(counts["sensors"])]
-        rows = biases > 0 or any((kind.values.index(k) if isinstance(k, str) else int(float(k))) >= 2 for k in kinds)
+        rows = biases > 0 or any(_enum_index(kind, k) >= 2 for k in kinds)
         lines.append(f"#define CAEKF_SIZED_SENSOR_ROWS {int(rows)} /* a sensor reads more than one state */")
+        # Inputs that move a link's ground end (input{i}_kind = base_displacement): CAEKF_HAS_BASE_INPUTS.
+        ikind = schema.by_name("input_kind")
+        base = sum(1 for i in range(counts["inputs"])
+                   if _enum_index(ikind, given.get(ikind.keys[i], ikind.default_value(index=i))) == 1)
+        lines.append(f"#define CAEKF_SIZED_BASE_INPUTS {base} /* inputs that are a base displacement */")
         # Hunt-Crossley damping in any contact: a nonzero lambda, or lambda estimated (CAEKF_HAS_DAMPING).
         lam = schema.by_name("contact_lambda")
         damped = any(flags[f"contact{i + 1}_estimate_lambda"] or
