@@ -29,6 +29,14 @@ CAEKF_STATIC_ASSERT(offsetof(caekf_t, cfg) == 0, init_zeroes_what_follows_the_se
 
 static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
+/* The inputs at the estimate's time (the step's start): the last step's, or u itself until a step or
+ * caekf_correct has seen them (the first step holds u over its interval). */
+#if CAEKF_KEEPS_U_PREV
+#define U_PREV(est, u) ((est)->u_prev_known ? (const caekf_scalar_t *)(est)->u_prev : (u))
+#else
+#define U_PREV(est, u) ((void)(est), (u)) /* only the trapezoidal rule, the substeps and base inputs read it */
+#endif
+
 /* F in scaled coordinates, S^-1 F S: column j of the v-rows times s_j / s_v, which is exactly 1 for
  * the v-columns (so those are left alone), one ratio for all q-columns and one per gamma. */
 static void scale_fv(caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *s, int nq, int n)
@@ -326,8 +334,17 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         int k;
         est->dims.r[i] = 1;
         for (k = 0; k < mp->inputs && mp->sensor_kind[i] == CAEKF_SENSOR_ACCELERATION; ++k) {
-            if (mp->input_body[k] == mp->sensor_body[i]) { /* a measured force's noise, read through 1 / m */
-                est->dims.r[i] += sq(s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
+            /* a measured force's noise, read through 1 / m (a base displacement's: its white noise e_k through
+             * k u_k + c (u_k - u_{k-1}) / dt on its link's body, the std of ((k + c/dt) e_k - c/dt e_{k-1}) / m) */
+            caekf_scalar_t gain = 1;
+            int body = mp->input_body[k];
+            if (CAEKF_BASE_LINK(&est->model, k) != 0) {
+                const caekf_scalar_t c_dt = CAEKF_BASE_C(&est->model, k) / mp->dt;
+                gain = CAEKF_SQRT(sq(CAEKF_BASE_K(&est->model, k) + c_dt) + sq(c_dt));
+                body = est->model.p.input_body[k];
+            }
+            if (body == mp->sensor_body[i]) {
+                est->dims.r[i] += sq(gain * s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
             }
         }
     }
@@ -429,7 +446,8 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
 /* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step; after
  * substeps their product, in fq and fv) and P- = F P F^T + Q into P_work (upper triangle);
  * z = S^-1 x_k-. Returns 0, or -1 on a singular matrix. */
-static int predict_covariance(caekf_t *est, int closed, int substepped, const caekf_contact_t *ct)
+static int predict_covariance(caekf_t *est, int closed, int substepped, const caekf_contact_t *ct,
+                              const caekf_scalar_t *u0, const caekf_scalar_t *u)
 {
     const int nq = CAEKF_DIM_NQ(&est->model), n = CAEKF_DIM_N(&est->model);
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
@@ -441,7 +459,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         est->fv_const = 0;
         if (CAEKF_DIM_NM(&est->model) > 0) { /* the mechanism's columns over the whole step (docs) */
             const int first = CAEKF_DIM_MECH0(&est->model), end = first + CAEKF_DIM_NM(&est->model);
-            if (caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, est->fv) != 0) {
+            if (caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, u0, u, est->fv) != 0) {
                 return -1;
             }
             for (i = 0; i < nq; ++i) {
@@ -480,7 +498,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         }
 #endif
         if (CAEKF_DIM_NM(&est->model) > 0 &&
-            caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, est->fv) != 0) {
+            caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, u0, u, est->fv) != 0) {
             return -1;
         }
         scale_fv(est->fv, s, nq, n);
@@ -706,8 +724,8 @@ static void set_penetration_std(caekf_t *est)
 /* The correction's rows of H for sensors that read more than one state: at the scaled prediction z (the
  * physical state is z times the scales), each sensor's h(x), row and measurement scaled by its noise std
  * (its R is then 1). */
-static void sensor_rows(caekf_t *est, const caekf_scalar_t *z, const caekf_scalar_t *u, const caekf_scalar_t *y,
-                        caekf_scalar_t *y_s)
+static void sensor_rows(caekf_t *est, const caekf_scalar_t *z, const caekf_scalar_t *u, const caekf_scalar_t *u0,
+                        const caekf_scalar_t *y, caekf_scalar_t *y_s)
 {
     caekf_correct_work_t *w = &est->scratch.correct;
     const int n = CAEKF_DIM_N(&est->model);
@@ -719,7 +737,7 @@ static void sensor_rows(caekf_t *est, const caekf_scalar_t *z, const caekf_scala
     for (k = 0; k < est->cfg.model.sensors; ++k) {
         const caekf_scalar_t sigma = sensor_sigma(&est->cfg, k);
         caekf_scalar_t h;
-        caekf_model_sensor(&est->model, &est->cfg.model, k, x, u, &h, w->row[k]);
+        caekf_model_sensor(&est->model, &est->cfg.model, k, x, u, u0, &h, w->row[k]);
         for (i = 0; i < n; ++i) {
             w->row[k][i] *= est->scale[i] / sigma;
         }
@@ -755,6 +773,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
                               caekf_report_t *report)
 {
     caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
+    const caekf_scalar_t *u0;  /* the inputs at the step's start */
     caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
     caekf_filter_dims_t *dims; /* the instance's, once est is known to be one */
     caekf_status_t st = CAEKF_OK;
@@ -804,6 +823,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     ct = est->scratch.contacts;
     xprev = X_PREV(est);
     z = est->x_pred;
+    u0 = predict ? U_PREV(est, u) : u; /* a correction at the estimate's own time: no step, no rate */
 
     /* Prediction (Table 1): Newton solve of the step, then F by eq. (10) at x_k-. The first step after
      * init holds u over its interval unless caekf_correct gave the input at t0. */
@@ -825,11 +845,6 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
             est->x_pred[i] = xprev[i];
         }
     } else {
-#if CAEKF_ONE_STEP_BE
-        const caekf_scalar_t *u0 = u; /* unused: only the trapezoidal rule and the substeps read it */
-#else
-        const caekf_scalar_t *u0 = est->u_prev_known ? est->u_prev : u;
-#endif
         const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
         int closed_before, r = 0;
 #if CAEKF_HAS_SUBSTEPS
@@ -909,8 +924,8 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped,
-                                  ct) != 0) {
+    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped, ct,
+                                  u0, u) != 0) {
         flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
         st = CAEKF_ERR_SINGULAR;
         goto done;
@@ -930,7 +945,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     if (y != 0) {
         /* Correction, eqs. (13)-(15) / (25)-(27). */
         if (CAEKF_HAS_SENSOR_ROWS && dims->rows) {
-            sensor_rows(est, z, u, y, y_s);
+            sensor_rows(est, z, u, u0, y, y_s);
         } else {
             for (i = 0; i < ny; ++i) {
                 y_s[i] = y[i] / s[dims->h[i]];
@@ -964,7 +979,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
     }
 #endif
-#if !CAEKF_ONE_STEP_BE
+#if CAEKF_KEEPS_U_PREV
     for (i = 0; i < nu; ++i) {
         est->u_prev[i] = u[i];
     }

@@ -319,6 +319,27 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     }
 }
 
+/* The inputs as the forces the momentum rows take (docs/mechanism.md "Base excitation"): a force as it is; a
+ * base displacement u of a link of stiffness k and damper c, the force on its body k u + c (u - u_prev) / hs at
+ * the step's end (fe) and k u_prev at its start (fs, the trapezoidal rule's G(x_{k-1}, u_{k-1})). The
+ * trapezoidal rule's rows are both ends' forces (the mean times 2): k (u + u_prev) + 2 c (u - u_prev) / dt,
+ * whose damper term is c du/dt's mean over the step exactly for u linear in time; backward Euler's (hs = dt)
+ * the end's. Substeps interpolate u linearly: the same with their own hs. */
+static void base_forces(const caekf_model_t *m, const caekf_scalar_t *u_prev, const caekf_scalar_t *u,
+                        caekf_scalar_t *fe, caekf_scalar_t *fs)
+{
+    int k;
+    for (k = 0; k < CAEKF_DIM_NU(m); ++k) {
+        if (CAEKF_BASE_LINK(m, k) != 0) {
+            fe[k] = CAEKF_BASE_K(m, k) * u[k] + CAEKF_BASE_C(m, k) * (u[k] - u_prev[k]) / m->hs;
+            fs[k] = CAEKF_BASE_K(m, k) * u_prev[k];
+        } else {
+            fe[k] = u[k];
+            fs[k] = u_prev[k];
+        }
+    }
+}
+
 /* Every contact's law at x (its own gammas and law parameters). */
 static void contacts_at(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct)
 {
@@ -372,16 +393,23 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
 {
     const int nq = CAEKF_DIM_NQ(m);
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    caekf_scalar_t f[2 * CAEKF_MAX_INPUTS];     /* base displacements as forces: the end's, the start's */
+    const caekf_scalar_t *fe = u, *fs = u_prev; /* the inputs as forces at the step's end and start */
     int i;
+    if (CAEKF_DIM_NBASE(m) > 0) {
+        base_forces(m, u_prev, u, f, f + CAEKF_MAX_INPUTS);
+        fe = f;
+        fs = f + CAEKF_MAX_INPUTS;
+    }
     contacts_at(m, xk, ct);
     for (i = 0; i < nq; ++i) {
         const caekf_scalar_t v = CAEKF_METHOD_TRAP(m) ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
         g[i] = (xk[i] - xprev[i]) / m->p.dt - v;
     }
-    momentum_residual(m, xk, xprev + nq, u, ct, g + nq, 0);
+    momentum_residual(m, xk, xprev + nq, fe, ct, g + nq, 0);
     if (CAEKF_METHOD_TRAP(m)) {
         caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
-        step_start_force(m, xprev, u_prev, ct, g0, mag0); /* ct (at x_k) is no longer needed */
+        step_start_force(m, xprev, fs, ct, g0, mag0); /* ct (at x_k) is no longer needed */
         for (i = 0; i < nq; ++i) {
             g[nq + i] += g0[i];
         }
@@ -617,6 +645,8 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
     const caekf_scalar_t dt = m->p.dt, hs = m->hs;
     caekf_scalar_t *const g0 = work, *const mag0 = work + CAEKF_NQ;                  /* trapezoidal: the step's start */
     caekf_scalar_t *const r = work + 2 * CAEKF_NQ, *const mag = work + 3 * CAEKF_NQ; /* each iterate's */
+    caekf_scalar_t f[2 * CAEKF_MAX_INPUTS];     /* base displacements as forces: the end's, the start's */
+    const caekf_scalar_t *fe = u, *fs = u_prev; /* the inputs as forces at the step's end and start */
     int it, i;
     int result = 1;
 #if !CAEKF_HAS_SUBSTEPS
@@ -625,12 +655,17 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
+    if (CAEKF_DIM_NBASE(m) > 0) {
+        base_forces(m, u_prev, u, f, f + CAEKF_MAX_INPUTS);
+        fe = f;
+        fs = f + CAEKF_MAX_INPUTS;
+    }
     if (CAEKF_METHOD_TRAP(m)) { /* step_start_force, with the contacts at x_{k-1} when they are known */
         if (ct0 == 0) {
             contacts_at(m, xprev, ct);
             ct0 = ct;
         }
-        momentum_residual(m, xprev, vp, u_prev, ct0, g0, mag0);
+        momentum_residual(m, xprev, vp, fs, ct0, g0, mag0);
     }
     UNROLL_STEP
     for (i = 0; i < nq; ++i) { /* initial guess v_k = v_{k-1} */
@@ -664,7 +699,7 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         }
 #endif
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
-        momentum_residual(m, xk, vp, u, ct, r, it > 0 ? mag : 0);
+        momentum_residual(m, xk, vp, fe, ct, r, it > 0 ? mag : 0);
         if (CAEKF_METHOD_TRAP(m)) {
             UNROLL_STEP
             for (i = 0; i < nq; ++i) {
@@ -1023,6 +1058,47 @@ static void mech_states(caekf_model_t *m, const caekf_model_params_t *p)
     m->n += m->nm;
 }
 
+/* The base-displacement inputs of the settings (input{i}_kind): each one's link, and as its body the link's
+ * end that is not the ground (validation checked that one end is). */
+static void base_inputs(caekf_model_t *m, const caekf_model_params_t *p)
+{
+#if CAEKF_HAS_BASE_INPUTS
+    int i;
+    m->nbase = 0;
+    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
+        m->base_link[i] = 0;
+        if (i < p->inputs && p->input_kind[i] == CAEKF_INPUT_BASE_DISPLACEMENT) {
+            const int l = p->input_link[i] - 1;
+            m->base_link[i] = (unsigned char)p->input_link[i];
+            m->p.input_body[i] = p->spring_a[l] != 0 ? p->spring_a[l] : p->spring_b[l];
+            m->nbase++;
+        }
+    }
+#else
+    (void)m;
+    (void)p;
+#endif
+}
+
+/* The base inputs' links' stiffness and damper at mult (derive_values). */
+static void base_values(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *mult)
+{
+#if CAEKF_HAS_BASE_INPUTS
+    int i;
+    for (i = 0; i < CAEKF_DIM_NU(m); ++i) {
+        const int l = m->base_link[i] - 1;
+        if (l >= 0) {
+            m->base_k[i] = p->spring_k[l] * mech_factor(m, mult, CAEKF_MECH_STIFFNESS, l);
+            m->base_c[i] = p->spring_c[l] * mech_factor(m, mult, CAEKF_MECH_DAMPER, l);
+        }
+    }
+#else
+    (void)m;
+    (void)p;
+    (void)mult;
+#endif
+}
+
 /* The matrices derived from the values: K, C, M / hs, A0 and its LU, the contact-free F; the estimated
  * mechanism parameters at mult[j] times their settings' values (mult NULL: the settings'). */
 static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *mult)
@@ -1050,6 +1126,9 @@ static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const 
     }
     for (i = 0; i < nq; ++i) {
         m->m_dt[i] = p->m[i] * mech_factor(m, mult, CAEKF_MECH_MASS, i) / m->hs;
+    }
+    if (CAEKF_DIM_NBASE(m) > 0) {
+        base_values(m, p, mult);
     }
     for (i = 0; i < nq; ++i) {
 #if !CAEKF_FIXED_LINKS
@@ -1113,6 +1192,7 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
         m->p.input_body[i] = p->input_body[i];
     }
+    base_inputs(m, p);
     for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
         m->p.contact_gap[i] = p->contact_gap[i];
 #ifndef CAEKF_SIZED_CONTACT_N
@@ -1181,17 +1261,41 @@ int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
     if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
-    for (i = 0; i < nq; ++i) { /* -dg/du_k = B_u: +1 on the input's body row */
+    for (i = 0; i < nq; ++i) { /* -dg/du_k = B_u: +1 on a force's body row */
         for (k = 0; k < nu; ++k) {
             g[i][k] = i == m->p.input_body[k] - 1 ? 1 : 0;
+        }
+    }
+    /* A base displacement's: -dg/du_k - dg/du_{k-1} = k (+ c / hs - c / hs; the trapezoidal rule's start adds
+     * k again, the caller's twice the one end) on its body's row, per end that takes it. */
+    for (k = 0; k < nu && CAEKF_DIM_NBASE(m) > 0; ++k) {
+        if (CAEKF_BASE_LINK(m, k) != 0) {
+            g[m->p.input_body[k] - 1][k] = CAEKF_BASE_K(m, k);
         }
     }
     solve(A, nq, piv, &g[0][0], nu, CAEKF_MAX_INPUTS);
     return 0;
 }
 
+/* Link l's ground end at the step's end (*g1) and start (*g0): its displacement (damper 0) or its rate, the
+ * same at both ends (damper 1), from the base input that moves it; 0 when none does. */
+static void ground_end(const caekf_model_t *m, int l, int damper, const caekf_scalar_t *u_prev, const caekf_scalar_t *u,
+                       caekf_scalar_t *g1, caekf_scalar_t *g0)
+{
+    int k;
+    *g1 = 0;
+    *g0 = 0;
+    for (k = 0; k < CAEKF_DIM_NU(m); ++k) {
+        if (CAEKF_BASE_LINK(m, k) == l + 1) {
+            *g1 = damper ? (u[k] - u_prev[k]) / m->p.dt : u[k];
+            *g0 = damper ? *g1 : u_prev[k];
+        }
+    }
+}
+
 int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
-                             const caekf_scalar_t xk[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+                             const caekf_scalar_t xk[CAEKF_N], const caekf_scalar_t *u_prev, const caekf_scalar_t *u,
+                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nm = CAEKF_DIM_NM(m), first = CAEKF_DIM_MECH0(m);
     const int trap = CAEKF_METHOD_TRAP(m);
@@ -1203,10 +1307,11 @@ int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, 
     }
     /* -dg/d ln(value): the momentum rows' terms, each the value times its own derivative. A mass: M/hs
      * (v_k - v_{k-1}) on its body's row; a link: K or C times the ends' difference (b_l^T q, b_l^T v) at
-     * x_k and, trapezoidal, at x_{k-1} too, +b_l on its ends' rows. */
+     * x_k and, trapezoidal, at x_{k-1} too, +b_l on its ends' rows; a ground end a base input moves is at
+     * u (u_{k-1} at x_{k-1}) and moves at (u_k - u_{k-1}) / dt. */
     for (j = 0; j < nm; ++j) {
         const int a = m->mech_a[j], b = m->mech_b[j], off = m->mech_kind[j] == CAEKF_MECH_DAMPER ? nq : 0;
-        caekf_scalar_t d;
+        caekf_scalar_t d, g1 = 0, g0 = 0;
         for (i = 0; i < nq; ++i) {
             fv[i][first + j] = 0;
         }
@@ -1214,9 +1319,12 @@ int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, 
             fv[a][first + j] = -m->mech_value[j] / m->hs * (xk[nq + a] - xprev[nq + a]);
             continue;
         }
-        d = (a >= 0 ? xk[off + a] : 0) - (b >= 0 ? xk[off + b] : 0);
+        if (CAEKF_DIM_NBASE(m) > 0) {
+            ground_end(m, m->mech_elem[j], off != 0, u_prev, u, &g1, &g0);
+        }
+        d = (a >= 0 ? xk[off + a] : g1) - (b >= 0 ? xk[off + b] : g1);
         if (trap) {
-            d += (a >= 0 ? xprev[off + a] : 0) - (b >= 0 ? xprev[off + b] : 0);
+            d += (a >= 0 ? xprev[off + a] : g0) - (b >= 0 ? xprev[off + b] : g0);
         }
         if (a >= 0) {
             fv[a][first + j] = -m->mech_value[j] * d;

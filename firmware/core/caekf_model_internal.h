@@ -24,6 +24,19 @@
 #define CAEKF_DIM_NM(m) ((m)->nm)
 #define CAEKF_DIM_NB(m) ((m)->nb)
 #endif
+/* The base-displacement inputs (CAEKF_HAS_BASE_INPUTS): their count, input k's link (1-based, 0: a force) and
+ * its stiffness and damper now; constants 0 where the build's inputs are all forces. */
+#if CAEKF_HAS_BASE_INPUTS
+#define CAEKF_DIM_NBASE(m) ((m)->nbase)
+#define CAEKF_BASE_LINK(m, k) ((int)(m)->base_link[k])
+#define CAEKF_BASE_K(m, k) ((m)->base_k[k])
+#define CAEKF_BASE_C(m, k) ((m)->base_c[k])
+#else
+#define CAEKF_DIM_NBASE(m) ((void)(m), 0)
+#define CAEKF_BASE_LINK(m, k) ((void)(m), (void)(k), 0)
+#define CAEKF_BASE_K(m, k) ((void)(m), (void)(k), (caekf_scalar_t)0)
+#define CAEKF_BASE_C(m, k) ((void)(m), (void)(k), (caekf_scalar_t)0)
+#endif
 /* The first mechanism parameter's state: the mechanism's parameters, then the sensors' offsets, end x. */
 #define CAEKF_DIM_MECH0(m) (CAEKF_DIM_N(m) - CAEKF_DIM_NM(m) - CAEKF_DIM_NB(m))
 

@@ -2,9 +2,11 @@
  * The sensors' measurement model (docs/sensors.md): what each sensor reads at the augmented state, and its
  * row of H. A position or velocity sensor reads one state; the sensors of real rigs read more:
  *   acceleration  the model's acceleration of a body at the state (eq. 19's momentum balance at x_k, with
- *                 the contact force), M^-1 (B_u u - K q - C v + B_c f_c);
+ *                 the contact force), M^-1 (B_u u - K q - C v + B_c f_c) (a base displacement u of a link (k,
+ *                 c): k u + c (u - u_prev) / dt on its body, the rate over the last step);
  *   relative      a body's position relative to another's (a strain gauge or an LVDT across a link);
- *   link_force    the force in a spring-damper link, k (q_a - q_b) + c (v_a - v_b) (a load cell).
+ *   link_force    the force in a spring-damper link, k (q_a - q_b) + c (v_a - v_b) (a load cell; a ground
+ *                 end a base input moves is at u, moving at (u - u_prev) / dt).
  * Any sensor may carry an estimated offset, added to what it reads.
  */
 #include "caekf_model_internal.h"
@@ -35,6 +37,25 @@ static caekf_scalar_t mech_now(const caekf_model_t *m, const caekf_model_params_
 /* x[i], 0 for the ground (i < 0). */
 static caekf_scalar_t at(const caekf_scalar_t *x, int i) { return i >= 0 ? x[i] : 0; }
 
+/* x[i], or for the ground (i < 0) g: where a base input has moved a link's ground end. */
+static caekf_scalar_t at_or(const caekf_scalar_t *x, int i, caekf_scalar_t g) { return i >= 0 ? x[i] : g; }
+
+/* Link l's ground end: its displacement (*gq) and rate (*gv) from the base input that moves it (the rate over
+ * the last step), 0 and 0 when none does. */
+static void ground_end(const caekf_model_t *m, int l, const caekf_scalar_t *u, const caekf_scalar_t *u_prev,
+                       caekf_scalar_t *gq, caekf_scalar_t *gv)
+{
+    int k;
+    *gq = 0;
+    *gv = 0;
+    for (k = 0; k < CAEKF_DIM_NU(m) && CAEKF_DIM_NBASE(m) > 0; ++k) {
+        if (CAEKF_BASE_LINK(m, k) == l + 1) {
+            *gq = u[k];
+            *gv = (u[k] - u_prev[k]) / m->p.dt;
+        }
+    }
+}
+
 /* row[i] += s, nothing for the ground (i < 0). */
 static void add(caekf_scalar_t *row, int i, caekf_scalar_t s)
 {
@@ -45,7 +66,8 @@ static void add(caekf_scalar_t *row, int i, caekf_scalar_t s)
 
 /* Body b's acceleration at x: the momentum balance's forces over its mass, and their derivatives. */
 static caekf_scalar_t acceleration(const caekf_model_t *m, const caekf_model_params_t *p, int b,
-                                   const caekf_scalar_t *x, const caekf_scalar_t *u, caekf_scalar_t *row)
+                                   const caekf_scalar_t *x, const caekf_scalar_t *u, const caekf_scalar_t *u_prev,
+                                   caekf_scalar_t *row)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), nu = CAEKF_DIM_NU(m);
     int mass_state, i, c;
@@ -53,7 +75,11 @@ static caekf_scalar_t acceleration(const caekf_model_t *m, const caekf_model_par
     caekf_scalar_t force = 0, a;
     for (i = 0; i < nu; ++i) {
         if (m->p.input_body[i] - 1 == b) {
-            force += u[i];
+            if (CAEKF_BASE_LINK(m, i) != 0) { /* k u + c du/dt: K q and C v hold the link's -k q_b, -c v_b */
+                force += CAEKF_BASE_K(m, i) * u[i] + CAEKF_BASE_C(m, i) * (u[i] - u_prev[i]) / m->p.dt;
+            } else {
+                force += u[i];
+            }
         }
     }
     for (i = 0; i < nq; ++i) { /* -K q - C v: K and C at the mechanism parameters' estimates */
@@ -67,9 +93,11 @@ static caekf_scalar_t acceleration(const caekf_model_t *m, const caekf_model_par
         int ks, cs;
         const caekf_scalar_t k = mech_now(m, p, CAEKF_MECH_STIFFNESS, i, &ks);
         const caekf_scalar_t cv = mech_now(m, p, CAEKF_MECH_DAMPER, i, &cs);
+        caekf_scalar_t gq, gv; /* the ground end: a base input's u and du/dt, else 0 */
+        ground_end(m, i, u, u_prev, &gq, &gv);
         if (side != 0) {
-            add(row, ks, -side * k * (at(x, ea) - at(x, eb)));
-            add(row, cs, -side * cv * (at(x + nq, ea) - at(x + nq, eb)));
+            add(row, ks, -side * k * (at_or(x, ea, gq) - at_or(x, eb, gq)));
+            add(row, cs, -side * cv * (at_or(x + nq, ea, gv) - at_or(x + nq, eb, gv)));
         }
     }
     for (c = 0; c < nc; ++c) { /* -f on the contact's body a, +f on b */
@@ -107,7 +135,8 @@ static caekf_scalar_t acceleration(const caekf_model_t *m, const caekf_model_par
 }
 
 void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, int k, const caekf_scalar_t *x,
-                        const caekf_scalar_t *u, caekf_scalar_t *value, caekf_scalar_t row[CAEKF_N])
+                        const caekf_scalar_t *u, const caekf_scalar_t *u_prev, caekf_scalar_t *value,
+                        caekf_scalar_t row[CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), b = p->sensor_body[k] - 1;
     int i;
@@ -123,7 +152,7 @@ void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, i
         *value = x[nq + b];
         row[nq + b] = 1;
         break;
-    case CAEKF_SENSOR_ACCELERATION: *value = acceleration(m, p, b, x, u, row); break;
+    case CAEKF_SENSOR_ACCELERATION: *value = acceleration(m, p, b, x, u, u_prev, row); break;
     case CAEKF_SENSOR_RELATIVE: {
         const int r = p->sensor_ref[k] - 1;
         *value = x[b] - at(x, r);
@@ -136,7 +165,10 @@ void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, i
         int ks, cs;
         const caekf_scalar_t kv = mech_now(m, p, CAEKF_MECH_STIFFNESS, l, &ks);
         const caekf_scalar_t cv = mech_now(m, p, CAEKF_MECH_DAMPER, l, &cs);
-        const caekf_scalar_t dq = at(x, ea) - at(x, eb), dv = at(x + nq, ea) - at(x + nq, eb);
+        caekf_scalar_t gq, gv, dq, dv; /* the ground end: a base input's u and du/dt, else 0 */
+        ground_end(m, l, u, u_prev, &gq, &gv);
+        dq = at_or(x, ea, gq) - at_or(x, eb, gq);
+        dv = at_or(x + nq, ea, gv) - at_or(x + nq, eb, gv);
         *value = kv * dq + cv * dv;
         add(row, ea, kv);
         add(row, eb, -kv);

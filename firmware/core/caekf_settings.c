@@ -341,8 +341,8 @@ static int first_bad_body(const caekf_model_params_t *m)
             return (int)CAEKF_PARAM_SPRING_B + i;
         }
     }
-    for (i = 0; i < m->inputs; ++i) {
-        if (!body_ok(m, m->input_body[i])) {
+    for (i = 0; i < m->inputs; ++i) { /* a base input's body is its link's (first_bad_base_input) */
+        if ((!CAEKF_HAS_BASE_INPUTS || m->input_kind[i] == CAEKF_INPUT_FORCE) && !body_ok(m, m->input_body[i])) {
             return (int)CAEKF_PARAM_INPUT_BODY + i;
         }
     }
@@ -364,6 +364,29 @@ static int first_bad_body(const caekf_model_params_t *m)
         }
         if (!body_ok(m, m->contact_b[i]) || m->contact_b[i] == m->contact_a[i]) {
             return (int)CAEKF_PARAM_CONTACT_B + i;
+        }
+    }
+    return -1;
+}
+
+/* The base-displacement inputs' links (input{i}_link): a link in use with one end on the ground, which no
+ * earlier base input moves; returns the first offending parameter id or -1. A build whose inputs are all
+ * forces (CAEKF_HAS_BASE_INPUTS 0) refuses the kind itself (first_unsized). */
+static int first_bad_base_input(const caekf_model_params_t *m)
+{
+    int i, j;
+    for (i = 0; i < m->inputs; ++i) {
+        const int l = m->input_link[i] - 1;
+        if (m->input_kind[i] != CAEKF_INPUT_BASE_DISPLACEMENT) {
+            continue;
+        }
+        if (l >= m->springs || (m->spring_a[l] != 0 && m->spring_b[l] != 0)) {
+            return (int)CAEKF_PARAM_INPUT_LINK + i;
+        }
+        for (j = 0; j < i; ++j) {
+            if (m->input_kind[j] == CAEKF_INPUT_BASE_DISPLACEMENT && m->input_link[j] == m->input_link[i]) {
+                return (int)CAEKF_PARAM_INPUT_LINK + i;
+            }
         }
     }
     return -1;
@@ -427,7 +450,18 @@ static int first_unsized(const caekf_model_params_t *m)
     if (m->sensors != CAEKF_SIZED_SENSORS) {
         return (int)CAEKF_PARAM_SENSORS;
     }
-    return m->contacts != CAEKF_SIZED_CONTACTS ? (int)CAEKF_PARAM_CONTACTS : -1;
+    if (m->contacts != CAEKF_SIZED_CONTACTS) {
+        return (int)CAEKF_PARAM_CONTACTS;
+    }
+    {
+        int i;
+        for (i = 0; i < CAEKF_SIZED_INPUTS && !CAEKF_HAS_BASE_INPUTS; ++i) { /* the build's inputs are forces */
+            if (m->input_kind[i] != CAEKF_INPUT_FORCE) {
+                return (int)CAEKF_PARAM_INPUT_KIND + i;
+            }
+        }
+    }
+    return -1;
 #else
     (void)m;
     return -1;
@@ -560,7 +594,8 @@ static int first_sensor_over(const caekf_model_params_t *p)
 int caekf_model_params_check(const caekf_model_params_t *p)
 {
     unsigned reason, law;
-    if (first_out_of_range(p, sizeof *p, &reason) >= 0 || first_bad_body(p) >= 0 || first_unsized(p) >= 0 ||
+    if (first_out_of_range(p, sizeof *p, &reason) >= 0 || first_bad_body(p) >= 0 ||
+        (CAEKF_HAS_BASE_INPUTS && first_bad_base_input(p) >= 0) || first_unsized(p) >= 0 ||
         first_unsized_method(p, 0) >= 0) {
         return 1;
     }
@@ -587,6 +622,10 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
     bad = first_bad_body(&s->model);
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_BAD_BODY, (unsigned)bad);
+    }
+    bad = CAEKF_HAS_BASE_INPUTS ? first_bad_base_input(&s->model) : -1; /* else refused as unsupported */
+    if (bad >= 0) {
+        return refuse(err, CAEKF_SETTING_BAD_LINK, (unsigned)bad);
     }
     for (i = 0; i < (unsigned)s->model.sensors; ++i) {
         const int kind = s->model.sensor_kind[i];

@@ -51,6 +51,10 @@ caekf_status_t caekf_setting_error_text(const caekf_setting_error_t *err, const 
     case CAEKF_SETTING_BAD_BODY:
         why = "must name a body of the mechanism (1..bodies; 0 = ground where allowed) other than the other end";
         break;
+    case CAEKF_SETTING_BAD_LINK:
+        why = "a base_displacement input must name a link of the mechanism (1..springs) with one end on the ground "
+              "(0), and no link twice";
+        break;
     case CAEKF_SETTING_UNSUPPORTED:
         why = "this build is sized for another mechanism or step method (CAEKF_SIZED: the counts, and with "
               "CAEKF_SIZED_METHOD the step method, must equal its own)";

@@ -228,6 +228,8 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     if (IN(CAEKF_PARAM_SPRING_A, CAEKF_MAX_SPRINGS)) return &m->spring_a[id - CAEKF_PARAM_SPRING_A];
     if (IN(CAEKF_PARAM_SPRING_B, CAEKF_MAX_SPRINGS)) return &m->spring_b[id - CAEKF_PARAM_SPRING_B];
     if (IN(CAEKF_PARAM_INPUT_BODY, CAEKF_MAX_INPUTS)) return &m->input_body[id - CAEKF_PARAM_INPUT_BODY];
+    if (IN(CAEKF_PARAM_INPUT_KIND, CAEKF_MAX_INPUTS)) return &m->input_kind[id - CAEKF_PARAM_INPUT_KIND];
+    if (IN(CAEKF_PARAM_INPUT_LINK, CAEKF_MAX_INPUTS)) return &m->input_link[id - CAEKF_PARAM_INPUT_LINK];
     if (IN(CAEKF_PARAM_SENSOR_BODY, CAEKF_MAX_SENSORS)) return &m->sensor_body[id - CAEKF_PARAM_SENSOR_BODY];
     if (IN(CAEKF_PARAM_SENSOR_KIND, CAEKF_MAX_SENSORS)) return &m->sensor_kind[id - CAEKF_PARAM_SENSOR_KIND];
     if (IN(CAEKF_PARAM_SENSOR_REF, CAEKF_MAX_SENSORS)) return &m->sensor_ref[id - CAEKF_PARAM_SENSOR_REF];

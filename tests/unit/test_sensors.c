@@ -84,7 +84,7 @@ static double value_at(const caekf_scalar_t *x0, int k, int j, double d)
         mult[i] = (caekf_scalar_t)exp((double)x[12 + i]);
     }
     TEST_ASSERT_EQUAL_INT(0, caekf_model_set_mech(&model, &settings.model, mult));
-    caekf_model_sensor(&model, &settings.model, k, x, u_now, &v, row);
+    caekf_model_sensor(&model, &settings.model, k, x, u_now, u_now, &v, row);
     return (double)v;
 }
 
@@ -103,7 +103,7 @@ static void check_rows(int gamma_log)
     for (k = 0; k < 4; ++k) {
         double big = 0;
         (void)value_at(x, k, 0, 0.0); /* the model at x's mechanism parameters */
-        caekf_model_sensor(&model, &settings.model, k, x, u_now, &v, row);
+        caekf_model_sensor(&model, &settings.model, k, x, u_now, u_now, &v, row);
         for (j = 0; j < model.n; ++j) { /* the row's size: its entries times their steps */
             const double d = j == 8 ? (gamma_log ? 1e-7 : 1.0) : step[j];
             big = fmax(big, fabs((double)row[j]) * d);
@@ -131,14 +131,14 @@ static void test_values_are_what_each_kind_reads(void)
     c2 = (double)settings.model.spring_c[1] * 1.05;
     a = settings.model.spring_a[1] - 1;
     b = settings.model.spring_b[1] - 1;
-    caekf_model_sensor(&model, &settings.model, 1, x, u_now, &v, row);
+    caekf_model_sensor(&model, &settings.model, 1, x, u_now, u_now, &v, row);
     TEST_ASSERT_EQUAL_DOUBLE((double)(x[2] - x[1]), (double)v);
-    caekf_model_sensor(&model, &settings.model, 2, x, u_now, &v, row);
+    caekf_model_sensor(&model, &settings.model, 2, x, u_now, u_now, &v, row);
     TEST_ASSERT_DOUBLE_WITHIN((CAEKF_USE_FLOAT ? 1e-5 : 1e-9) * fabs((double)v),
                               k2 * ((a >= 0 ? (double)x[a] : 0) - (b >= 0 ? (double)x[b] : 0)) +
                                   c2 * ((a >= 0 ? (double)x[4 + a] : 0) - (b >= 0 ? (double)x[4 + b] : 0)),
                               (double)v);
-    caekf_model_sensor(&model, &settings.model, 3, x, u_now, &v, row);
+    caekf_model_sensor(&model, &settings.model, 3, x, u_now, u_now, &v, row);
     TEST_ASSERT_EQUAL_DOUBLE((double)(x[0] + x[15]), (double)v);
 }
 

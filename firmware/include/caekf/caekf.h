@@ -86,7 +86,7 @@ typedef struct {
     /* Bounds of parameter k (state 2 nq + k), scaled; bit k of bound_lo / bound_hi says it has one. */
     caekf_scalar_t lo_scaled[CAEKF_NP_STORE], hi_scaled[CAEKF_NP_STORE];
     uint32_t bound_lo, bound_hi;
-#if !CAEKF_ONE_STEP_BE
+#if CAEKF_KEEPS_U_PREV
     caekf_scalar_t u_prev[CAEKF_MAX_INPUTS]; /* inputs at the estimate's time (the trapezoidal rule's start) */
     uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
 #endif
@@ -111,7 +111,9 @@ typedef enum {
     CAEKF_SETTING_NEEDED = 9,          /* 0 (its default), but the mechanism uses it: must be > 0 */
     CAEKF_SETTING_OUTSIDE_BOUNDS = 10, /* an estimated parameter's initial value outside its bounds, or a
                                         * maximum below its minimum */
-    CAEKF_SETTING_NOT_POSITIVE = 11    /* gamma0 <= 0 with gamma_log (ln gamma needs gamma > 0) */
+    CAEKF_SETTING_NOT_POSITIVE = 11,   /* gamma0 <= 0 with gamma_log (ln gamma needs gamma > 0) */
+    CAEKF_SETTING_BAD_LINK = 12        /* a base input's link (input{i}_link): not a link in use with one end on
+                                        * the ground, or one an earlier base input moves */
 } caekf_setting_reason_t;
 
 /* The first refused setting: its CTRL_PARAM id (element included), the setting (index into the schema's

@@ -17,6 +17,9 @@
  *   CAEKF_MAX_MECH_PARAMS    mechanism parameters (masses, stiffnesses, dampers) the build can estimate
  *                            (settings m{i}_sigma, spring{i}_k_sigma, spring{i}_c_sigma > 0)
  *   CAEKF_MAX_BIASES         sensor offsets the build can estimate (setting sensor{i}_bias_sigma > 0)
+ *   CAEKF_SIZED_BASE_INPUTS  generated in a build sized for one scenario (CAEKF_SIZED): its inputs that are a
+ *                            base displacement (input{i}_kind); 0 compiles the base input's code out
+ *                            (CAEKF_HAS_BASE_INPUTS) and refuses the kind (CAEKF_SETTING_UNSUPPORTED).
  *   CAEKF_SIZED_METHOD       generated (caekf/caekf_capacity.h), 1 in a build sized for one configuration
  *                            of a scenario (CMake: -DCAEKF_MECHANISM=scenario.toml
  *                            -DCAEKF_MECHANISM_PRESET=preset): its step method is then fixed as well,
@@ -117,6 +120,19 @@ typedef double caekf_scalar_t;
 #else
 #define CAEKF_HAS_SENSOR_ROWS 1
 #endif
+
+/* Inputs that are a prescribed displacement of a link's ground end (setting input{i}_kind =
+ * base_displacement, docs/mechanism.md): compiled in, or in a build sized for one scenario only where its
+ * inputs have one (CAEKF_SIZED_BASE_INPUTS, generated); else every input is a force and a base input is
+ * refused. */
+#if CAEKF_SIZED
+#define CAEKF_HAS_BASE_INPUTS (CAEKF_SIZED_BASE_INPUTS > 0)
+#else
+#define CAEKF_HAS_BASE_INPUTS 1
+#endif
+/* The estimator keeps the inputs of the last step: the trapezoidal rule's and the substeps' start, and a base
+ * displacement's rate. */
+#define CAEKF_KEEPS_U_PREV (!CAEKF_ONE_STEP_BE || CAEKF_HAS_BASE_INPUTS)
 
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses

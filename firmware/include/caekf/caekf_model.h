@@ -49,7 +49,7 @@ typedef struct {
 #if !CAEKF_SIZED /* else the sized count */
     int inputs;
 #endif
-    int input_body[CAEKF_MAX_INPUTS];
+    int input_body[CAEKF_MAX_INPUTS]; /* the body each input acts on (a base input's: its link's other end) */
     caekf_scalar_t contact_gap[CAEKF_MAX_CONTACTS];
 #ifndef CAEKF_SIZED_CONTACT_N /* else the sized exponent */
     caekf_scalar_t contact_n[CAEKF_MAX_CONTACTS];
@@ -81,6 +81,14 @@ typedef struct {
      * order; sensor_bias[k] is sensor k's offset state, 0 when it has none. */
     int nb;
     unsigned char sensor_bias[CAEKF_MAX_SENSORS];
+#if CAEKF_HAS_BASE_INPUTS /* else every input is a force (read through the CAEKF_BASE_* macros) */
+    /* The inputs that move a link's ground end (setting input{i}_kind = base_displacement, docs/mechanism.md):
+     * how many, each input's link (1-based; 0: a force) and that link's stiffness and damper now (the
+     * settings', or the estimates', caekf_model_set_mech). Such an input u adds k u + c du/dt on its body. */
+    int nbase;
+    unsigned char base_link[CAEKF_MAX_INPUTS];
+    caekf_scalar_t base_k[CAEKF_MAX_INPUTS], base_c[CAEKF_MAX_INPUTS];
+#endif
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
     /* The implicit stage: the momentum rows are scaled so that their v_k-derivative is
@@ -185,29 +193,38 @@ caekf_scalar_t caekf_model_mech_setting(const caekf_model_t *m, const caekf_mode
  * when the Newton matrix without contact is singular (the model then holds the new values). */
 int caekf_model_set_mech(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *factor);
 
-/* dv_k / du_k = A^-1 B_u, A the Newton matrix at the contacts ct (x_k): how each input's error moves the
- * step's velocities (its positions by hs times as much). g is nq x inputs. Returns -1 when A is singular. */
+/* dv_k / du = A^-1 B_u, A the Newton matrix at the contacts ct (x_k): how each input's error, held over the
+ * step, moves the step's velocities (its positions by hs times as much), per end of the step that takes the
+ * input (the trapezoidal rule takes it at both: twice this). B_u's column: e_body for a force, k e_body for a
+ * base displacement (the damper's c (u_k - u_{k-1}) / dt does not see an error held over the step). g is
+ * nq x inputs. Returns -1 when A is singular. */
 int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
                               caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS]);
 
 /* The mechanism parameters' columns of F's v-rows, dv_k / d ln(value_j), at the step x_{k-1} -> x_k with
- * the contacts at x_k in ct: -A^-1 dg/d ln(value_j), A the Newton matrix at x_k. Written into the last nm
- * columns of fv. Returns 0, or -1 when A is singular. */
+ * the contacts at x_k in ct and the inputs u_prev, u at its ends (a base displacement moves its link's ground
+ * end): -A^-1 dg/d ln(value_j), A the Newton matrix at x_k. Written into the mechanism's nm columns of fv.
+ * Returns 0, or -1 when A is singular. */
 int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
-                             const caekf_scalar_t xk[CAEKF_N], caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+                             const caekf_scalar_t xk[CAEKF_N], const caekf_scalar_t *u_prev, const caekf_scalar_t *u,
+                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
-/* What sensor k reads at the augmented state x with the inputs u (docs/sensors.md): *value = h_k(x) and
+/* What sensor k reads at the augmented state x with the inputs u, u_prev those of the step before (a base
+ * displacement's rate is (u - u_prev) / dt; u_prev = u: at rest) (docs/sensors.md): *value = h_k(x) and
  * row = dh_k/dx, both in physical units (a mechanism parameter's column per ln(value), an offset's per its
  * unit). p: the settings the model was initialised from. */
 void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, int k, const caekf_scalar_t *x,
-                        const caekf_scalar_t *u, caekf_scalar_t *value, caekf_scalar_t row[CAEKF_N]);
+                        const caekf_scalar_t *u, const caekf_scalar_t *u_prev, caekf_scalar_t *value,
+                        caekf_scalar_t row[CAEKF_N]);
 
 /* Contact c's law at the augmented state x: positions, velocities, its gamma and its estimated law
  * parameters (the others are the model's). */
 void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out);
 
 /* Newton-Raphson solve of the step for x_k given x_{k-1}, the inputs u_{k-1} at its start (used by the
- * trapezoidal rule only) and u_k (one per input; the gammas and law parameters carry over). Backward Euler, eq. (19):
+ * trapezoidal rule, and by a base displacement's rate) and u_k (one per input; the gammas and law parameters
+ * carry over). A base displacement u of a link (k, c) enters as the force k u_k + c (u_k - u_{k-1}) / dt
+ * (backward Euler), k (u_k + u_{k-1}) / 2 + c (u_k - u_{k-1}) / dt (trapezoidal: the mean of both ends). Backward Euler, eq. (19):
  * unknown v_k, q_k = q_{k-1} + dt v_k. Trapezoidal: q_k = q_{k-1} + dt/2 (v_{k-1} + v_k), and the
  * momentum balance is the mean of its two ends. Initial guess v_{k-1}. Converged when the largest
  * momentum-row residual is <= rtol times the largest row's sum of term magnitudes (a norm-wise backward

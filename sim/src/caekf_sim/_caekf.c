@@ -552,7 +552,7 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
             const double sd = e->cfg.sensor_sigma[i] > 0 ? (double)e->cfg.sensor_sigma[i]
                               : e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
                                                                                       : (double)e->cfg.sigma_r;
-            caekf_model_sensor(&e->model, &e->cfg.model, i, xs, u, &hv, hrow[i]);
+            caekf_model_sensor(&e->model, &e->cfg.model, i, xs, u, u, &hv, hrow[i]); /* the rows: u_prev = u */
             r[i] = (double)e->dims.r[i] * sd * sd;
             log_r2 += 2.0 * log(r[i]);
         }

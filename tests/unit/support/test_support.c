@@ -90,6 +90,19 @@ void test_spd_matrix(paper_mat_t P)
         }
 }
 
+double test_fd_column_error(const caekf_scalar_t *a, const caekf_scalar_t *b, int nq, double span,
+                            const caekf_scalar_t *col, int ld, double scale)
+{
+    double big = 0, worst = 0;
+    int i;
+    for (i = 0; i < nq; ++i) {
+        const double fd = ((double)a[nq + i] - (double)b[nq + i]) / span;
+        big = fmax(big, fabs(fd));
+        worst = fmax(worst, fabs(fd - scale * (double)col[i * ld]));
+    }
+    return big > 0 ? worst / big : -1;
+}
+
 double test_eq10_error(caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jp[CAEKF_N][CAEKF_N],
                        caekf_scalar_t F[CAEKF_N][CAEKF_N], int n)
 {

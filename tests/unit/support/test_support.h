@@ -86,6 +86,12 @@ int test_invert(double *a, double *inv, int n);
 double test_eq10_error(caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jp[CAEKF_N][CAEKF_N],
                        caekf_scalar_t F[CAEKF_N][CAEKF_N], int n);
 
+/* A column of the step's map against central differences of the step: the largest |fd_i - scale col[i ld]| over
+ * the nq velocities, fd = (a - b) / span taken from states a and b (their v at nq..), relative to the largest
+ * |fd_i|; -1 when every fd_i is 0 (the difference says nothing). */
+double test_fd_column_error(const caekf_scalar_t *a, const caekf_scalar_t *b, int nq, double span,
+                            const caekf_scalar_t *col, int ld, double scale);
+
 /* Runs `experiment` over the whole truth, calling `each` after every step (may be NULL). Returns the
  * number of steps, or -1 when the truth cannot be read. */
 typedef void (*step_hook_t)(const caekf_t *est, const caekf_report_t *rep, caekf_status_t st, const truth_rec_t *truth,
