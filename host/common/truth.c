@@ -220,9 +220,24 @@ int caekf_input_series_read(const char *path, int inputs, caekf_input_series_t *
     return 0;
 }
 
-void caekf_input_series_at(const caekf_input_series_t *s, double t, double *u)
+/* The sample interval of t (t_0 <= t < t_last): lo with t[lo] <= t < t[lo + 1], by bisection. */
+static long series_segment(const caekf_input_series_t *s, double t)
 {
     long lo = 0, hi = s->rows - 1;
+    while (hi - lo > 1) {
+        const long mid = lo + (hi - lo) / 2;
+        if (s->t[mid] <= t) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}
+
+void caekf_input_series_at(const caekf_input_series_t *s, double t, double *u)
+{
+    long lo, hi = s->rows - 1;
     int i;
     if (!(t > s->t[0]) || t >= s->t[hi]) { /* end values held (NaN t: the first) */
         const long j = t >= s->t[hi] ? hi : 0;
@@ -231,17 +246,37 @@ void caekf_input_series_at(const caekf_input_series_t *s, double t, double *u)
         }
         return;
     }
-    while (hi - lo > 1) { /* t[lo] <= t < t[hi] */
-        const long mid = lo + (hi - lo) / 2;
-        if (s->t[mid] <= t) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
+    lo = series_segment(s, t);
+    hi = lo + 1;
     for (i = 0; i < s->inputs; ++i) {
         const double u0 = s->u[lo * s->inputs + i], u1 = s->u[hi * s->inputs + i];
         u[i] = (u1 - u0) / (s->t[hi] - s->t[lo]) * (t - s->t[lo]) + u0; /* as np.interp */
+    }
+}
+
+/* Sample j's rate: the central difference of its neighbours, one-sided at the ends. */
+static double series_node_rate(const caekf_input_series_t *s, long j, int i)
+{
+    const long a = j > 0 ? j - 1 : 0, b = j < s->rows - 1 ? j + 1 : s->rows - 1;
+    return (s->u[b * s->inputs + i] - s->u[a * s->inputs + i]) / (s->t[b] - s->t[a]);
+}
+
+void caekf_input_series_rate_at(const caekf_input_series_t *s, double t, double *du)
+{
+    long lo, hi = s->rows - 1;
+    int i;
+    if (!(t >= s->t[0]) || t > s->t[hi] || t == s->t[hi]) { /* held outside (NaN t: 0); at t_last its own */
+        const int last = t == s->t[hi];
+        for (i = 0; i < s->inputs; ++i) {
+            du[i] = last ? series_node_rate(s, hi, i) : 0.0;
+        }
+        return;
+    }
+    lo = series_segment(s, t);
+    hi = lo + 1;
+    for (i = 0; i < s->inputs; ++i) {
+        const double r0 = series_node_rate(s, lo, i), r1 = series_node_rate(s, hi, i);
+        du[i] = (r1 - r0) / (s->t[hi] - s->t[lo]) * (t - s->t[lo]) + r0; /* as np.interp */
     }
 }
 
@@ -299,7 +334,11 @@ static int plant_setup(const caekf_scenario_t *sc, const caekf_input_series_t *s
         }
     }
     for (i = 0; i < p->ni; ++i) {
-        p->input_body[i] = mp->input_body[i] - 1;
+        const int link = mp->input_link[i] - 1;
+        p->input_body[i] = model.p.input_body[i] - 1; /* a base input's: its link's body (caekf_model_init) */
+        p->input_base[i] = mp->input_kind[i] == CAEKF_INPUT_BASE_DISPLACEMENT;
+        p->input_k[i] = p->input_base[i] ? (double)mp->spring_k[link] : 0;
+        p->input_c[i] = p->input_base[i] ? (double)mp->spring_c[link] : 0;
         p->amp[i] = element_value(sc, "input%d_amp", i + 1);
         p->freq[i] = element_value(sc, "input%d_freq", i + 1);
         p->phase[i] = element_value(sc, "input%d_phase", i + 1);
@@ -313,6 +352,12 @@ static int plant_setup(const caekf_scenario_t *sc, const caekf_input_series_t *s
         p->sensor_b[i] = link < mp->springs ? mp->spring_b[link] - 1 : -1;
         p->sensor_k[i] = link < mp->springs ? (double)mp->spring_k[link] : 0;
         p->sensor_c[i] = link < mp->springs ? (double)mp->spring_c[link] : 0;
+        p->sensor_input[i] = -1;
+        for (j = 0; j < p->ni && mp->sensor_kind[i] == CAEKF_SENSOR_LINK_FORCE; ++j) {
+            if (p->input_base[j] && mp->input_link[j] - 1 == link) {
+                p->sensor_input[i] = j;
+            }
+        }
         p->noise[i] = element_value(sc, "sensor%d_noise", i + 1);
         if (!(p->noise[i] > 0)) {
             p->noise[i] = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? sc->noise_std_v : sc->noise_std;
@@ -330,16 +375,35 @@ static int plant_setup(const caekf_scenario_t *sc, const caekf_input_series_t *s
     return 0;
 }
 
-static void inputs_at(const plant_t *p, double t, double *u)
+/* The inputs at t and, with du not NULL, their rates (a base displacement's du/dt): the sines and their
+ * derivatives, or the series' (caekf_input_series_rate_at). */
+static void inputs_at(const plant_t *p, double t, double *u, double *du)
 {
     int i;
     if (p->series != NULL) {
         caekf_input_series_at(p->series, t, u);
+        if (du != NULL) {
+            caekf_input_series_rate_at(p->series, t, du);
+        }
         return;
     }
     for (i = 0; i < p->ni; ++i) {
-        u[i] = p->amp[i] * sin(2.0 * CAEKF_PI * p->freq[i] * t + p->phase[i]);
+        const double w = 2.0 * CAEKF_PI * p->freq[i];
+        u[i] = p->amp[i] * sin(w * t + p->phase[i]);
+        if (du != NULL) {
+            du[i] = p->amp[i] * w * cos(w * t + p->phase[i]);
+        }
     }
+}
+
+/* Whether any input is a base displacement. */
+static int any_base(const plant_t *p)
+{
+    int i, any = 0;
+    for (i = 0; i < p->ni; ++i) {
+        any |= p->input_base[i];
+    }
+    return any;
 }
 
 /* Component i of x (q or v by offset), 0 for the ground (i = -1). */
@@ -366,9 +430,18 @@ static double sensor_value(const plant_t *p, int i, double t, const double *x)
     case CAEKF_SENSOR_VELOCITY: return x[nq + b];
     case CAEKF_SENSOR_ACCELERATION: rhs(p, t, x, f); return f[nq + b];
     case CAEKF_SENSOR_RELATIVE: return x[b] - side(x, p->sensor_ref[i]);
-    case CAEKF_SENSOR_LINK_FORCE:
-        return p->sensor_k[i] * (side(x, p->sensor_a[i]) - side(x, p->sensor_b[i])) +
-               p->sensor_c[i] * (side(x + nq, p->sensor_a[i]) - side(x + nq, p->sensor_b[i]));
+    case CAEKF_SENSOR_LINK_FORCE: {
+        /* a ground end a base input moves: at u, moving at du/dt */
+        double u[CAEKF_MAX_INPUTS + 1] = {0}, du[CAEKF_MAX_INPUTS + 1] = {0}, gq = 0, gv = 0;
+        const int a = p->sensor_a[i], bb = p->sensor_b[i];
+        if (p->sensor_input[i] >= 0) {
+            inputs_at(p, t, u, du);
+            gq = u[p->sensor_input[i]];
+            gv = du[p->sensor_input[i]];
+        }
+        return p->sensor_k[i] * ((a >= 0 ? x[a] : gq) - (bb >= 0 ? x[bb] : gq)) +
+               p->sensor_c[i] * ((a >= 0 ? x[nq + a] : gv) - (bb >= 0 ? x[nq + bb] : gv));
+    }
     default: return x[b];
     }
 }
@@ -383,7 +456,7 @@ static void sample_fill(const plant_t *p, const caekf_scenario_t *sc, long k, co
     out->sensors = p->ns;
     out->bodies = p->nq;
     out->contacts = p->nc;
-    inputs_at(p, out->t, out->u);
+    inputs_at(p, out->t, out->u, NULL);
     for (i = 0; i < p->nq; ++i) {
         out->q[i] = x[i];
         out->v[i] = x[p->nq + i];
@@ -409,7 +482,8 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, const caekf_trut
     caekf_model_params_t mp;
     caekf_model_t model;
     plant_t pl;
-    double x[CAEKF_N] = {0}, xn[CAEKF_N], u[CAEKF_MAX_INPUTS + 1] = {0}, work[4 * CAEKF_NQ];
+    double x[CAEKF_N] = {0}, xn[CAEKF_N], u[CAEKF_MAX_INPUTS + 1] = {0}, u0[CAEKF_MAX_INPUTS + 1] = {0},
+           work[4 * CAEKF_NQ];
     long steps = caekf_scenario_steps(sc);
     int sub = (int)sc->truth_substeps;
     double h = sc->dt / sub;
@@ -427,19 +501,23 @@ static int truth_run_backward_euler(const caekf_scenario_t *sc, const caekf_trut
     for (i = 0; i < pl.nc; ++i) {
         x[2 * model.nq + i] = pl.gamma[i];
     }
+    inputs_at(&pl, 0.0, u0, NULL); /* the inputs at the substep's start: a base displacement's rate */
     for (k = 1; k <= steps; ++k) {
         caekf_truth_sample_t out;
         memset(&out, 0, sizeof out);
         for (s = 1; s <= sub; ++s) {
             double t = (double)(k - 1) * sc->dt + (double)s * h;
             int it = 0;
-            inputs_at(&pl, t, u);
-            if (caekf_model_newton(&model, x, u, u, CAEKF_NEWTON_MAX_ITER, DBL_EPSILON * 256, xn, &it, work) != 0) {
+            inputs_at(&pl, t, u, NULL);
+            if (caekf_model_newton(&model, x, u0, u, CAEKF_NEWTON_MAX_ITER, DBL_EPSILON * 256, xn, &it, work) != 0) {
                 out.newton_failed++;
             }
             out.newton_iters += it;
             for (i = 0; i < model.n; ++i) {
                 x[i] = xn[i];
+            }
+            for (i = 0; i < pl.ni; ++i) {
+                u0[i] = u[i];
             }
         }
         sample_fill(&pl, sc, k, x, &rng, &out);
@@ -488,9 +566,17 @@ static void rhs(const plant_t *p, double t, const double *x, double *f)
         a[i] = -s;
         f[i] = x[nq + i];
     }
-    inputs_at(p, t, u);
-    for (i = 0; i < p->ni; ++i) {
-        a[p->input_body[i]] += u[i];
+    if (any_base(p)) { /* a base displacement: k u + c du/dt on its body (K and C hold -k q, -c v) */
+        double du[CAEKF_MAX_INPUTS + 1];
+        inputs_at(p, t, u, du);
+        for (i = 0; i < p->ni; ++i) {
+            a[p->input_body[i]] += p->input_base[i] ? p->input_k[i] * u[i] + p->input_c[i] * du[i] : u[i];
+        }
+    } else {
+        inputs_at(p, t, u, NULL);
+        for (i = 0; i < p->ni; ++i) {
+            a[p->input_body[i]] += u[i];
+        }
     }
     for (c = 0; c < p->nc; ++c) {
         const double fc = contact_force(p, c, x);

@@ -40,6 +40,11 @@ int caekf_input_series_read(const char *path, int inputs, caekf_input_series_t *
 /* The inputs at time t (np.interp: linear, end values held outside [t_0, t_last]). */
 void caekf_input_series_at(const caekf_input_series_t *s, double t, double *u);
 
+/* The inputs' rates at time t (a base displacement's du/dt): the samples' central differences, (u_{j+1} -
+ * u_{j-1}) / (t_{j+1} - t_{j-1}) (one-sided at the ends), interpolated as np.interp does; 0 outside [t_0,
+ * t_last], where the values are held. */
+void caekf_input_series_rate_at(const caekf_input_series_t *s, double t, double *du);
+
 void caekf_input_series_free(caekf_input_series_t *s);
 
 typedef struct {
@@ -71,13 +76,18 @@ typedef struct {
     const caekf_input_series_t *series;
     int nq, nc, ni, ns, n;
     double amp[CAEKF_MAX_INPUTS], freq[CAEKF_MAX_INPUTS], phase[CAEKF_MAX_INPUTS];
-    int input_body[CAEKF_MAX_INPUTS];                                   /* 0-based */
+    int input_body[CAEKF_MAX_INPUTS]; /* 0-based */
+    /* a base displacement (input{i}_kind): its link's stiffness and damper, k u + c du/dt on its body; a force:
+     * input_base 0 */
+    int input_base[CAEKF_MAX_INPUTS];
+    double input_k[CAEKF_MAX_INPUTS], input_c[CAEKF_MAX_INPUTS];
     int sensor_body[CAEKF_MAX_SENSORS], sensor_kind[CAEKF_MAX_SENSORS]; /* 0-based body; caekf_sensor_kind_t */
     int sensor_ref[CAEKF_MAX_SENSORS]; /* a relative sensor's reference body (0-based, -1 = ground) */
     int sensor_a[CAEKF_MAX_SENSORS], sensor_b[CAEKF_MAX_SENSORS];    /* a link-force sensor's link ends */
     double sensor_k[CAEKF_MAX_SENSORS], sensor_c[CAEKF_MAX_SENSORS]; /* and its stiffness and damper */
-    double noise[CAEKF_MAX_SENSORS];                                 /* std of each sensor's noise */
-    double bias[CAEKF_MAX_SENSORS];                     /* each sensor's constant offset (truth key sensor{i}_bias) */
+    int sensor_input[CAEKF_MAX_SENSORS]; /* the base input moving that link's ground end (0-based), or -1 */
+    double noise[CAEKF_MAX_SENSORS];     /* std of each sensor's noise */
+    double bias[CAEKF_MAX_SENSORS];      /* each sensor's constant offset (truth key sensor{i}_bias) */
     int ca[CAEKF_MAX_CONTACTS], cb[CAEKF_MAX_CONTACTS]; /* 0-based ends, -1 = ground */
     double gap[CAEKF_MAX_CONTACTS], cn[CAEKF_MAX_CONTACTS], lam[CAEKF_MAX_CONTACTS], gamma[CAEKF_MAX_CONTACTS];
     double minv[CAEKF_MAX_BODIES];
