@@ -59,9 +59,9 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .mechanism import (ACCELERATION, LINK_FORCE, VELOCITY, Mechanism, bias_layout, body_values, contact_law,
-                        contact_values, law_column_names, law_derivatives, law_layout, mech_column_names, mech_layout,
-                        scenario_value, sensor_sigmas)
+from .mechanism import (ACCELERATION, BASE_DISPLACEMENT, LINK_FORCE, VELOCITY, Mechanism, bias_layout, body_values,
+                        contact_law, contact_values, law_column_names, law_derivatives, law_layout, mech_column_names,
+                        mech_layout, scenario_value, sensor_sigmas)
 from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_inputs
 from .scenario import Scenario
 
@@ -209,6 +209,7 @@ class AugmentedEKF:
         self._on_prev = False
         self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
         self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
+        self._step_u: Tuple[Any, Any] = (None, None)  # the step's inputs (u_{k-1}, u_k): a base input's ground end
         self.dt = sc.dt
         self.H = measurement_matrix(p, len(self.law) + nm + nb)
         self.Hx = self.H[:, : self.nx]
@@ -217,10 +218,14 @@ class AugmentedEKF:
         self.rows = nb > 0 or bool(np.any(p.sensor_kind > VELOCITY))
         self.sensor_sigma = sensor_sigmas(sc, p)
         r = self.sensor_sigma**2
+        # a measured input's noise on the force it gives: 1 for a force; a base displacement's white noise e_k
+        # through k u_k + c (u_k - u_{k-1}) / dt: the std of (k + c/dt) e_k - c/dt e_{k-1}
+        c_dt = p.B_du.sum(axis=0) / sc.dt
+        gain = np.where(p.input_kind == BASE_DISPLACEMENT, np.sqrt((p.B_u.sum(axis=0) + c_dt) ** 2 + c_dt**2), 1.0)
         for i, (b, k) in enumerate(zip(p.sensor_body.tolist(), p.sensor_kind.tolist())):
             if k == ACCELERATION:  # a measured force's noise, read through 1 / m
-                r[i] += sum((self.input_sigma[j] / p.m[b]) ** 2 for j, ib in enumerate(p.input_body.tolist())
-                            if ib == b)
+                r[i] += sum((gain[j] * self.input_sigma[j] / p.m[b]) ** 2
+                            for j, ib in enumerate(p.input_body.tolist()) if ib == b)
         self.R = np.diag(r)
         self._h: Optional[np.ndarray] = None  # the step's h(x-) and H (sensor_rows), None: the selection
         self._Hk: np.ndarray = self.H
@@ -301,29 +306,40 @@ class AugmentedEKF:
         Jk = self._add_contacts(None, self.Jk0, w, xp[:nq], xp[nx:], xp[nq:nx])
         return self.Jk0 if Jk is None else Jk
 
-    def mech_columns(self, x_prev: np.ndarray, xp: np.ndarray) -> np.ndarray:
+    def mech_columns(self, x_prev: np.ndarray, xp: np.ndarray, u_prev: Any = None, u: Any = None) -> np.ndarray:
         """The mechanism parameters' columns of F's physical rows, dx_k / d theta_j (nx, nm), for the step
         x_{k-1} -> x_k^- (eq. 10 with theta_j a state: -(dg/dx_k)^-1 dg/dtheta_j). dg/dtheta_j = value_j
         dg/dvalue_j of the step's residual (the rows of _constant_jacobians): a mass m_a (v_k,a - v_{k-1},a)/dt
         on body a's momentum row; a link (a, b) of stiffness k: w k (d_ab(q_k) + d_ab(q_{k-1}) if trapezoidal)
         on row a, minus that on row b (d_ab = q_a - q_b, ground 0; w = 1/2 trapezoidal, 1 backward Euler); a
-        damper the same with v. With substeps the same one-step formula over the whole step (the C core's)."""
+        damper the same with v. A ground end a base input moves is at u_k (u_{k-1} at x_{k-1}) and moves at
+        (u_k - u_{k-1}) / dt (u_prev, u: the step's inputs; None: at rest). With substeps the same one-step
+        formula over the whole step (the C core's)."""
         nq, nx = self.nq, self.nx
         values = self.mech_values(x_prev)
         p = self.base
         D = np.zeros((self.n, self.nm))
         w = 0.5 if self.trapezoidal else 1.0
+        ground = {}  # link -> (its ground end at x_k, at x_{k-1}, its rate)
+        if p.has_base_inputs and u is not None:
+            uk = as_inputs(u)
+            u0 = as_inputs(u if u_prev is None else u_prev)
+            for i in np.flatnonzero(p.input_kind == BASE_DISPLACEMENT).tolist():
+                ground[int(p.input_link[i])] = (uk[i], u0[i], (uk[i] - u0[i]) / self.dt)
         for j, ((kind, e, _), value) in enumerate(zip(self.mech, values.tolist())):
             if kind == "m":
                 D[nq + e, j] = value * (xp[nq + e] - x_prev[nq + e]) / self.dt
                 continue
             off = 0 if kind == "k" else nq
             a, b = int(p.spring_a[e]), int(p.spring_b[e])
+            g1, g0, rate = ground.get(e, (0.0, 0.0, 0.0))
+            if kind == "c":
+                g1 = g0 = rate
 
-            def diff(x: np.ndarray) -> float:
-                return (x[off + a] if a >= 0 else 0.0) - (x[off + b] if b >= 0 else 0.0)
+            def diff(x: np.ndarray, g: float) -> float:
+                return (x[off + a] if a >= 0 else g) - (x[off + b] if b >= 0 else g)
 
-            d = diff(xp) + (diff(x_prev) if self.trapezoidal else 0.0)
+            d = diff(xp, g1) + (diff(x_prev, g0) if self.trapezoidal else 0.0)
             if a >= 0:
                 D[nq + a, j] = w * value * d
             if b >= 0:
@@ -334,7 +350,8 @@ class AugmentedEKF:
         """dx_k / du (nx, inputs): how an error in the measured inputs moves the step's end (eq. 10's inverse
         Jacobian at x_k^- on dg/du). Backward Euler: u_k enters the momentum rows as -B_u; trapezoidal: u_{k-1}
         and u_k each as -B_u / 2, and a sensor's error held over the step enters at both ends (its white noise
-        of the same low-frequency power), so the sum of both: twice the one-end gain."""
+        of the same low-frequency power), so the sum of both: twice the one-end gain. A base displacement's
+        B_u column is k e_body: its damper's c (u_k - u_{k-1}) / dt does not see an error held over the step."""
         nq, nx = self.nq, self.nx
         Du = np.zeros((self.n, self.plant.n_inputs))
         Du[nq:nx] = -self.plant.B_u * (0.5 if self.trapezoidal else 1.0)
@@ -343,11 +360,12 @@ class AugmentedEKF:
         return -np.linalg.solve(self._full_step_jacobian(xp), Du)[:nx]
 
     def _add_mech_columns(self, F: np.ndarray, xp: np.ndarray) -> np.ndarray:
-        """F with the mechanism parameters' columns (a copy; F itself when none is estimated)."""
+        """F with the mechanism parameters' columns (a copy; F itself when none is estimated), at the step's
+        inputs."""
         if not self.nm:
             return F
         F = F.copy()
-        F[: self.nx, self.im] = self.mech_columns(self.x, xp)
+        F[: self.nx, self.im] = self.mech_columns(self.x, xp, *self._step_u)
         return F
 
     def _constant_jacobians(self, dt: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -489,6 +507,7 @@ class AugmentedEKF:
         gammas = x[nx:]  # and the law parameters: every parameter state carries over
         solver = self._solver(self.solver, gammas)
         u_prev = u if self.u_prev is None else self.u_prev
+        self._step_u = (u_prev, u)
         # A contact "on" changes the step map: closed, or with a statistically linearised nonzero tangent.
         self._on_prev = (self.sub_solver is not None or self.trapezoidal) and solver.any_on(x[:nq],
                                                                                           self.gammas_of(gammas))
@@ -588,11 +607,12 @@ class AugmentedEKF:
         return out
 
     # ---- correction -------------------------------------------------------------------
-    def sensor_rows(self, x: np.ndarray, u: Any) -> Tuple[np.ndarray, np.ndarray]:
+    def sensor_rows(self, x: np.ndarray, u: Any, u_prev: Any = None) -> Tuple[np.ndarray, np.ndarray]:
         """(h(x), H = dh/dx) of every sensor at the augmented state x with the inputs u (docs/sensors.md): the
         mechanism's linear rows (position, velocity, relative, link force at the current values), the
-        acceleration's M^-1 (B_u u - K q - C v + signed contact forces) with its derivatives, a mechanism
-        parameter's column per ln(value), an offset's 1."""
+        acceleration's M^-1 (B_u u + B_du du - K q - C v + signed contact forces) with its derivatives, a
+        mechanism parameter's column per ln(value), an offset's 1. u_prev: the inputs a step before (a base
+        displacement's rate du = (u - u_prev) / dt; None: u, at rest), whose ground end a link force reads."""
         p, nq, nx = self.plant, self.nq, self.nx
         q, v = x[:nq], x[nq:nx]
         H = np.zeros((p.n_sensors, self.n))
@@ -600,39 +620,48 @@ class AugmentedEKF:
         h = p.H @ x[:nx]
         mech_state = {(kind, e): j for (kind, e, _), j in zip(self.mech, self.im)}
         uu = np.atleast_1d(np.asarray(u, dtype=float)) if p.n_inputs else np.zeros(0)
+        du = np.zeros_like(uu)
+        if p.has_base_inputs and u_prev is not None:
+            du = (uu - np.atleast_1d(np.asarray(u_prev, dtype=float))) / self.dt
+        gq, gv = p.base_ends(uu, du)  # the links' ground ends (a base input's u, du/dt; else 0)
 
-        def diff(z: np.ndarray, a: int, b: int) -> float:
-            return (z[a] if a >= 0 else 0.0) - (z[b] if b >= 0 else 0.0)
+        def diff(z: np.ndarray, a: int, b: int, g: float) -> float:
+            return (z[a] if a >= 0 else g) - (z[b] if b >= 0 else g)
 
         for i, (b, k, link) in enumerate(zip(p.sensor_body.tolist(), p.sensor_kind.tolist(),
                                              p.sensor_link.tolist())):
             if k == LINK_FORCE:
                 ea, eb = int(p.spring_a[link]), int(p.spring_b[link])
-                for kind, z, value in (("k", q, p.spring_k[link]), ("c", v, p.spring_c[link])):
+                if p.has_base_inputs:  # the ground end at u: k (q_a - q_b) + c (v_a - v_b) with it
+                    h[i] = p.spring_k[link] * diff(q, ea, eb, gq[link]) + p.spring_c[link] * diff(v, ea, eb, gv[link])
+                for kind, z, value, g in (("k", q, p.spring_k[link], gq[link]), ("c", v, p.spring_c[link], gv[link])):
                     if (kind, link) in mech_state:
-                        H[i, mech_state[(kind, link)]] = value * diff(z, ea, eb)
+                        H[i, mech_state[(kind, link)]] = value * diff(z, ea, eb, g)
             elif k == ACCELERATION:
-                h[i], H[i] = self._acceleration_row(x, b, uu, mech_state)
+                h[i], H[i] = self._acceleration_row(x, b, uu, mech_state, du, (gq, gv))
         for (i, _), j in zip(self.biases, self.ib):
             h[i] += x[j]
             H[i, j] = 1.0
         return h, H
 
-    def _acceleration_row(self, x: np.ndarray, b: int, u: np.ndarray,
-                          mech_state: Dict[Tuple[str, int], int]) -> Tuple[float, np.ndarray]:
-        """Body b's acceleration at x and its row of H (sensor_rows)."""
+    def _acceleration_row(self, x: np.ndarray, b: int, u: np.ndarray, mech_state: Dict[Tuple[str, int], int],
+                          du: np.ndarray, ends: Tuple[np.ndarray, np.ndarray]) -> Tuple[float, np.ndarray]:
+        """Body b's acceleration at x and its row of H (sensor_rows); du, ends: the inputs' rates and the links'
+        ground ends (a base displacement's)."""
         p, nq, nx = self.plant, self.nq, self.nx
         q, v = x[:nq], x[nq:nx]
         row = np.zeros(self.n)
-        force = float(u[p.input_body == b].sum()) - float(p.K[b] @ q) - float(p.C[b] @ v)
+        inputs = float(p.B_u[b] @ u + p.B_du[b] @ du) if p.has_base_inputs else float(u[p.input_body == b].sum())
+        force = inputs - float(p.K[b] @ q) - float(p.C[b] @ v)
         row[:nq] -= p.K[b]
         row[nq:nx] -= p.C[b]
         for link in range(len(p.spring_k)):
             ea, eb = int(p.spring_a[link]), int(p.spring_b[link])
             side = 1.0 if ea == b else -1.0 if eb == b else 0.0
-            for kind, z, value in (("k", q, p.spring_k[link]), ("c", v, p.spring_c[link])):
+            for kind, z, value, g in (("k", q, p.spring_k[link], ends[0][link]),
+                                      ("c", v, p.spring_c[link], ends[1][link])):
                 if side != 0.0 and (kind, link) in mech_state:
-                    dz = (z[ea] if ea >= 0 else 0.0) - (z[eb] if eb >= 0 else 0.0)
+                    dz = (z[ea] if ea >= 0 else g) - (z[eb] if eb >= 0 else g)
                     row[mech_state[(kind, link)]] -= side * value * dz
         gammas = self.gammas_of(x[nx:]).tolist()
         for c, ((ca, cb, gap, ne, lam), g) in enumerate(zip(self.laws(x[nx:]), gammas)):
@@ -865,7 +894,7 @@ class AugmentedEKF:
         if predict and cfg.law_second_order and (self.law or cfg.gamma_log):
             Pm = self._second_order_noise(xp, Pm)
         if self.rows:  # the sensors' rows of H at x- (docs/sensors.md)
-            self._h, self._Hk = self.sensor_rows(xp, u)
+            self._h, self._Hk = self.sensor_rows(xp, u, self._step_u[0] if predict else u)
         if (live or self.nm or self.nb) and math.isfinite(cfg.gate_nis) and self._nis(xp, Pm, y) > cfg.gate_nis:
             # every live parameter (the mechanism's and the offsets too) held this step, as a consider state
             status |= fl.GAMMA_GATED

@@ -162,6 +162,9 @@ def sensitivities(sc: Any, params: Sequence[Param], initial_state: bool = True, 
     """Integrate the truth and its variational equations for the unknowns [x0 (if initial_state); params]."""
     require_truth(sc)
     mech = Mechanism.from_scenario(sc)
+    if mech.has_base_inputs:  # the right-hand side below takes every input as a force
+        raise IdentifiabilityError("a base_displacement input (input{i}_kind): the sensitivities take every input "
+                                   "as a force (docs/mechanism.md, Base excitation)")
     nq, nc = mech.nq, mech.n_contacts
     unknowns = (initial_state_params(sc, mech) if initial_state else []) + list(params)
     m = len(unknowns)

@@ -41,6 +41,11 @@ POSITION, VELOCITY, ACCELERATION, RELATIVE, LINK_FORCE = (SENSOR_KINDS.index(k) 
 # The sensor column's prefix per kind: y<body>, yv<body>, ya<body>, yr<body>_<ref>, yf<link>.
 SENSOR_PREFIX = {POSITION: "y", VELOCITY: "yv", ACCELERATION: "ya", RELATIVE: "yr", LINK_FORCE: "yf"}
 
+# What an input is (docs/mechanism.md "Base excitation"; the schema's input_kind, in its order): a force on its
+# body [N], or the displacement of a link's ground end [m].
+INPUT_KINDS: Tuple[str, ...] = tuple(SCHEMA.by_name("input_kind").values)
+FORCE, BASE_DISPLACEMENT = (INPUT_KINDS.index(k) for k in ("force", "base_displacement"))
+
 # Canonical key -> the paper's name for it (the schema's aliases, reversed).
 ALIASES: Dict[str, str] = {canon: alias for alias, canon in SCHEMA_ALIASES.items()}
 
@@ -128,15 +133,43 @@ def _excitation(sc: Any, key: str, lo: Optional[float] = None) -> float:
     return v if math.isnan(v) else _real(sc, key, lo)
 
 
-def _kind(sc: Any, key: str) -> int:
+def _kind(sc: Any, key: str, kinds: Tuple[str, ...] = SENSOR_KINDS) -> int:
+    """An enumerated key's number (SENSOR_KINDS, INPUT_KINDS), given by name or number."""
     v = scenario_value(sc, key)
     if isinstance(v, str):
-        if v not in SENSOR_KINDS:
-            raise MechanismError(key, v, f"must be one of {', '.join(SENSOR_KINDS)}")
-        return SENSOR_KINDS.index(v)
-    if not (float(v) == int(v) and 0 <= int(v) < len(SENSOR_KINDS)):
-        raise MechanismError(key, v, f"must be one of {', '.join(SENSOR_KINDS)}")
+        if v not in kinds:
+            raise MechanismError(key, v, f"must be one of {', '.join(kinds)}")
+        return kinds.index(v)
+    if not (float(v) == int(v) and 0 <= int(v) < len(kinds)):
+        raise MechanismError(key, v, f"must be one of {', '.join(kinds)}")
     return int(v)
+
+
+def _inputs(sc: Any, ni: int, nq: int, spring_a: list, spring_b: list) -> Tuple[list, list, list]:
+    """Each input's kind, body (0-based: a base displacement's is its link's end that is not the ground) and
+    link (0-based, a base displacement's; -1 for a force)."""
+    kinds, bodies, links = [], [], []
+    for i in range(1, ni + 1):
+        kind = _kind(sc, f"input{i}_kind", INPUT_KINDS)
+        if kind == FORCE:
+            kinds.append(kind)
+            bodies.append(_body(sc, f"input{i}_body", nq, False))
+            links.append(-1)
+            continue
+        key = f"input{i}_link"
+        if not spring_a:
+            raise MechanismError(f"input{i}_kind", INPUT_KINDS[kind], "needs a link (springs = 0)")
+        link = _count(sc, key, 1, len(spring_a)) - 1
+        a, b = spring_a[link], spring_b[link]
+        if a >= 0 and b >= 0:
+            raise MechanismError(key, link + 1, f"must name a link with one end on the ground (0): link {link + 1} "
+                                 f"joins bodies {a + 1} and {b + 1}")
+        if link in links:
+            raise MechanismError(key, link + 1, f"link {link + 1} is moved by input{links.index(link) + 1} already")
+        kinds.append(kind)
+        bodies.append(a if a >= 0 else b)
+        links.append(link)
+    return kinds, bodies, links
 
 
 def _pair_matrix(nq: int, a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -302,10 +335,17 @@ class Mechanism:
     contact_lambda: np.ndarray  # Hunt-Crossley damping [s/m]
     sensor_ref: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # relative: 0-based, -1
     sensor_link: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # link force: 0-based
+    # FORCE | BASE_DISPLACEMENT per input, and a base displacement's link (0-based; -1 for a force). A base
+    # displacement u [m] moves its link's ground end: k (u - q_b) + c (du/dt - v_b) on the link's body, which
+    # input_body holds (K and C hold the -k q_b, -c v_b parts; B_u and B_du the rest).
+    input_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    input_link: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     # derived
     K: np.ndarray = field(init=False)
     C: np.ndarray = field(init=False)
-    B_u: np.ndarray = field(init=False)  # (nq, ni): input i acts on column i
+    # (nq, ni): input i's force per unit of u_i on column i: e_body for a force, k e_body for a base displacement
+    B_u: np.ndarray = field(init=False)
+    B_du: np.ndarray = field(init=False)  # (nq, ni): per unit of du_i/dt: 0, or c e_body for a base displacement
     B_c: np.ndarray = field(init=False)  # (nc, nq): row c = e_a - e_b (ground omitted); delta = B_c q - gap
     H: np.ndarray = field(init=False)  # (ns, 2 nq): y = H [q; v]
     # sizes: bodies, inputs, sensors, contacts
@@ -322,9 +362,19 @@ class Mechanism:
             set_(self, name, n)
         set_(self, "K", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_k))
         set_(self, "C", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_c))
-        B_u = np.zeros((nq, len(self.input_body)))
-        B_u[self.input_body, np.arange(len(self.input_body))] = 1.0
+        ni = len(self.input_body)
+        if len(self.input_kind) != ni:  # a mechanism built without them: every input a force
+            set_(self, "input_kind", np.full(ni, FORCE, dtype=np.int64))
+            set_(self, "input_link", np.full(ni, -1, dtype=np.int64))
+        B_u = np.zeros((nq, ni))
+        B_u[self.input_body, np.arange(ni)] = 1.0
+        B_du = np.zeros((nq, ni))
+        for i in np.flatnonzero(self.input_kind == BASE_DISPLACEMENT).tolist():
+            link = int(self.input_link[i])
+            B_u[self.input_body[i], i] = self.spring_k[link]
+            B_du[self.input_body[i], i] = self.spring_c[link]
         set_(self, "B_u", B_u)
+        set_(self, "B_du", B_du)
         B_c = np.zeros((len(self.contact_a), nq))
         for c, (ia, ib) in enumerate(zip(self.contact_a.tolist(), self.contact_b.tolist())):
             if ia >= 0:
@@ -364,6 +414,23 @@ class Mechanism:
         return np.diag(self.m)
 
     @property
+    def has_base_inputs(self) -> bool:
+        """Whether an input is a base displacement (input{i}_kind)."""
+        return bool(np.any(self.input_kind == BASE_DISPLACEMENT))
+
+    def base_ends(self, u: np.ndarray, du: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
+        """Every link's ground end, displacement and rate (..., n_springs): a base input's u and du/dt on the
+        link it moves, 0 elsewhere (du None: 0)."""
+        u = np.asarray(u, dtype=float)
+        shape = u.shape[:-1] + (len(self.spring_k),)
+        gq, gv = np.zeros(shape), np.zeros(shape)
+        for i in np.flatnonzero(self.input_kind == BASE_DISPLACEMENT).tolist():
+            gq[..., int(self.input_link[i])] = u[..., i]
+            if du is not None:
+                gv[..., int(self.input_link[i])] = np.asarray(du, dtype=float)[..., i]
+        return gq, gv
+
+    @property
     def contacts(self) -> Tuple[Tuple[int, int, float, float, float], ...]:
         """(a, b, gap, n, lambda) per contact as Python scalars (the step's hot loop)."""
         return tuple(zip(self.contact_a.tolist(), self.contact_b.tolist(), self.contact_gap.tolist(),
@@ -380,7 +447,7 @@ class Mechanism:
         sk = [_real(sc, f"spring{i}_k", 0.0) for i in range(1, n_springs + 1)]
         scc = [_real(sc, f"spring{i}_c", 0.0) for i in range(1, n_springs + 1)]
         ni = _count(sc, "inputs", 0, MAX_INPUTS)
-        ib = [_body(sc, f"input{i}_body", nq, False) for i in range(1, ni + 1)]
+        ik, ib, il = _inputs(sc, ni, nq, sa, sb)
         amp = [_excitation(sc, f"input{i}_amp") for i in range(1, ni + 1)]
         freq = [_excitation(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]
         phase = [_excitation(sc, f"input{i}_phase") for i in range(1, ni + 1)]
@@ -411,6 +478,7 @@ class Mechanism:
         return Mechanism(
             m=m, spring_a=ints(sa), spring_b=ints(sb), spring_k=reals(sk), spring_c=reals(scc),
             input_body=ints(ib), input_amp=reals(amp), input_freq=reals(freq), input_phase=reals(phase),
+            input_kind=ints(ik), input_link=ints(il),
             sensor_body=ints([max(s[0], 0) for s in sens]), sensor_kind=ints([s[1] for s in sens]),
             sensor_ref=ints([s[2] for s in sens]), sensor_link=ints([s[3] for s in sens]),
             contact_a=ints(ca), contact_b=ints(cb), contact_gap=reals(gap), contact_n=reals(n),
@@ -444,25 +512,36 @@ class Mechanism:
         return contact_forces(self.penetrations(q), self.penetration_rates(v), np.asarray(gamma, dtype=float),
                               self.contact_n, self.contact_lambda)
 
-    def accelerations(self, q: np.ndarray, v: np.ndarray, u: np.ndarray, gamma: "np.ndarray | Sequence[float]"
-                      ) -> np.ndarray:
-        """The bodies' accelerations (..., nq) at states (q, v) with inputs u (..., ni) and stiffnesses gamma:
-        M^-1 (B_u u - K q - C v + B_c^T-signed contact forces: -f on a contact's body a, +f on b)."""
+    def accelerations(self, q: np.ndarray, v: np.ndarray, u: np.ndarray, gamma: "np.ndarray | Sequence[float]",
+                      du: Optional[np.ndarray] = None) -> np.ndarray:
+        """The bodies' accelerations (..., nq) at states (q, v) with inputs u (..., ni), their rates du (a base
+        displacement's du/dt; None: 0) and stiffnesses gamma: M^-1 (B_u u + B_du du - K q - C v + B_c^T-signed
+        contact forces: -f on a contact's body a, +f on b)."""
         q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
         f = -(q @ self.K.T) - v @ self.C.T + np.asarray(u, dtype=float).reshape(q.shape[:-1] + (-1,)) @ self.B_u.T
+        if du is not None and self.has_base_inputs:
+            f = f + np.asarray(du, dtype=float).reshape(q.shape[:-1] + (-1,)) @ self.B_du.T
         f = f - self.forces(q, v, np.asarray(gamma, dtype=float).tolist()) @ self.B_c
         return f / self.m
 
-    def measure(self, q: np.ndarray, v: np.ndarray, a: Optional[np.ndarray] = None) -> np.ndarray:
+    def measure(self, q: np.ndarray, v: np.ndarray, a: Optional[np.ndarray] = None,
+                ends: Optional[Tuple[np.ndarray, np.ndarray]] = None) -> np.ndarray:
         """Noise-free sensor readings (..., ns) from states (q, v) and, with an acceleration sensor, the
-        bodies' accelerations a (docs/sensors.md)."""
+        bodies' accelerations a (docs/sensors.md); ends: the links' ground ends (base_ends), which a load cell
+        in a link a base input moves reads (None: at rest)."""
         x = np.concatenate([np.asarray(q, dtype=float), np.asarray(v, dtype=float)], axis=-1)
         y = x @ self.H.T
-        for i, (b, k) in enumerate(zip(self.sensor_body.tolist(), self.sensor_kind.tolist())):
+        for i, (b, k, link) in enumerate(zip(self.sensor_body.tolist(), self.sensor_kind.tolist(),
+                                             self.sensor_link.tolist())):
             if k == ACCELERATION:
                 if a is None:
                     raise ValueError(f"sensor{i + 1} reads an acceleration: measure needs the accelerations")
                 y[..., i] = np.asarray(a)[..., b]
+            elif k == LINK_FORCE and ends is not None and self.has_base_inputs:
+                # the ground end at u, moving at du/dt: +(k u + c du/dt) at end a, minus that at end b
+                sign = 1.0 if int(self.spring_a[link]) < 0 else -1.0
+                k, c = self.spring_k[link], self.spring_c[link]
+                y[..., i] += sign * (k * ends[0][..., link] + c * ends[1][..., link])
         return y
 
     @property
@@ -474,6 +553,13 @@ class Mechanism:
         """Sine inputs u_i(t) = amp_i sin(2 pi freq_i t + phase_i), shape (..., ni)."""
         t = np.asarray(t, dtype=float)
         cols = [a * np.sin(2.0 * np.pi * f * t + p) for a, f, p in
+                zip(self.input_amp.tolist(), self.input_freq.tolist(), self.input_phase.tolist())]
+        return np.stack(cols, axis=-1) if cols else np.zeros(t.shape + (0,))
+
+    def input_rates(self, t: "np.ndarray | float") -> np.ndarray:
+        """The sines' rates du_i/dt = amp_i w_i cos(w_i t + phase_i), w_i = 2 pi freq_i, shape (..., ni)."""
+        t = np.asarray(t, dtype=float)
+        cols = [a * (2.0 * np.pi * f) * np.cos(2.0 * np.pi * f * t + p) for a, f, p in
                 zip(self.input_amp.tolist(), self.input_freq.tolist(), self.input_phase.tolist())]
         return np.stack(cols, axis=-1) if cols else np.zeros(t.shape + (0,))
 
@@ -540,5 +626,18 @@ class InputSeries:
     def __call__(self, t: "np.ndarray | float") -> np.ndarray:
         t = np.asarray(t, dtype=float)
         cols = [np.interp(t, self.t, self.u[:, i]) for i in range(self.u.shape[1])]
+        return np.stack(cols, axis=-1)
+
+    def rate(self, t: "np.ndarray | float") -> np.ndarray:
+        """du/dt (a base displacement's rate): the samples' central differences (u_{j+1} - u_{j-1}) / (t_{j+1} -
+        t_{j-1}), one-sided at the ends, interpolated linearly; 0 outside [t_0, t_last], where u is held (the C
+        truth's caekf_input_series_rate_at)."""
+        t = np.asarray(t, dtype=float)
+        ts, u = self.t, self.u
+        nodes = np.empty_like(u)
+        nodes[1:-1] = (u[2:] - u[:-2]) / (ts[2:] - ts[:-2])[:, None]
+        nodes[0] = (u[1] - u[0]) / (ts[1] - ts[0])
+        nodes[-1] = (u[-1] - u[-2]) / (ts[-1] - ts[-2])
+        cols = [np.interp(t, ts, nodes[:, i], left=0.0, right=0.0) for i in range(u.shape[1])]
         return np.stack(cols, axis=-1)
 

@@ -24,6 +24,11 @@ The momentum rows are solved multiplied by 2, i.e. with the half step s = h/2:
 G_0 = G(q_{k-1}, v_{k-1}, u_{k-1}) a constant of the step, and the same Newton matrix as above with s for
 h: A = M/s + C + s K + sum_c (s df_c/ddelta + df_c/dddelta) b_c b_c^T. The sizes of G_0's terms join
 each row's magnitude in the convergence test (its rounding is part of the residual's).
+
+A base displacement u [m] (input{i}_kind, docs/mechanism.md) of a link of stiffness k and damper c enters as
+a force on its body: k u_k + c (u_k - u_{k-1}) / hs at the step's end and k u_{k-1} at its start (trapezoidal:
+both ends' sum is k (u_k + u_{k-1}) + 2 c (u_k - u_{k-1}) / h, twice the mean of k u + c du/dt for u linear
+over the step), as the C core's base_forces.
 """
 from __future__ import annotations
 
@@ -129,7 +134,21 @@ class StepSolver:
         self.abs_C = np.abs(p.C)
         self.abs_K = np.abs(p.K)
         self.contacts = p.contacts
-        self.input_rows = tuple(p.input_body.tolist())
+        self.input_rows = tuple(p.input_body.tolist())  # a base displacement's: its link's body
+        # base displacements: (input, k, c) of each (its force k u + c du/dt; forces_at)
+        self.base = tuple((int(i), float(p.B_u[p.input_body[i], i]), float(p.B_du[p.input_body[i], i]))
+                          for i in np.flatnonzero(p.input_kind != 0).tolist())
+
+    def forces_at(self, u: Any, u_prev: Any) -> Tuple[Any, Any]:
+        """The inputs as the forces the momentum rows take at the step's end and start (u, u_prev unchanged
+        when every input is a force): a base displacement's k u + c (u - u_prev) / hs and k u_prev (u_prev
+        None: u, held over the step)."""
+        if not self.base:
+            return u, u_prev
+        end, start = list(as_inputs(u)), list(as_inputs(u if u_prev is None else u_prev))
+        for i, k, c in self.base:
+            end[i], start[i] = k * end[i] + c * (end[i] - start[i]) / self.hs, k * start[i]
+        return tuple(end), tuple(start)
 
     def slr_tangents(self, c: int, delta: float, gamma: float, n: float) -> "Tuple[float, float] | None":
         """Contact c's statistically linearised (df/ddelta, df/dgamma), or None when it has no std."""
@@ -268,6 +287,7 @@ class StepSolver:
         """One step: returns (q_k, v_k, Newton iterations, converged). u_prev: the trapezoidal rule's inputs
         at the step's start (None: u). J_first: the Jacobian the first Newton update takes (a substep's
         start's; None: the initial guess's, plain Newton)."""
+        u, u_prev = self.forces_at(u, u_prev)
         start = self.step_start(q_prev, v_prev, u if u_prev is None else u_prev, gamma)
         first_linear = (J_first is self.J0 if J_first is not None
                         else not self.any_on(self.positions(q_prev, v_prev, v_prev), gamma))
@@ -276,7 +296,7 @@ class StepSolver:
             q = self.positions(q_prev, v_prev, v)
             if all(d <= 0.0 for d in self.penetrations(q)):
                 return q, v, 1, True
-        return self.newton(q_prev, v_prev, u, gamma, u_prev, start, J_first)
+        return self._newton(q_prev, v_prev, u, gamma, start, J_first)
 
     def newton(
         self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any, u_prev: Any = None,
@@ -288,8 +308,16 @@ class StepSolver:
 
         Returns the last iterate and the number of linear solves done when it gives up.
         """
+        u, u_prev = self.forces_at(u, u_prev)
         if start is None:
             start = self.step_start(q_prev, v_prev, u if u_prev is None else u_prev, gamma)
+        return self._newton(q_prev, v_prev, u, gamma, start, J_first)
+
+    def _newton(
+        self, q_prev: np.ndarray, v_prev: np.ndarray, u: Any, gamma: Any,
+        start: "Tuple[np.ndarray, np.ndarray] | None", J_first: "np.ndarray | None",
+    ) -> Tuple[np.ndarray, np.ndarray, int, bool]:
+        """`newton` with the inputs as forces (forces_at) and the trapezoidal rule's G_0 given."""
         v = v_prev.copy()
         for it in range(self.max_iter + 1):
             r, mag, _ = self.residual(v, q_prev, v_prev, u, gamma, start)

@@ -25,6 +25,7 @@ t, u or u1..u<ni>, the sensor names (y<body>, yv<body>), q1..q<nq>, v1..v<nq>, d
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +33,7 @@ from typing import Any, Callable, List, Optional, Tuple, Union
 
 import numpy as np
 
-from .mechanism import VELOCITY, InputSeries, Mechanism, contact_law, contact_values, scenario_value
+from .mechanism import BASE_DISPLACEMENT, VELOCITY, InputSeries, Mechanism, contact_law, contact_values, scenario_value
 from .model import StepSolver
 from .scenario import Scenario, require_truth
 
@@ -106,6 +107,19 @@ def input_function(mech: Mechanism, inputs: Any = None) -> InputFn:
     return series
 
 
+def rate_function(mech: Mechanism, inputs: Any = None) -> InputFn:
+    """du/dt (..., ni) of input_function(mech, inputs): the sines' derivatives, or a series' central differences
+    (InputSeries.rate). A base displacement's force takes it (c du/dt)."""
+    if inputs is None or inputs == mech.inputs:
+        return mech.input_rates
+    rate = getattr(inputs, "rate", None)
+    if rate is None:
+        rate = InputSeries(*inputs).rate if isinstance(inputs, tuple) else None
+    if rate is None:
+        raise ValueError("a base displacement needs its rate: give the inputs as samples or an InputSeries")
+    return rate
+
+
 def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
              integrator: str = "DOP853", rtol: float = TRUTH_RTOL, atol_q: float = TRUTH_ATOL_Q,
              atol_v: float = TRUTH_ATOL_V, inputs: Any = None, mech: Optional[Mechanism] = None):
@@ -120,22 +134,36 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
     require_truth(sc)  # gamma, the inputs' sines, t_end, noise, seed: a recording's scenario has none
     mech = mech if mech is not None else Mechanism.from_scenario(sc)
     ufn = input_function(mech, inputs)
+    dufn = rate_function(mech, ufn) if mech.has_base_inputs else None
     if method == CONTINUOUS:
         q, v, stats = continuous_states(sc, integrator=integrator, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
                                         inputs=ufn, mech=mech)
-        truth = _sampled(sc, mech, ufn, q, v)
+        truth = _sampled(sc, mech, ufn, q, v, dufn)
         return (truth, stats) if return_stats else truth
     if method != BACKWARD_EULER:
         raise ValueError(f"unknown truth method {method!r}; choose from {TRUTH_METHODS}")
     n = sc.n_steps
     sub = sc.truth_substeps
     h = sc.dt / sub
+    sampled_mech = mech
     solver = StepSolver(mech, h, max_iter=TRUTH_NEWTON_MAX_ITER)
     nq = mech.nq
     gamma = contact_values(sc, "gamma", mech.n_contacts)
 
     # u at every substep time t_j = j*h, evaluated in one vectorised call.
     u_sub = np.asarray(ufn(np.arange(1, n * sub + 1, dtype=float) * h)).tolist()
+    if mech.has_base_inputs:
+        # A base displacement enters backward Euler as the force k u_j + c (u_j - u_{j-1}) / h on its body (the
+        # C truth's caekf_model_newton with u_{j-1}, u_j): these forces, and B_u's columns e_body for them.
+        ua = np.asarray(ufn(np.arange(0, n * sub + 1, dtype=float) * h)).reshape(n * sub + 1, -1)
+        base = mech.input_kind == BASE_DISPLACEMENT
+        gain = np.where(base, mech.B_u.sum(axis=0), 1.0)
+        rate = mech.B_du.sum(axis=0)
+        f = np.where(base, gain * ua[1:] + rate * (ua[1:] - ua[:-1]) / h, ua[1:])
+        u_sub = f.tolist()
+        mech = dataclasses.replace(mech, input_kind=np.zeros_like(mech.input_kind),
+                                   input_link=np.full_like(mech.input_link, -1))
+        solver = StepSolver(mech, h, max_iter=TRUTH_NEWTON_MAX_ITER)
 
     # Contact-free substeps are an affine map of (q, v): v' = J0^-1 (M/h v - K q + B_u u).
     # Keep the hot loop in plain floats over the precomputed rows: much faster than numpy
@@ -178,7 +206,7 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
         out_q[k] = q
         out_v[k] = v
 
-    truth = _sampled(sc, mech, ufn, out_q, out_v)
+    truth = _sampled(sc, sampled_mech, ufn, out_q, out_v, dufn)
     if return_stats:
         return truth, TruthStats(iters_total, iters_max, contact)
     return truth
@@ -200,8 +228,10 @@ def _truth_force(d: float, dd: float, g: float, n: float, lam: float) -> float:
     return contact_law(d, dd, g, n, lam)[0]
 
 
-def _sampled(sc: Scenario, mech: Mechanism, ufn: InputFn, q: np.ndarray, v: np.ndarray) -> Truth:
-    """Samples k = 1..N from the states: time grid, input, seeded noisy measurements, penetration."""
+def _sampled(sc: Scenario, mech: Mechanism, ufn: InputFn, q: np.ndarray, v: np.ndarray,
+             dufn: Optional[InputFn] = None) -> Truth:
+    """Samples k = 1..N from the states: time grid, input, seeded noisy measurements, penetration. dufn: the
+    inputs' rates (a base displacement's; None: none)."""
     n = sc.n_steps
     t = np.arange(1, n + 1, dtype=float) * sc.dt
     std = np.array([float(scenario_value(sc, f"sensor{i}_noise")) or
@@ -211,9 +241,11 @@ def _sampled(sc: Scenario, mech: Mechanism, ufn: InputFn, q: np.ndarray, v: np.n
     noise = np.random.default_rng(sc.seed).standard_normal((n, mech.n_sensors))
     noise = noise * (std[0] if np.all(std == std[0]) else std)
     u = np.asarray(ufn(t))
-    a = (mech.accelerations(q, v, u.reshape(n, -1), contact_values(sc, "gamma", mech.n_contacts))
+    du = np.asarray(dufn(t)).reshape(n, -1) if dufn is not None else None
+    a = (mech.accelerations(q, v, u.reshape(n, -1), contact_values(sc, "gamma", mech.n_contacts), du)
          if mech.has_acceleration else None)
-    y = mech.measure(q, v, a) + noise
+    ends = mech.base_ends(u.reshape(n, -1), du) if du is not None else None
+    y = mech.measure(q, v, a, ends) + noise
     if np.any(bias != 0.0):
         y = y + bias
     delta = mech.penetrations(q)
@@ -242,20 +274,37 @@ def continuous_states(sc: Scenario, integrator: str = "DOP853", rtol: float = TR
     n = sc.n_steps if t_end is None else int(round(t_end / sc.dt))
     ts = np.arange(1, n + 1, dtype=float) * sc.dt
     atol = np.r_[[atol_q] * nq, [atol_v] * nq]
+    sines = [(2.0 * np.pi * f, a, p) for a, f, p in
+             zip(mech.input_amp.tolist(), mech.input_freq.tolist(), mech.input_phase.tolist())]
     if inputs is None:  # the sines, scalar math in the right-hand side (the hot path)
-        sines = [(2.0 * np.pi * f, a, p) for a, f, p in
-                 zip(mech.input_amp.tolist(), mech.input_freq.tolist(), mech.input_phase.tolist())]
-
         def u_at(t: float) -> List[float]:
             return [a * math.sin(w * t + p) for w, a, p in sines]
     else:
         def u_at(t: float) -> List[float]:
             return np.asarray(inputs(t)).tolist()
+    # A base displacement u: k u + c du/dt on its body (K and C hold -k q, -c v), du/dt the sines' derivative or
+    # the series' central differences (rate_function).
+    base = [(int(i), float(mech.B_u[rows[i], i]), float(mech.B_du[rows[i], i]))
+            for i in np.flatnonzero(mech.input_kind == BASE_DISPLACEMENT).tolist()]
+    if base and (inputs is None or inputs == mech.inputs):
+        def du_at(t: float) -> List[float]:
+            return [a * w * math.cos(w * t + p) for w, a, p in sines]
+    elif base:
+        rate = rate_function(mech, inputs)
+
+        def du_at(t: float) -> List[float]:
+            return np.asarray(rate(t)).tolist()
 
     def rhs(closed: Tuple[bool, ...]):
         def f(t: float, x: np.ndarray) -> np.ndarray:
             a = -(K @ x[:nq]) - C @ x[nq:]
-            for row, uj in zip(rows, u_at(t)):
+            uu = u_at(t)
+            if base:  # the input's force: k u + c du/dt in place of u
+                du = du_at(t)
+                uu = list(uu)
+                for i, k, c in base:
+                    uu[i] = k * uu[i] + c * du[i]
+            for row, uj in zip(rows, uu):
                 a[row] += uj
             for (ia, ib, gap, ne, lam), g, on in zip(contacts, gammas, closed):
                 if on:
