@@ -99,9 +99,10 @@ stage_pytest() {
         return 77
     fi
     [ -x "$VENV_PY" ] || { echo "no .venv (bootstrap failed?)"; return 1; }
-    # test_c_tools.py compares the numpy model with the C tools of this build. pytest-xdist spreads the tests
-    # over PYTEST_WORKERS processes (the session fixtures are made once in each).
-    CAEKF_BUILD_DIR="$REPO/build/host-double" "$VENV_PY" -m pytest -n "${PYTEST_WORKERS:-2}" sim/tests
+    # test_c_tools.py compares the numpy model with the C tools of this build. pytest-xdist spreads the test files
+    # over PYTEST_WORKERS processes (a file's tests in one, so that a module's fixtures are made once; the session
+    # fixtures are made once in each).
+    CAEKF_BUILD_DIR="$REPO/build/host-double" "$VENV_PY" -m pytest -n "${PYTEST_WORKERS:-2}" --dist loadfile sim/tests
 }
 
 # libFuzzer harnesses (tests/fuzz: app frames, estimator settings and inputs), FUZZ_SECONDS (default
