@@ -784,7 +784,9 @@ def main(argv: list[str] | None = None) -> int:
     # the tree, and the mutants of its files
     work = args.work.resolve()
     work.mkdir(parents=True, exist_ok=True)
-    tree = tree_files(args.rev, args.overlay)
+    # the commit, resolved once: the tree and the report's header are the same one whatever is committed meanwhile
+    commit = run(["git", "rev-parse", args.rev or "HEAD"], cwd=REPO).stdout.strip()
+    tree = tree_files(commit if args.rev else None, args.overlay)
     log(f"copying the tree ({args.rev or 'working tree'}{' + ' + ' '.join(args.overlay) if args.overlay else ''}) "
         f"into {work / 'src'}")
     sync_tree(work / "src", tree)
@@ -909,13 +911,13 @@ def main(argv: list[str] | None = None) -> int:
     stale += stale_killed
 
     elapsed = time.monotonic() - t_start
-    commit = run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO).stdout.strip()
-    dirty = run(["git", "status", "--porcelain", "--", "firmware", "tests/unit"], cwd=REPO).stdout.strip()
+    dirty = args.overlay if args.rev else run(["git", "status", "--porcelain", "--", "firmware", "tests/unit"],
+                                              cwd=REPO).stdout.strip()
     cmd = "tools/mutation.py " + " ".join(argv if argv is not None else sys.argv[1:])
     header = [
         "# Mutation testing: report",
         "",
-        f"`{cmd}` at {commit}{' (with local changes)' if dirty else ''}, {time.strftime('%Y-%m-%d')}: "
+        f"`{cmd}` at {commit[:10]}{' (with local changes)' if dirty else ''}, {time.strftime('%Y-%m-%d')}: "
         f"{len(mutants)} mutants ({pop_desc}; seed {args.seed}), {len(workers)} worker(s), "
         f"{elapsed:.0f} s. Score = killed / (killed + survived + not covered); method: docs/mutation.md.",
     ]
