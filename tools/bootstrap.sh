@@ -81,7 +81,9 @@ pkg_installed() {
 
 # --- 1. apt packages -----------------------------------------------------------------------
 install_apt_packages() {
-    local pkgs=(cmake ninja-build gcc g++ make python3-venv python3-dev dpkg-dev clang libclang-rt-dev binutils cppcheck clang-format)
+    # frama-c-base: Frama-C's EVA for tools/eva.py (docs/eva.md)
+    local pkgs=(cmake ninja-build gcc g++ make python3-venv python3-dev dpkg-dev clang libclang-rt-dev binutils cppcheck clang-format
+                frama-c-base)
     [ "$WANT_ARM" -eq 1 ] && pkgs+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
     # user-mode-linux ships vcan.ko/can.ko/can-raw.ko for its kernel; kmod gives insmod (tools/vcan-uml)
     [ "$WANT_HIL" -eq 1 ] && pkgs+=(user-mode-linux kmod iproute2)
