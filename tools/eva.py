@@ -55,9 +55,11 @@ class Target:
     includes: list[str]  # likewise
     defines: list[str] = field(default_factory=list)
     precision: int = 1
+    options: list[str] = field(default_factory=list)  # more frama-c options (precision only, never soundness)
 
 
 GEN_PROTO = "generated/protocol"
+GEN_CORE = "generated/core"
 TARGETS = {
     "protocol": Target(
         name="protocol",
@@ -66,6 +68,15 @@ TARGETS = {
                  f"{GEN_PROTO}/src/caekf_proto_messages.c"],
         includes=["firmware/protocol/include", f"{GEN_PROTO}/include", f"{GEN_PROTO}/src", "firmware/protocol/src"],
         defines=["NDEBUG"],
+    ),
+    "settings": Target(
+        name="settings",
+        driver="settings_main.c",
+        sources=["firmware/core/caekf_settings.c", f"{GEN_CORE}/caekf_settings_table.c"],
+        includes=["firmware/include", GEN_CORE, "firmware/core"],
+        defines=["CAEKF_USE_FLOAT=0", "NDEBUG"],
+        # locate() walks the table's rows: unrolled, each parameter id finds its own row
+        options=["-eva-auto-loop-unroll", "100"],
     ),
 }
 
@@ -158,10 +169,11 @@ def justify(alarms: list[Alarm], rules: list[Rule]) -> None:
 
 
 def ensure_generated(build: Path) -> None:
-    if (build / GEN_PROTO / "src" / "caekf_can.c").is_file():
+    wanted = (build / GEN_PROTO / "src" / "caekf_can.c", build / GEN_CORE / "caekf_settings_table.c")
+    if all(p.is_file() for p in wanted):
         return
     if build.resolve() != (REPO / "build" / "host-double").resolve():
-        raise SystemExit(f"eva: {build}/{GEN_PROTO} missing: configure that build and run its code generators")
+        raise SystemExit(f"eva: {build}/generated missing: configure that build and run its code generators")
     print("eva: configuring host-double and running its code generators", flush=True)
     (REPO / "build").mkdir(exist_ok=True)
     lock = str(REPO / "build" / ".host-double.lock")
@@ -202,7 +214,7 @@ def run(target: Target, machdep: str, build: Path, out: Path, timeout: float, pr
     cmd = ["frama-c", "-eva", "-machdep", machdep, "-c11", "-cpp-extra-args=" + " ".join(incs + defs),
            "-warn-invalid-pointer", "-warn-special-float", "none",
            "-eva-precision", str(precision if precision is not None else target.precision),
-           "-eva-no-show-progress", "-eva-msg-key=-final-states", "-report-csv", str(csv_path),
+           *target.options, "-eva-no-show-progress", "-eva-msg-key=-final-states", "-report-csv", str(csv_path),
            str(REPO / "tests" / "eva" / target.driver), *expand(target.sources, build)]
     t0 = time.monotonic()
     try:

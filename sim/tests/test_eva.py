@@ -1,4 +1,5 @@
-"""tools/eva.py (docs/eva.md): Frama-C EVA's proof of no run-time error over firmware/protocol for every frame.
+"""tools/eva.py (docs/eva.md): Frama-C EVA's proof of no run-time error over firmware/protocol for every frame, and
+over the settings set and read by parameter id for every id and value.
 
 The analysis runs when frama-c is installed (Debian's frama-c-base; tools/bootstrap.sh installs it) and must
 end with no unjustified alarm. The justified-alarms table and the report reader are checked without frama-c.
@@ -54,14 +55,15 @@ def test_report_reader_counts_unknown_and_invalid_only(eva, tmp_path):
 
 @pytest.mark.skipif(shutil.which("frama-c") is None,
                     reason="frama-c not installed (Debian's frama-c-base: tools/bootstrap.sh installs it)")
-def test_protocol_has_no_unjustified_alarm(tmp_path):
-    cmd = [sys.executable, str(TOOL), "--targets", "protocol", "--out", str(tmp_path)]
+@pytest.mark.parametrize("target", ["protocol", "settings"])
+def test_target_has_no_unjustified_alarm(target, tmp_path):
+    cmd = [sys.executable, str(TOOL), "--targets", target, "--out", str(tmp_path)]
     if os.environ.get("CAEKF_BUILD_DIR"):
         cmd += ["--build", os.environ["CAEKF_BUILD_DIR"]]
     proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=1200)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out
-    rows = [line for line in out.splitlines() if line.startswith("| protocol/")]
+    rows = [line for line in out.splitlines() if line.startswith(f"| {target}/")]
     assert len(rows) == 2, out  # both data models
     for row in rows:
         cells = [c.strip() for c in row.strip("|").split("|")]
