@@ -28,6 +28,10 @@ caekf_proto_status_t caekf_proto_msg_from_id(uint32_t can_id, caekf_msg_t *msg)
 caekf_proto_status_t caekf_proto_id_offset_check(int32_t id_offset)
 {
     unsigned i;
+    /* Beyond +-SFF_MAX no table id lands on the bus; checked first, the sums below cannot overflow. */
+    if (id_offset > (int32_t)CAEKF_CAN_SFF_MAX || id_offset < -(int32_t)CAEKF_CAN_SFF_MAX) {
+        return CAEKF_PROTO_ERR_RANGE;
+    }
     for (i = 0; i < (unsigned)CAEKF_MSG_COUNT; i++) {
         const int32_t id = (int32_t)msg_table[i].can_id + id_offset;
         if (id < 0 || id > (int32_t)CAEKF_CAN_SFF_MAX) {
