@@ -5,7 +5,9 @@
 # preset has to be built first, no fixed sibling folder.
 #
 # CAEKF_HOST_BUILD_DIR (optional): an existing host double build whose testdata/ and host/caekf-replay are used
-# instead (nothing is built for the host then).
+# instead (nothing is built for the host then). The MCU presets of CMakePresets.json read it from the environment
+# variable of the same name (unset: empty); tools/run-tests.sh points it at build/host-double for the presets that
+# replay the paper's truth.
 # Sets CAEKF_HOST_TESTDATA_DIR and CAEKF_HOST_REPLAY_TOOL; the target caekf_host_tools (when built here) is what
 # depends on them.
 include(ExternalProject) # included by tests/unit and tests/target: sets their variables, adds the target once

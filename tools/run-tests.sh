@@ -34,7 +34,9 @@ STAGES=(host-double host-float pytest hil fuzz host-asan cortex-m7 cortex-m4f co
         cortex-m4f-mech12 cortex-m4f-chain8 cortex-m4f-chain8-default coverage lint misra)
 # stage -> the stages whose builds it uses (build/host-double: pytest runs its C tools and build/host-float's, the
 # HIL suite its caekf-host, lint and misra its compile database); it starts when those have ended.
-declare -A AFTER=([pytest]="host-double host-float" [hil]=host-double [lint]=host-double [misra]=host-double)
+declare -A AFTER=([pytest]="host-double host-float" [hil]=host-double [lint]=host-double [misra]=host-double
+                  [cortex-m4f]=host-double [cortex-m7]=host-double [cortex-m4f-default]=host-double
+                  [cortex-m4f-joint]=host-double [cortex-m4f-mech12]=host-double)
 
 JOBS="${JOBS:-2}"
 STAGE_JOBS="${STAGE_JOBS:-2}"
@@ -73,11 +75,15 @@ stage_lint() {
         "$VENV_PY" -m mypy )
 }
 
-# MCU targets: every Unity suite and the replay image under QEMU (the presets build the host tools that make
-# their test data themselves: cmake/HostTools.cmake). The instructions-per-step goal is reported by
+# MCU targets: every Unity suite and the replay image under QEMU. The instructions-per-step goal is reported by
 # tools/mcu-report.py, not asserted here: the MCU test presets leave out the label icount.
-stage_cortex_m4f() { run_workflow cortex-m4f; }
-stage_cortex_m7()  { run_workflow cortex-m7; }
+# Their test data (the truth record, the double reference results) and the host caekf-replay come from a host
+# double build: by themselves, an MCU preset builds one inside its folder (cmake/HostTools.cmake); here those
+# replaying the paper's truth (the paper's mechanism and truth: paper.toml, paper-joint.toml, paper-mech12.toml)
+# take build/host-double's instead, the same build (the presets read CAEKF_HOST_BUILD_DIR from the environment).
+run_mcu_paper() { CAEKF_HOST_BUILD_DIR="$REPO/build/host-double" run_workflow "$1"; }
+stage_cortex_m4f() { run_mcu_paper cortex-m4f; }
+stage_cortex_m7()  { run_mcu_paper cortex-m7; }
 # The other builds the project ships (tools/mcu-report.py and docs/mcu.md give their figures), each sized for one
 # mechanism and configuration: the recommended default's on the paper's mechanism, the whole contact law
 # estimated (sim/scenarios/paper-joint.toml), the 12 mechanism parameters estimated (tests/target/paper-mech12.toml),
@@ -85,9 +91,9 @@ stage_cortex_m7()  { run_workflow cortex-m7; }
 # replays its scenario's truth on the MCU against the host's caekf-replay (tests/target/Replay.cmake: the replay
 # image, the default's constructed worst case, stack and no-heap checks) and runs the target images and the
 # protocol suites; the paper's Unity suites need the paper's fixture and presets (tests/CMakeLists.txt).
-stage_cortex_m4f_default()        { run_workflow cortex-m4f-default; }
-stage_cortex_m4f_joint()          { run_workflow cortex-m4f-joint; }
-stage_cortex_m4f_mech12()         { run_workflow cortex-m4f-mech12; }
+stage_cortex_m4f_default()        { run_mcu_paper cortex-m4f-default; }
+stage_cortex_m4f_joint()          { run_mcu_paper cortex-m4f-joint; }
+stage_cortex_m4f_mech12()         { run_mcu_paper cortex-m4f-mech12; }
 stage_cortex_m4f_chain8()         { run_workflow cortex-m4f-chain8; }
 stage_cortex_m4f_chain8_default() { run_workflow cortex-m4f-chain8-default; }
 
