@@ -328,7 +328,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
         est->dims.rows |= mp->sensor_kind[i] > CAEKF_SENSOR_VELOCITY || est->model.sensor_bias[i] != 0;
         est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
-        est->dims.r[i] = velocity ? sq(s->sigma_rv / s->sigma_v0) : sq(s->sigma_r / s->sigma_q0);
+        est->dims.r[i] = sq(sensor_sigma(s, i) / (velocity ? s->sigma_v0 : s->sigma_q0));
     }
     for (i = 0; i < mp->sensors && est->dims.rows; ++i) { /* rows of H: each sensor in units of its noise */
         int k;

@@ -1004,15 +1004,21 @@ CAEKF_NOINLINE static void add_link(caekf_scalar_t out[CAEKF_NQ][CAEKF_NQ], int 
 
 /* The factor on a setting's value: mult[j] for the estimated mechanism parameter j of that kind and
  * element, else 1 (mult NULL: every value the setting's). */
-static caekf_scalar_t mech_factor(const caekf_model_t *m, const caekf_scalar_t *mult, int kind, int elem)
+int caekf_model_mech_index(const caekf_model_t *m, int kind, int elem)
 {
     int j;
-    for (j = 0; mult != 0 && j < CAEKF_DIM_NM(m); ++j) {
+    for (j = 0; j < CAEKF_DIM_NM(m); ++j) {
         if (m->mech_kind[j] == kind && m->mech_elem[j] == elem) {
-            return mult[j];
+            return j;
         }
     }
-    return 1;
+    return -1;
+}
+
+static caekf_scalar_t mech_factor(const caekf_model_t *m, const caekf_scalar_t *mult, int kind, int elem)
+{
+    const int j = mult != 0 ? caekf_model_mech_index(m, kind, elem) : -1;
+    return j >= 0 ? mult[j] : 1;
 }
 
 /* A kind of mechanism parameter's settings: its values (m, spring_k or spring_c) and their declared

@@ -89,6 +89,10 @@ static const signed char caekf_sized_contact_a[] = CAEKF_SIZED_CONTACT_A,
 #define CAEKF_METHOD_CONTACT_N(m, c) ((m)->p.contact_n[c])
 #endif
 
+/* The index j (0 .. nm-1) of the estimated mechanism parameter of that kind and element (its body or link),
+ * or -1 when it is not estimated. */
+int caekf_model_mech_index(const caekf_model_t *m, int kind, int elem);
+
 /* The model's own defence (caekf_settings_validate says which parameter is wrong). Returns 0 if valid. */
 int caekf_model_params_check(const caekf_model_params_t *p);
 

@@ -14,13 +14,8 @@
 /* The state of the estimated mechanism parameter of that kind and element (its ln(value / setting)), or -1. */
 static int mech_state(const caekf_model_t *m, int kind, int elem)
 {
-    int j;
-    for (j = 0; j < CAEKF_DIM_NM(m); ++j) {
-        if (m->mech_kind[j] == kind && m->mech_elem[j] == elem) {
-            return CAEKF_DIM_MECH0(m) + j;
-        }
-    }
-    return -1;
+    const int j = caekf_model_mech_index(m, kind, elem);
+    return j >= 0 ? CAEKF_DIM_MECH0(m) + j : -1;
 }
 
 /* A mass, stiffness or damper's value now: the estimate's when it is estimated (*state its state), else

@@ -163,3 +163,18 @@ def test_sensitivities_of_every_kind_are_the_truths_central_differences(rig):
         fd = (ys[0] - ys[1]) / (2 * h) * p.scale
         big = np.max(np.abs(sens.dy[:, :, j]), axis=0)
         assert np.all(np.max(np.abs(fd - sens.dy[:, :, j]), axis=0) <= 2e-3 * big + 1e-12), p.key
+
+
+def test_a_position_or_velocity_sensor_takes_its_own_sigma(paper):
+    """sensor{i}_sigma on a sensor that reads one state (no rows of H): the C filter's R is that sigma, as the
+    twin's (it once kept sigma_rv, 0 here)."""
+    sc = paper.replace(t_end=2.0, sensor2_kind=1, sigma_rv=0.0, sensor2_sigma=1e-5, noise_std_v=1e-5)
+    tr = binding.truth(sc)
+    c = binding.run(sc, tr.u, tr.y)
+    ekf = AugmentedEKF(sc, scenario_config(sc))
+    x = np.empty_like(c.x)
+    for k in range(len(tr.y)):
+        ekf.step(float(tr.u[k]), tr.y[k])
+        x[k] = ekf.physical()[0]
+    scale = np.maximum(np.max(np.abs(x), axis=0), 1e-300)
+    assert np.max(np.abs(c.x - x) / scale) < 1e-6

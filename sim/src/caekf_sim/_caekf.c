@@ -537,10 +537,15 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
                           CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_COV_REPAIRED;
     const caekf_t *e = &self->est;
     const int n = self->n, ny = self->ny;
-    double a[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS], r[CAEKF_MAX_SENSORS], log_r2 = 0.0, det = 1.0;
+    double a[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS], r[CAEKF_MAX_SENSORS], sd[CAEKF_MAX_SENSORS], log_r2 = 0.0, det = 1.0;
     int i, j, k;
     if (st != CAEKF_OK || (flags & skip)) {
         return (double)NAN;
+    }
+    for (i = 0; i < ny; ++i) { /* each sensor's noise std: its own, or the position or velocity sensors' */
+        sd[i] = e->cfg.sensor_sigma[i] > 0                                 ? (double)e->cfg.sensor_sigma[i]
+                : e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
+                                                                       : (double)e->cfg.sigma_r;
     }
     if (e->dims.rows) { /* sensors read rows of H (docs/sensors.md): B from the rows at the posterior state */
         caekf_scalar_t hrow[CAEKF_MAX_SENSORS][CAEKF_N];
@@ -549,11 +554,8 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
             xs[i] = e->z[i] * e->scale[i];
         }
         for (i = 0; i < ny; ++i) {
-            const double sd = e->cfg.sensor_sigma[i] > 0 ? (double)e->cfg.sensor_sigma[i]
-                              : e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
-                                                                                      : (double)e->cfg.sigma_r;
             caekf_model_sensor(&e->model, &e->cfg.model, i, xs, u, u, &hv, hrow[i]); /* the rows: u_prev = u */
-            r[i] = (double)e->dims.r[i] * sd * sd;
+            r[i] = (double)e->dims.r[i] * sd[i] * sd[i];
             log_r2 += 2.0 * log(r[i]);
         }
         for (i = 0; i < ny; ++i) {
@@ -571,9 +573,7 @@ static double log_det_s(const EstObject *self, caekf_status_t st, uint32_t flags
         }
     }
     for (i = 0; i < ny && !e->dims.rows; ++i) {
-        const double sd = e->cfg.model.sensor_kind[i] == CAEKF_SENSOR_VELOCITY ? (double)e->cfg.sigma_rv
-                                                                                 : (double)e->cfg.sigma_r;
-        r[i] = sd * sd;
+        r[i] = sd[i] * sd[i];
         log_r2 += 2.0 * log(r[i]);
         for (j = 0; j < ny; ++j) {
             const int si = e->dims.h[i], sj = e->dims.h[j];
