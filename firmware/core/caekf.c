@@ -443,6 +443,78 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
 #define SUBSTEP_FQ(est, substepped) ((void)(substepped), (caekf_scalar_t(*)[CAEKF_N])0)
 #endif
 
+/* Any input given a noise (input{i}_sigma > 0). */
+static int measured_inputs(const caekf_t *est)
+{
+    int k, any = 0;
+    for (k = 0; k < CAEKF_DIM_NU(&est->model); ++k) {
+        any |= est->cfg.input_sigma[k] > 0;
+    }
+    return any;
+}
+
+/* The mechanism parameters' columns of F (v-rows, unscaled, into fv) for the step x_{k-1} -> x_k-.
+ * With measured inputs they are taken at the inputs' trend, not at the samples: a column that carries the
+ * force's noise correlates with the innovation the same noise makes, and biases the parameters (errors in
+ * variables: the driven body's mass grew to several times its value). The step's end moves to where the
+ * trend would have taken it, to first order x_k- - G (u - trend) (G = dx_k/du, each end of the trapezoidal
+ * rule), and a base input's ground end is at its trend. An exact input (sigma 0) keeps its samples. */
+CAEKF_NOINLINE static int mech_columns(caekf_t *est, const caekf_contact_t *ct, const caekf_scalar_t *u0,
+                                       const caekf_scalar_t *u)
+{
+    caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS], xk[CAEKF_N], t0[CAEKF_MAX_INPUTS], t1[CAEKF_MAX_INPUTS],
+        dev[CAEKF_MAX_INPUTS];
+    const caekf_model_t *m = &est->model;
+    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m);
+    int i, k;
+    if (!est->input_trend_known || est->cfg.input_trend_window == 0 || !measured_inputs(est)) {
+        return caekf_model_mech_columns(m, ct, X_PREV(est), est->x_pred, u0, u, est->fv);
+    }
+    if (caekf_model_input_columns(m, ct, g) != 0) {
+        return -1;
+    }
+    for (k = 0; k < nu; ++k) {
+        const int noisy = est->cfg.input_sigma[k] > 0;
+        t0[k] = noisy ? est->input_trend[k][0] : u0[k];
+        t1[k] = noisy ? est->input_trend[k][0] + est->input_trend[k][1] : u[k];
+        dev[k] = (u[k] - t1[k]) + (CAEKF_METHOD_TRAP(m) ? u0[k] - t0[k] : 0);
+    }
+    for (i = 0; i < nq; ++i) {
+        caekf_scalar_t dv = 0;
+        for (k = 0; k < nu; ++k) {
+            dv += g[i][k] * dev[k];
+        }
+        xk[i] = est->x_pred[i] - m->hs * dv;
+        xk[nq + i] = est->x_pred[nq + i] - dv;
+    }
+    for (i = 2 * nq; i < n; ++i) {
+        xk[i] = est->x_pred[i];
+    }
+    return caekf_model_mech_columns(m, ct, X_PREV(est), xk, t0, t1, est->fv);
+}
+
+/* The measured inputs' trend after a step with inputs u: Holt's linear tracker, critically damped for
+ * window W (lambda = 1 - 1/W: level gain 1 - lambda^2, slope gain (1 - lambda) / (1 + lambda)), so that a
+ * ramp is followed without lag and white noise is averaged over about W steps. */
+static void track_inputs(caekf_t *est, const caekf_scalar_t *u)
+{
+    const caekf_scalar_t lambda = 1 - 1 / (caekf_scalar_t)est->cfg.input_trend_window;
+    const caekf_scalar_t a = 1 - lambda * lambda, b = (1 - lambda) / (1 + lambda);
+    int k;
+    for (k = 0; k < CAEKF_DIM_NU(&est->model); ++k) {
+        caekf_scalar_t *t = est->input_trend[k];
+        if (est->input_trend_known) {
+            const caekf_scalar_t p = t[0] + t[1], level = p + a * (u[k] - p);
+            t[1] += b * (level - t[0] - t[1]);
+            t[0] = level;
+        } else {
+            t[0] = u[k];
+            t[1] = 0;
+        }
+    }
+    est->input_trend_known = 1;
+}
+
 /* F at x_k- (the constant contact-free F unless a contact is closed at either end of the step; after
  * substeps their product, in fq and fv) and P- = F P F^T + Q into P_work (upper triangle);
  * z = S^-1 x_k-. Returns 0, or -1 on a singular matrix. */
@@ -459,7 +531,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
         est->fv_const = 0;
         if (CAEKF_DIM_NM(&est->model) > 0) { /* the mechanism's columns over the whole step (docs) */
             const int first = CAEKF_DIM_MECH0(&est->model), end = first + CAEKF_DIM_NM(&est->model);
-            if (caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, u0, u, est->fv) != 0) {
+            if (mech_columns(est, ct, u0, u) != 0) {
                 return -1;
             }
             for (i = 0; i < nq; ++i) {
@@ -497,8 +569,7 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
             return -1;
         }
 #endif
-        if (CAEKF_DIM_NM(&est->model) > 0 &&
-            caekf_model_mech_columns(&est->model, ct, X_PREV(est), est->x_pred, u0, u, est->fv) != 0) {
+        if (CAEKF_DIM_NM(&est->model) > 0 && mech_columns(est, ct, u0, u) != 0) {
             return -1;
         }
         scale_fv(est->fv, s, nq, n);
@@ -517,16 +588,6 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
                              (est->model.p.dt - est->model.hs) * s_v / s_q, SUBSTEP_FQ(est, substepped), est->q_diag,
                              &est->dims);
     return 0;
-}
-
-/* Any input given a noise (input{i}_sigma > 0). */
-static int measured_inputs(const caekf_t *est)
-{
-    int k, any = 0;
-    for (k = 0; k < CAEKF_DIM_NU(&est->model); ++k) {
-        any |= est->cfg.input_sigma[k] > 0;
-    }
-    return any;
 }
 
 /* The measured inputs' noise (settings input{i}_sigma) as process noise: Q_u = G diag(sigma_u^2) G^T over
@@ -985,6 +1046,9 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     }
     est->u_prev_known = 1;
 #endif
+    if (predict && CAEKF_DIM_NM(&est->model) > 0 && est->cfg.input_trend_window > 0 && measured_inputs(est)) {
+        track_inputs(est, u);
+    }
     rescale = monitor.q_scale != est->mismatch.q_scale;
     est->mismatch = monitor;
     if (rescale) {

@@ -259,6 +259,7 @@ static int *model_int_field(caekf_settings_t *s, unsigned id)
     case CAEKF_PARAM_GAMMA_LOG: return &m->gamma_log;
     case CAEKF_PARAM_LAW_SECOND_ORDER: return &s->law_second_order;
     case CAEKF_PARAM_MISMATCH_WINDOW: return &s->mismatch_window;
+    case CAEKF_PARAM_INPUT_TREND_WINDOW: return &s->input_trend_window;
     case CAEKF_PARAM_MISMATCH_ADAPT: return &s->mismatch_adapt;
     default: return NULL;
     }

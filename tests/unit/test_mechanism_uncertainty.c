@@ -246,6 +246,50 @@ static void test_input_noise_is_the_step_gain_squared_trapezoidal(void)
     check_input_noise(CAEKF_DISCRETISATION_TRAPEZOIDAL);
 }
 
+/* The measured inputs' trend (input_trend_window): Holt's tracker follows a ramp exactly once its start has
+ * decayed, is kept only where it is used (an uncertain parameter and a noisy input), and a refused step
+ * leaves it as it was. */
+static void test_the_input_trend_follows_a_ramp(void)
+{
+    static caekf_t est;
+    const caekf_scalar_t y[2] = {0, 0}, bad[1] = {(caekf_scalar_t)NAN};
+    const double u0 = 0.3, slope = 1e-3;
+    int k;
+    paper_settings(&settings, EXP_SWITCHED);
+    settings.model.m_sigma[0] = (caekf_scalar_t)0.03;
+    settings.input_trend_window = 10; /* lambda 0.9: the start decays as 0.9^k */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &settings));
+    for (k = 0; k < 400; ++k) {
+        const caekf_scalar_t u[1] = {(caekf_scalar_t)(u0 + slope * k)};
+        (void)caekf_step(&est, u, y, 0);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0, est.input_trend_known); /* an exact input: nothing to track */
+    settings.input_sigma[0] = (caekf_scalar_t)0.01;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &settings));
+    for (k = 0; k < 400; ++k) {
+        const caekf_scalar_t u[1] = {(caekf_scalar_t)(u0 + slope * k)};
+        (void)caekf_step(&est, u, y, 0);
+    }
+    TEST_ASSERT_EQUAL_UINT32(1, est.input_trend_known);
+    TEST_ASSERT_DOUBLE_WITHIN(CAEKF_USE_FLOAT ? 1e-5 : 1e-12, u0 + slope * 399, (double)est.input_trend[0][0]);
+    TEST_ASSERT_DOUBLE_WITHIN(CAEKF_USE_FLOAT ? 1e-6 : 1e-12, slope, (double)est.input_trend[0][1]);
+    { /* the gains: a unit step after a start at 0 gives the level 1 - lambda^2 = 0.19 and the slope
+       * (1 - lambda) / (1 + lambda) times that, 0.01 */
+        static caekf_t fresh;
+        const caekf_scalar_t zero[1] = {0}, one[1] = {1};
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&fresh, &settings));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&fresh, zero, y, 0));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&fresh, one, y, 0));
+        TEST_ASSERT_DOUBLE_WITHIN(CAEKF_USE_FLOAT ? 1e-6 : 1e-15, 0.19, (double)fresh.input_trend[0][0]);
+        TEST_ASSERT_DOUBLE_WITHIN(CAEKF_USE_FLOAT ? 1e-7 : 1e-15, 0.01, (double)fresh.input_trend[0][1]);
+    }
+    {
+        const caekf_scalar_t level = est.input_trend[0][0], rate = est.input_trend[0][1];
+        TEST_ASSERT_NOT_EQUAL(CAEKF_OK, caekf_step(&est, bad, y, 0));
+        TEST_ASSERT_TRUE(est.input_trend[0][0] == level && est.input_trend[0][1] == rate);
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -257,5 +301,6 @@ int main(void)
     RUN_TEST(test_the_estimator_learns_a_spring);
     RUN_TEST(test_input_noise_is_the_step_gain_squared_backward_euler);
     RUN_TEST(test_input_noise_is_the_step_gain_squared_trapezoidal);
+    RUN_TEST(test_the_input_trend_follows_a_ramp);
     return UNITY_END();
 }

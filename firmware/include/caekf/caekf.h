@@ -91,6 +91,10 @@ typedef struct {
     uint32_t u_prev_known;                   /* 0 until a step or caekf_correct has seen the inputs */
 #endif
     caekf_mismatch_t mismatch; /* the model-mismatch monitor (mismatch_window > 0) */
+    /* The measured inputs' trend (input_trend_window; docs/mechanism.md): a Holt tracker's level at the last
+     * step's input and its slope per step, input by input; known once a step has seen the inputs. */
+    caekf_scalar_t input_trend[CAEKF_MAX_INPUTS][2];
+    uint32_t input_trend_known;
     uint32_t step_count;
     uint32_t last_flags;
     uint32_t init_magic;

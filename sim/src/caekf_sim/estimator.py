@@ -111,6 +111,10 @@ class EstimatorConfig:
     mismatch_window: int = 0
     mismatch_ratio: float = 3.0
     mismatch_adapt: bool = False
+    # The setting `input_trend_window`: steps of the measured inputs' trend at which the mechanism parameters'
+    # columns of F are taken (input{i}_sigma > 0; _add_mech_columns). 0 (the numpy reference's own default):
+    # at the samples.
+    input_trend_window: int = 0
 
     def __post_init__(self) -> None:
         if not self.contact_slr_p >= 0:
@@ -209,6 +213,8 @@ class AugmentedEKF:
         self._on_prev = False
         self.trapezoidal = cfg.discretisation == TRAPEZOIDAL
         self.u_prev: Any = None  # the inputs at the estimate's time (None until a step or `correct`)
+        # the measured inputs' trend (_track_inputs): (inputs, 2) level and slope per step; None until a step
+        self.input_trend: Optional[np.ndarray] = None
         self._step_u: Tuple[Any, Any] = (None, None)  # the step's inputs (u_{k-1}, u_k): a base input's ground end
         self.dt = sc.dt
         self.H = measurement_matrix(p, len(self.law) + nm + nb)
@@ -360,13 +366,49 @@ class AugmentedEKF:
         return -np.linalg.solve(self._full_step_jacobian(xp), Du)[:nx]
 
     def _add_mech_columns(self, F: np.ndarray, xp: np.ndarray) -> np.ndarray:
-        """F with the mechanism parameters' columns (a copy; F itself when none is estimated), at the step's
-        inputs."""
+        """F with the mechanism parameters' columns (a copy; F itself when none is estimated). With measured
+        inputs (input{i}_sigma > 0) and a trend (input_trend_window > 0) the columns are taken at the inputs'
+        trend, not at the samples, and at the step's end that trend reaches to first order, x_k^- - G (u -
+        trend) (G one end's dx_k/du; both ends' deviations with the trapezoidal rule): a column carrying the
+        force's noise correlates with the innovation that noise makes and biases the parameters (errors in
+        variables). An exact input keeps its samples. The C core's mech_columns."""
         if not self.nm:
             return F
         F = F.copy()
-        F[: self.nx, self.im] = self.mech_columns(self.x, xp, *self._step_u)
+        u_prev, u = self._step_u
+        noisy = self.input_sigma > 0
+        if self.input_trend is None or self.cfg.input_trend_window == 0 or not noisy.any() or u is None:
+            F[: self.nx, self.im] = self.mech_columns(self.x, xp, u_prev, u)
+            return F
+        uk = np.atleast_1d(np.asarray(u, dtype=float))
+        u0 = np.atleast_1d(np.asarray(u if u_prev is None else u_prev, dtype=float))
+        level, slope = self.input_trend[:, 0], self.input_trend[:, 1]
+        t0 = np.where(noisy, level, u0)
+        t1 = np.where(noisy, level + slope, uk)
+        dev = (uk - t1) + ((u0 - t0) if self.trapezoidal else 0.0)
+        G = self.input_columns(xp) / (2.0 if self.trapezoidal else 1.0)
+        dv = G[self.nq : self.nx] @ dev
+        xc = xp.copy()
+        xc[: self.nq] -= self.solver.hs * dv
+        xc[self.nq : self.nx] -= dv
+        F[: self.nx, self.im] = self.mech_columns(self.x, xc, t0, t1)
         return F
+
+    def _track_inputs(self, u: Any) -> None:
+        """The measured inputs' trend after a step with inputs u: Holt's linear tracker, critically damped for
+        window W (lambda = 1 - 1/W: level gain 1 - lambda^2, slope gain (1 - lambda) / (1 + lambda)); the C
+        core's track_inputs."""
+        uk = np.atleast_1d(np.asarray(u, dtype=float))
+        if self.input_trend is None:
+            self.input_trend = np.column_stack([uk, np.zeros_like(uk)])
+            return
+        lam = 1.0 - 1.0 / float(self.cfg.input_trend_window)
+        a, b = 1.0 - lam * lam, (1.0 - lam) / (1.0 + lam)
+        t = self.input_trend
+        p = t[:, 0] + t[:, 1]
+        level = p + a * (uk - p)
+        t[:, 1] += b * (level - t[:, 0] - t[:, 1])
+        t[:, 0] = level
 
     def _constant_jacobians(self, dt: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """dg/dx_k without the contact terms, dg/dx_{k-1} without them (backward Euler: constant) and the
@@ -928,6 +970,8 @@ class AugmentedEKF:
             status |= self._monitor(self._nis(xp, Pm, y))
         self.x, self.P = x, Pp
         self.u_prev = u
+        if predict and self.nm and cfg.input_trend_window > 0 and bool((self.input_sigma > 0).any()):
+            self._track_inputs(u)
         return status, iters
 
 

@@ -44,7 +44,7 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
               if s.name in ("mode", "switchoff", "cov_update", "q_gamma_scale", "constraint_enabled",
                             "gamma_gate_nis", "newton_max_iter", "discretisation", "contact_substeps",
                             "gamma_log", "law_second_order", "contact_slr_p", "mismatch_window",
-                            "mismatch_ratio", "mismatch_adapt")}
+                            "mismatch_ratio", "mismatch_adapt", "input_trend_window")}
     if name == DEFAULT:
         name = None
     if name is not None:
@@ -63,6 +63,7 @@ def scenario_config(sc: Scenario, name: Optional[str] = None) -> EstimatorConfig
                            gamma_log=bool(values["gamma_log"]), law_second_order=bool(values["law_second_order"]),
                            contact_slr_p=float(values["contact_slr_p"]),
                            mismatch_window=int(values["mismatch_window"]),
+                           input_trend_window=int(values["input_trend_window"]),
                            mismatch_ratio=float(values["mismatch_ratio"]),
                            mismatch_adapt=bool(values["mismatch_adapt"]))
 
