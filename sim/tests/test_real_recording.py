@@ -13,9 +13,12 @@ estimator sees the base's drive and the tip's position only). Tolerances:
   the least-squares contact point is 3 nm after it, and the extrapolation moves by +-40 nm with its
   force window: within 50 nm;
 - gamma: a contact point 40 nm off moves gamma by 2.4 % (n = 2, the estimator rerun with the gap moved
-  by 35 nm changed gamma by 2.1 %); the estimator's own standard deviation at the end is about 5 %: the
-  final gamma must be within 10 % of the fit, and within 3 of its own sigma of it or flagged
-  model_mismatch at the end (which one holds is printed and recorded as a property).
+  by 35 nm changed gamma by 2.1 %): the fit itself is known to about 2.4 % (FIT_REL). The final gamma must be
+  within 10 % of the fit, and within 3 sigma of it, sigma combining the estimator's own and the fit's, or
+  flagged model_mismatch at the end (which one holds is printed and recorded as a property). The estimator's
+  own sigma depends on what `tune` finds: 5 % with 3 contact substeps, 0.27 % with the default 5 (and with
+  2, 4, 6 or 8), where tune's random walk of gamma is 6 times smaller; the estimate is 502.9 against the
+  fit's 509.7 (-1.3 %), so the fit cannot tell whether that sigma is honest.
 """
 from __future__ import annotations
 
@@ -40,6 +43,7 @@ REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "sim" / "examples" / "afm-indentation"
 SCENARIO = EXAMPLE / "scenario.toml"
 RECORD = EXAMPLE / "record.csv"
+FIT_REL = 0.024  # the offline fit's own relative uncertainty: its contact point, +-40 nm
 
 
 def _make_record() -> ModuleType:
@@ -151,7 +155,7 @@ def test_estimate_agrees_with_the_offline_fit(chain, fit, record_property, capsy
     gamma, sigma = float(est["gamma"][-1]), math.sqrt(float(est["p_gg"][-1]))
     flags = int(est["flags"][-1])
     mismatch = bool(flags & fl.MODEL_MISMATCH)
-    within = abs(gamma - fit["gamma"]) <= 3 * sigma
+    within = abs(gamma - fit["gamma"]) <= 3 * math.hypot(sigma, FIT_REL * fit["gamma"])
     which = ("within 3 sigma" if within else "") + (" and " if within and mismatch else "") + \
         ("model_mismatch set" if mismatch else "")
     record_property("gamma_check", which or "neither")
