@@ -278,6 +278,7 @@ static void test_offset_mass_and_measured_input_through_contact(void)
     b.model.m_sigma[0] = (caekf_scalar_t)0.05;
     b.input_sigma[0] = (caekf_scalar_t)1e-3;
     b.contact_substeps = 3;
+    b.sensor_sigma[1] = good.sigma_r; /* its own sigma, the same value */
     (void)run_until(&b, 13.0, &contact);
     TEST_ASSERT_TRUE(contact > 0);
     expect_sound_covariance();
@@ -330,7 +331,7 @@ static void test_each_scaled_law_value_must_be_finite(void)
     expect_refused(&b, CAEKF_PARAM_SIGMA_GAP0, CAEKF_SETTING_NOT_SCALABLE, "sigma_gap0 / sigma_v0 overflows");
 }
 
-/* Guards the bounds of estimated law parameters (bound_of for a damping and a gap): with bounds tight around
+/* Guards the bounds of estimated law parameters (bound_of for an exponent, a damping and a gap): with bounds tight around
  * their initial values, the run through contact keeps each estimate within them. */
 static void test_law_parameters_stay_within_their_bounds(void)
 {
@@ -342,8 +343,15 @@ static void test_law_parameters_stay_within_their_bounds(void)
     b.lambda0[0] = (caekf_scalar_t)0.01;
     b.sigma_lambda0[0] = (caekf_scalar_t)0.5;
     b.sigma_q_lambda[0] = (caekf_scalar_t)0.05;
-    b.lambda_min[0] = 0;
-    b.lambda_max[0] = (caekf_scalar_t)0.02;
+    b.lambda_min[0] = (caekf_scalar_t)0.0099;
+    b.lambda_max[0] = (caekf_scalar_t)0.0101;
+    b.model.contact_estimate_n[0] = 1;
+    b.n0[0] = good.model.contact_n[0];
+    b.sigma_n0[0] = (caekf_scalar_t)0.1;
+    b.sigma_q_n[0] = (caekf_scalar_t)0.01;
+    b.n_min[0] = good.model.contact_n[0] * (caekf_scalar_t)0.999;
+    b.n_max[0] = good.model.contact_n[0] * (caekf_scalar_t)1.001;
+    b.law_second_order = 1;
     b.model.contact_estimate_gap[0] = 1;
     b.gap0[0] = gap0;
     b.sigma_gap0[0] = gap0 * (caekf_scalar_t)0.1;
@@ -354,9 +362,85 @@ static void test_law_parameters_stay_within_their_bounds(void)
     TEST_ASSERT_TRUE(contact > 0);
     expect_sound_covariance();
     TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_contact_law(&est, 0, &g, &nn, &lam, &gap));
+    TEST_ASSERT_TRUE(nn >= b.n_min[0] && nn <= b.n_max[0]);
     TEST_ASSERT_TRUE(lam >= b.lambda_min[0] && lam <= b.lambda_max[0]);
     TEST_ASSERT_TRUE(gap >= b.gap_min[0] && gap <= b.gap_max[0]);
     TEST_ASSERT_TRUE(g >= good.gamma_min[0]);
+}
+#endif
+
+#if !CAEKF_SIZED
+/* Guards ln gamma's bounds (gamma_min and gamma_max as logs) and a run without the mismatch monitor: gamma
+ * stays within its bounds, the monitor never moves nor flags. */
+static void test_log_gamma_within_bounds_without_monitor(void)
+{
+    caekf_settings_t b = good;
+    caekf_scalar_t g, nis0, qs0, nis, qs;
+    long contact;
+    uint32_t flags;
+    b.model.gamma_log = 1;
+    b.gamma_max[0] = good.gamma0[0] * 4;
+    b.law_second_order = 1;
+    b.mismatch_window = 0;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&copy, &b));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&copy, &nis0, &qs0));
+    flags = run_until(&b, 20.0, &contact);
+    TEST_ASSERT_TRUE(contact > 0);
+    TEST_ASSERT_EQUAL_UINT32(0, flags & CAEKF_FLAG_MODEL_MISMATCH);
+    expect_sound_covariance();
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_mismatch(&est, &nis, &qs));
+    TEST_ASSERT_TRUE(nis == nis0 && qs == qs0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_gamma(&est, &g));
+    TEST_ASSERT_TRUE((double)g >= (double)b.gamma_min[0] * (1 - 1e-5) &&
+                     (double)g <= (double)b.gamma_max[0] * (1 + 1e-5));
+}
+#endif
+
+/* Guards the step's refusal of a missing input vector: CAEKF_ERR_NULL, the instance unchanged. */
+static void test_a_step_without_inputs_is_refused(void)
+{
+    const caekf_scalar_t y[2] = {0, 0};
+    caekf_report_t rep;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &good));
+    memcpy(&copy, &est, sizeof est);
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_step(&est, NULL, y, &rep));
+    TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NULL, caekf_predict(&est, NULL, NULL));
+    TEST_ASSERT_TRUE(memcmp(&copy, &est, sizeof est) == 0);
+}
+
+#if !CAEKF_SIZED && CAEKF_HAS_LAW_PARAMS
+/* Guards bad_law_param's upper bound: an initial damping above its maximum is outside its bounds. */
+static void test_law_initial_value_above_its_maximum(void)
+{
+    caekf_settings_t b = good;
+    b.model.contact_estimate_lambda[0] = 1;
+    b.lambda0[0] = (caekf_scalar_t)0.2;
+    b.sigma_lambda0[0] = (caekf_scalar_t)0.05;
+    b.lambda_max[0] = (caekf_scalar_t)0.1;
+    expect_refused(&b, CAEKF_PARAM_LAMBDA0, CAEKF_SETTING_OUTSIDE_BOUNDS, "lambda0 above lambda_max");
+}
+#endif
+
+#if !CAEKF_SIZED && CAEKF_HAS_BASE_INPUTS && CAEKF_MAX_INPUTS >= 2
+/* Guards first_bad_base_input: two base inputs on the ground links are valid, on the same link refused. */
+static void test_two_base_inputs_on_one_link_are_refused(void)
+{
+    caekf_settings_t b = good;
+    caekf_setting_error_t err;
+    int l, ground[2], k = 0;
+    for (l = 0; l < good.model.springs && k < 2; ++l) { /* the paper's chain: k1 and k4 end on the ground */
+        if (good.model.spring_a[l] == 0 || good.model.spring_b[l] == 0) {
+            ground[k++] = l + 1;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(2, k);
+    b.model.inputs = 2;
+    b.model.input_kind[0] = b.model.input_kind[1] = CAEKF_INPUT_BASE_DISPLACEMENT;
+    b.model.input_link[0] = ground[0];
+    b.model.input_link[1] = ground[1];
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_settings_validate(&b, &err));
+    b.model.input_link[1] = ground[0];
+    expect_refused(&b, CAEKF_PARAM_INPUT_LINK + 1, CAEKF_SETTING_BAD_LINK, "two base inputs on one link");
 }
 #endif
 
@@ -558,6 +642,16 @@ int main(void)
 #if !CAEKF_SIZED && CAEKF_HAS_LAW_PARAMS
     RUN_TEST(test_each_scaled_law_value_must_be_finite);
     RUN_TEST(test_law_parameters_stay_within_their_bounds);
+#endif
+#if !CAEKF_SIZED
+    RUN_TEST(test_log_gamma_within_bounds_without_monitor);
+#endif
+    RUN_TEST(test_a_step_without_inputs_is_refused);
+#if !CAEKF_SIZED && CAEKF_HAS_LAW_PARAMS
+    RUN_TEST(test_law_initial_value_above_its_maximum);
+#endif
+#if !CAEKF_SIZED && CAEKF_HAS_BASE_INPUTS && CAEKF_MAX_INPUTS >= 2
+    RUN_TEST(test_two_base_inputs_on_one_link_are_refused);
 #endif
 #if CAEKF_HAS_SETTING_TEXT
     RUN_TEST(test_every_refusal_reason_has_its_text);
