@@ -5,7 +5,9 @@
 #include <math.h>
 #include <string.h>
 
+#include "caekf_filter.h"
 #include "caekf_linalg.h"
+#include "caekf_model_internal.h"
 #include "test_support.h"
 #include "unity.h"
 
@@ -444,6 +446,80 @@ static void test_two_base_inputs_on_one_link_are_refused(void)
 }
 #endif
 
+#if !CAEKF_SIZED && CAEKF_HAS_SENSOR_ROWS
+/* Guards caekf_model_sensor's velocity case and an acceleration in contact without estimated law parameters:
+ * the velocity reads its state, the acceleration is the momentum balance over the mass (written out here). */
+static void test_velocity_and_acceleration_sensor_values(void)
+{
+    static caekf_model_t m;
+    caekf_settings_t b = good;
+    caekf_scalar_t x[CAEKF_N], row[CAEKF_N], v;
+    const caekf_scalar_t u[1] = {(caekf_scalar_t)0.3};
+    caekf_contact_t ct;
+    const int body = 1, nq = PAPER_NQ; /* body 2, in the contact */
+    double force = 0, side, a;
+    int i;
+    b.model.sensor_kind[0] = CAEKF_SENSOR_VELOCITY;
+    b.model.sensor_body[0] = 3;
+    b.model.sensor_kind[1] = CAEKF_SENSOR_ACCELERATION;
+    b.model.sensor_body[1] = body + 1;
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &b.model));
+    paper_moving_state(x, (double)good.model.contact_gap[0], 2e-6, 1.1e8);
+    caekf_model_sensor(&m, &b.model, 0, x, u, u, &v, row);
+    TEST_ASSERT_TRUE(v == x[nq + 2]);
+    for (i = 0; i < m.n; ++i) {
+        TEST_ASSERT_TRUE(row[i] == (i == nq + 2 ? 1 : 0));
+    }
+    for (i = 0; i < b.model.inputs; ++i) {
+        force += b.model.input_body[i] - 1 == body ? (double)u[i] : 0;
+    }
+    for (i = 0; i < b.model.springs; ++i) {
+        const int ea = b.model.spring_a[i] - 1, eb = b.model.spring_b[i] - 1;
+        const double dq = (ea >= 0 ? (double)x[ea] : 0) - (eb >= 0 ? (double)x[eb] : 0);
+        const double dv = (ea >= 0 ? (double)x[nq + ea] : 0) - (eb >= 0 ? (double)x[nq + eb] : 0);
+        const double f = (double)b.model.spring_k[i] * dq + (double)b.model.spring_c[i] * dv;
+        force += ea == body ? -f : eb == body ? f : 0;
+    }
+    caekf_model_contact(&m, 0, x, &ct);
+    TEST_ASSERT_TRUE(ct.fc > 0);
+    side = (b.model.contact_a[0] - 1 == body ? -1 : 0) + (b.model.contact_b[0] - 1 == body ? 1 : 0);
+    TEST_ASSERT_TRUE(side != 0);
+    force += side * (double)ct.fc;
+    a = force / (double)b.model.m[body];
+    caekf_model_sensor(&m, &b.model, 1, x, u, u, &v, row);
+    TEST_ASSERT_DOUBLE_WITHIN(fabs(a) * (CAEKF_USE_FLOAT ? 1e-4 : 1e-10), a, (double)v);
+    TEST_ASSERT_DOUBLE_WITHIN(fabs((double)ct.dfc_dgamma) * 1e-5,
+                              side * (double)ct.dfc_dgamma / (double)b.model.m[body], (double)row[2 * nq]);
+}
+#endif
+
+/* Guards caekf_covariance_health's screen of a negative or NaN variance: flagged indefinite; without repair
+ * a finite P passes on as it is and a NaN fails; with repair the bad variance's row is dropped. */
+static void test_covariance_health_negative_and_nan_variances(void)
+{
+    caekf_scalar_t P[9], scratch[CAEKF_N * CAEKF_N];
+    const caekf_scalar_t z[3] = {0, 0, 0};
+    uint32_t flags = 0;
+    const caekf_scalar_t id[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    memcpy(P, id, sizeof P);
+    TEST_ASSERT_EQUAL_INT(1, caekf_covariance_health(P, z, 3, 1, 0, scratch, &flags));
+    TEST_ASSERT_EQUAL_UINT32(0, flags);
+    P[4] = -1;
+    TEST_ASSERT_EQUAL_INT(1, caekf_covariance_health(P, z, 3, 0, 0, scratch, &flags));
+    TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_COV_INDEFINITE, flags);
+    TEST_ASSERT_TRUE(P[4] == -1); /* no repair: left as it was */
+    flags = 0;
+    P[4] = (caekf_scalar_t)NAN;
+    TEST_ASSERT_EQUAL_INT(0, caekf_covariance_health(P, z, 3, 0, 0, scratch, &flags));
+    TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_COV_INDEFINITE, flags);
+    flags = 0;
+    TEST_ASSERT_EQUAL_INT(1, caekf_covariance_health(P, z, 3, 0, 1, scratch, &flags));
+    TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_COV_INDEFINITE | CAEKF_FLAG_COV_REPAIRED, flags);
+    TEST_ASSERT_TRUE(P[4] == 0 && P[1] == 0 && P[5] == 0);
+    TEST_ASSERT_FLOAT_WITHIN(1e-6f, 1.0f, (float)P[0]);
+    TEST_ASSERT_FLOAT_WITHIN(1e-6f, 1.0f, (float)P[8]);
+}
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -653,6 +729,10 @@ int main(void)
 #if !CAEKF_SIZED && CAEKF_HAS_BASE_INPUTS && CAEKF_MAX_INPUTS >= 2
     RUN_TEST(test_two_base_inputs_on_one_link_are_refused);
 #endif
+#if !CAEKF_SIZED && CAEKF_HAS_SENSOR_ROWS
+    RUN_TEST(test_velocity_and_acceleration_sensor_values);
+#endif
+    RUN_TEST(test_covariance_health_negative_and_nan_variances);
 #if CAEKF_HAS_SETTING_TEXT
     RUN_TEST(test_every_refusal_reason_has_its_text);
 #endif
