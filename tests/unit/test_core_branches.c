@@ -239,7 +239,8 @@ static uint32_t run_until(const caekf_settings_t *s, double t_end, long *in_cont
     while (truth_next(&r) == 1 && r.t < t_end) {
         caekf_report_t rep;
         const caekf_scalar_t y[2] = {(caekf_scalar_t)r.y1, (caekf_scalar_t)r.y4};
-        const caekf_status_t st = caekf_step(&est, (const caekf_scalar_t[]){(caekf_scalar_t)r.u}, y, &rep);
+        const caekf_scalar_t u[2] = {(caekf_scalar_t)r.u, 0}; /* a second input, where there is one, at rest */
+        const caekf_status_t st = caekf_step(&est, u, y, &rep);
         if (st != CAEKF_OK) {
             truth_close();
             TEST_ASSERT_EQUAL_INT_MESSAGE(CAEKF_OK, st, "a step failed");
@@ -520,6 +521,84 @@ static void test_covariance_health_negative_and_nan_variances(void)
     TEST_ASSERT_FLOAT_WITHIN(1e-6f, 1.0f, (float)P[8]);
 }
 
+#if !CAEKF_SIZED
+/* Guards the power law's linear case and its general (pow) case: gamma delta^n and n gamma delta^(n-1) for
+ * n = 1 and n = 2, against the law written out. */
+static void test_linear_and_quadratic_contact_laws(void)
+{
+    static caekf_model_t m;
+    caekf_settings_t b = good;
+    caekf_scalar_t x[CAEKF_N];
+    caekf_contact_t ct;
+    const double delta = 2e-6, gamma = 1.1e8;
+    const double tol = CAEKF_USE_FLOAT ? 1e-4 : 1e-9;
+    b.model.contact_lambda[0] = 0;
+    b.model.contact_n[0] = 1;
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &b.model));
+    paper_moving_state(x, (double)good.model.contact_gap[0], delta, gamma);
+    caekf_model_contact(&m, 0, x, &ct);
+    TEST_ASSERT_DOUBLE_WITHIN(delta * tol, delta, (double)ct.delta);
+    TEST_ASSERT_DOUBLE_WITHIN(gamma * delta * tol, gamma * delta, (double)ct.fc);
+    TEST_ASSERT_DOUBLE_WITHIN(gamma * tol, gamma, (double)ct.dfc_ddelta);
+    b.model.contact_n[0] = 2;
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &b.model));
+    caekf_model_contact(&m, 0, x, &ct);
+    TEST_ASSERT_DOUBLE_WITHIN(gamma * delta * delta * tol, gamma * delta * delta, (double)ct.fc);
+    TEST_ASSERT_DOUBLE_WITHIN(2 * gamma * delta * tol, 2 * gamma * delta, (double)ct.dfc_ddelta);
+}
+#endif
+
+#if !CAEKF_SIZED && CAEKF_HAS_SLR && CAEKF_HAS_LAW_PARAMS
+/* Guards the statistically linearised contact with ln gamma and an estimated gap (the penetration's std and
+ * the averaged law with law states): through contact every step succeeds and gamma stays within its bounds. */
+static void test_slr_contact_with_log_gamma_and_estimated_gap(void)
+{
+    caekf_settings_t b = good;
+    caekf_scalar_t g, gap;
+    long contact;
+    b.contact_slr_p = (caekf_scalar_t)0.01;
+    b.model.gamma_log = 1;
+    b.model.contact_estimate_gap[0] = 1;
+    b.gap0[0] = good.model.contact_gap[0];
+    b.sigma_gap0[0] = good.model.contact_gap[0] * (caekf_scalar_t)0.01;
+    b.sigma_q_gap[0] = 0;
+    (void)run_until(&b, 20.0, &contact);
+    TEST_ASSERT_TRUE(contact > 0);
+    expect_sound_covariance();
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_contact_law(&est, 0, &g, NULL, NULL, &gap));
+    TEST_ASSERT_TRUE((double)g >= (double)good.gamma_min[0] * (1 - 1e-5));
+    TEST_ASSERT_TRUE(fabs((double)gap - (double)good.model.contact_gap[0]) < 0.1 * (double)good.model.contact_gap[0]);
+}
+#endif
+
+#if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_INPUTS >= 2
+/* Guards the measured inputs' paths with a second, exact input (no noise of its own, its samples taken as
+ * they are) and with the trend off (input_trend_window 0: the mass's columns at the samples, nothing
+ * tracked): every step succeeds and the uncertain mass is learnt within 20 %. */
+static void test_an_exact_second_input_and_no_trend(void)
+{
+    caekf_settings_t b = good;
+    caekf_scalar_t x[CAEKF_N];
+    long contact;
+    int w;
+    b.model.m_sigma[0] = (caekf_scalar_t)0.05;
+    b.model.inputs = 2;
+    b.model.input_kind[1] = CAEKF_INPUT_FORCE;
+    b.model.input_body[1] = 4;
+    b.input_sigma[0] = (caekf_scalar_t)1e-3;
+    b.input_sigma[1] = 0;
+    for (w = 0; w < 2; ++w) {
+        b.input_trend_window = w == 0 ? good.input_trend_window : 0;
+        (void)run_until(&b, 13.0, &contact);
+        TEST_ASSERT_TRUE(contact > 0);
+        expect_sound_covariance();
+        TEST_ASSERT_EQUAL_UINT32(w == 0 ? 1u : 0u, est.input_trend_known);
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, x));
+        TEST_ASSERT_FLOAT_WITHIN(0.2f * (float)good.model.m[0], (float)good.model.m[0], (float)x[PAPER_N]);
+    }
+}
+#endif
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -733,6 +812,15 @@ int main(void)
     RUN_TEST(test_velocity_and_acceleration_sensor_values);
 #endif
     RUN_TEST(test_covariance_health_negative_and_nan_variances);
+#if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_INPUTS >= 2
+    RUN_TEST(test_an_exact_second_input_and_no_trend);
+#endif
+#if !CAEKF_SIZED
+    RUN_TEST(test_linear_and_quadratic_contact_laws);
+#endif
+#if !CAEKF_SIZED && CAEKF_HAS_SLR && CAEKF_HAS_LAW_PARAMS
+    RUN_TEST(test_slr_contact_with_log_gamma_and_estimated_gap);
+#endif
 #if CAEKF_HAS_SETTING_TEXT
     RUN_TEST(test_every_refusal_reason_has_its_text);
 #endif
