@@ -599,6 +599,66 @@ static void test_an_exact_second_input_and_no_trend(void)
 }
 #endif
 
+#if !CAEKF_SIZED && CAEKF_HAS_SENSOR_ROWS && CAEKF_HAS_BASE_INPUTS && CAEKF_MAX_INPUTS >= 2
+/* Guards an acceleration sensor's R (docs/sensors.md): 1 plus each input's noise on its body read through
+ * 1 / m, a measured force's sigma as it is and a base displacement's through (k + c/dt, -c/dt) of its link;
+ * inputs on other bodies add nothing. */
+static void test_acceleration_sensor_noise_takes_the_inputs_on_its_body(void)
+{
+    caekf_settings_t b = good;
+    const double sa = 0.1, su = 0.01, sb = 1e-6;
+    double k = 0, c = 0, gain, want;
+    int l, link = 0;
+    for (l = 0; l < good.model.springs; ++l) { /* the link from the ground to body 1 */
+        if ((good.model.spring_a[l] == 0 && good.model.spring_b[l] == 1) ||
+            (good.model.spring_b[l] == 0 && good.model.spring_a[l] == 1)) {
+            link = l + 1;
+            k = (double)good.model.spring_k[l];
+            c = (double)good.model.spring_c[l];
+        }
+    }
+    TEST_ASSERT_TRUE(link > 0);
+    TEST_ASSERT_EQUAL_INT(1, good.model.input_body[0]); /* the paper's force drives body 1 */
+    b.model.sensor_kind[0] = CAEKF_SENSOR_ACCELERATION; /* body 1 */
+    b.model.sensor_body[0] = 1;
+    b.sensor_sigma[0] = (caekf_scalar_t)sa;
+    b.model.sensor_kind[1] = CAEKF_SENSOR_ACCELERATION; /* body 4: no input there */
+    b.model.sensor_body[1] = 4;
+    b.sensor_sigma[1] = (caekf_scalar_t)sa;
+    b.input_sigma[0] = (caekf_scalar_t)su;
+    b.model.inputs = 2;
+    b.model.input_kind[1] = CAEKF_INPUT_BASE_DISPLACEMENT;
+    b.model.input_link[1] = link;
+    b.input_sigma[1] = (caekf_scalar_t)sb;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &b));
+    TEST_ASSERT_EQUAL_INT(1, est.dims.rows);
+    gain = sqrt((k + c / (double)good.model.dt) * (k + c / (double)good.model.dt) +
+                (c / (double)good.model.dt) * (c / (double)good.model.dt));
+    want = 1 + (su / (double)good.model.m[0] / sa) * (su / (double)good.model.m[0] / sa) +
+           (gain * sb / (double)good.model.m[0] / sa) * (gain * sb / (double)good.model.m[0] / sa);
+    TEST_ASSERT_DOUBLE_WITHIN(want * (CAEKF_USE_FLOAT ? 1e-5 : 1e-12), want, (double)est.dims.r[0]);
+    TEST_ASSERT_TRUE(est.dims.r[1] == 1);
+}
+#endif
+
+/* Guards the model's own defence (caekf_model_init): a spring past the last body and two base inputs on one
+ * link are refused by the model too, not only by validation. */
+static void test_the_model_refuses_bad_references_itself(void)
+{
+    static caekf_model_t m;
+    caekf_settings_t b = good;
+    b.model.spring_b[0] = good.model.bodies + 1;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+#if !CAEKF_SIZED && CAEKF_HAS_BASE_INPUTS && CAEKF_MAX_INPUTS >= 2
+    b = good;
+    b.model.inputs = 2;
+    b.model.input_kind[0] = b.model.input_kind[1] = CAEKF_INPUT_BASE_DISPLACEMENT;
+    b.model.input_link[0] = b.model.input_link[1] = 1;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init(&m, &b.model));
+#endif
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &good.model));
+}
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -812,6 +872,10 @@ int main(void)
     RUN_TEST(test_velocity_and_acceleration_sensor_values);
 #endif
     RUN_TEST(test_covariance_health_negative_and_nan_variances);
+#if !CAEKF_SIZED && CAEKF_HAS_SENSOR_ROWS && CAEKF_HAS_BASE_INPUTS && CAEKF_MAX_INPUTS >= 2
+    RUN_TEST(test_acceleration_sensor_noise_takes_the_inputs_on_its_body);
+#endif
+    RUN_TEST(test_the_model_refuses_bad_references_itself);
 #if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_INPUTS >= 2
     RUN_TEST(test_an_exact_second_input_and_no_trend);
 #endif
