@@ -659,6 +659,42 @@ static void test_the_model_refuses_bad_references_itself(void)
     TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &good.model));
 }
 
+/* A value near `from` whose quotient by s, times s again, rounds below it (below < 0) or above it. */
+static caekf_scalar_t rounding_off(caekf_scalar_t from, caekf_scalar_t s, int below)
+{
+    volatile caekf_scalar_t v = from, q; /* volatile: each operation rounded to the scalar type */
+    int i;
+    for (i = 0; i < 100000; ++i, v = v + from * (caekf_scalar_t)1.2345678e-7) {
+        q = v / s;
+        q = q * s;
+        if (below ? q < v : q > v) {
+            return v;
+        }
+    }
+    TEST_FAIL_MESSAGE("no value whose scaling rounds that way");
+    return 0;
+}
+
+/* Guards set_bounds' correction of a scaled bound that rounding moved outside: with gamma_min and gamma_max
+ * whose quotient by sigma_gamma0 rounds outwards, and gamma0 on either bound, gamma reads back within both. */
+static void test_scaled_gamma_bounds_read_back_within_the_bounds(void)
+{
+    caekf_settings_t b = good;
+    caekf_scalar_t g;
+    const caekf_scalar_t s = good.sigma_gamma0[0];
+    int side;
+    b.gamma_min[0] = rounding_off(good.gamma_min[0], s, 1);
+    b.gamma_max[0] = rounding_off(good.gamma0[0] * (caekf_scalar_t)1.73, s, 0);
+    TEST_ASSERT_TRUE(b.gamma_min[0] / s * s < b.gamma_min[0] && b.gamma_max[0] / s * s > b.gamma_max[0]);
+    for (side = 0; side < 2; ++side) {
+        b.gamma0[0] = side == 0 ? b.gamma_min[0] : b.gamma_max[0];
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(&est, &b));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_gamma(&est, &g));
+        TEST_ASSERT_TRUE(g >= b.gamma_min[0] && g <= b.gamma_max[0]);
+        TEST_ASSERT_TRUE(est.lo_scaled[0] * s >= b.gamma_min[0] && est.hi_scaled[0] * s <= b.gamma_max[0]);
+    }
+}
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -876,6 +912,7 @@ int main(void)
     RUN_TEST(test_acceleration_sensor_noise_takes_the_inputs_on_its_body);
 #endif
     RUN_TEST(test_the_model_refuses_bad_references_itself);
+    RUN_TEST(test_scaled_gamma_bounds_read_back_within_the_bounds);
 #if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_INPUTS >= 2
     RUN_TEST(test_an_exact_second_input_and_no_trend);
 #endif
