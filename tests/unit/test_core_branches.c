@@ -695,6 +695,42 @@ static void test_scaled_gamma_bounds_read_back_within_the_bounds(void)
     }
 }
 
+/* Guards caekf_constrain_upper: the perfect measurement onto a bound whose scaled value rounds outside it
+ * (z_g times its scale lands within the physical bound after the ulp steps, row and column g zeroed, the
+ * correlated state moved), either bound; a bound not violated changes nothing; a zero variance clamps only. */
+static void test_constrain_onto_a_bound_that_rounds_outwards(void)
+{
+    const caekf_scalar_t s = good.sigma_gamma0[0];
+    int is_max;
+    for (is_max = 0; is_max < 2; ++is_max) {
+        const caekf_scalar_t bound =
+            is_max ? rounding_off(good.gamma0[0] * (caekf_scalar_t)1.73, s, 0) : rounding_off(good.gamma_min[0], s, 1);
+        const caekf_scalar_t zb = bound / s; /* rounds outwards: zb * s is outside the bound */
+        caekf_scalar_t P[9] = {1, 0, (caekf_scalar_t)0.5, 0, 1, 0, 0, 0, 1}; /* upper triangle, g = 2 */
+        caekf_scalar_t z[3] = {0, 0, 0}, before[3];
+        uint32_t flags = 0;
+        z[2] = is_max ? zb + 1 : zb - 1;
+        memcpy(before, z, sizeof z);
+        TEST_ASSERT_TRUE(is_max ? zb * s > bound : zb * s < bound);
+        TEST_ASSERT_EQUAL_INT(1, caekf_constrain_upper(z, P, 3, 2, zb, is_max, s, bound, &flags));
+        TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_CONSTRAINT_APPLIED, flags);
+        TEST_ASSERT_TRUE(is_max ? z[2] * s <= bound : z[2] * s >= bound);
+        TEST_ASSERT_TRUE(P[2] == 0 && P[5] == 0 && P[8] == 0);
+        TEST_ASSERT_FLOAT_WITHIN(1e-6f, 0.75f, (float)P[0]);                                             /* 1 - 0.5^2 */
+        TEST_ASSERT_FLOAT_WITHIN(1e-6f, (float)before[0] + 0.5f * (is_max ? -1.0f : 1.0f), (float)z[0]); /* 0.5 dz */
+        TEST_ASSERT_TRUE(z[1] == 0);
+        flags = 0; /* already on the bound: nothing to do */
+        TEST_ASSERT_EQUAL_INT(0, caekf_constrain_upper(z, P, 3, 2, z[2], is_max, s, bound, &flags));
+        TEST_ASSERT_EQUAL_UINT32(0, flags);
+        z[2] = is_max ? zb + 1 : zb - 1; /* P_gg now 0: clamped, the rest left alone */
+        memcpy(before, z, sizeof z);
+        TEST_ASSERT_EQUAL_INT(1, caekf_constrain_upper(z, P, 3, 2, zb, is_max, s, bound, &flags));
+        TEST_ASSERT_EQUAL_UINT32(
+            CAEKF_FLAG_CONSTRAINT_APPLIED | CAEKF_FLAG_CONSTRAINT_CLAMPED | CAEKF_FLAG_SINGULAR_INNOVATION, flags);
+        TEST_ASSERT_TRUE(z[0] == before[0] && (is_max ? z[2] * s <= bound : z[2] * s >= bound));
+    }
+}
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -913,6 +949,7 @@ int main(void)
 #endif
     RUN_TEST(test_the_model_refuses_bad_references_itself);
     RUN_TEST(test_scaled_gamma_bounds_read_back_within_the_bounds);
+    RUN_TEST(test_constrain_onto_a_bound_that_rounds_outwards);
 #if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_INPUTS >= 2
     RUN_TEST(test_an_exact_second_input_and_no_trend);
 #endif
