@@ -731,6 +731,56 @@ static void test_constrain_onto_a_bound_that_rounds_outwards(void)
     }
 }
 
+#if !CAEKF_SIZED && CAEKF_LA_GENERAL_LU && CAEKF_MAX_SENSORS >= 3
+/* Guards the innovation covariance's refusals with three sensors (the LU path): two exact sensors of one state
+ * (S singular) and an exact sensor of a state with no variance (S_kk = 0): SINGULAR_INNOVATION, -1, and the
+ * state and P left as they were. */
+static void test_three_sensor_innovation_refusals(void)
+{
+    static paper_mat_t P, P0;
+    static caekf_correct_work_t work;
+    caekf_filter_dims_t d;
+    caekf_scalar_t z[PAPER_N], z0[PAPER_N], nis = 42;
+    const caekf_scalar_t y[3] = {(caekf_scalar_t)0.1, (caekf_scalar_t)0.2, (caekf_scalar_t)0.3};
+    int i, j, c;
+    for (c = 0; c < 2; ++c) {
+        uint32_t flags = 0;
+        test_spd_matrix(P);
+        paper_filter_dims(&d, 0, CAEKF_GAMMA_LIVE);
+        d.ny = 3;
+        d.r[2] = 0;
+        if (c == 0) {
+            d.h[2] = PAPER_IY1; /* a second exact reading of q1 */
+        } else {
+            d.h[2] = 5; /* v2, its variance zeroed */
+            for (i = 0; i < PAPER_N; ++i) {
+                P[5][i] = P[i][5] = 0;
+            }
+        }
+        for (i = 0; i < PAPER_N; ++i) {
+            z[i] = z0[i] = (caekf_scalar_t)i;
+            for (j = 0; j < PAPER_N; ++j) {
+                P0[i][j] = P[i][j];
+            }
+        }
+        TEST_ASSERT_EQUAL_INT(-1, caekf_correct_upper(z, &P[0][0], y, 0, &d, 0, &nis, &flags, &work));
+        TEST_ASSERT_EQUAL_UINT32(CAEKF_FLAG_SINGULAR_INNOVATION, flags);
+        TEST_ASSERT_TRUE(memcmp(z, z0, sizeof z) == 0 && memcmp(P, P0, sizeof P) == 0);
+    }
+    /* the same three sensors with noise: accepted, a finite NIS */
+    {
+        uint32_t flags = 0;
+        test_spd_matrix(P);
+        paper_filter_dims(&d, 1, CAEKF_GAMMA_LIVE);
+        d.ny = 3;
+        d.h[2] = 5;
+        d.r[2] = 1;
+        TEST_ASSERT_EQUAL_INT(0, caekf_correct_upper(z, &P[0][0], y, 0, &d, 0, &nis, &flags, &work));
+        TEST_ASSERT_TRUE(nis > 0 && isfinite((double)nis));
+    }
+}
+#endif
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -950,6 +1000,9 @@ int main(void)
     RUN_TEST(test_the_model_refuses_bad_references_itself);
     RUN_TEST(test_scaled_gamma_bounds_read_back_within_the_bounds);
     RUN_TEST(test_constrain_onto_a_bound_that_rounds_outwards);
+#if !CAEKF_SIZED && CAEKF_LA_GENERAL_LU && CAEKF_MAX_SENSORS >= 3
+    RUN_TEST(test_three_sensor_innovation_refusals);
+#endif
 #if !CAEKF_SIZED && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_MAX_INPUTS >= 2
     RUN_TEST(test_an_exact_second_input_and_no_trend);
 #endif
