@@ -781,6 +781,45 @@ static void test_three_sensor_innovation_refusals(void)
 }
 #endif
 
+#if !CAEKF_SIZED && CAEKF_MAX_CONTACTS >= 2 && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_HAS_SLR
+/* Guards a contact with the ground (body 4 against a stop at the ground, the ground's end -1 in every sum):
+ * with ln gamma, its second-order term, the statistically linearised law, substeps and an uncertain mass
+ * of body 4, the run over the whole record succeeds step by step, and as the truth has no such stop its
+ * gamma is driven onto its minimum (there with zero variance, a constrained parameter's). */
+static void test_a_contact_with_the_ground(void)
+{
+    caekf_settings_t b = good;
+    caekf_scalar_t var[CAEKF_N], x[CAEKF_N], g;
+    long contact;
+    int n, ny, nu, i;
+    b.model.contacts = 2;
+    b.model.contact_a[1] = 4;
+    b.model.contact_b[1] = 0;
+    b.model.contact_gap[1] = (caekf_scalar_t)3.0e-5;
+    b.model.contact_n[1] = good.model.contact_n[0];
+    b.gamma0[1] = (caekf_scalar_t)1e7;
+    b.sigma_gamma0[1] = (caekf_scalar_t)1e7;
+    b.sigma_q_gamma[1] = (caekf_scalar_t)1e5;
+    b.gamma_min[1] = (caekf_scalar_t)1e5;
+    b.model.gamma_log = 1;
+    b.law_second_order = 1;
+    b.contact_slr_p = (caekf_scalar_t)0.01;
+    b.model.m_sigma[3] = (caekf_scalar_t)0.05;
+    (void)run_until(&b, 60.0, &contact);
+    TEST_ASSERT_TRUE(contact > 0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_sizes(&est, &n, &ny, &nu));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_variances(&est, var));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_state(&est, x));
+    for (i = 0; i < n; ++i) {
+        TEST_ASSERT_TRUE(isfinite((double)x[i]) && isfinite((double)var[i]) && var[i] >= 0);
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_contact_law(&est, 1, &g, NULL, NULL, NULL));
+    TEST_ASSERT_DOUBLE_WITHIN(1e5 * 1e-3, 1e5, (double)g);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_gamma(&est, &g)); /* the paper's contact: still stiff */
+    TEST_ASSERT_TRUE((double)g > (double)good.gamma_min[0]);
+}
+#endif
+
 #if CAEKF_HAS_SETTING_TEXT
 /* Guards caekf_setting_error_text: NULL refusals, an unknown id, every reason's sentence, an unnamed
  * setting, no value without the settings. */
@@ -1000,6 +1039,9 @@ int main(void)
     RUN_TEST(test_the_model_refuses_bad_references_itself);
     RUN_TEST(test_scaled_gamma_bounds_read_back_within_the_bounds);
     RUN_TEST(test_constrain_onto_a_bound_that_rounds_outwards);
+#if !CAEKF_SIZED && CAEKF_MAX_CONTACTS >= 2 && CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_HAS_SLR
+    RUN_TEST(test_a_contact_with_the_ground);
+#endif
 #if !CAEKF_SIZED && CAEKF_LA_GENERAL_LU && CAEKF_MAX_SENSORS >= 3
     RUN_TEST(test_three_sensor_innovation_refusals);
 #endif
