@@ -415,6 +415,9 @@ caekf_la_status_t caekf_sym_eigen(caekf_scalar_t *a, int n, caekf_scalar_t *v)
                 off += A_(a, n, p, q) * A_(a, n, p, q);
             }
         }
+        if (!CAEKF_ISFINITE(off + diag)) {
+            return CAEKF_LA_NOT_FINITE; /* a NaN would pass the test below as converged */
+        }
         if (!(off > CAEKF_EPS * CAEKF_EPS * diag)) {
             return CAEKF_LA_OK;
         }

@@ -15,7 +15,8 @@ typedef enum {
     CAEKF_LA_OK = 0,
     CAEKF_LA_SINGULAR = 1, /* a pivot fell below the refusal threshold (cf. ARM_MATH_SINGULAR) */
     CAEKF_LA_BAD_SIZE = 2,
-    CAEKF_LA_NOT_PSD = 3
+    CAEKF_LA_NOT_PSD = 3,
+    CAEKF_LA_NOT_FINITE = 4 /* a NaN or infinite entry (or squares that overflow) */
 } caekf_la_status_t;
 
 /* The LU of any size. A sized build whose innovation covariance is 2 x 2 and whose Newton matrix is 4 x 4

@@ -492,6 +492,19 @@ static void rotated(caekf_scalar_t a[3][3], const double d[3], double angle)
     }
 }
 
+/* A NaN off the diagonal is refused, not taken for converged (it fails every comparison): the 2-norm of P
+ * then reports an error instead of a norm of the diagonal. */
+static void test_eigen_refuses_a_nan(void)
+{
+    caekf_scalar_t a[9] = {2, 0, 0, 0, 1, 0, 0, 0, 3}, w[9], nrm = -1;
+    a[1] = a[3] = (caekf_scalar_t)NAN;
+    memcpy(w, a, sizeof a);
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_FINITE, caekf_sym_eigen(w, 3, 0));
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_FINITE, caekf_sym_norm2(a, 3, w, &nrm));
+    a[1] = a[3] = (caekf_scalar_t)INFINITY;
+    TEST_ASSERT_EQUAL_INT(CAEKF_LA_NOT_FINITE, caekf_sym_norm2(a, 3, w, &nrm));
+}
+
 static void test_eigen_norm_and_repair(void)
 {
     const double d[3] = {5, 0.5, -2}; /* the negative one mixes with axis 0 */
@@ -549,5 +562,6 @@ int main(void)
     RUN_TEST(test_psd_check_cases);
     RUN_TEST(test_psd_check_zero_variances);
     RUN_TEST(test_eigen_norm_and_repair);
+    RUN_TEST(test_eigen_refuses_a_nan);
     return UNITY_END();
 }
