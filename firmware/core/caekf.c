@@ -462,35 +462,19 @@ static int measured_inputs(const caekf_t *est)
 CAEKF_NOINLINE static int mech_columns(caekf_t *est, const caekf_contact_t *ct, const caekf_scalar_t *u0,
                                        const caekf_scalar_t *u)
 {
-    caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS], xk[CAEKF_N], t0[CAEKF_MAX_INPUTS], t1[CAEKF_MAX_INPUTS],
-        dev[CAEKF_MAX_INPUTS];
+    caekf_scalar_t t0[CAEKF_MAX_INPUTS], t1[CAEKF_MAX_INPUTS], dev[CAEKF_MAX_INPUTS];
     const caekf_model_t *m = &est->model;
-    const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m);
-    int i, k;
+    int k;
     if (!est->input_trend_known || est->cfg.input_trend_window == 0 || !measured_inputs(est)) {
-        return caekf_model_mech_columns(m, ct, X_PREV(est), est->x_pred, u0, u, est->fv);
+        return caekf_model_mech_columns(m, ct, X_PREV(est), est->x_pred, u0, u, 0, est->fv);
     }
-    if (caekf_model_input_columns(m, ct, g) != 0) {
-        return -1;
-    }
-    for (k = 0; k < nu; ++k) {
+    for (k = 0; k < CAEKF_DIM_NU(m); ++k) {
         const int noisy = est->cfg.input_sigma[k] > 0;
         t0[k] = noisy ? est->input_trend[k][0] : u0[k];
         t1[k] = noisy ? est->input_trend[k][0] + est->input_trend[k][1] : u[k];
         dev[k] = (u[k] - t1[k]) + (CAEKF_METHOD_TRAP(m) ? u0[k] - t0[k] : 0);
     }
-    for (i = 0; i < nq; ++i) {
-        caekf_scalar_t dv = 0;
-        for (k = 0; k < nu; ++k) {
-            dv += g[i][k] * dev[k];
-        }
-        xk[i] = est->x_pred[i] - m->hs * dv;
-        xk[nq + i] = est->x_pred[nq + i] - dv;
-    }
-    for (i = 2 * nq; i < n; ++i) {
-        xk[i] = est->x_pred[i];
-    }
-    return caekf_model_mech_columns(m, ct, X_PREV(est), xk, t0, t1, est->fv);
+    return caekf_model_mech_columns(m, ct, X_PREV(est), est->x_pred, t0, t1, dev, est->fv);
 }
 
 /* The measured inputs' trend after a step with inputs u: Holt's linear tracker, critically damped for

@@ -1257,6 +1257,17 @@ int caekf_model_set_mech(caekf_model_t *m, const caekf_model_params_t *p, const 
     return derive_values(m, p, mult);
 }
 
+/* B_u's entry of body row i and input k, -dg/du_k: 1 on a force's body row; a base displacement's -dg/du_k -
+ * dg/du_{k-1} = k (+ c / hs - c / hs; the trapezoidal rule's start adds k again, the callers' twice the one
+ * end) on its body's row, per end that takes it. */
+static caekf_scalar_t input_rhs(const caekf_model_t *m, int i, int k)
+{
+    if (i != m->p.input_body[k] - 1) {
+        return 0;
+    }
+    return CAEKF_DIM_NBASE(m) > 0 && CAEKF_BASE_LINK(m, k) != 0 ? CAEKF_BASE_K(m, k) : 1;
+}
+
 int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
                               caekf_scalar_t g[CAEKF_NQ][CAEKF_MAX_INPUTS])
 {
@@ -1267,16 +1278,9 @@ int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
     if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
     }
-    for (i = 0; i < nq; ++i) { /* -dg/du_k = B_u: +1 on a force's body row */
+    for (i = 0; i < nq; ++i) {
         for (k = 0; k < nu; ++k) {
-            g[i][k] = i == m->p.input_body[k] - 1 ? 1 : 0;
-        }
-    }
-    /* A base displacement's: -dg/du_k - dg/du_{k-1} = k (+ c / hs - c / hs; the trapezoidal rule's start adds
-     * k again, the caller's twice the one end) on its body's row, per end that takes it. */
-    for (k = 0; k < nu && CAEKF_DIM_NBASE(m) > 0; ++k) {
-        if (CAEKF_BASE_LINK(m, k) != 0) {
-            g[m->p.input_body[k] - 1][k] = CAEKF_BASE_K(m, k);
+            g[i][k] = input_rhs(m, i, k);
         }
     }
     solve(A, nq, piv, &g[0][0], nu, CAEKF_MAX_INPUTS);
@@ -1301,15 +1305,32 @@ static void ground_end(const caekf_model_t *m, int l, int damper, const caekf_sc
 
 int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                              const caekf_scalar_t xk[CAEKF_N], const caekf_scalar_t *u_prev, const caekf_scalar_t *u,
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+                             const caekf_scalar_t *dev, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nm = CAEKF_DIM_NM(m), first = CAEKF_DIM_MECH0(m);
     const int trap = CAEKF_METHOD_TRAP(m);
-    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
+    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ], moved[2 * CAEKF_NQ];
+    const caekf_scalar_t *x = xk; /* x_k's q and v, moved by dev */
     int piv[CAEKF_NQ];
     int i, j;
     if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
         return -1;
+    }
+    if (dev != 0) { /* where the inputs less dev would have taken the step, to first order: A^-1 B_u dev less */
+        caekf_scalar_t dv[CAEKF_NQ];
+        int k;
+        for (i = 0; i < nq; ++i) {
+            dv[i] = 0;
+            for (k = 0; k < CAEKF_DIM_NU(m); ++k) {
+                dv[i] += input_rhs(m, i, k) * dev[k];
+            }
+        }
+        solve(A, nq, piv, dv, 1, 1);
+        for (i = 0; i < nq; ++i) {
+            moved[i] = xk[i] - m->hs * dv[i];
+            moved[nq + i] = xk[nq + i] - dv[i];
+        }
+        x = moved;
     }
     /* -dg/d ln(value): the momentum rows' terms, each the value times its own derivative. A mass: M/hs
      * (v_k - v_{k-1}) on its body's row; a link: K or C times the ends' difference (b_l^T q, b_l^T v) at
@@ -1322,13 +1343,13 @@ int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, 
             fv[i][first + j] = 0;
         }
         if (m->mech_kind[j] == CAEKF_MECH_MASS) {
-            fv[a][first + j] = -m->mech_value[j] / m->hs * (xk[nq + a] - xprev[nq + a]);
+            fv[a][first + j] = -m->mech_value[j] / m->hs * (x[nq + a] - xprev[nq + a]);
             continue;
         }
         if (CAEKF_DIM_NBASE(m) > 0) {
             ground_end(m, m->mech_elem[j], off != 0, u_prev, u, &g1, &g0);
         }
-        d = (a >= 0 ? xk[off + a] : g1) - (b >= 0 ? xk[off + b] : g1);
+        d = (a >= 0 ? x[off + a] : g1) - (b >= 0 ? x[off + b] : g1);
         if (trap) {
             d += (a >= 0 ? xprev[off + a] : g0) - (b >= 0 ? xprev[off + b] : g0);
         }

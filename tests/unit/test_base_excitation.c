@@ -141,7 +141,7 @@ static void check_columns(int discretisation, double delta)
     step_at(xp, 0, u_prev, u_now, xk);
     caekf_model_contact(&model, 0, xk, &ct[0]);
     TEST_ASSERT_EQUAL_INT(delta > 0, ct[0].delta > 0); /* the contact at the step's end, as at its start */
-    TEST_ASSERT_EQUAL_INT(0, caekf_model_mech_columns(&model, ct, xp, xk, u_prev, u_now, fv));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_mech_columns(&model, ct, xp, xk, u_prev, u_now, 0, fv));
     TEST_ASSERT_EQUAL_INT(0, caekf_model_input_columns(&model, ct, g));
     {
         const caekf_scalar_t upp[1] = {u_prev[0] + (caekf_scalar_t)hu}, upm[1] = {u_prev[0] - (caekf_scalar_t)hu};

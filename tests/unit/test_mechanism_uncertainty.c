@@ -85,7 +85,7 @@ static void check_columns(int discretisation, double delta)
     make_state(xp, delta);
     step_at(xp, 0, u_now, xk);
     caekf_model_contact(&model, 0, xk, &ct[0]);
-    TEST_ASSERT_EQUAL_INT(0, caekf_model_mech_columns(&model, ct, xp, xk, u_prev, u_now, fv));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_mech_columns(&model, ct, xp, xk, u_prev, u_now, 0, fv));
     TEST_ASSERT_EQUAL_INT(0, caekf_model_input_columns(&model, ct, g));
     for (j = 0; j < NM; ++j) { /* d v_k / d ln(value_j) */
         caekf_scalar_t mult[NM], a[CAEKF_N], b[CAEKF_N];

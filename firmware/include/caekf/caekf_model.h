@@ -203,11 +203,13 @@ int caekf_model_input_columns(const caekf_model_t *m, const caekf_contact_t *ct,
 
 /* The mechanism parameters' columns of F's v-rows, dv_k / d ln(value_j), at the step x_{k-1} -> x_k with
  * the contacts at x_k in ct and the inputs u_prev, u at its ends (a base displacement moves its link's ground
- * end): -A^-1 dg/d ln(value_j), A the Newton matrix at x_k. Written into the mechanism's nm columns of fv.
- * Returns 0, or -1 when A is singular. */
+ * end): -A^-1 dg/d ln(value_j), A the Newton matrix at x_k. With dev (per input, NULL: none) x_k is first
+ * moved to where inputs dev smaller would have taken it, to first order x_k - A^-1 B_u dev (positions hs
+ * times as much; dev summed over the ends of the step that take the input). Written into the mechanism's nm
+ * columns of fv. Returns 0, or -1 when A is singular. */
 int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                              const caekf_scalar_t xk[CAEKF_N], const caekf_scalar_t *u_prev, const caekf_scalar_t *u,
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
+                             const caekf_scalar_t *dev, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
 /* What sensor k reads at the augmented state x with the inputs u, u_prev those of the step before (a base
  * displacement's rate is (u - u_prev) / dt; u_prev = u: at rest) (docs/sensors.md): *value = h_k(x) and
