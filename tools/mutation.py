@@ -580,7 +580,7 @@ def coverage_lines(work: Path, src: Path, testdata: Path, suites_by_folder: dict
     """{folder: {path: {line: count}}}: gcov's executable lines of each folder's files under its suites."""
     cov = work / "cov"
     configure(src, cov, ["-DCMAKE_BUILD_TYPE=Debug", "-DCMAKE_C_FLAGS=-O0 --coverage",
-                         "-DCMAKE_EXE_LINKER_FLAGS=--coverage", "-DCAEKF_CORE_STACK_LIMIT=4096",
+                         "-DCMAKE_EXE_LINKER_FLAGS=--coverage", "-DCAEKF_CORE_STACK_LIMIT=16384",
                          f"-DCAEKF_FROZEN_TESTDATA={testdata}"])
     all_suites = sorted({s.name for ss in suites_by_folder.values() for s in ss})
     build_targets(cov, all_suites)

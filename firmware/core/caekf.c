@@ -227,16 +227,49 @@ static caekf_scalar_t sensor_sigma(const caekf_settings_t *s, int k)
     return s->model.sensor_kind[k] == CAEKF_SENSOR_VELOCITY ? s->sigma_rv : s->sigma_r;
 }
 
-caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
+/* What input k's white noise adds to acceleration sensor i's variance, over the sensor's own (a measured force
+ * read through the model's M^-1: on its body for bodies on a line, along h^T M^-1 B_u's column for a structure;
+ * a base displacement's white noise e_k through k u_k + c (u_k - u_{k-1}) / dt on its link's body, the std of
+ * ((k + c/dt) e_k - c/dt e_{k-1}) / m). */
+static caekf_scalar_t input_noise_ratio(const caekf_t *est, const caekf_settings_t *s, int i, int k)
+{
+    const caekf_model_params_t *mp = &s->model;
+    const caekf_model_t *m = &est->model;
+    caekf_scalar_t gain = 1;
+    int body = mp->input_body[k];
+    if (CAEKF_IS_STRUCTURE(m)) {
+        int j;
+        gain = 0;
+        for (j = 0; j < CAEKF_DIM_NQ(m); ++j) {
+            gain += CAEKF_STRUCTURE_H(m, i)[j] / CAEKF_STRUCTURE_MASS(m)[j] * CAEKF_STRUCTURE_BU(m, k)[j];
+        }
+        return sq(gain * s->input_sigma[k] / sensor_sigma(s, i));
+    }
+    if (CAEKF_BASE_LINK(m, k) != 0) {
+        const caekf_scalar_t c_dt = CAEKF_BASE_C(m, k) / mp->dt;
+        gain = CAEKF_SQRT(sq(CAEKF_BASE_K(m, k) + c_dt) + sq(c_dt));
+        body = m->p.input_body[k];
+    }
+    if (body != mp->sensor_body[i]) {
+        return 0;
+    }
+    return sq(gain * s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
+}
+
+/* caekf_init with the mechanism given as a structure (st) or by the settings' bodies and links (st NULL). */
+static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, const caekf_structure_t *st)
 {
     const caekf_model_params_t *mp;
     int i, nq, nc, n;
+    if (!CAEKF_HAS_STRUCTURES) { /* a sized build's mechanism is bodies on a line: no structure code linked */
+        st = 0;
+    }
     if (est == 0 || s == 0) {
         return CAEKF_ERR_NULL;
     }
     mp = &s->model;
     /* Validation covers everything caekf_model_init checks, so nothing below can fail half-way. */
-    if (caekf_settings_validate(s, 0) != CAEKF_OK) {
+    if (caekf_settings_validate(s, 0) != CAEKF_OK || (st != 0 && caekf_model_structure_check(mp, st) != 0)) {
         return CAEKF_ERR_SETTINGS;
     }
     est->cfg = *s; /* first: s may be the instance's own settings */
@@ -248,12 +281,24 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
             bytes[k] = 0;
         }
     }
-    (void)caekf_model_init(&est->model, mp);
+    if (st != 0) { /* checked above; a structure without a nonsingular Newton matrix is refused here */
+        if (caekf_model_init_structure(&est->model, mp, st) != 0) {
+            return CAEKF_ERR_SETTINGS;
+        }
+    } else {
+        (void)caekf_model_init(&est->model, mp);
+    }
 #if CAEKF_HAS_SUBSTEPS
     if (s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
         caekf_model_params_t sub = *mp;
         sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
-        (void)caekf_model_init(&est->sub_model, &sub);
+        if (st != 0) {
+            if (caekf_model_init_structure(&est->sub_model, &sub, st) != 0) {
+                return CAEKF_ERR_SETTINGS;
+            }
+        } else {
+            (void)caekf_model_init(&est->sub_model, &sub);
+        }
     } else {
         est->sub_model = est->model;
     }
@@ -264,11 +309,11 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     for (i = 0; i < CAEKF_N; ++i) {
         est->scale[i] = 1;
     }
-    for (i = 0; i < nq; ++i) {
+    for (i = 0; i < nq; ++i) { /* a structure starts at rest at q = 0 (q0 and v0 are a line's bodies') */
         est->scale[i] = s->sigma_q0;
         est->scale[nq + i] = s->sigma_v0;
-        est->z[i] = s->q0[i] / s->sigma_q0;
-        est->z[nq + i] = s->v0[i] / s->sigma_v0;
+        est->z[i] = st == 0 ? s->q0[i] / s->sigma_q0 : 0;
+        est->z[nq + i] = st == 0 ? s->v0[i] / s->sigma_v0 : 0;
     }
     est->mismatch.nis_mean = 1;
     est->mismatch.q_scale = 1;
@@ -323,7 +368,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
         est->dims.r[i] = 1;
     }
-    est->dims.rows = 0;
+    est->dims.rows = st != 0; /* a structure's sensors read rows */
     for (i = 0; i < mp->sensors; ++i) {
         const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
         est->dims.rows |= mp->sensor_kind[i] > CAEKF_SENSOR_VELOCITY || est->model.sensor_bias[i] != 0;
@@ -334,18 +379,7 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
         int k;
         est->dims.r[i] = 1;
         for (k = 0; k < mp->inputs && mp->sensor_kind[i] == CAEKF_SENSOR_ACCELERATION; ++k) {
-            /* a measured force's noise, read through 1 / m (a base displacement's: its white noise e_k through
-             * k u_k + c (u_k - u_{k-1}) / dt on its link's body, the std of ((k + c/dt) e_k - c/dt e_{k-1}) / m) */
-            caekf_scalar_t gain = 1;
-            int body = mp->input_body[k];
-            if (CAEKF_BASE_LINK(&est->model, k) != 0) {
-                const caekf_scalar_t c_dt = CAEKF_BASE_C(&est->model, k) / mp->dt;
-                gain = CAEKF_SQRT(sq(CAEKF_BASE_K(&est->model, k) + c_dt) + sq(c_dt));
-                body = est->model.p.input_body[k];
-            }
-            if (body == mp->sensor_body[i]) {
-                est->dims.r[i] += sq(gain * s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
-            }
+            est->dims.r[i] += input_noise_ratio(est, s, i, k);
         }
     }
     for (i = 0; i < n; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
@@ -354,6 +388,19 @@ caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s)
     load_fv0(est);
     est->init_magic = INIT_MAGIC;
     return CAEKF_OK;
+}
+
+caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s) { return init_instance(est, s, 0); }
+
+caekf_status_t caekf_init_structure(caekf_t *est, const caekf_settings_t *s, const caekf_structure_t *st)
+{
+    if (st == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!CAEKF_HAS_STRUCTURES) {
+        return CAEKF_ERR_SETTINGS;
+    }
+    return init_instance(est, s, st);
 }
 
 static int is_init(const caekf_t *est) { return est != 0 && est->init_magic == INIT_MAGIC; }
@@ -661,7 +708,7 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     if (k == 1 && !CAEKF_METHOD_GAMMA_LOG(m)) {
         return; /* gamma alone: the law is linear in it */
     }
-    r = (a >= 0 ? x[nq + a] : 0) - (b >= 0 ? x[nq + b] : 0);
+    r = caekf_model_contact_dot(m, c, x + nq);
     L = CAEKF_LOG(d);
     fl = f / (1 + lambda * r) * r;                  /* df/dlambda = gamma delta^n r */
     kg = CAEKF_METHOD_GAMMA_LOG(m) ? 1 : 1 / gamma; /* df/dtheta = kg f for theta = ln gamma or gamma */
@@ -702,7 +749,14 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
         }
     }
     var = var / 2 / (s_v * s_v); /* scaled velocity units */
-    {
+    if (CAEKF_IS_STRUCTURE(m)) { /* dv = -hs M^-1 w df */
+        const caekf_scalar_t *w = CAEKF_STRUCTURE_W(m, c);
+        for (i = 0; i < nq; ++i) {
+            for (j = i; j < nq; ++j) {
+                est->P_work[(nq + i) * n + nq + j] += var * (w[i] / m->m_dt[i]) * (w[j] / m->m_dt[j]);
+            }
+        }
+    } else {
         const int e[2] = {a, b};
         const caekf_scalar_t w[2] = {a >= 0 ? -1 / m->m_dt[a] : 0, b >= 0 ? 1 / m->m_dt[b] : 0};
         for (i = 0; i < 2; ++i) {
@@ -748,14 +802,24 @@ static void set_penetration_std(caekf_t *est)
     for (c = 0; c < nc; ++c) {
         const int a = CAEKF_CONTACT_I(&est->model, c), b = CAEKF_CONTACT_J(&est->model, c);
         caekf_scalar_t v = 0;
-        if (a >= 0) {
-            v += est->P[a * n + a];
-        }
-        if (b >= 0) {
-            v += est->P[b * n + b];
-        }
-        if (a >= 0 && b >= 0) {
-            v -= 2 * est->P[a * n + b];
+        if (CAEKF_IS_STRUCTURE(&est->model)) { /* w^T P_qq w */
+            const caekf_scalar_t *w = CAEKF_STRUCTURE_W(&est->model, c);
+            int i, j;
+            for (i = 0; i < CAEKF_DIM_NQ(&est->model); ++i) {
+                for (j = 0; j < CAEKF_DIM_NQ(&est->model); ++j) {
+                    v += w[i] * w[j] * est->P[i * n + j];
+                }
+            }
+        } else {
+            if (a >= 0) {
+                v += est->P[a * n + a];
+            }
+            if (b >= 0) {
+                v += est->P[b * n + b];
+            }
+            if (a >= 0 && b >= 0) {
+                v -= 2 * est->P[a * n + b];
+            }
         }
         v = v > 0 && caekf_model_slr_law(&est->model, c) ? CAEKF_SQRT(v) * est->scale[0] : 0;
         est->model.slr_s[c] = v;

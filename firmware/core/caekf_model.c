@@ -38,6 +38,30 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
     }
 }
 
+#if !CAEKF_HAS_STRUCTURES
+const caekf_scalar_t caekf_no_structure[CAEKF_NQ] = {0};
+#endif
+
+/* w^T x over the model's nq positions (or velocities, x + nq). */
+static caekf_scalar_t structure_dot(const caekf_model_t *m, const caekf_scalar_t *w, const caekf_scalar_t *x)
+{
+    caekf_scalar_t s = 0;
+    int j;
+    for (j = 0; j < CAEKF_DIM_NQ(m); ++j) {
+        s += w[j] * x[j];
+    }
+    return s;
+}
+
+caekf_scalar_t caekf_model_contact_dot(const caekf_model_t *m, int c, const caekf_scalar_t *x)
+{
+    const int i = CAEKF_CONTACT_I(m, c), j = CAEKF_CONTACT_J(m, c);
+    if (CAEKF_IS_STRUCTURE(m)) {
+        return structure_dot(m, CAEKF_STRUCTURE_W(m, c), x);
+    }
+    return (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0);
+}
+
 #if CAEKF_HAS_SLR
 /* Gauss-Hermite rule, 20 nodes (symmetric): the 10 positive nodes of the weight exp(-x^2) and their
  * weights over sqrt(pi), which sum to 1 over all 20. E[g(t)] for t ~ N(mu, s^2) is
@@ -136,7 +160,8 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
     out->dfc_dn = 0;
     out->dfc_dlambda = 0;
 #endif
-    d = (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0) - gap;
+    d = CAEKF_IS_STRUCTURE(m) ? structure_dot(m, CAEKF_STRUCTURE_W(m, c), x) - gap
+                              : (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0) - gap;
     out->delta = d;
     out->fc = 0;
     out->dfc_ddelta = 0;
@@ -170,7 +195,8 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
             out->fc = gamma * dn;
             out->dfc_ddelta = n * gamma * dn1;
         } else {
-            const caekf_scalar_t rate = (i >= 0 ? x[nq + i] : 0) - (j >= 0 ? x[nq + j] : 0);
+            const caekf_scalar_t rate = CAEKF_IS_STRUCTURE(m) ? structure_dot(m, CAEKF_STRUCTURE_W(m, c), x + nq)
+                                                              : (i >= 0 ? x[nq + i] : 0) - (j >= 0 ? x[nq + j] : 0);
             const caekf_scalar_t h = 1 + lambda * rate;
             if (h > 0) {
                 out->dfc_dgamma = dn * h;
@@ -229,6 +255,62 @@ ADD_CONTACT_BLOCK_INLINE void add_contact_block(caekf_scalar_t *a, int ld, int i
             a[j * ld + i] -= s;
         }
         a[j * ld + j] += s;
+    }
+}
+
+/* Adds s w w^T to the nq x nq matrix a (leading dimension ld): a structure's contact; rows where w is 0 are
+ * skipped (a contact's w is often sparse). */
+static void add_structure_block(const caekf_model_t *m, const caekf_scalar_t *w, caekf_scalar_t *a, int ld,
+                                caekf_scalar_t s)
+{
+    const int nq = CAEKF_DIM_NQ(m);
+    int i, j;
+    for (i = 0; i < nq; ++i) {
+        if (w[i] != 0) {
+            const caekf_scalar_t si = s * w[i];
+            for (j = 0; j < nq; ++j) {
+                a[i * ld + j] += si * w[j];
+            }
+        }
+    }
+}
+
+/* Adds s b_c b_c^T to the nq x nq matrix a: contact c's w_c of a structure, e_a - e_b on a line. */
+ADD_CONTACT_BLOCK_INLINE void add_contact_outer(const caekf_model_t *m, int c, caekf_scalar_t *a, int ld,
+                                                caekf_scalar_t s)
+{
+    if (CAEKF_IS_STRUCTURE(m)) {
+        add_structure_block(m, CAEKF_STRUCTURE_W(m, c), a, ld, s);
+        return;
+    }
+    add_contact_block(a, ld, CAEKF_CONTACT_I(m, c), CAEKF_CONTACT_J(m, c), s);
+}
+
+/* A structure's loads in its momentum rows: -B_u u, + sum_c w_c f_c (and their terms' sizes). */
+static void structure_loads(const caekf_model_t *m, const caekf_scalar_t *u, const caekf_contact_t *ct,
+                            caekf_scalar_t *r, caekf_scalar_t *mag)
+{
+    const int nq = CAEKF_DIM_NQ(m);
+    int i, k;
+    for (k = 0; k < CAEKF_DIM_NU(m); ++k) {
+        const caekf_scalar_t *b = CAEKF_STRUCTURE_BU(m, k);
+        for (i = 0; i < nq; ++i) {
+            const caekf_scalar_t t = b[i] * u[k];
+            r[i] -= t;
+            if (mag != 0) {
+                mag[i] += CAEKF_FABS(t);
+            }
+        }
+    }
+    for (k = 0; k < CAEKF_DIM_NC(m); ++k) {
+        const caekf_scalar_t *w = CAEKF_STRUCTURE_W(m, k);
+        for (i = 0; i < nq; ++i) {
+            const caekf_scalar_t t = w[i] * ct[k].fc;
+            r[i] += t;
+            if (mag != 0) {
+                mag[i] += CAEKF_FABS(t);
+            }
+        }
     }
 }
 
@@ -293,6 +375,10 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
         }
     }
 #endif
+    if (CAEKF_IS_STRUCTURE(m)) {
+        structure_loads(m, u, ct, r, mag);
+        return;
+    }
     for (k = 0; k < nu; ++k) {
         const int b = m->p.input_body[k] - 1;
         r[b] -= u[k];
@@ -422,8 +508,17 @@ void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, cons
 
 /* Adds s b_c to column col of the nq rows at `rows` (leading dimension CAEKF_N): +s on body a's row,
  * -s on body b's (ground ends drop out). */
-static void add_contact_column(caekf_scalar_t *rows, int a, int b, int col, caekf_scalar_t s)
+static void add_contact_column(const caekf_model_t *m, int c, caekf_scalar_t *rows, int col, caekf_scalar_t s)
 {
+    const int a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
+    if (CAEKF_IS_STRUCTURE(m)) { /* s w_c */
+        const caekf_scalar_t *w = CAEKF_STRUCTURE_W(m, c);
+        int i;
+        for (i = 0; i < CAEKF_DIM_NQ(m); ++i) {
+            rows[i * CAEKF_N + col] += s * w[i];
+        }
+        return;
+    }
     if (a >= 0) {
         rows[a * CAEKF_N + col] += s;
     }
@@ -437,19 +532,18 @@ static void add_contact_column(caekf_scalar_t *rows, int a, int b, int col, caek
 static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact_t *ct, caekf_scalar_t s,
                               caekf_scalar_t *rows)
 {
-    const int a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
-    add_contact_column(rows, a, b, 2 * CAEKF_DIM_NQ(m) + c, s * ct->dfc_dgamma);
+    add_contact_column(m, c, rows, 2 * CAEKF_DIM_NQ(m) + c, s * ct->dfc_dgamma);
 #if CAEKF_HAS_LAW_PARAMS
     {
         const unsigned char *law = m->law_state[c];
         if (law[CAEKF_LAW_N] != 0) {
-            add_contact_column(rows, a, b, law[CAEKF_LAW_N], s * ct->dfc_dn);
+            add_contact_column(m, c, rows, law[CAEKF_LAW_N], s * ct->dfc_dn);
         }
         if (law[CAEKF_LAW_LAMBDA] != 0) {
-            add_contact_column(rows, a, b, law[CAEKF_LAW_LAMBDA], s * ct->dfc_dlambda);
+            add_contact_column(m, c, rows, law[CAEKF_LAW_LAMBDA], s * ct->dfc_dlambda);
         }
         if (law[CAEKF_LAW_GAP] != 0) { /* delta = q_a - q_b - gap */
-            add_contact_column(rows, a, b, law[CAEKF_LAW_GAP], -s * ct->dfc_ddelta);
+            add_contact_column(m, c, rows, law[CAEKF_LAW_GAP], -s * ct->dfc_ddelta);
         }
     }
 #endif
@@ -461,9 +555,9 @@ static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact
 static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
                                  caekf_scalar_t J[CAEKF_N][CAEKF_N])
 {
-    const int nq = CAEKF_DIM_NQ(m), a = CAEKF_CONTACT_I(m, c), b = CAEKF_CONTACT_J(m, c);
-    add_contact_block(&J[nq][0], CAEKF_N, a, b, ct->dfc_ddelta);
-    add_contact_block(&J[nq][nq], CAEKF_N, a, b, ct->dfc_drate);
+    const int nq = CAEKF_DIM_NQ(m);
+    add_contact_outer(m, c, &J[nq][0], CAEKF_N, ct->dfc_ddelta);
+    add_contact_outer(m, c, &J[nq][nq], CAEKF_N, ct->dfc_drate);
     add_param_columns(m, c, ct, 1, &J[nq][0]);
 }
 
@@ -548,8 +642,7 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
 #endif
     for (i = 0; i < nc; ++i) {
         if (CONTACT_ON(ct[i])) {
-            add_contact_block(A, nq, CAEKF_CONTACT_I(m, i), CAEKF_CONTACT_J(m, i),
-                              m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
+            add_contact_outer(m, i, A, nq, m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
 #if CAEKF_A0_MAX_OPEN
@@ -822,17 +915,16 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
     }
 #endif
     for (i = 0; i < nc; ++i) {
-        const int a = CAEKF_CONTACT_I(m, i), b = CAEKF_CONTACT_J(m, i);
         if (CONTACT_ON(ct[i])) {
-            add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct[i].dfc_ddelta);
+            add_contact_outer(m, i, &fv[0][0], CAEKF_N, -ct[i].dfc_ddelta);
             if (ct0 != 0) {
-                add_contact_block(&fv[0][nq], CAEKF_N, a, b, -m->hs * ct[i].dfc_ddelta);
+                add_contact_outer(m, i, &fv[0][nq], CAEKF_N, -m->hs * ct[i].dfc_ddelta);
             }
             add_param_columns(m, i, &ct[i], -1, &fv[0][0]);
         }
         if (ct0 != 0 && CONTACT_ON(ct0[i])) {
-            add_contact_block(&fv[0][0], CAEKF_N, a, b, -ct0[i].dfc_ddelta);
-            add_contact_block(&fv[0][nq], CAEKF_N, a, b, -ct0[i].dfc_drate);
+            add_contact_outer(m, i, &fv[0][0], CAEKF_N, -ct0[i].dfc_ddelta);
+            add_contact_outer(m, i, &fv[0][nq], CAEKF_N, -ct0[i].dfc_drate);
             add_param_columns(m, i, &ct0[i], -1, &fv[0][0]);
         }
     }
@@ -923,16 +1015,31 @@ int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, c
         }
         dq = (on ? ct[c].dfc_ddelta : 0) + (on0 ? ct0[c].dfc_ddelta : 0);
         dr = trap ? (on ? ct[c].dfc_drate : 0) - (on0 ? ct0[c].dfc_drate : 0) : 0;
-        CAEKF_UNROLL_SIZED
-        for (j = 0; j < n; ++j) {
-            const caekf_scalar_t dqj = (a >= 0 ? sq[a][j] : 0) - (b >= 0 ? sq[b][j] : 0);
-            const caekf_scalar_t dvj = (a >= 0 ? sv[a][j] : 0) - (b >= 0 ? sv[b][j] : 0);
-            const caekf_scalar_t t = dr * dvj - dq * dqj;
-            if (a >= 0) {
-                w[a][j] += t;
+        if (CAEKF_IS_STRUCTURE(m)) { /* the same along w_c */
+            const caekf_scalar_t *wc = CAEKF_STRUCTURE_W(m, c);
+            for (j = 0; j < n; ++j) {
+                caekf_scalar_t dqj = 0, dvj = 0, t;
+                for (i = 0; i < nq; ++i) {
+                    dqj += wc[i] * sq[i][j];
+                    dvj += wc[i] * sv[i][j];
+                }
+                t = dr * dvj - dq * dqj;
+                for (i = 0; i < nq; ++i) {
+                    w[i][j] += t * wc[i];
+                }
             }
-            if (b >= 0) {
-                w[b][j] -= t;
+        } else {
+            CAEKF_UNROLL_SIZED
+            for (j = 0; j < n; ++j) {
+                const caekf_scalar_t dqj = (a >= 0 ? sq[a][j] : 0) - (b >= 0 ? sq[b][j] : 0);
+                const caekf_scalar_t dvj = (a >= 0 ? sv[a][j] : 0) - (b >= 0 ? sv[b][j] : 0);
+                const caekf_scalar_t t = dr * dvj - dq * dqj;
+                if (a >= 0) {
+                    w[a][j] += t;
+                }
+                if (b >= 0) {
+                    w[b][j] -= t;
+                }
             }
         }
         if (on) {
@@ -1119,19 +1226,26 @@ static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const 
     for (j = 0; mult != 0 && j < CAEKF_DIM_NM(m); ++j) {
         m->mech_value[j] = mult[j] * caekf_model_mech_setting(m, p, j, 0);
     }
-    for (i = 0; i < CAEKF_NQ; ++i) {
-        for (j = 0; j < CAEKF_NQ; ++j) {
-            m->K[i][j] = 0;
-            m->C[i][j] = 0;
+    if (CAEKF_IS_STRUCTURE(m)) { /* K and C are the structure's own (caekf_model_init_structure) */
+        for (i = 0; i < nq; ++i) {
+            m->m_dt[i] = CAEKF_STRUCTURE_MASS(m)[i] / m->hs;
         }
-    }
-    /* Links in order, each adding its 2x2 pattern: a link to ground adds to one diagonal entry. */
-    for (i = 0; i < p->springs; ++i) {
-        add_link(m->K, p->spring_a[i], p->spring_b[i], p->spring_k[i] * mech_factor(m, mult, CAEKF_MECH_STIFFNESS, i));
-        add_link(m->C, p->spring_a[i], p->spring_b[i], p->spring_c[i] * mech_factor(m, mult, CAEKF_MECH_DAMPER, i));
-    }
-    for (i = 0; i < nq; ++i) {
-        m->m_dt[i] = p->m[i] * mech_factor(m, mult, CAEKF_MECH_MASS, i) / m->hs;
+    } else {
+        for (i = 0; i < CAEKF_NQ; ++i) {
+            for (j = 0; j < CAEKF_NQ; ++j) {
+                m->K[i][j] = 0;
+                m->C[i][j] = 0;
+            }
+        }
+        /* Links in order, each adding its 2x2 pattern: a link to ground adds to one diagonal entry. */
+        for (i = 0; i < p->springs; ++i) {
+            add_link(m->K, p->spring_a[i], p->spring_b[i],
+                     p->spring_k[i] * mech_factor(m, mult, CAEKF_MECH_STIFFNESS, i));
+            add_link(m->C, p->spring_a[i], p->spring_b[i], p->spring_c[i] * mech_factor(m, mult, CAEKF_MECH_DAMPER, i));
+        }
+        for (i = 0; i < nq; ++i) {
+            m->m_dt[i] = p->m[i] * mech_factor(m, mult, CAEKF_MECH_MASS, i) / m->hs;
+        }
     }
     if (CAEKF_DIM_NBASE(m) > 0) {
         base_values(m, p, mult);
@@ -1185,12 +1299,48 @@ static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const 
     return 0;
 }
 
-int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
+/* A structure's matrices and vectors into the model (st NULL: bodies on a line). */
+static void load_structure(caekf_model_t *m, const caekf_model_params_t *p, const caekf_structure_t *st)
+{
+#if CAEKF_HAS_STRUCTURES
+    int i, j;
+    m->structure = st != 0;
+    if (st == 0) {
+        return;
+    }
+    for (i = 0; i < st->dofs; ++i) {
+        m->mass[i] = st->mass[i];
+        for (j = 0; j < st->dofs; ++j) {
+            m->K[i][j] = st->stiffness[i * st->dofs + j];
+            m->C[i][j] = st->damping != 0 ? st->damping[i * st->dofs + j] : 0;
+        }
+        for (j = 0; j < p->inputs; ++j) {
+            m->bu[j][i] = st->inputs[i * p->inputs + j];
+        }
+        for (j = 0; j < p->contacts; ++j) {
+            m->w[j][i] = st->contacts[j * st->dofs + i];
+        }
+        for (j = 0; j < p->sensors; ++j) {
+            m->h[j][i] = st->sensors[j * st->dofs + i];
+        }
+    }
+#else
+    (void)m;
+    (void)p;
+    (void)st;
+#endif
+}
+
+static int model_init(caekf_model_t *m, const caekf_model_params_t *p, const caekf_structure_t *st)
 {
     int i, j, nq;
     if (caekf_model_params_check(p) != 0) {
         return -1;
     }
+    if (!CAEKF_HAS_STRUCTURES) {
+        st = 0;
+    }
+    load_structure(m, p, st);
     m->p.dt = p->dt;
 #if !CAEKF_SIZED
     m->p.inputs = p->inputs;
@@ -1218,10 +1368,10 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     }
 #endif
     m->hs = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? p->dt / 2 : p->dt;
-    nq = p->bodies;
+    nq = st != 0 ? st->dofs : p->bodies;
     m->nq = nq;
     m->nc = p->contacts;
-    m->n = 2 * p->bodies + p->contacts;
+    m->n = 2 * nq + p->contacts;
     for (i = 0; i < CAEKF_NP_STORE; ++i) {
         m->param_contact[i] = (unsigned char)(i < p->contacts ? i : 0);
     }
@@ -1252,6 +1402,84 @@ int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p)
     return derive_values(m, p, 0);
 }
 
+int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p) { return model_init(m, p, 0); }
+
+/* Every entry of the rows x cols array a finite (NULL: none to read). */
+static int all_finite(const caekf_scalar_t *a, int rows, int cols)
+{
+    int i;
+    for (i = 0; a != 0 && i < rows * cols; ++i) {
+        if (!CAEKF_ISFINITE(a[i])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* The n x n array a symmetric bit for bit (the Newton matrix and F take its rows as its columns). */
+static int symmetric(const caekf_scalar_t *a, int n)
+{
+    int i, j;
+    for (i = 0; a != 0 && i < n; ++i) {
+        for (j = i + 1; j < n; ++j) {
+            if (a[i * n + j] != a[j * n + i]) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+int caekf_model_structure_check(const caekf_model_params_t *p, const caekf_structure_t *st)
+{
+    int i, n;
+    if (!CAEKF_HAS_STRUCTURES || p == 0 || st == 0 || st->dofs < 1 || st->dofs > CAEKF_NQ || st->mass == 0 ||
+        st->stiffness == 0 || (p->inputs > 0 && st->inputs == 0) || (p->contacts > 0 && st->contacts == 0) ||
+        st->sensors == 0) {
+        return -1;
+    }
+    n = st->dofs;
+    if (!all_finite(st->mass, n, 1) || !all_finite(st->stiffness, n, n) || !all_finite(st->damping, n, n) ||
+        !all_finite(st->inputs, n, p->inputs) || !all_finite(st->contacts, p->contacts, n) ||
+        !all_finite(st->sensors, p->sensors, n) || !symmetric(st->stiffness, n) || !symmetric(st->damping, n)) {
+        return -1;
+    }
+    for (i = 0; i < n; ++i) {
+        if (!(st->mass[i] > 0)) {
+            return -1;
+        }
+    }
+    for (i = 0; i < p->sensors; ++i) { /* rows of q, v or the acceleration */
+        if (p->sensor_kind[i] > CAEKF_SENSOR_ACCELERATION) {
+            return -1;
+        }
+    }
+    for (i = 0; i < p->inputs; ++i) { /* a base displacement moves a link's end: a line's */
+        if (p->input_kind[i] != CAEKF_INPUT_FORCE) {
+            return -1;
+        }
+    }
+    for (i = 0; i < p->bodies; ++i) { /* the mechanism parameters are a line's masses and links */
+        if (p->m_sigma[i] > 0) {
+            return -1;
+        }
+    }
+    for (i = 0; i < p->springs; ++i) {
+        if (p->spring_k_sigma[i] > 0 || p->spring_c_sigma[i] > 0) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
+int caekf_model_init_structure(caekf_model_t *m, const caekf_model_params_t *p, const caekf_structure_t *st)
+{
+    if (caekf_model_structure_check(p, st) != 0) {
+        return -1;
+    }
+    return model_init(m, p, st);
+}
+
 int caekf_model_set_mech(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *mult)
 {
     return derive_values(m, p, mult);
@@ -1262,6 +1490,9 @@ int caekf_model_set_mech(caekf_model_t *m, const caekf_model_params_t *p, const 
  * end) on its body's row, per end that takes it. */
 static caekf_scalar_t input_rhs(const caekf_model_t *m, int i, int k)
 {
+    if (CAEKF_IS_STRUCTURE(m)) {
+        return CAEKF_STRUCTURE_BU(m, k)[i];
+    }
     if (i != m->p.input_body[k] - 1) {
         return 0;
     }

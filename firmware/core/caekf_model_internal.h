@@ -52,6 +52,27 @@ static const signed char caekf_sized_contact_a[] = CAEKF_SIZED_CONTACT_A,
 #define CAEKF_CONTACT_J(m, c) ((m)->contact_j[c])
 #endif
 
+/* A structure given as matrices (w, B_u's columns, the sensors' rows), or bodies on a line: a constant in the
+ * builds without structures, so their code compiles out. */
+#if CAEKF_HAS_STRUCTURES
+#define CAEKF_IS_STRUCTURE(m) ((m)->structure)
+#define CAEKF_STRUCTURE_MASS(m) ((m)->mass)
+#define CAEKF_STRUCTURE_W(m, c) ((m)->w[c])
+#define CAEKF_STRUCTURE_BU(m, k) ((m)->bu[k])
+#define CAEKF_STRUCTURE_H(m, k) ((m)->h[k])
+#else
+extern const caekf_scalar_t caekf_no_structure[CAEKF_NQ]; /* zeros, read by no code a build keeps */
+#define CAEKF_IS_STRUCTURE(m) ((void)(m), 0)
+#define CAEKF_STRUCTURE_MASS(m) ((void)(m), caekf_no_structure)
+#define CAEKF_STRUCTURE_W(m, c) ((void)(m), (void)(c), caekf_no_structure)
+#define CAEKF_STRUCTURE_BU(m, k) ((void)(m), (void)(k), caekf_no_structure)
+#define CAEKF_STRUCTURE_H(m, k) ((void)(m), (void)(k), caekf_no_structure)
+#endif
+
+/* Contact c's w_c^T x over the positions at x (or, with x + nq, the velocities): q_a - q_b - for bodies on a
+ * line, without the gap. */
+caekf_scalar_t caekf_model_contact_dot(const caekf_model_t *m, int c, const caekf_scalar_t *x);
+
 /* nq == 4, decided at compile time in a sized build (only one LU kernel is then linked). */
 #if CAEKF_SIZED
 #define CAEKF_DIM_IS4(nq) ((void)(nq), CAEKF_SIZED_BODIES == 4)

@@ -129,6 +129,66 @@ static caekf_scalar_t acceleration(const caekf_model_t *m, const caekf_model_par
     return a;
 }
 
+/* Sensor k of a structure (its row h of the positions, velocities or accelerations). The acceleration is
+ * M^-1 (B_u u - K q - C v - sum_c w_c f_c): h^T of it reads g = M^-1 h (M diagonal) against each term. */
+static caekf_scalar_t structure_sensor(const caekf_model_t *m, const caekf_model_params_t *p, int k,
+                                       const caekf_scalar_t *x, const caekf_scalar_t *u, caekf_scalar_t *row)
+{
+    const int nq = CAEKF_DIM_NQ(m);
+    const caekf_scalar_t *h = CAEKF_STRUCTURE_H(m, k), *mass = CAEKF_STRUCTURE_MASS(m);
+    caekf_scalar_t value = 0;
+    int i, j, c;
+    if (p->sensor_kind[k] != CAEKF_SENSOR_ACCELERATION) {
+        const int off = p->sensor_kind[k] == CAEKF_SENSOR_VELOCITY ? nq : 0;
+        for (i = 0; i < nq; ++i) {
+            value += h[i] * x[off + i];
+            row[off + i] = h[i];
+        }
+        return value;
+    }
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t g = h[i] / mass[i];
+        if (g == 0) {
+            continue;
+        }
+        for (j = 0; j < CAEKF_DIM_NU(m); ++j) {
+            value += g * CAEKF_STRUCTURE_BU(m, j)[i] * u[j];
+        }
+        for (j = 0; j < nq; ++j) {
+            value -= g * (m->K[i][j] * x[j] + m->C[i][j] * x[nq + j]);
+            row[j] -= g * m->K[i][j];
+            row[nq + j] -= g * m->C[i][j];
+        }
+    }
+    for (c = 0; c < CAEKF_DIM_NC(m); ++c) {
+        const caekf_scalar_t *w = CAEKF_STRUCTURE_W(m, c);
+        caekf_scalar_t gw = 0;
+        caekf_contact_t ct;
+        for (i = 0; i < nq; ++i) {
+            gw += h[i] / mass[i] * w[i];
+        }
+        caekf_model_contact(m, c, x, &ct);
+        value -= gw * ct.fc;
+        for (j = 0; j < nq; ++j) {
+            row[j] -= gw * ct.dfc_ddelta * w[j];
+            row[nq + j] -= gw * ct.dfc_drate * w[j];
+        }
+        row[2 * nq + c] -= gw * ct.dfc_dgamma;
+#if CAEKF_HAS_LAW_PARAMS
+        if (m->law_state[c][CAEKF_LAW_N] != 0) {
+            row[m->law_state[c][CAEKF_LAW_N]] -= gw * ct.dfc_dn;
+        }
+        if (m->law_state[c][CAEKF_LAW_LAMBDA] != 0) {
+            row[m->law_state[c][CAEKF_LAW_LAMBDA]] -= gw * ct.dfc_dlambda;
+        }
+        if (m->law_state[c][CAEKF_LAW_GAP] != 0) { /* delta = w^T q - gap */
+            row[m->law_state[c][CAEKF_LAW_GAP]] += gw * ct.dfc_ddelta;
+        }
+#endif
+    }
+    return value;
+}
+
 void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, int k, const caekf_scalar_t *x,
                         const caekf_scalar_t *u, const caekf_scalar_t *u_prev, caekf_scalar_t *value,
                         caekf_scalar_t row[CAEKF_N])
@@ -142,41 +202,45 @@ void caekf_model_sensor(const caekf_model_t *m, const caekf_model_params_t *p, i
     if (!CAEKF_HAS_SENSOR_ROWS) { /* a build sized for sensors that each read one state: never called */
         return;
     }
-    switch (p->sensor_kind[k]) {
-    case CAEKF_SENSOR_VELOCITY:
-        *value = x[nq + b];
-        row[nq + b] = 1;
-        break;
-    case CAEKF_SENSOR_ACCELERATION: *value = acceleration(m, p, b, x, u, u_prev, row); break;
-    case CAEKF_SENSOR_RELATIVE: {
-        const int r = p->sensor_ref[k] - 1;
-        *value = x[b] - at(x, r);
-        row[b] = 1;
-        add(row, r, -1);
-        break;
-    }
-    case CAEKF_SENSOR_LINK_FORCE: {
-        const int l = p->sensor_link[k] - 1, ea = p->spring_a[l] - 1, eb = p->spring_b[l] - 1;
-        int ks, cs;
-        const caekf_scalar_t kv = mech_now(m, p, CAEKF_MECH_STIFFNESS, l, &ks);
-        const caekf_scalar_t cv = mech_now(m, p, CAEKF_MECH_DAMPER, l, &cs);
-        caekf_scalar_t gq, gv, dq, dv; /* the ground end: a base input's u and du/dt, else 0 */
-        ground_end(m, l, u, u_prev, &gq, &gv);
-        dq = at_or(x, ea, gq) - at_or(x, eb, gq);
-        dv = at_or(x + nq, ea, gv) - at_or(x + nq, eb, gv);
-        *value = kv * dq + cv * dv;
-        add(row, ea, kv);
-        add(row, eb, -kv);
-        add(row, ea < 0 ? -1 : nq + ea, cv);
-        add(row, eb < 0 ? -1 : nq + eb, -cv);
-        add(row, ks, kv * dq);
-        add(row, cs, cv * dv);
-        break;
-    }
-    default: /* CAEKF_SENSOR_POSITION */
-        *value = x[b];
-        row[b] = 1;
-        break;
+    if (CAEKF_IS_STRUCTURE(m)) {
+        *value = structure_sensor(m, p, k, x, u, row);
+    } else {
+        switch (p->sensor_kind[k]) {
+        case CAEKF_SENSOR_VELOCITY:
+            *value = x[nq + b];
+            row[nq + b] = 1;
+            break;
+        case CAEKF_SENSOR_ACCELERATION: *value = acceleration(m, p, b, x, u, u_prev, row); break;
+        case CAEKF_SENSOR_RELATIVE: {
+            const int r = p->sensor_ref[k] - 1;
+            *value = x[b] - at(x, r);
+            row[b] = 1;
+            add(row, r, -1);
+            break;
+        }
+        case CAEKF_SENSOR_LINK_FORCE: {
+            const int l = p->sensor_link[k] - 1, ea = p->spring_a[l] - 1, eb = p->spring_b[l] - 1;
+            int ks, cs;
+            const caekf_scalar_t kv = mech_now(m, p, CAEKF_MECH_STIFFNESS, l, &ks);
+            const caekf_scalar_t cv = mech_now(m, p, CAEKF_MECH_DAMPER, l, &cs);
+            caekf_scalar_t gq, gv, dq, dv; /* the ground end: a base input's u and du/dt, else 0 */
+            ground_end(m, l, u, u_prev, &gq, &gv);
+            dq = at_or(x, ea, gq) - at_or(x, eb, gq);
+            dv = at_or(x + nq, ea, gv) - at_or(x + nq, eb, gv);
+            *value = kv * dq + cv * dv;
+            add(row, ea, kv);
+            add(row, eb, -kv);
+            add(row, ea < 0 ? -1 : nq + ea, cv);
+            add(row, eb < 0 ? -1 : nq + eb, -cv);
+            add(row, ks, kv * dq);
+            add(row, cs, cv * dv);
+            break;
+        }
+        default: /* CAEKF_SENSOR_POSITION */
+            *value = x[b];
+            row[b] = 1;
+            break;
+        }
     }
     if (m->sensor_bias[k] != 0) {
         *value += x[m->sensor_bias[k]];

@@ -207,6 +207,11 @@ const char *caekf_param_key(unsigned param_id);
 
 /* Validates and initialises. On refusal `est` is left unchanged. */
 caekf_status_t caekf_init(caekf_t *est, const caekf_settings_t *s);
+/* caekf_init for a linear structure given as its matrices (docs/structure.md): M, K, C, B_u, the contacts' w and
+ * the sensors' rows come from st (read once; the settings' bodies, links and ends are not read), the rest from
+ * the settings. The structure starts at rest at q = 0. CAEKF_ERR_SETTINGS when the settings or the structure
+ * are refused (caekf_model_structure_check), CAEKF_ERR_NULL for a NULL argument. */
+caekf_status_t caekf_init_structure(caekf_t *est, const caekf_settings_t *s, const caekf_structure_t *st);
 
 /* One estimator step with the inputs u_k (one force per input of the mechanism [N]; may be NULL when it
  * has none) and the measurements y_k (one per sensor [m or m/s]).

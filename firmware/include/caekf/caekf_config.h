@@ -12,6 +12,9 @@
  *                            the schema's capacity, or with CAEKF_SIZED = 1 exactly one scenario's
  *                            mechanism (CMake: -DCAEKF_MECHANISM=path/to/scenario.toml), whose counts
  *                            CAEKF_SIZED_* the settings must then equal.
+ *   CAEKF_MAX_DOFS           degrees of freedom of the positions q (generated): a host build's structure given
+ *                            as matrices (caekf_init_structure, docs/structure.md) has up to this many (the
+ *                            schema's [structure] dofs); a sized build, its bodies.
  *   CAEKF_MAX_LAW_PARAMS     contact-law parameters (n, lambda, gap) the build can estimate besides the
  *                            gammas: 3 per contact, or exactly the sized scenario's (generated too).
  *   CAEKF_MAX_MECH_PARAMS    mechanism parameters (masses, stiffnesses, dampers) the build can estimate
@@ -134,6 +137,10 @@ typedef double caekf_scalar_t;
  * displacement's rate. */
 #define CAEKF_KEEPS_U_PREV (!CAEKF_ONE_STEP_BE || CAEKF_HAS_BASE_INPUTS)
 
+/* A structure given as its matrices (caekf_init_structure): in the builds for any mechanism; a build sized for
+ * one mechanism on a line stores none of it. */
+#define CAEKF_HAS_STRUCTURES (!CAEKF_SIZED)
+
 /* Model dimensions. */
 /* Storage of the augmented state x = [q; v; gamma_1..gamma_nc; law parameters] (a mechanism uses
  * n = 2 bodies + contacts + the n, lambda and gap it estimates). */
@@ -145,12 +152,12 @@ typedef double caekf_scalar_t;
      CAEKF_SIZED_BIASES)
 #endif
 
-#define CAEKF_NQ CAEKF_MAX_BODIES
+#define CAEKF_NQ CAEKF_MAX_DOFS
 /* estimated parameters: the contacts' gammas and law parameters, then the mechanism's (masses, links), then
  * the sensors' offsets */
 #define CAEKF_NP (CAEKF_MAX_CONTACTS + CAEKF_MAX_LAW_PARAMS + CAEKF_MAX_MECH_PARAMS + CAEKF_MAX_BIASES)
 #define CAEKF_MECH_STORE (CAEKF_MAX_MECH_PARAMS > 0 ? CAEKF_MAX_MECH_PARAMS : 1)
-#define CAEKF_N (2 * CAEKF_MAX_BODIES + CAEKF_NP)
+#define CAEKF_N (2 * CAEKF_NQ + CAEKF_NP)
 /* Arrays with one element per estimated parameter: at least one (C has no empty arrays). */
 #define CAEKF_NP_STORE (CAEKF_NP > 0 ? CAEKF_NP : 1)
 #ifndef CAEKF_PSD_WRITTEN_OUT_MAX_N
@@ -160,6 +167,7 @@ typedef double caekf_scalar_t;
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]
 
+CAEKF_STATIC_ASSERT(CAEKF_MAX_DOFS >= CAEKF_MAX_BODIES && CAEKF_N <= 255, dofs_hold_the_bodies_and_states_fit_a_byte);
 CAEKF_STATIC_ASSERT(CAEKF_MAX_BODIES >= 1 && CAEKF_MAX_SPRINGS >= 0 && CAEKF_MAX_INPUTS >= 0 &&
                         CAEKF_MAX_SENSORS >= 1 && CAEKF_MAX_CONTACTS >= 0 && CAEKF_MAX_LAW_PARAMS >= 0 &&
                         CAEKF_MAX_LAW_PARAMS <= 3 * CAEKF_MAX_CONTACTS,

@@ -29,6 +29,21 @@ enum { CAEKF_LAW_N = 0, CAEKF_LAW_LAMBDA = 1, CAEKF_LAW_GAP = 2, CAEKF_LAW_COUNT
  * spring{i}_c_sigma > 0 make them states. */
 enum { CAEKF_MECH_MASS = 0, CAEKF_MECH_STIFFNESS = 1, CAEKF_MECH_DAMPER = 2 };
 
+/* A linear structure given as its matrices (docs/structure.md): eq. 19 with M q'' + C q' + K q + sum_c w_c f_c
+ * = B_u u, contact c's penetration delta_c = w_c^T q - gap_c, sensor i reading h_i^T q, h_i^T q' or h_i^T q''
+ * (its setting sensor{i}_kind: position, velocity or acceleration). The counts of inputs, contacts and sensors
+ * are the settings'; the arrays are the caller's, read once by caekf_init_structure (row-major). A structure
+ * whose M is not diagonal is first taken to its modal basis (exact; sim's caekf_sim.structure does it). */
+typedef struct {
+    int dofs;                        /* degrees of freedom, 1 .. CAEKF_MAX_DOFS */
+    const caekf_scalar_t *mass;      /* M's diagonal, dofs entries > 0 */
+    const caekf_scalar_t *stiffness; /* K, dofs x dofs, symmetric */
+    const caekf_scalar_t *damping;   /* C, dofs x dofs, symmetric; NULL: none */
+    const caekf_scalar_t *inputs;    /* B_u, dofs x inputs (column k: input k's load vector); NULL without inputs */
+    const caekf_scalar_t *contacts;  /* contacts x dofs: row c is w_c */
+    const caekf_scalar_t *sensors;   /* sensors x dofs: row i is h_i */
+} caekf_structure_t;
+
 /* Builds that can estimate law parameters (CAEKF_MAX_LAW_PARAMS > 0) look them up in the state; the
  * others compile the lookups out. */
 #define CAEKF_HAS_LAW_PARAMS (CAEKF_MAX_LAW_PARAMS > 0)
@@ -88,6 +103,15 @@ typedef struct {
     int nbase;
     unsigned char base_link[CAEKF_MAX_INPUTS];
     caekf_scalar_t base_k[CAEKF_MAX_INPUTS], base_c[CAEKF_MAX_INPUTS];
+#endif
+#if CAEKF_HAS_STRUCTURES /* else every mechanism is bodies on a line (read through CAEKF_IS_STRUCTURE) */
+    /* A structure given as matrices (caekf_model_init_structure): its masses, contacts' w, inputs' columns of
+     * B_u and sensors' rows; K and C below are its own. 0: bodies on a line (the settings' links). */
+    int structure;
+    caekf_scalar_t mass[CAEKF_NQ];
+    caekf_scalar_t w[CAEKF_MAX_CONTACTS][CAEKF_NQ];
+    caekf_scalar_t bu[CAEKF_MAX_INPUTS][CAEKF_NQ];
+    caekf_scalar_t h[CAEKF_MAX_SENSORS][CAEKF_NQ];
 #endif
     caekf_scalar_t K[CAEKF_NQ][CAEKF_NQ];
     caekf_scalar_t C[CAEKF_NQ][CAEKF_NQ];
@@ -182,6 +206,14 @@ typedef struct {
 
 /* Derives the matrices. Returns 0, or -1 when the parameters are invalid (model left unchanged). */
 int caekf_model_init(caekf_model_t *m, const caekf_model_params_t *p);
+
+/* caekf_model_init for a structure given as matrices (st; the settings' bodies, links and ends are not read).
+ * Returns 0, or -1 when the parameters or the structure are invalid (caekf_model_structure_check). */
+int caekf_model_init_structure(caekf_model_t *m, const caekf_model_params_t *p, const caekf_structure_t *st);
+
+/* Whether st fits the build and the settings p (sizes, finite values, M > 0, K and C symmetric, sensors that
+ * read a row, forces for inputs, no declared mechanism parameter): 0, or -1. */
+int caekf_model_structure_check(const caekf_model_params_t *p, const caekf_structure_t *st);
 
 /* Estimated mechanism parameter j's setting (its value in p, the settings the model was initialised from)
  * and, with sigma not NULL, its declared relative standard deviation. */

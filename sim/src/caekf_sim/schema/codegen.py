@@ -173,6 +173,7 @@ class Schema:
     presets: Tuple[Preset, ...]
     capacity: Dict[str, int] = field(default_factory=dict)
     flags: Tuple[Flag, ...] = ()  # lowest bit first
+    structure_dofs: int = 0  # [structure] dofs: the degrees of freedom a host build takes from matrices
     statuses: Tuple[Status, ...] = ()
 
     @property
@@ -300,8 +301,12 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
             if not st.check(vals[k]):
                 raise SchemaError(f"preset {pname}: {k} = {v}: {st.rule_text()}")
         presets.append(Preset(name=pname, doc=p["doc"], values=vals))
+    dofs = int(raw.get("structure", {}).get("dofs", capacity["bodies"]))
+    if dofs < capacity["bodies"]:
+        raise SchemaError(f"[structure] dofs = {dofs}: must be >= the bodies' capacity {capacity['bodies']}")
     return Schema(settings=tuple(settings), presets=tuple(presets), capacity=capacity,
-                  flags=_load_flags(raw.get("flag", [])), statuses=_load_statuses(raw.get("status", [])))
+                  flags=_load_flags(raw.get("flag", [])), statuses=_load_statuses(raw.get("status", [])),
+                  structure_dofs=dofs)
 
 
 def _load_statuses(entries: List[Dict[str, Any]]) -> Tuple[Status, ...]:
@@ -531,6 +536,10 @@ def c_capacity(schema: Schema, mechanism: Optional[Path] = None, preset: Optiona
         lines.append(f"#define CAEKF_MAX_{_macro(cap)} {max(n, 1)}")
     # The contact-law parameters estimated besides gamma (states after the gammas): every contact's n,
     # lambda and gap, or exactly the sized scenario's.
+    # Degrees of freedom: a structure given as matrices (caekf_init_structure) in a build for any mechanism;
+    # a sized build stores its bodies only.
+    dofs = schema.structure_dofs if mechanism is None else max(counts["bodies"], 1)
+    lines.append(f"#define CAEKF_MAX_DOFS {dofs}")
     law_cap = law if mechanism is not None else len(LAW_PARAMS) * counts["contacts"]
     lines.append(f"#define CAEKF_MAX_LAW_PARAMS {law_cap}")
     # The mechanism's parameters estimated (states after the law's): every mass, stiffness and damper, or
