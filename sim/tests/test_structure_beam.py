@@ -64,6 +64,10 @@ def test_structure_places_stop_shaker_and_accelerometers(beam: Tuple[BeamSpec, S
     spec, s, info = beam
     nodes = np.array([info.stop_dof, info.shaker_dof, *info.accelerometer_dofs]) // 2 + 1
     np.testing.assert_array_equal(nodes, [36, 20, 24, 40])
+    # positions between nodes snap to the nearest
+    _, odd_info = assemble(BeamSpec(elements=10, stop_at=0.87, shaker_at=0.44, accelerometers_at=(0.66, 0.96)))
+    odd_nodes = np.array([odd_info.stop_dof, odd_info.shaker_dof, *odd_info.accelerometer_dofs]) // 2 + 1
+    np.testing.assert_array_equal(odd_nodes, [9, 4, 7, 10])
     assert s.W[:, 0] @ np.ones(s.dofs) == 1.0 and s.W[info.stop_dof, 0] == 1.0
     assert s.Bu[info.shaker_dof, 0] == 1.0 and s.H[1, info.accelerometer_dofs[1]] == 1.0
     # Rayleigh: modes 1 and 2 get their damping ratios
@@ -236,6 +240,10 @@ def test_contact_solves() -> None:
         fbar = phi / (x - x0) if abs(x - x0) > 1e-9 else gamma * x**1.5
         assert x + c / gamma * fbar == pytest.approx(d, rel=1e-9, abs=1e-20)
         assert secant_force(x, x0, gamma, 1.5) == pytest.approx(fbar, rel=1e-9)
+    # near x0 (the midpoint's stand-in): against the quotient written without cancellation
+    x0, r = 2e-5, 1e-6
+    exact = gamma * x0**1.5 * math.expm1(2.5 * math.log1p(r)) / (2.5 * r)
+    assert secant_force(x0 * (1 + r), x0, gamma, 1.5) == pytest.approx(exact, rel=1e-12)
     G = np.array([[2.0, 0.5], [0.5, 1.0]]) * 1e-3
     gamma = np.array([1e4, 3e4])
     x = penetrations(np.array([1e-2, -2e-3]), G, gamma, 1.5)
