@@ -131,6 +131,10 @@ def test_preload_settles_on_static_contact_balance() -> None:
                                   xtol=1e-20, rtol=1e-15)
     assert truth.delta[-1, 0] == pytest.approx(delta, rel=1e-6)
     assert truth.f[-1, 0] == pytest.approx(spec.gamma * delta**spec.n, rel=1e-6)
+    sampled = simulate(s, spec.gap, spec.gamma, spec.n, np.full(3001, load), 1e-3, 3.0, 2)  # samples, not u(t)
+    np.testing.assert_array_equal(sampled.q, truth.q)
+    with pytest.raises(ValueError, match="3000 samples, need 3001"):
+        simulate(s, spec.gap, spec.gamma, spec.n, np.full(3000, load), 1e-3, 3.0, 2)
 
 
 @pytest.fixture(scope="module")

@@ -99,8 +99,10 @@ def input_samples(force: Force, inputs: int, dt: float, steps: int, substeps: in
     if callable(force):
         u = np.asarray(force(t), dtype=np.float64).reshape(len(t), -1)
     else:
-        samples = np.asarray(force, dtype=np.float64).reshape(steps + 1, -1) if np.size(force) else \
-            np.zeros((steps + 1, 0))
+        samples = np.asarray(force, dtype=np.float64)
+        if len(samples) != steps + 1:
+            raise ValueError(f"force: {len(samples)} samples, need {steps + 1} (t = 0, dt, ..., t_end)")
+        samples = samples.reshape(steps + 1, -1)
         ts = np.arange(steps + 1) * dt
         u = np.column_stack([np.interp(t, ts, col) for col in samples.T]) if samples.shape[1] else \
             np.zeros((len(t), 0))
@@ -221,6 +223,8 @@ def _check_args(s: Structure, n: float, dt: float, substeps: int, gammas: Matrix
 
 @dataclass(frozen=True, eq=False)
 class ContactLaw:
+    """Each contact's gap and gamma, and the exponent n of f = gamma delta_+^n."""
+
     gaps: Matrix
     gammas: Matrix
     n: float
