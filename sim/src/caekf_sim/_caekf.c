@@ -192,10 +192,20 @@ static PyObject *make_report(caekf_status_t st, const caekf_report_t *rep)
 
 /* The sizes of the mechanism an instance runs (caekf_get_sizes, after init): n states
  * x = [q_1..q_nq, v_1..v_nq, gamma_1..gamma_nc], ny sensors, nu inputs. */
+/* A structure given as matrices (Estimator(settings, structure=...), docs/structure.md): the caller's float64
+ * arrays in the build's scalar, kept for reset (caekf_init_structure reads them once). */
+typedef struct {
+    caekf_scalar_t mass[CAEKF_NQ], k[CAEKF_NQ * CAEKF_NQ], c[CAEKF_NQ * CAEKF_NQ];
+    caekf_scalar_t bu[CAEKF_NQ * CAEKF_MAX_INPUTS], w[CAEKF_MAX_CONTACTS * CAEKF_NQ], h[CAEKF_MAX_SENSORS * CAEKF_NQ];
+    caekf_structure_t st;
+} structure_copy_t;
+
 typedef struct {
     PyObject_HEAD
     caekf_t est;
     caekf_settings_t settings;
+    structure_copy_t structure;
+    int has_structure;
     int ready;
     int n, ny, nu, nq, nc;
 } EstObject;
@@ -204,15 +214,72 @@ static void est_sizes(EstObject *self)
 {
     (void)caekf_get_sizes(&self->est, &self->n, &self->ny, &self->nu);
     self->nc = self->est.cfg.model.contacts;
-    self->nq = self->est.cfg.model.bodies; /* n also counts the law's and the mechanism's parameters */
+    self->nq = self->est.model.nq; /* n also counts the law's and the mechanism's parameters */
+}
+
+/* Parses structure = (dofs, mass, K, C, Bu, W, H), float64 arrays of dofs, dofs x dofs (twice), dofs x inputs,
+ * contacts x dofs and sensors x dofs entries (C-contiguous; Bu None without inputs), into self->structure. */
+static int structure_from_tuple(EstObject *self, PyObject *tuple)
+{
+    const caekf_model_params_t *p = &self->settings.model;
+    structure_copy_t *sc = &self->structure;
+    caekf_scalar_t *dst[6];
+    Py_ssize_t count[6];
+    static const char *names[6] = {"mass", "K", "C", "Bu", "W", "H"};
+    long dofs;
+    int i;
+    if (!PyTuple_Check(tuple) || PyTuple_GET_SIZE(tuple) != 7) {
+        PyErr_SetString(PyExc_TypeError, "structure must be (dofs, mass, K, C, Bu, W, H)");
+        return -1;
+    }
+    dofs = PyLong_AsLong(PyTuple_GET_ITEM(tuple, 0));
+    if (dofs == -1 && PyErr_Occurred()) {
+        return -1;
+    }
+    if (dofs < 1 || dofs > CAEKF_NQ) {
+        PyErr_Format(PyExc_ValueError, "structure: %ld degrees of freedom, this build takes 1 .. %d", dofs, CAEKF_NQ);
+        return -1;
+    }
+    dst[0] = sc->mass, dst[1] = sc->k, dst[2] = sc->c, dst[3] = sc->bu, dst[4] = sc->w, dst[5] = sc->h;
+    count[0] = dofs, count[1] = dofs * dofs, count[2] = dofs * dofs, count[3] = dofs * p->inputs;
+    count[4] = p->contacts * dofs, count[5] = p->sensors * dofs;
+    memset(sc, 0, sizeof *sc);
+    for (i = 0; i < 6; ++i) {
+        Py_buffer v;
+        Py_ssize_t k;
+        if (get_buffer(PyTuple_GET_ITEM(tuple, i + 1), &v, names[i], 'd', sizeof(double), count[i], 0,
+                       count[i] == 0) != 0) {
+            return -1;
+        }
+        for (k = 0; k < count[i] && v.buf != NULL; ++k) {
+            dst[i][k] = (caekf_scalar_t)((const double *)v.buf)[k];
+        }
+        PyBuffer_Release(&v);
+    }
+    sc->st.dofs = (int)dofs;
+    sc->st.mass = sc->mass;
+    sc->st.stiffness = sc->k;
+    sc->st.damping = sc->c;
+    sc->st.inputs = sc->bu;
+    sc->st.contacts = sc->w;
+    sc->st.sensors = sc->h;
+    self->has_structure = 1;
+    return 0;
+}
+
+/* caekf_init, or caekf_init_structure for an instance given a structure. */
+static caekf_status_t est_init_c(EstObject *self)
+{
+    return self->has_structure ? caekf_init_structure(&self->est, &self->settings, &self->structure.st)
+                               : caekf_init(&self->est, &self->settings);
 }
 
 static int est_init(EstObject *self, PyObject *args, PyObject *kwds)
 {
-    PyObject *values;
+    PyObject *values, *structure = Py_None;
     caekf_setting_error_t err;
-    static char *kwlist[] = {"settings", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O:Estimator", kwlist, &values)) {
+    static char *kwlist[] = {"settings", "structure", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|O:Estimator", kwlist, &values, &structure)) {
         return -1;
     }
     if (settings_from_values(values, &self->settings) != 0) {
@@ -222,8 +289,15 @@ static int est_init(EstObject *self, PyObject *args, PyObject *kwds)
         (void)settings_error(&err, &self->settings);
         return -1;
     }
-    if (caekf_init(&self->est, &self->settings) != CAEKF_OK) {
-        PyErr_SetString(PyExc_ValueError, "estimator initialisation failed");
+    self->has_structure = 0;
+    if (structure != Py_None && structure_from_tuple(self, structure) != 0) {
+        return -1;
+    }
+    if (est_init_c(self) != CAEKF_OK) {
+        PyErr_SetString(PyExc_ValueError, self->has_structure
+                                              ? "structure refused: a line's sensor kind, input kind or declared "
+                                                "mass or link, K or C not symmetric, or M not positive"
+                                              : "estimator initialisation failed");
         return -1;
     }
     est_sizes(self);
@@ -492,7 +566,7 @@ static PyObject *est_reset(EstObject *self, PyObject *unused)
     if (check_ready(self) != 0) {
         return NULL;
     }
-    if (caekf_init(&self->est, &self->settings) != CAEKF_OK) {
+    if (est_init_c(self) != CAEKF_OK) {
         PyErr_SetString(PyExc_RuntimeError, "caekf_init refused settings it accepted before");
         return NULL;
     }

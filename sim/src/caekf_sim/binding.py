@@ -159,12 +159,13 @@ def _gamma_index(settings: Settings) -> int:
     return 2 * int(settings.bodies)
 
 
-def _law_columns(settings: Settings, x: np.ndarray) -> Dict[str, np.ndarray]:
-    """The law states of x (last axis) by column name: they follow the 2 bodies + contacts states."""
+def _law_columns(settings: Settings, x: np.ndarray, dofs: int = -1) -> Dict[str, np.ndarray]:
+    """The law states of x (last axis) by column name: they follow the 2 bodies (a structure's 2 dofs) +
+    contacts states."""
     from .mechanism import law_column_names, law_layout
 
     nc = int(settings.contacts)
-    first = 2 * int(settings.bodies) + nc
+    first = 2 * (int(settings.bodies) if dofs < 0 else dofs) + nc
     names = law_column_names(law_layout(settings, nc))
     return {name: x[..., first + i] for i, name in enumerate(names)}
 
@@ -224,6 +225,7 @@ class RunResult:
     p_norm: Optional[np.ndarray]  # (steps,) 2-norm of P, when asked for (p_norm=True)
     log_det_s: Optional[np.ndarray]  # (steps,) log det of the innovation covariance, when asked for
     settings: Settings
+    dofs: int = -1  # a structure's degrees of freedom (the positions in x); -1: the settings' bodies
 
     @property
     def precision(self) -> str:
@@ -236,8 +238,8 @@ class RunResult:
 
     @property
     def gamma_index(self) -> int:
-        """Column of contact 1's gamma in x and P_diag (2 bodies)."""
-        return _gamma_index(self.settings)
+        """Column of contact 1's gamma in x and P_diag (2 bodies, or 2 dofs of a structure)."""
+        return _gamma_index(self.settings) if self.dofs < 0 else 2 * self.dofs
 
     @property
     def gamma(self) -> np.ndarray:
@@ -254,7 +256,7 @@ class RunResult:
     def law(self) -> Dict[str, np.ndarray]:
         """The estimated law parameters (docs/contact-law.md) by caekf-replay's column name (n, lambda,
         gap; n2.. for contact 2): (steps,) each, after the gammas in x."""
-        return _law_columns(self.settings, self.x)
+        return _law_columns(self.settings, self.x, self.dofs)
 
     @property
     def mech(self) -> Dict[str, np.ndarray]:
@@ -287,6 +289,14 @@ class RunResult:
         return len(self.t)
 
 
+def _structure_tuple(st: Any) -> Tuple[Any, ...]:
+    """(dofs, mass, K, C, Bu, W, H) for the C Estimator: C-contiguous float64; W and H row per contact and
+    sensor (the core's layout), Bu dofs x inputs."""
+    arr = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    bu = None if st.Bu.size == 0 else arr(st.Bu)
+    return (int(st.M.shape[0]), arr(np.diag(st.M)), arr(st.K), arr(st.C), bu, arr(st.W.T), arr(st.H))
+
+
 def _c_size(name: str, doc: str) -> property:
     """A read-only int property of Estimator: the C object's attribute `name`."""
     return property(lambda self: int(getattr(self._c, name)), doc=doc)
@@ -313,14 +323,24 @@ class Estimator:
     """
 
     def __init__(self, scenario_or_settings: ScenarioOrSettings, precision: Optional[str] = None,
-                 experiment: Optional[str] = None, **overrides: Any) -> None:
+                 experiment: Optional[str] = None, structure: Optional[Any] = None, **overrides: Any) -> None:
         s = _settings(scenario_or_settings, precision, experiment, overrides)
         c = _module(s.precision)
         d = s.to_c()
         bad = c.settings_validate(d)
         if bad is not None:
             raise SettingsError(f"settings refused: {bad[1]}")
-        self._c = c.Estimator(d)
+        if structure is None:
+            structure = getattr(scenario_or_settings, "structure", None)
+        #: q = modal_basis @ eta when the structure was taken to its modal basis (its M not diagonal), else None
+        self.modal_basis: Optional[np.ndarray] = None
+        self._structure = structure
+        if structure is None:
+            self._c = c.Estimator(d)
+        else:
+            if not structure.diagonal_mass():  # the core takes a diagonal M: the modal basis is the same model
+                structure, self.modal_basis = structure.modal()
+            self._c = c.Estimator(d, structure=_structure_tuple(structure))
         self.settings = s
         # The C methods straight on the instance: a call costs what the C function does plus argument parsing.
         self.step = self._c.step  # type: ignore[method-assign]
@@ -346,8 +366,12 @@ class Estimator:
     n = _c_size("n", "States: 2 bodies + contacts.")
     sensors = _c_size("sensors", "Measurements per step (one per sensor).")
     inputs = _c_size("inputs", "Input forces per step.")
-    bodies = _c_size("bodies", "Bodies (positions q and velocities v).")
+    bodies = _c_size("bodies", "Bodies (positions q and velocities v), or a structure's degrees of freedom.")
     contacts = _c_size("contacts", "Contacts (one gamma each).")
+
+    def _dofs(self) -> int:
+        """A structure's degrees of freedom, -1 for bodies on a line (the settings')."""
+        return -1 if self._structure is None else int(self._c.bodies)
 
     @property
     def gamma_index(self) -> int:
@@ -379,7 +403,7 @@ class Estimator:
     @property
     def law(self) -> Dict[str, float]:
         """The estimated law parameters by column name (n, lambda, gap; n2.. for contact 2)."""
-        return {k: float(v) for k, v in _law_columns(self.settings, self.x).items()}
+        return {k: float(v) for k, v in _law_columns(self.settings, self.x, self._dofs()).items()}
 
     @property
     def mech(self) -> Dict[str, float]:
@@ -460,14 +484,15 @@ class Estimator:
         ld = np.empty(n) if log_det_s else None
         self._c._run(u, y, None if has.all() else has, x, pd, flags, iters, nis, delta, status, pn, ld, at_t0)
         return RunResult(t=t, x=x, P_diag=pd, flags=flags, nis=nis, newton_iters=iters, delta=delta,
-                         status=status, has_y=has, p_norm=pn, log_det_s=ld, settings=self.settings)
+                         status=status, has_y=has, p_norm=pn, log_det_s=ld, settings=self.settings,
+                         dofs=-1 if self._structure is None else int(self._c.bodies))
 
     # pickling: settings plus the raw caekf_t (same build only)
     def __getstate__(self) -> Dict[str, Any]:
-        return {"settings": self.settings, "raw": self._c._get_raw()}
+        return {"settings": self.settings, "raw": self._c._get_raw(), "structure": self._structure}
 
     def __setstate__(self, state: Dict[str, Any]) -> None:
-        self.__init__(state["settings"])  # type: ignore[misc]
+        self.__init__(state["settings"], structure=state.get("structure"))  # type: ignore[misc]
         self._c._set_raw(state["raw"])
 
     def __repr__(self) -> str:

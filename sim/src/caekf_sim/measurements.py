@@ -67,6 +67,11 @@ def columns_of(sc: Any) -> Tuple[Tuple[str, ...], Tuple[str, ...]]:
     """(input columns, sensor columns) of a scenario's mechanism: ("u",), ("y1", "y4") for the paper."""
     from .mechanism import Mechanism
 
+    st = getattr(sc, "structure", None)
+    if st is not None:  # a structure's sensors are rows, not bodies: y1, y2, ... by sensor number
+        nu = int(sc.inputs)
+        return (("u",) if nu == 1 else tuple(f"u{i}" for i in range(1, nu + 1)),
+                tuple(f"y{i}" for i in range(1, int(sc.sensors) + 1)))
     mech = Mechanism.from_scenario(sc)
     return mech.input_names(), mech.sensor_names()
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any, Dict, List, Union
+from typing import Any, Dict, List, Optional, Union
 
 from .schema import ALIASES, SCHEMA, canonical, setting_of
 
@@ -159,11 +159,29 @@ def require_truth(sc: Any) -> None:
         sc.require_truth()
 
 
+STRUCTURE_KEY = "structure"  # a structure given as matrices: its folder, relative to the scenario (docs/structure.md)
+
+
+def _attach_structure(sc: Any, folder: str, source: str) -> None:
+    """Load the structure folder a scenario names (relative to the scenario file) onto it as sc.structure."""
+    from .structure.files import load_structure  # the structure's reader: numpy only, loaded when used
+    base = Path(source).parent if source and not source.startswith("<") else Path.cwd()
+    object.__setattr__(sc, STRUCTURE_KEY, load_structure(base / folder))
+
+
 def scenario_from_text(text: str, source: str = "<text>") -> Any:
     """Build a Scenario; unknown keys are an error (typo guard), keys without a default are required (truth-only
-    keys excepted: see scenario_from_values)."""
+    keys excepted: see scenario_from_values). `structure = "folder"` names a structure given as matrices
+    (docs/structure.md), loaded onto the Scenario as its `structure` (the bodies, links and ends then go
+    unread)."""
     values: Dict[str, float] = {}
+    structure: Optional[str] = None
     for key, (lineno, value) in parse_flat(text, source).items():
+        if key == STRUCTURE_KEY:
+            if len(value) < 3 or value[0] != '"' or value[-1] != '"':
+                raise ScenarioError(f"{source}:{lineno}: structure = {value}: expected a quoted folder name")
+            structure = value[1:-1]
+            continue
         if key not in _TYPES and key not in ALIASES:
             raise ScenarioError(f"{source}:{lineno}: unknown key '{key}'")
         setting = setting_of(canonical(key))
@@ -179,7 +197,10 @@ def scenario_from_text(text: str, source: str = "<text>") -> Any:
             raise ScenarioError(f"{source}:{lineno}: {key} = {value}: not a finite number")
         _check(key, v, f"{source}:{lineno}", value)
         values[key] = v
-    return scenario_from_values(values, source)
+    sc = scenario_from_values(values, source)
+    if structure is not None:
+        _attach_structure(sc, structure, source)
+    return sc
 
 
 def load_scenario(path: PathLike) -> Any:

@@ -132,6 +132,9 @@ def simulate(sc: Scenario, return_stats: bool = False, method: str = CONTINUOUS,
     q: Any  # (N, nq) arrays in the continuous branch, plain float lists in the backward-Euler hot loop
     v: Any
     require_truth(sc)  # gamma, the inputs' sines, t_end, noise, seed: a recording's scenario has none
+    if getattr(sc, "structure", None) is not None:
+        raise ValueError(f"{sc.source}: a structure given as matrices has its own truth (caekf_sim.structure: "
+                         "the full model it was reduced from), not a line's")
     mech = mech if mech is not None else Mechanism.from_scenario(sc)
     ufn = input_function(mech, inputs)
     dufn = rate_function(mech, ufn) if mech.has_base_inputs else None
