@@ -149,10 +149,12 @@ static void send_fd(caekf_app_t *app, uint16_t step, caekf_status_t status, cons
     caekf_can_frame_t f;
     unsigned i;
     m.p_norm = full_estimate(app, x, &app_flags);
-    for (i = 0; i <= 2u * WIRE_BODIES; i++) { /* q1..q4, v1..v4, gamma */
-        m.x[i] = wire_value(app, x, i);
+    /* q1..q4, v1..v4, gamma: 0 for what the mechanism lacks (the frame's fields are integers, which carry no
+     * NaN; sending NaN would flag every step of a smaller mechanism SATURATED) */
+    for (i = 0; i <= 2u * WIRE_BODIES; i++) {
+        m.x[i] = wire_state(app, i) >= 0 ? wire_value(app, x, i) : 0.0;
     }
-    m.p_gg = wire_p_gg(app);
+    m.p_gg = wire_state(app, 2u * WIRE_BODIES) >= 0 ? wire_p_gg(app) : 0.0;
     m.step = step;
     m.info = step_info(step, status, report, app_flags);
     if (caekf_proto_encode_fd_out(&m, f.data) == CAEKF_PROTO_SATURATED) {

@@ -618,6 +618,31 @@ static void test_diagnostics_send_the_second_contact(void)
     TEST_ASSERT_TRUE((double)(float)P[g2][g2] == v);
 }
 
+/* EST_FD of a mechanism smaller than the paper's chain: its integer fields carry 0 for the bodies it lacks, so
+ * the step is not flagged SATURATED nor counted (it was on every step, for values that do not exist). */
+static void test_fd_frame_of_a_two_body_mechanism_is_not_saturated(void)
+{
+    caekf_app_settings_t s;
+    caekf_msg_fd_in_t in;
+    caekf_msg_fd_out_t out;
+    caekf_can_frame_t f;
+    start_profile(CAEKF_PROFILE_FD, 20u);
+    two_bodies_no_contact(&s);
+    TEST_ASSERT_EQUAL_INT(CAEKF_APP_OK, caekf_app_configure(&app, &s, NULL));
+    memset(&in, 0, sizeof in);
+    in.step = 1;
+    in.u = 0.1;
+    in.y1 = 1e-7;
+    memset(f.data, 0, sizeof f.data);
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_encode_fd_in(&in, f.data));
+    bench_send(&fake, CAEKF_MSG_BENCH_FD, &f);
+    fixture_poll_all();
+    TEST_ASSERT_EQUAL_INT(CAEKF_PROTO_OK, caekf_proto_decode_fd_out(fake.tx[0].data, &out));
+    TEST_ASSERT_EQUAL_HEX16(0, out.info.flags & CAEKF_STEP_FLAGS_SATURATED);
+    TEST_ASSERT_EQUAL_UINT32(0, counter(CAEKF_CNT_TX_SATURATED));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, out.x[3]); /* q4: the mechanism has two bodies */
+}
+
 #endif /* !CAEKF_SIZED */
 
 int main(void)
@@ -641,6 +666,7 @@ int main(void)
     RUN_TEST(test_a_general_mechanism_takes_each_value_from_its_own_frame);
     RUN_TEST(test_production_pages_of_a_smaller_mechanism_are_nan_where_it_has_no_state);
     RUN_TEST(test_diagnostics_send_the_second_contact);
+    RUN_TEST(test_fd_frame_of_a_two_body_mechanism_is_not_saturated);
 #endif
     return UNITY_END();
 }
