@@ -1,7 +1,10 @@
 """Augmented EKF for contact-parameter estimation, written from the paper (numpy reference).
 
 Augmented state x* = [q_1..q_nq, v_1..v_nq, gamma_1..gamma_nc] (eq. 2, 18) for any mechanism of
-mechanism.py (the paper: [q1..q4, v1..v4, gamma]), random-walk gammas (eq. 3). One step k:
+mechanism.py (the paper: [q1..q4, v1..v4, gamma]), bodies on a line or a structure given as matrices (its
+degrees of freedom for the bodies; docs/structure.md), random-walk gammas (eq. 3). Contact c acts along b_c
+(a line's e_a - e_b, a structure's w_c), sensor i reads the row h_i of [q; v] or of the model's acceleration
+(a line's e_body). One step k:
   prediction   Newton solve of eq. (19) with gamma_{k-1}  -> x_k^-
                F_k = -(dg/dx_k)^-1 dg/dx_{k-1}             (eq. 10, full N x N Jacobians)
                (`discretisation` = "trapezoidal": the trapezoidal step of model.py instead of eq. 19;
@@ -59,9 +62,9 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import flags as fl
-from .mechanism import (ACCELERATION, BASE_DISPLACEMENT, LINK_FORCE, VELOCITY, Mechanism, bias_layout, body_values,
-                        contact_law, contact_values, law_column_names, law_derivatives, law_layout, mech_column_names,
-                        mech_layout, scenario_value, sensor_sigmas)
+from .mechanism import (ACCELERATION, BASE_DISPLACEMENT, LINK_FORCE, VELOCITY, Direction, Mechanism, along,
+                        bias_layout, body_values, contact_law, contact_values, law_column_names, law_derivatives,
+                        law_layout, mech_column_names, mech_layout, scenario_value, sensor_sigmas)
 from .model import BACKWARD_EULER, DISCRETISATIONS, TRAPEZOIDAL, StepSolver, as_inputs
 from .scenario import Scenario
 
@@ -206,7 +209,7 @@ class AugmentedEKF:
         self.solver = StepSolver(p, sc.dt, max_iter=cfg.newton_max_iter, scheme=cfg.discretisation)
         # contact_slr_p: which contacts are statistically linearised (tangents and switch: an elastic law of
         # gamma alone), and their penetration std of the current step (0: none, or not linearised)
-        self.slr_law = [lam == 0.0 and not self.law_state[c] for c, (_, _, _, _, lam) in enumerate(p.contacts)]
+        self.slr_law = [lam == 0.0 and not self.law_state[c] for c, (_, _, _, lam) in enumerate(p.contact_laws)]
         self.slr_s: List[float] = [0.0] * nc
         # the last prediction: substepped, and a contact on at x_{k-1} (read when substeps or trapezoidal)
         self._substepped = False
@@ -219,19 +222,19 @@ class AugmentedEKF:
         self.dt = sc.dt
         self.H = measurement_matrix(p, len(self.law) + nm + nb)
         self.Hx = self.H[:, : self.nx]
-        # Sensors other than one state each (acceleration, relative, link force, an offset): rows of H from
-        # the state every step (`sensor_rows`), else the constant selection H.
-        self.rows = nb > 0 or bool(np.any(p.sensor_kind > VELOCITY))
+        # Sensors other than one state each (acceleration, relative, link force, an offset; any of a structure's,
+        # as the C core's): rows of H from the state every step (`sensor_rows`), else the constant selection H.
+        self.rows = nb > 0 or bool(np.any(p.sensor_kind > VELOCITY)) or p.is_structure
         self.sensor_sigma = sensor_sigmas(sc, p)
         r = self.sensor_sigma**2
         # a measured input's noise on the force it gives: 1 for a force; a base displacement's white noise e_k
         # through k u_k + c (u_k - u_{k-1}) / dt: the std of (k + c/dt) e_k - c/dt e_{k-1}
         c_dt = p.B_du.sum(axis=0) / sc.dt
         gain = np.where(p.input_kind == BASE_DISPLACEMENT, np.sqrt((p.B_u.sum(axis=0) + c_dt) ** 2 + c_dt**2), 1.0)
-        for i, (b, k) in enumerate(zip(p.sensor_body.tolist(), p.sensor_kind.tolist())):
-            if k == ACCELERATION:  # a measured force's noise, read through 1 / m
-                r[i] += sum((gain[j] * self.input_sigma[j] / p.m[b]) ** 2
-                            for j, ib in enumerate(p.input_body.tolist()) if ib == b)
+        for i, k in enumerate(p.sensor_kind.tolist()):
+            if k == ACCELERATION:  # a measured force's noise e read through h^T M^-1 b: h_j (e b_j / m_j) summed
+                r[i] += sum(along(p.accel_dirs[i], gain[j] * self.input_sigma[j] * p.B_load[:, j] / p.m) ** 2
+                            for j in range(p.n_inputs))
         self.R = np.diag(r)
         self._h: Optional[np.ndarray] = None  # the step's h(x-) and H (sensor_rows), None: the selection
         self._Hk: np.ndarray = self.H
@@ -252,7 +255,9 @@ class AugmentedEKF:
         self.Qx = self.Q[: self.nx, : self.nx]
         self.Qx_settings = np.diag(self.Qx).copy()
         self.nis_mean, self.q_scale = 1.0, 1.0  # the model-mismatch monitor
-        self.x = np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq),
+        # a structure starts at rest at q = 0 (q0_i and v0_i are a line's bodies'), as in the C core
+        x0 = np.zeros(2 * nq) if p.is_structure else np.r_[body_values(sc, "q0_", nq), body_values(sc, "v0_", nq)]
+        self.x = np.r_[x0,
                        np.log(g0) if cfg.gamma_log else g0, law_value("{p}0"), np.zeros(nm + nb)]
         self.P = np.diag(np.r_[[sc.sigma_q0**2] * nq, [sc.sigma_v0**2] * nq,
                                (contact_values(sc, "sigma_gamma0", nc) / rel) ** 2, law_value("sigma_{p}0") ** 2,
@@ -439,16 +444,16 @@ class AugmentedEKF:
         """Eq. (10): F = -(dg/dx_k)^-1 dg/dx_{k-1}."""
         return -np.linalg.solve(Jk, Jprev)
 
-    def laws(self, params: np.ndarray) -> Tuple[Tuple[int, int, float, float, float], ...]:
-        """(a, b, gap, n, lambda) of every contact at the parameter states `params` = x[2 nq:]: the
+    def laws(self, params: np.ndarray) -> Tuple[Tuple[Direction, float, float, float], ...]:
+        """(b_c, gap, n, lambda) of every contact at the parameter states `params` = x[2 nq:]: the
         estimated ones from the state, the others the mechanism's."""
         if not self.law:
-            return self.solver.contacts
+            return self.solver.laws
         out = []
-        for c, (a, b, gap, n, lam) in enumerate(self.plant.contacts):
+        for c, (d, gap, n, lam) in enumerate(self.plant.contact_laws):
             st = self.law_state[c]
             pick = lambda name, v: float(params[st[name] - self.nx]) if name in st else v  # noqa: E731
-            out.append((a, b, pick("gap", gap), pick("n", n), pick("lambda", lam)))
+            out.append((d, pick("gap", gap), pick("n", n), pick("lambda", lam)))
         return tuple(out)
 
     def gammas_of(self, params: np.ndarray) -> np.ndarray:
@@ -479,7 +484,7 @@ class AugmentedEKF:
         if not self.law:
             return solver
         view = copy.copy(solver)
-        view.contacts = self.laws(params)
+        view.laws = self.laws(params)
         return view
 
     def _add_contacts(self, J: Optional[np.ndarray], J0: np.ndarray, weight: float, q: np.ndarray,
@@ -490,10 +495,10 @@ class AugmentedEKF:
         None when no contact contributes and J was None."""
         nq = self.nq
         gam = self.gammas_of(params)
-        for c, (a, b, gap, n, lam) in enumerate(self.laws(params)):
+        for c, (b_c, gap, n, lam) in enumerate(self.laws(params)):
             g = float(gam[c])
-            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
-            dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+            delta = along(b_c, q) - gap
+            dd = 0.0 if v is None else along(b_c, v)
             slr = self.solver.slr_tangents(c, delta, g, n)
             if slr is not None:  # statistically linearised: expected tangents, no law parameter states
                 kc, kd, dfc_dg, dfc_dn, dfc_dl = slr[0], 0.0, slr[1], 0.0, 0.0
@@ -599,9 +604,11 @@ class AugmentedEKF:
         """contact_slr_p: the penetration std sqrt(b^T P_qq b) from P_{k-1} of each contact it linearises
         (0 for the others), into self.slr_s (the switch) and the step solvers (the tangents)."""
         P = self.P
-        for c, (a, b, _, _, _) in enumerate(self.plant.contacts):
-            var = (P[a, a] if a >= 0 else 0.0) + (P[b, b] if b >= 0 else 0.0) - (2.0 * P[a, b] if a >= 0 and b >= 0
-                                                                                   else 0.0)
+        for c, (idx, w) in enumerate(self.plant.contact_dirs):
+            # sum_i w_i^2 P_ii + 2 sum_{i<j} w_i w_j P_ij over b's nonzero entries in their order (a line's
+            # P_aa + P_bb - 2 P_ab)
+            var = along((idx, tuple(wi * wi for wi in w)), np.diagonal(P))
+            var += 2.0 * sum(w[i] * w[j] * P[idx[i], idx[j]] for i in range(len(idx)) for j in range(i + 1, len(idx)))
             self.slr_s[c] = math.sqrt(var) if var > 0.0 and self.slr_law[c] else 0.0
         slr = tuple(self.slr_s)
         self.solver.slr = slr
@@ -618,9 +625,9 @@ class AugmentedEKF:
         hs = self.solver.hs
         out = Pm.copy()
         q, v = xp[:nq], xp[nq:nx]
-        for c, (a, b, gap, n, lam) in enumerate(self.laws(params)):
-            d = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
-            r = (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+        for c, ((dofs, wc), gap, n, lam) in enumerate(self.laws(params)):
+            d = along((dofs, wc), q) - gap
+            r = along((dofs, wc), v)
             f = law_derivatives(d, r, float(gam[c]), n, lam)[0]
             if not (d > 0.0 and f > 0.0):
                 continue
@@ -640,21 +647,20 @@ class AugmentedEKF:
             H = np.array([[second.get((p1, p2), second.get((p2, p1), 0.0)) for p2 in names] for p1 in names])
             HP = H @ Pm[np.ix_(idx, idx)]
             var = 0.5 * float(np.trace(HP @ HP))
-            w = np.zeros(nq)
-            if a >= 0:
-                w[a] = -hs / self.plant.m[a]
-            if b >= 0:
-                w[b] = hs / self.plant.m[b]
+            w = np.zeros(nq)  # dv = -hs M^-1 b df
+            for i, wi in zip(dofs, wc):
+                w[i] = -hs * wi / self.plant.m[i]
             out[nq:nx, nq:nx] += var * np.outer(w, w)
         return out
 
     # ---- correction -------------------------------------------------------------------
     def sensor_rows(self, x: np.ndarray, u: Any, u_prev: Any = None) -> Tuple[np.ndarray, np.ndarray]:
         """(h(x), H = dh/dx) of every sensor at the augmented state x with the inputs u (docs/sensors.md): the
-        mechanism's linear rows (position, velocity, relative, link force at the current values), the
-        acceleration's M^-1 (B_u u + B_du du - K q - C v + signed contact forces) with its derivatives, a
-        mechanism parameter's column per ln(value), an offset's 1. u_prev: the inputs a step before (a base
-        displacement's rate du = (u - u_prev) / dt; None: u, at rest), whose ground end a link force reads."""
+        mechanism's linear rows (position, velocity, relative, link force at the current values; a structure's
+        h_i of q or v), the acceleration's h^T M^-1 (B_u u + B_du du - K q - C v - sum_c b_c f_c) with its
+        derivatives, a mechanism parameter's column per ln(value), an offset's 1. u_prev: the inputs a step
+        before (a base displacement's rate du = (u - u_prev) / dt; None: u, at rest), whose ground end a link
+        force reads."""
         p, nq, nx = self.plant, self.nq, self.nx
         q, v = x[:nq], x[nq:nx]
         H = np.zeros((p.n_sensors, self.n))
@@ -670,8 +676,8 @@ class AugmentedEKF:
         def diff(z: np.ndarray, a: int, b: int, g: float) -> float:
             return (z[a] if a >= 0 else g) - (z[b] if b >= 0 else g)
 
-        for i, (b, k, link) in enumerate(zip(p.sensor_body.tolist(), p.sensor_kind.tolist(),
-                                             p.sensor_link.tolist())):
+        contacts: Optional[List[Tuple[float, float, float, float, float, float]]] = None
+        for i, (k, link) in enumerate(zip(p.sensor_kind.tolist(), p.sensor_link.tolist())):
             if k == LINK_FORCE:
                 ea, eb = int(p.spring_a[link]), int(p.spring_b[link])
                 if p.has_base_inputs:  # the ground end at u: k (q_a - q_b) + c (v_a - v_b) with it
@@ -680,20 +686,51 @@ class AugmentedEKF:
                     if (kind, link) in mech_state:
                         H[i, mech_state[(kind, link)]] = value * diff(z, ea, eb, g)
             elif k == ACCELERATION:
-                h[i], H[i] = self._acceleration_row(x, b, uu, mech_state, du, (gq, gv))
+                if contacts is None:  # once for every accelerometer
+                    contacts = self._contact_terms(x)
+                h[i], H[i] = self._acceleration_row(x, p.accel_dirs[i], uu, mech_state, du, (gq, gv), contacts)
         for (i, _), j in zip(self.biases, self.ib):
             h[i] += x[j]
             H[i, j] = 1.0
         return h, H
 
-    def _acceleration_row(self, x: np.ndarray, b: int, u: np.ndarray, mech_state: Dict[Tuple[str, int], int],
-                          du: np.ndarray, ends: Tuple[np.ndarray, np.ndarray]) -> Tuple[float, np.ndarray]:
-        """Body b's acceleration at x and its row of H (sensor_rows); du, ends: the inputs' rates and the links'
-        ground ends (a base displacement's)."""
+    def _contact_terms(self, x: np.ndarray) -> List[Tuple[float, float, float, float, float, float]]:
+        """(delta, rate, f, df/ddelta, df/drate, df/dgamma) of every contact at x, the tangents the step's
+        (statistically linearised where the step's are)."""
+        q, v = x[: self.nq], x[self.nq : self.nx]
+        out = []
+        for c, ((d, gap, ne, lam), g) in enumerate(zip(self.laws(x[self.nx :]), self.gammas_of(x[self.nx :]).tolist())):
+            delta, rate = float(along(d, q) - gap), float(along(d, v))
+            fc, fd, fdd, fg = contact_law(delta, rate, g, ne, lam)
+            slr = self.solver.slr_tangents(c, delta, g, ne)  # the step's statistically linearised tangents
+            if slr is not None:
+                fd, fdd, fg = slr[0], 0.0, slr[1]
+            out.append((delta, rate, fc, fd, fdd, fg))
+        return out
+
+    def _acceleration_row(self, x: np.ndarray, d: Direction, u: np.ndarray, mech_state: Dict[Tuple[str, int], int],
+                          du: np.ndarray, ends: Tuple[np.ndarray, np.ndarray], contacts: Sequence[Tuple[float, ...]]
+                          ) -> Tuple[float, np.ndarray]:
+        """The acceleration h^T q'' along the sensor's row h (direction d: a line's e_body) at x and its row of H
+        (sensor_rows): each degree of freedom's force over its own mass (a line's body: the momentum balance
+        over m_b), summed with h's weights. du, ends: the inputs' rates and the links' ground ends (a base
+        displacement's); contacts: _contact_terms at x."""
+        value, row = 0.0, np.zeros(self.n)
+        for b, hb in zip(*d):
+            a, rb = self._dof_acceleration(x, b, u, mech_state, du, ends, contacts)
+            value += hb * a
+            row += hb * rb
+        return value, row
+
+    def _dof_acceleration(self, x: np.ndarray, b: int, u: np.ndarray, mech_state: Dict[Tuple[str, int], int],
+                          du: np.ndarray, ends: Tuple[np.ndarray, np.ndarray], contacts: Sequence[Tuple[float, ...]]
+                          ) -> Tuple[float, np.ndarray]:
+        """Degree of freedom b's acceleration (B_u u + B_du du - K q - C v - sum_c b_c f_c)_b / m_b at x and its
+        derivatives (_acceleration_row)."""
         p, nq, nx = self.plant, self.nq, self.nx
         q, v = x[:nq], x[nq:nx]
         row = np.zeros(self.n)
-        inputs = float(p.B_u[b] @ u + p.B_du[b] @ du) if p.has_base_inputs else float(u[p.input_body == b].sum())
+        inputs = float(p.B_u[b] @ u + p.B_du[b] @ du) if p.has_base_inputs else float(p.B_u[b] @ u)
         force = inputs - float(p.K[b] @ q) - float(p.C[b] @ v)
         row[:nq] -= p.K[b]
         row[nq:nx] -= p.C[b]
@@ -706,21 +743,15 @@ class AugmentedEKF:
                     dz = (z[ea] if ea >= 0 else g) - (z[eb] if eb >= 0 else g)
                     row[mech_state[(kind, link)]] -= side * value * dz
         gammas = self.gammas_of(x[nx:]).tolist()
-        for c, ((ca, cb, gap, ne, lam), g) in enumerate(zip(self.laws(x[nx:]), gammas)):
-            side = (-1.0 if ca == b else 0.0) + (1.0 if cb == b else 0.0)
+        for c, (((cidx, cw), _, _, lam), g, (d, dd, fc, fd, fdd, fg)) in enumerate(
+                zip(self.laws(x[nx:]), gammas, contacts)):
+            side = -float(p.B_c[c, b])  # -f b_c: a line's -f on body a, +f on b
             if side == 0.0:
                 continue
-            d = (q[ca] if ca >= 0 else 0.0) - (q[cb] if cb >= 0 else 0.0) - gap
-            dd = (v[ca] if ca >= 0 else 0.0) - (v[cb] if cb >= 0 else 0.0)
-            fc, fd, fdd, fg = contact_law(d, dd, g, ne, lam)
             force += side * fc
-            slr = self.solver.slr_tangents(c, d, g, ne)  # the step's statistically linearised tangents
-            if slr is not None:
-                fd, fdd, fg = slr[0], 0.0, slr[1]
-            for e, sign in ((ca, 1.0), (cb, -1.0)):
-                if e >= 0:
-                    row[e] += side * sign * fd
-                    row[nq + e] += side * sign * fdd
+            for e, sign in zip(cidx, cw):
+                row[e] += side * sign * fd
+                row[nq + e] += side * sign * fdd
             row[self.ig[c]] += side * (g * fg if self.cfg.gamma_log else fg)
             st = self.law_state[c]
             if "n" in st and fc != 0.0:
@@ -735,7 +766,6 @@ class AugmentedEKF:
         if ("m", b) in mech_state:
             row[mech_state[("m", b)]] -= a
         return a, row
-
 
     def _index(self, live: Sequence[int]) -> Index:
         """The live block: the physical states plus the live contacts' parameter states (a slice when
@@ -1031,7 +1061,9 @@ def run_estimator(
     progress: bool = False,
     mech: Optional[Mechanism] = None,
 ) -> EstimateResult:
-    """Run the filter over measurements y (N, ns) with inputs u (N,) or (N, ni) sampled at t_k = k dt."""
+    """Run the filter over measurements y (N, ns) with inputs u (N,) or (N, ni) sampled at t_k = k dt. The time
+    convention of the C engine (binding.Estimator.run, docs/discretisation.md): q0, v0 are the state at t = 0, so
+    a first row at t = 0 (within dt/2) is corrected without a time update (`correct`)."""
     ekf = AugmentedEKF(sc, cfg, mech)
     n = len(t)
     xs = np.empty((n, ekf.n))
@@ -1047,10 +1079,11 @@ def run_estimator(
         except ImportError:  # tqdm is optional
             pass
     u_list = np.asarray(u, dtype=float).tolist()
+    at_t0 = n > 0 and abs(float(t[0])) <= 0.5 * sc.dt
     t0 = time.perf_counter()
     with np.errstate(all="ignore"):  # a diverging filter is an outcome we record, not a crash
         for k in rng:
-            fls[k], its[k] = ekf.step(u_list[k], y[k])
+            fls[k], its[k] = ekf.step(u_list[k], y[k], predict=not (at_t0 and k == 0))
             xs[k], Ps[k] = ekf.physical()
     wall = time.perf_counter() - t0
     return EstimateResult(

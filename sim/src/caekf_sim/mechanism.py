@@ -14,18 +14,27 @@ acting -f on body a and +f on body b. With body numbers 1-based in the file, eve
 `Mechanism.from_scenario(sc)` reads the canonical keys (`spring2_k`, `contact1_gap`, ...) or, for a
 scenario that predates them, their paper aliases (`k12`, `gap`, ...); absent keys take the defaults
 of the settings schema, which are the paper's chain. `sc` may be a `Scenario` or a plain {key: value} dict.
+
+Or a linear structure given as matrices (docs/structure.md; `Mechanism.from_structure`, or from_scenario for a
+scenario naming one): M q'' + C q' + K q + sum_c w_c f_c = B_u u, delta_c = w_c^T q - gap_c, sensor i reading
+h_i^T of q, q' or q''. A line is the special case w_c = e_a - e_b, B_u's columns e_body, h_i = e_body, and the
+model's code (model.py, estimator.py) reads only these vectors (Mechanism's B_c, B_load, H, H_acc and their
+nonzero entries), never the ends.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from .schema import ALIASES as SCHEMA_ALIASES
 from .schema import SCHEMA, setting_of
+
+if TYPE_CHECKING:
+    from .structure.files import Structure
 
 # Capacities of the format (the schema's [capacity] table).
 MAX_BODIES = SCHEMA.capacity["bodies"]
@@ -33,6 +42,7 @@ MAX_SPRINGS = SCHEMA.capacity["springs"]
 MAX_INPUTS = SCHEMA.capacity["inputs"]
 MAX_SENSORS = SCHEMA.capacity["sensors"]
 MAX_CONTACTS = SCHEMA.capacity["contacts"]
+MAX_DOFS = SCHEMA.structure_dofs  # a structure's degrees of freedom (the schema's [structure] dofs)
 
 # What a sensor reads (docs/sensors.md; the schema's sensor_kind, in its order).
 SENSOR_KINDS: Tuple[str, ...] = tuple(SCHEMA.by_name("sensor_kind").values)
@@ -313,11 +323,42 @@ def contact_forces(delta: np.ndarray, ddelta: np.ndarray, gamma: "np.ndarray | f
     return np.where((np.asarray(delta) > 0.0) & (fac > 0.0), gamma * d**n * fac, 0.0)
 
 
+Direction = Tuple[Tuple[int, ...], Tuple[float, ...]]
+
+
+def _direction(vec: np.ndarray) -> Direction:
+    """The nonzero entries of a vector over the degrees of freedom, ascending: (indices, values)."""
+    idx = np.flatnonzero(vec)
+    return tuple(idx.tolist()), tuple(vec[idx].tolist())
+
+
+def _ends(a: int, b: int) -> Direction:
+    """e_a - e_b as a direction, end a first (ground, -1, omitted): a line's contact or a relative reading."""
+    out = [(a, 1.0)] if a >= 0 else []
+    if b >= 0:
+        out.append((b, -1.0))
+    return tuple(i for i, _ in out), tuple(w for _, w in out)
+
+
+def along(d: Direction, x: Any) -> Any:
+    """sum_k w_k x[i_k] over a direction (i, w), in its order from 0: a line's e_a - e_b gives x_a - x_b exactly
+    (the ends' formula), a structure's w_c the terms of the C core's structure_dot in its order."""
+    s = 0.0
+    for i, w in zip(*d):
+        s += w * x[i]
+    return s
+
+
 @dataclass(frozen=True, eq=False)
 class Mechanism:
-    """Bodies, springs/dampers, inputs, sensors and contacts; arrays are 0-based, -1 = ground."""
+    """Bodies, springs/dampers, inputs, sensors and contacts; arrays are 0-based, -1 = ground.
 
-    m: np.ndarray  # (nq,) masses [kg]
+    Or a structure given as matrices (`from_structure`, docs/structure.md): `structure` then holds its
+    M (diagonal), K, C, B_u, W and H, and the line's ends are -1 (no springs). Either way the model's code reads
+    the vectors derived here, never the ends: K, C, B_u, B_load, B_c (rows w_c: a line's e_a - e_b), H and
+    H_acc (the sensors' rows), and their nonzero entries (contact_dirs, input_dirs, accel_dirs)."""
+
+    m: np.ndarray  # (nq,) masses [kg]; a structure's diag(M)
     spring_a: np.ndarray  # (n_springs,) int
     spring_b: np.ndarray
     spring_k: np.ndarray  # [N/m]
@@ -340,14 +381,28 @@ class Mechanism:
     # input_body holds (K and C hold the -k q_b, -c v_b parts; B_u and B_du the rest).
     input_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     input_link: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    # A structure given as matrices with a diagonal M (from_structure), whose K, C, B_u, W and H replace the line's
+    # (its bodies, links and ends: none); None for bodies on a line.
+    structure: Optional["Structure"] = None
+    # q_given = modal_basis @ q when from_structure took a structure to its modal basis (a non-diagonal M), else None
+    modal_basis: Optional[np.ndarray] = None
     # derived
     K: np.ndarray = field(init=False)
     C: np.ndarray = field(init=False)
     # (nq, ni): input i's force per unit of u_i on column i: e_body for a force, k e_body for a base displacement
     B_u: np.ndarray = field(init=False)
     B_du: np.ndarray = field(init=False)  # (nq, ni): per unit of du_i/dt: 0, or c e_body for a base displacement
-    B_c: np.ndarray = field(init=False)  # (nc, nq): row c = e_a - e_b (ground omitted); delta = B_c q - gap
-    H: np.ndarray = field(init=False)  # (ns, 2 nq): y = H [q; v]
+    # (nq, ni): where the force the step takes from input i acts (model.StepSolver.forces_at turns a base
+    # displacement into its force): e_body on a line, a structure's B_u column
+    B_load: np.ndarray = field(init=False)
+    B_c: np.ndarray = field(init=False)  # (nc, nq): row c = w_c (a line's e_a - e_b); delta = B_c q - gap
+    H: np.ndarray = field(init=False)  # (ns, 2 nq): y = H [q; v] (an acceleration's row: H_acc)
+    H_acc: np.ndarray = field(init=False)  # (ns, nq): an acceleration sensor's row h (y = h^T q''), else 0
+    # the nonzero entries of B_c's rows, B_load's columns and H_acc's rows: (indices, values) each; a line's
+    # contact is (a, b) with (1, -1) in that order, ground omitted
+    contact_dirs: Tuple[Direction, ...] = field(init=False)
+    input_dirs: Tuple[Direction, ...] = field(init=False)
+    accel_dirs: Tuple[Direction, ...] = field(init=False)
     # sizes: bodies, inputs, sensors, contacts
     nq: int = field(init=False)
     n_inputs: int = field(init=False)
@@ -360,14 +415,56 @@ class Mechanism:
         for name, n in (("nq", nq), ("n_inputs", len(self.input_body)), ("n_sensors", len(self.sensor_body)),
                         ("n_contacts", len(self.contact_a))):
             set_(self, name, n)
-        set_(self, "K", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_k))
-        set_(self, "C", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_c))
-        ni = len(self.input_body)
+        ni, ns = self.n_inputs, self.n_sensors
         if len(self.input_kind) != ni:  # a mechanism built without them: every input a force
             set_(self, "input_kind", np.full(ni, FORCE, dtype=np.int64))
             set_(self, "input_link", np.full(ni, -1, dtype=np.int64))
+        if len(self.sensor_ref) != ns:  # a mechanism built without them: none relative, link 1
+            set_(self, "sensor_ref", np.full(ns, -1, dtype=np.int64))
+        if len(self.sensor_link) != ns:
+            set_(self, "sensor_link", np.zeros(ns, dtype=np.int64))
+        if self.structure is not None:
+            self._derive_structure(self.structure)
+        else:
+            self._derive_line()
+        set_(self, "contact_dirs", tuple(_direction(w) if self.structure is not None else
+                                         _ends(int(a), int(b)) for w, a, b in
+                                         zip(self.B_c, self.contact_a.tolist(), self.contact_b.tolist())))
+        set_(self, "input_dirs", tuple(_direction(self.B_load[:, i]) for i in range(ni)))
+        set_(self, "accel_dirs", tuple(_direction(h) for h in self.H_acc))
+
+    def _derive_structure(self, st: "Structure") -> None:
+        """K, C, B_u, B_c and the sensors' rows from a structure's matrices (its M diagonal, as m)."""
+        set_ = object.__setattr__
+        nq, ni = self.nq, self.n_inputs
+        if st.M.shape != (nq, nq) or not st.diagonal_mass() or np.any(np.diag(st.M) != self.m):
+            raise ValueError("Mechanism: m must be the structure's diagonal M (use Mechanism.from_structure)")
+        set_(self, "K", np.array(st.K, dtype=float))
+        set_(self, "C", np.array(st.C, dtype=float))
+        set_(self, "B_u", np.array(st.Bu, dtype=float).reshape(nq, ni))
+        set_(self, "B_du", np.zeros((nq, ni)))
+        set_(self, "B_load", self.B_u)
+        set_(self, "B_c", np.array(st.W, dtype=float).T.reshape(self.n_contacts, nq))
+        kinds = self.sensor_kind.tolist()
+        H = np.zeros((self.n_sensors, 2 * nq))
+        H_acc = np.zeros((self.n_sensors, nq))
+        for i, (h, k) in enumerate(zip(np.asarray(st.H, dtype=float), kinds)):
+            if k == ACCELERATION:
+                H_acc[i] = h
+            else:
+                H[i, nq * (k == VELOCITY) : nq * (1 + (k == VELOCITY))] = h
+        set_(self, "H", H)
+        set_(self, "H_acc", H_acc)
+
+    def _derive_line(self) -> None:
+        """K, C, B_u, B_c and the sensors' rows from the bodies, links and ends."""
+        set_ = object.__setattr__
+        nq, ni, ns = self.nq, self.n_inputs, self.n_sensors
+        set_(self, "K", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_k))
+        set_(self, "C", _pair_matrix(nq, self.spring_a, self.spring_b, self.spring_c))
         B_u = np.zeros((nq, ni))
         B_u[self.input_body, np.arange(ni)] = 1.0
+        set_(self, "B_load", B_u.copy())
         B_du = np.zeros((nq, ni))
         for i in np.flatnonzero(self.input_kind == BASE_DISPLACEMENT).tolist():
             link = int(self.input_link[i])
@@ -382,16 +479,14 @@ class Mechanism:
             if ib >= 0:
                 B_c[c, ib] -= 1.0
         set_(self, "B_c", B_c)
-        ns = len(self.sensor_body)
-        if len(self.sensor_ref) != ns:  # a mechanism built without them: none relative, link 1
-            set_(self, "sensor_ref", np.full(ns, -1, dtype=np.int64))
-        if len(self.sensor_link) != ns:
-            set_(self, "sensor_link", np.zeros(ns, dtype=np.int64))
-        H = np.zeros((ns, 2 * nq))  # the sensors linear in [q; v] (an acceleration's row: sensor_rows)
+        H = np.zeros((ns, 2 * nq))  # the sensors linear in [q; v]
+        H_acc = np.zeros((ns, nq))
         for i, (b, k, r, link) in enumerate(zip(self.sensor_body.tolist(), self.sensor_kind.tolist(),
                                                 self.sensor_ref.tolist(), self.sensor_link.tolist())):
             if k in (POSITION, VELOCITY):
                 H[i, b + nq * k] = 1.0
+            elif k == ACCELERATION:
+                H_acc[i, b] = 1.0
             elif k == RELATIVE:
                 H[i, b] = 1.0
                 if r >= 0:
@@ -403,6 +498,7 @@ class Mechanism:
                         H[i, end] += sign * self.spring_k[link]
                         H[i, nq + end] += sign * self.spring_c[link]
         set_(self, "H", H)
+        set_(self, "H_acc", H_acc)
 
     def with_values(self, m: np.ndarray, spring_k: np.ndarray, spring_c: np.ndarray) -> "Mechanism":
         """The same mechanism with other masses, stiffnesses and dampers (K, C derived again)."""
@@ -431,15 +527,83 @@ class Mechanism:
         return gq, gv
 
     @property
+    def is_structure(self) -> bool:
+        """Whether this is a structure given as matrices (from_structure), not bodies on a line."""
+        return self.structure is not None
+
+    @property
     def contacts(self) -> Tuple[Tuple[int, int, float, float, float], ...]:
-        """(a, b, gap, n, lambda) per contact as Python scalars (the step's hot loop)."""
+        """(a, b, gap, n, lambda) per contact of bodies on a line as Python scalars (the line's truth); a
+        structure's contacts have no ends (contact_laws)."""
+        if self.structure is not None:
+            raise ValueError("a structure's contacts act along their w_c, not between two bodies: use contact_laws")
         return tuple(zip(self.contact_a.tolist(), self.contact_b.tolist(), self.contact_gap.tolist(),
                          self.contact_n.tolist(), self.contact_lambda.tolist()))
 
+    @property
+    def contact_laws(self) -> Tuple[Tuple[Direction, float, float, float], ...]:
+        """(direction, gap, n, lambda) per contact as Python scalars (the step's hot loop): delta =
+        along(direction, q) - gap, its rate along(direction, v)."""
+        return tuple(zip(self.contact_dirs, self.contact_gap.tolist(), self.contact_n.tolist(),
+                         self.contact_lambda.tolist()))
+
     # ---- construction -------------------------------------------------------------------
     @staticmethod
+    def from_structure(structure: "Structure", sc: Any) -> "Mechanism":
+        """A structure given as matrices (docs/structure.md) with the scenario's counts (checked against the
+        matrices), sensor kinds, contact laws and inputs' sines. A non-diagonal M is first taken to its modal
+        basis (Structure.modal(), as binding.Estimator does: the same model in q = modal_basis @ eta). What the
+        C core refuses for a structure is refused here by key: a line's sensor kind, a base displacement, an
+        uncertain mass or link."""
+        basis = None
+        if not structure.diagonal_mass():
+            structure, basis = structure.modal()
+        if not 1 <= structure.dofs <= MAX_DOFS:
+            raise MechanismError("structure", f"{structure.dofs} dofs", f"must have 1..{MAX_DOFS} degrees of freedom")
+        counts = {}
+        for key, lo, hi, have, where in (("inputs", 0, MAX_INPUTS, structure.inputs, "B_u's columns"),
+                                         ("sensors", 1, MAX_SENSORS, structure.sensors, "H's rows"),
+                                         ("contacts", 0, MAX_CONTACTS, structure.contacts, "W's columns")):
+            counts[key] = _count(sc, key, lo, hi)
+            if counts[key] != have:
+                raise MechanismError(key, counts[key], f"the structure has {have} ({where})")
+        ni, ns, nc = counts["inputs"], counts["sensors"], counts["contacts"]
+        for i in range(1, ni + 1):
+            if _kind(sc, f"input{i}_kind", INPUT_KINDS) != FORCE:
+                raise MechanismError(f"input{i}_kind", scenario_value(sc, f"input{i}_kind"),
+                                     "a structure's input is a force along its B_u column")
+        kinds = [_kind(sc, f"sensor{i}_kind") for i in range(1, ns + 1)]
+        for i, kind in enumerate(kinds, start=1):
+            if kind not in (POSITION, VELOCITY, ACCELERATION):
+                raise MechanismError(f"sensor{i}_kind", SENSOR_KINDS[kind],
+                                     "a structure's sensor reads position, velocity or acceleration")
+        for what, e, sigma in mech_layout(sc):
+            raise MechanismError(mech_sigma_key(what, e), sigma, "a structure's masses and links are not estimated")
+        ints = lambda xs: np.array(xs, dtype=np.int64)  # noqa: E731
+        reals = lambda xs: np.array(xs, dtype=float)  # noqa: E731
+        none = np.full(0, -1, dtype=np.int64)
+        return Mechanism(
+            m=np.diag(structure.M).copy(), spring_a=none, spring_b=none, spring_k=reals([]), spring_c=reals([]),
+            input_body=np.full(ni, -1, dtype=np.int64),
+            input_amp=reals([_excitation(sc, f"input{i}_amp") for i in range(1, ni + 1)]),
+            input_freq=reals([_excitation(sc, f"input{i}_freq", 0.0) for i in range(1, ni + 1)]),
+            input_phase=reals([_excitation(sc, f"input{i}_phase") for i in range(1, ni + 1)]),
+            input_kind=np.full(ni, FORCE, dtype=np.int64), input_link=np.full(ni, -1, dtype=np.int64),
+            sensor_body=np.full(ns, -1, dtype=np.int64), sensor_kind=ints(kinds),
+            sensor_ref=np.full(ns, -1, dtype=np.int64), sensor_link=np.zeros(ns, dtype=np.int64),
+            contact_a=np.full(nc, -1, dtype=np.int64), contact_b=np.full(nc, -1, dtype=np.int64),
+            contact_gap=reals([_real(sc, f"contact{i}_gap") for i in range(1, nc + 1)]),
+            contact_n=reals([_real(sc, f"contact{i}_n", 1.0) for i in range(1, nc + 1)]),
+            contact_lambda=reals([_real(sc, f"contact{i}_lambda", 0.0) for i in range(1, nc + 1)]),
+            structure=structure, modal_basis=basis)
+
+    @staticmethod
     def from_scenario(sc: Any) -> "Mechanism":
-        """Read and check the mechanism keys of a Scenario or dict (docs/mechanism.md)."""
+        """Read and check the mechanism keys of a Scenario or dict (docs/mechanism.md); a scenario that names a
+        structure (its `structure`, docs/structure.md) gives that structure (from_structure)."""
+        structure = getattr(sc, "structure", None) if not isinstance(sc, Mapping) else sc.get("structure")
+        if structure is not None:
+            return Mechanism.from_structure(structure, sc)
         nq = _count(sc, "bodies", 1, MAX_BODIES)
         m = np.array([_real(sc, f"m{i}", 0.0, strict=True) for i in range(1, nq + 1)])
         n_springs = _count(sc, "springs", 0, MAX_SPRINGS)
@@ -488,14 +652,13 @@ class Mechanism:
     def penetrations(self, q: np.ndarray) -> np.ndarray:
         """delta of every contact, shape (..., nc), for a state row or an (N, nq) array of them."""
         q = np.asarray(q, dtype=float)
-        cols = [_side(q, a) - _side(q, b) - g
-                for a, b, g in zip(self.contact_a.tolist(), self.contact_b.tolist(), self.contact_gap.tolist())]
+        cols = [along(d, _columns(q)) - g for d, g in zip(self.contact_dirs, self.contact_gap.tolist())]
         return np.stack(cols, axis=-1) if cols else np.zeros(q.shape[:-1] + (0,))
 
     def penetration_rates(self, v: np.ndarray) -> np.ndarray:
         """ddelta/dt of every contact, shape (..., nc)."""
         v = np.asarray(v, dtype=float)
-        cols = [_side(v, a) - _side(v, b) for a, b in zip(self.contact_a.tolist(), self.contact_b.tolist())]
+        cols = [along(d, _columns(v)) for d in self.contact_dirs]
         return np.stack(cols, axis=-1) if cols else np.zeros(v.shape[:-1] + (0,))
 
     def penetration(self, q: np.ndarray) -> "np.ndarray | float":
@@ -531,12 +694,11 @@ class Mechanism:
         in a link a base input moves reads (None: at rest)."""
         x = np.concatenate([np.asarray(q, dtype=float), np.asarray(v, dtype=float)], axis=-1)
         y = x @ self.H.T
-        for i, (b, k, link) in enumerate(zip(self.sensor_body.tolist(), self.sensor_kind.tolist(),
-                                             self.sensor_link.tolist())):
+        for i, (k, link) in enumerate(zip(self.sensor_kind.tolist(), self.sensor_link.tolist())):
             if k == ACCELERATION:
                 if a is None:
                     raise ValueError(f"sensor{i + 1} reads an acceleration: measure needs the accelerations")
-                y[..., i] = np.asarray(a)[..., b]
+                y[..., i] = along(self.accel_dirs[i], _columns(np.asarray(a, dtype=float)))
             elif k == LINK_FORCE and ends is not None and self.has_base_inputs:
                 # the ground end at u, moving at du/dt: +(k u + c du/dt) at end a, minus that at end b
                 sign = 1.0 if int(self.spring_a[link]) < 0 else -1.0
@@ -571,6 +733,8 @@ class Mechanism:
     def sensor_names(self) -> Tuple[str, ...]:
         """y<body> (position), yv<body> (velocity), ya<body> (acceleration), yr<body>_<ref> (relative),
         yf<link> (link force): the paper's y1, y4."""
+        if self.structure is not None:  # rows, not bodies: by sensor number (measurements.columns_of)
+            return tuple(f"y{i}" for i in range(1, self.n_sensors + 1))
         out = []
         for b, k, r, link in zip(self.sensor_body.tolist(), self.sensor_kind.tolist(), self.sensor_ref.tolist(),
                                  self.sensor_link.tolist()):
@@ -585,9 +749,14 @@ class Mechanism:
         return ("delta",) if self.n_contacts == 1 else tuple(f"delta{i}" for i in range(1, self.n_contacts + 1))
 
 
-def _side(x: np.ndarray, idx: int) -> "np.ndarray | float":
-    """Column idx of x (..., nq), or 0 for the ground (idx = -1)."""
-    return x[..., idx] if idx >= 0 else 0.0
+class _columns:
+    """x[..., i] by x[i]: `along` over the last axis of a stack of states."""
+
+    def __init__(self, x: np.ndarray) -> None:
+        self.x = x
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        return self.x[..., i]
 
 
 def contact_values(sc: Any, key: str, nc: int) -> np.ndarray:

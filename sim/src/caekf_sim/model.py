@@ -1,10 +1,12 @@
-"""The implicit step of any lumped mechanism on a line (mechanism.py): backward Euler (eq. 19) or the
-trapezoidal rule (the setting `discretisation`).
+"""The implicit step of any lumped mechanism on a line or linear structure given as matrices (mechanism.py):
+backward Euler (eq. 19) or the trapezoidal rule (the setting `discretisation`).
 
 Conventions (shared with the C core): x = [q_1..q_nq, v_1..v_nq]; inputs enter through B_u (one
-column per input), contact c through b_c = e_a - e_b (ground omitted) with the law of
-`mechanism.contact_law`. The paper's mechanism (mechanism defaults) is 4 bodies, B_u = e1, one Hertz
-contact with b = [0, 1, -1, 0].
+column per input), contact c through b_c (a line's e_a - e_b, ground omitted; a structure's w_c), delta_c =
+b_c^T q - gap_c, with the law of `mechanism.contact_law`. The code reads the vectors only (their nonzero
+entries: Mechanism.contact_dirs, input_dirs), so a line and a structure take the same paths; on a line each sum
+has the same terms in the same order as the ends' formulas had. The paper's mechanism (mechanism defaults) is 4
+bodies, B_u = e1, one Hertz contact with b = [0, 1, -1, 0].
 
 Backward Euler, eq. (19) plus the damping term C v_k that the paper omits:
     (q_k - q_{k-1})/h - v_k = 0
@@ -38,7 +40,7 @@ from typing import Any, List, Tuple
 
 import numpy as np
 
-from .mechanism import Mechanism, contact_law
+from .mechanism import Direction, Mechanism, along, contact_law
 
 # The paper's contact direction b (-f_c on body 2, +f_c on body 3) and input direction B_u = e1.
 B_CONTACT = np.array([0.0, 1.0, -1.0, 0.0])
@@ -116,8 +118,12 @@ class StepSolver:
     m_h: np.ndarray = field(init=False)
     abs_C: np.ndarray = field(init=False)
     abs_K: np.ndarray = field(init=False)
+    laws: Tuple[Tuple[Direction, float, float, float], ...] = field(init=False)  # (b_c, gap, n, lambda) per contact
+    # A line's (a, b, gap, n, lambda) per contact, for code written against the ends (the previous estimator that
+    # test_mechanism_uncertainty runs on this model); the step reads `laws` only. A structure's: none.
     contacts: Tuple[Tuple[int, int, float, float, float], ...] = field(init=False)
-    input_rows: Tuple[int, ...] = field(init=False)
+    contact_vecs: Tuple[Tuple[np.ndarray, np.ndarray], ...] = field(init=False)  # b_c's (indices, values)
+    input_dirs: Tuple[Direction, ...] = field(init=False)  # where each input's force acts (Mechanism.B_load)
     # Statistically linearised contacts: per contact the penetration's std s (> 0: the Newton matrix takes the
     # elastic law's tangent expected over N(delta, s^2), a quasi-Newton step; 0 or absent: the law's own).
     slr: Tuple[float, ...] = field(init=False, default=())
@@ -133,8 +139,10 @@ class StepSolver:
         self.J0_inv = np.linalg.inv(self.J0)
         self.abs_C = np.abs(p.C)
         self.abs_K = np.abs(p.K)
-        self.contacts = p.contacts
-        self.input_rows = tuple(p.input_body.tolist())  # a base displacement's: its link's body
+        self.laws = p.contact_laws
+        self.contacts = () if p.is_structure else p.contacts
+        self.contact_vecs = tuple((np.array(i, dtype=np.int64), np.array(w)) for i, w in p.contact_dirs)
+        self.input_dirs = p.input_dirs  # a base displacement's: its link's body
         # base displacements: (input, k, c) of each (its force k u + c du/dt; forces_at)
         self.base = tuple((int(i), float(p.B_u[p.input_body[i], i]), float(p.B_du[p.input_body[i], i]))
                           for i in np.flatnonzero(p.input_kind != 0).tolist())
@@ -161,8 +169,8 @@ class StepSolver:
     def any_on(self, q: np.ndarray, gamma: Any) -> bool:
         """Whether a contact changes the Newton matrix at positions q: closed (delta > 0), or linearised
         statistically with a nonzero expected tangent."""
-        for c, ((a, b, gap, n, _), g) in enumerate(zip(self.contacts, as_gammas(gamma))):
-            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+        for c, ((d, gap, n, _), g) in enumerate(zip(self.laws, as_gammas(gamma))):
+            delta = along(d, q) - gap
             if delta > 0.0:
                 return True
             slr = self.slr_tangents(c, delta, g, n)
@@ -172,7 +180,7 @@ class StepSolver:
 
     def penetrations(self, q: "np.ndarray | List[float]") -> List[float]:
         """delta of each contact at positions q (plain floats)."""
-        return [(q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap for a, b, gap, _, _ in self.contacts]
+        return [along(d, q) - gap for d, gap, _, _ in self.laws]
 
     def positions(self, q_prev: np.ndarray, v_prev: np.ndarray, v: np.ndarray) -> np.ndarray:
         """q_k of the step for the velocities v_k."""
@@ -186,17 +194,11 @@ class StepSolver:
         Cv, Kq = p.C * v[None, :], p.K * q[None, :]
         G = Cv.sum(axis=1) + Kq.sum(axis=1)
         mag = np.abs(Cv).sum(axis=1) + np.abs(Kq).sum(axis=1)
-        for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
-            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
-            dd = (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
-            fc = contact_law(delta, dd, g, n, lam)[0]
-            for end, sign in ((a, 1.0), (b, -1.0)):
-                if end >= 0:
-                    G[end] += sign * fc
-                    mag[end] += abs(fc)
-        for row, uj in zip(self.input_rows, as_inputs(u)):
-            G[row] -= uj
-            mag[row] += abs(uj)
+        for (d, gap, n, lam), g in zip(self.laws, as_gammas(gamma)):
+            fc = contact_law(along(d, q) - gap, along(d, v), g, n, lam)[0]
+            _add_load(G, mag, d, fc)
+        for d, uj in zip(self.input_dirs, as_inputs(u)):
+            _add_load(G, mag, d, -uj)
         return G, mag
 
     def residual(
@@ -217,28 +219,21 @@ class StepSolver:
         r = inertia + p.C @ v + p.K @ q
         mag = np.abs(inertia) + self.abs_C @ np.abs(v) + self.abs_K @ np.abs(q)
         deltas = []
-        for (a, b, gap, n, lam), g in zip(self.contacts, as_gammas(gamma)):
-            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
+        for (d, gap, n, lam), g in zip(self.laws, as_gammas(gamma)):
+            delta = along(d, q) - gap
             deltas.append(delta)
-            dd = (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
-            fc = contact_law(delta, dd, g, n, lam)[0]
-            if a >= 0:
-                r[a] += fc
-                mag[a] += abs(fc)
-            if b >= 0:
-                r[b] -= fc
-                mag[b] += abs(fc)
-        for row, uj in zip(self.input_rows, as_inputs(u)):
-            r[row] -= uj
-            mag[row] += abs(uj)
+            fc = contact_law(delta, along(d, v), g, n, lam)[0]
+            _add_load(r, mag, d, fc)
+        for d, uj in zip(self.input_dirs, as_inputs(u)):
+            _add_load(r, mag, d, -uj)
         return r, mag, deltas
 
     def jacobian(self, q: np.ndarray, gamma: Any, v: "np.ndarray | None" = None) -> np.ndarray:
         """dr/dv_k = M/hs + C + hs K + sum_c (hs df_c/ddelta + df_c/dddelta) b_c b_c^T (v: for Hunt-Crossley)."""
         J = self.J0
-        for c, ((a, b, gap, n, lam), g) in enumerate(zip(self.contacts, as_gammas(gamma))):
-            delta = (q[a] if a >= 0 else 0.0) - (q[b] if b >= 0 else 0.0) - gap
-            dd = 0.0 if v is None else (v[a] if a >= 0 else 0.0) - (v[b] if b >= 0 else 0.0)
+        for c, ((d, gap, n, lam), g) in enumerate(zip(self.laws, as_gammas(gamma))):
+            delta = along(d, q) - gap
+            dd = 0.0 if v is None else along(d, v)
             slr = self.slr_tangents(c, delta, g, n)
             if slr is not None:
                 kc, kd = slr[0], 0.0
@@ -248,14 +243,9 @@ class StepSolver:
                 continue
             if J is self.J0:
                 J = self.J0.copy()
-            hk = self.hs * kc + kd
-            if a >= 0:
-                J[a, a] += hk
-            if a >= 0 and b >= 0:
-                J[a, b] -= hk
-                J[b, a] -= hk
-            if b >= 0:
-                J[b, b] += hk
+            # hk b b^T over b's nonzero entries, (hk b_i) b_j as the C core's add_structure_block (a line's: +-hk)
+            idx, w = self.contact_vecs[c]
+            J[np.ix_(idx, idx)] += np.outer((self.hs * kc + kd) * w, w)
         return J
 
     def linear_velocity(
@@ -270,8 +260,9 @@ class StepSolver:
                 rhs = rhs - start[0]
         else:
             rhs = self.m_h * v_prev - self.plant.K @ q_prev
-        for row, uj in zip(self.input_rows, as_inputs(u)):
-            rhs[row] += uj
+        for (idx, w), uj in zip(self.input_dirs, as_inputs(u)):
+            for i, wi in zip(idx, w):
+                rhs[i] += wi * uj
         return self.J0_inv @ rhs
 
     def step_start(self, q_prev: np.ndarray, v_prev: np.ndarray, u_prev: Any, gamma: Any
@@ -335,3 +326,11 @@ class StepSolver:
             except np.linalg.LinAlgError:
                 break
         return self.positions(q_prev, v_prev, v), v, it, False
+
+
+def _add_load(r: np.ndarray, mag: np.ndarray, d: Direction, f: float) -> None:
+    """r += b f and mag += |b f| over the direction's nonzero entries (a line's +-f on its bodies)."""
+    for i, w in zip(*d):
+        t = w * f
+        r[i] += t
+        mag[i] += abs(t)
