@@ -71,6 +71,7 @@ def test_a_scenario_names_its_structure_folder(tmp_path: Path) -> None:
     sc = load_scenario(SCENARIOS / "beam.toml")
     assert sc.structure.dofs == EXAMPLE_MODES + 2 and sc.structure.diagonal_mass()
     assert columns_of(sc) == (("u",), ("y1", "y2", "y3"))
+    assert sc.replace(dt=2e-4).structure is sc.structure  # replace() keeps the structure it names
     with pytest.raises(ScenarioError, match="expected a quoted folder name"):
         scenario_from_text("structure = beam-structure\n", str(tmp_path / "x.toml"))
     sc2 = scenario_from_text((SCENARIOS / "beam.toml").read_text() + "t_end = 1.0\nnoise_std = 0\nseed = 1\n"

@@ -36,7 +36,10 @@ class _ScenarioBase:
         a change of a count leaves unused are dropped."""
         values = {**self.values(), **{canonical(k): v for k, v in changes.items()}}
         unused = [k for k, s, i in _KEYS if not SCHEMA.in_use(s, i, values)]
-        return scenario_from_values({k: v for k, v in values.items() if k not in unused}, self.source)
+        out = scenario_from_values({k: v for k, v in values.items() if k not in unused}, self.source)
+        if STRUCTURE_KEY in self.__dict__:  # the structure it names comes along
+            object.__setattr__(out, STRUCTURE_KEY, self.__dict__[STRUCTURE_KEY])
+        return out
 
     @property
     def source(self) -> str:

@@ -38,6 +38,10 @@ from .example import admitted, run_beam
 
 DRAWN = ("length", "width", "thickness", "gap", "gamma", "modes", "closing", "freq_ratio", "noise_fraction",
          "gamma0_ratio")
+# The filter's modes: a count (`modes`), or every mode below a cutoff drawn as a fraction of the sampling rate
+# (`cutoff`), as an FE user reduces to a frequency band; at least MIN_MODES either way.
+MODE_KEYS = ("modes", "cutoff")
+MIN_MODES = 4
 
 
 @dataclass(frozen=True)
@@ -73,10 +77,12 @@ def load_beam_family(path: Path, runs: Optional[int] = None, seed: Optional[int]
                      t_end: Optional[float] = None) -> BeamFamily:
     raw = tomllib.loads(path.read_text(encoding="utf-8"))
     fam, draws = raw.get("family", {}), raw.get("draw", {})
-    missing = [k for k in DRAWN if k not in draws]
+    missing = [k for k in DRAWN if k not in draws and k != "modes"]
     if missing:
         raise ValueError(f"{path}: [draw] misses {missing[0]!r} (a beam family draws {', '.join(DRAWN)})")
-    unknown = sorted(set(draws) - set(DRAWN))
+    if sum(k in draws for k in MODE_KEYS) != 1:
+        raise ValueError(f"{path}: [draw] gives the filter's modes by exactly one of {', '.join(MODE_KEYS)}")
+    unknown = sorted(set(draws) - set(DRAWN) - set(MODE_KEYS))
     if unknown:
         raise ValueError(f"{path}: [draw] has unknown key {unknown[0]!r}")
     return BeamFamily(name=str(fam.get("name", path.stem)), runs=int(runs or fam.get("runs", 200)),
@@ -92,10 +98,12 @@ def cases(family: BeamFamily) -> List[BeamCase]:
     out = []
     for i, ss in enumerate(np.random.SeedSequence(family.seed).spawn(family.runs)):
         rng = np.random.default_rng(ss)
-        v = {k: draw(rng, k, family.draws[k]) for k in DRAWN}
+        v = {k: draw(rng, k, family.draws[k]) for k in DRAWN + ("cutoff",) if k in family.draws}
         spec = BeamSpec(length=v["length"], width=v["width"], thickness=v["thickness"], gap=v["gap"],
                         gamma=v["gamma"])
         full, info = assemble(spec)
+        if "cutoff" in v:  # every mode below the cutoff
+            v["modes"] = max(MIN_MODES, int(np.sum(info.omega / (2 * math.pi) < v["cutoff"] / family.dt)))
         spec = dataclasses.replace(spec, force_amp=v["closing"] * closing_force(full, spec.gap),
                                    force_freq=v["freq_ratio"] * float(info.omega[0]) / (2 * math.pi))
         out.append(BeamCase(i, spec, int(v["modes"]), v["noise_fraction"], v["gamma0_ratio"],
