@@ -713,22 +713,13 @@ static void solve_lu(const caekf_model_t *m, const caekf_newton_lu_t *lu, caekf_
 }
 #endif
 
-/* caekf_model_newton_ct and caekf_model_transition_ct are the substeps' entry points (caekf_model_internal.h);
- * without substeps they are this file's own, so that the one-step path keeps its calls as they are. */
-#if CAEKF_HAS_SUBSTEPS
-#define NEWTON_CT caekf_model_newton_ct
-#define TRANSITION_CT caekf_model_transition_ct
-#define CT_LINKAGE
-#else
-#define NEWTON_CT newton_ct
-#define TRANSITION_CT transition_ct
-#define CT_LINKAGE static
-#endif
-
-CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
-                         const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
-                         int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0,
-                         const caekf_newton_lu_t *first)
+/* The Newton solve (caekf_model_newton) with the contacts passed on: those of each iterate left in ct, those at
+ * x_{k-1} given in ct0 (NULL: evaluated here), the first update's LU given in first (NULL: its own). Its one
+ * copy is the substeps' entry point caekf_model_newton_ct where a build has substeps, else caekf_model_newton. */
+static int newton_solve(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
+                        const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
+                        int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0,
+                        const caekf_newton_lu_t *first)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
@@ -843,12 +834,27 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
     return result;
 }
 
+#if CAEKF_HAS_SUBSTEPS
+/* Out of line, so that caekf_model_newton calls it rather than taking a second copy of the solve. */
+CAEKF_NOINLINE int caekf_model_newton_ct(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N],
+                                         const caekf_scalar_t *u_prev, const caekf_scalar_t *u, int max_iter,
+                                         caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
+                                         caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct,
+                                         const caekf_contact_t *ct0, const caekf_newton_lu_t *first)
+{
+    return newton_solve(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, ct0, first);
+}
+#endif /* CAEKF_HAS_SUBSTEPS */
+
 int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
                        const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
                        int *iters, caekf_scalar_t work[4 * CAEKF_NQ])
 {
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
-    return NEWTON_CT(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
+    if (CAEKF_HAS_SUBSTEPS) {                   /* the solve's one copy */
+        return caekf_model_newton_ct(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
+    }
+    return newton_solve(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
 }
 
 /* Right-hand sides of the linearised step, A dv_k = -(dg/dx_{k-1}) dx_{k-1}, one column per component of
@@ -1062,8 +1068,10 @@ int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, c
 }
 #endif
 
-CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+/* F's v-rows from the contacts at x_k (ct) and, trapezoidal, at x_{k-1} (ct0): its one copy is the substeps'
+ * entry point caekf_model_transition_ct where a build has substeps, else caekf_model_transition_v_at's. */
+CAEKF_HOT_INLINE int transition_solve(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
+                                      caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
@@ -1085,6 +1093,15 @@ CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, 
     return 0;
 }
 
+#if CAEKF_HAS_SUBSTEPS
+/* Out of line, as caekf_model_newton_ct. */
+CAEKF_NOINLINE int caekf_model_transition_ct(const caekf_model_t *m, const caekf_contact_t *ct,
+                                             const caekf_contact_t *ct0, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    return transition_solve(m, ct, ct0, fv);
+}
+#endif /* CAEKF_HAS_SUBSTEPS */
+
 int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                                 caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
@@ -1092,7 +1109,10 @@ int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *c
     if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);
     }
-    return TRANSITION_CT(m, ct, ct0, fv);
+    if (CAEKF_HAS_SUBSTEPS) { /* the one copy */
+        return caekf_model_transition_ct(m, ct, ct0, fv);
+    }
+    return transition_solve(m, ct, ct0, fv);
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],

@@ -156,10 +156,11 @@ int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAE
 int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                                 caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
 
-#if CAEKF_HAS_SUBSTEPS
-/* The substeps' Newton solve and map, which pass the contacts on instead of evaluating them again at the
- * same state (bit for bit the same results). caekf_model_newton with the contacts at x_k left in ct and,
- * for the trapezoidal rule, those at x_{k-1} given in ct0 (NULL: evaluated here). */
+/* The substeps' Newton solve and map, which pass the contacts on instead of evaluating them again at the same
+ * state (bit for bit the same results). Defined where a build has substeps (CAEKF_HAS_SUBSTEPS), declared for
+ * every build: code that names them under if (CAEKF_HAS_SUBSTEPS) compiles out elsewhere. caekf_model_newton
+ * with the contacts at x_k left in ct and, for the trapezoidal rule, those at x_{k-1} given in ct0 (NULL:
+ * evaluated here). */
 int caekf_model_newton_ct(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
                           const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
                           int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct,
@@ -183,7 +184,6 @@ int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, ca
 /* caekf_model_transition_v from the contacts at x_k (ct) and, for the trapezoidal rule, at x_{k-1} (ct0). */
 int caekf_model_transition_ct(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
                               caekf_scalar_t fv[CAEKF_NQ][CAEKF_N]);
-#endif
 
 /* The v-rows of the constant contact-free F (nq x n): model_init's fv0, or recomputed by the same
  * operations (CAEKF_ONE_STEP_BE). */
