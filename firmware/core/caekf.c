@@ -439,6 +439,26 @@ static int all_finite(const caekf_scalar_t *v, int n)
     return nf == 0;
 }
 
+/* The caller errors a step refuses before it writes anything: CAEKF_ERR_NULL (no instance, no inputs where the
+ * mechanism has some, or no measurements where `measured`), CAEKF_ERR_NOT_INIT, CAEKF_ERR_INPUT (a value of u or
+ * y not finite); else CAEKF_OK. */
+static caekf_status_t refused(const caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured)
+{
+    if (est == 0 || (measured && y == 0)) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    if (CAEKF_DIM_NU(&est->model) > 0 && u == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!all_finite(u, CAEKF_DIM_NU(&est->model)) || (y != 0 && !all_finite(y, est->cfg.model.sensors))) {
+        return CAEKF_ERR_INPUT;
+    }
+    return CAEKF_OK;
+}
+
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
  * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows), each map applied
  * without forming it (caekf_model_substep_map); F's gamma rows
@@ -864,72 +884,26 @@ static int set_mechanism(caekf_t *est, const caekf_scalar_t *x)
     return r; /* fv_const stays unused: with mechanism parameters every step forms F (predict_covariance) */
 }
 
-/* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
- * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
- * caller error. */
-static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured, int predict,
-                              caekf_report_t *report)
+/* Table 1's prediction of the state, x_{k-1} -> x_k- (eq. 19), into x_pred (physical units), from the scaled z: the
+ * model at the mechanism's estimates and the contacts' penetration std first, then (unless `predict` is 0:
+ * caekf_correct, x_k- = x_{k-1}) the Newton solve of one step from the inputs u0 to u or, where a contact is
+ * closed at either end of it, of the substeps. The first step after init holds u over its interval unless
+ * caekf_correct gave the input at t0. *closed_prev: a contact closed at x_{k-1} (substeps and the trapezoidal F
+ * both ask); *substepped: the substeps ran; *ct_pred: the contacts at x_k- the prediction evaluated (NULL: none).
+ * Returns CAEKF_OK, else the error with its flags. */
+CAEKF_HOT_INLINE caekf_status_t predict_state(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u,
+                                              int predict, int *iters, int *closed_prev, int *substepped,
+                                              const caekf_contact_t **ct_pred, uint32_t *flags)
 {
-    caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
-    const caekf_scalar_t *u0;  /* the inputs at the step's start */
-    caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
-    caekf_filter_dims_t *dims; /* the instance's, once est is known to be one */
-    caekf_status_t st = CAEKF_OK;
-    caekf_scalar_t deepest = 0;
-    uint32_t flags = 0;
-    int iters = 0;
-    int i, nq, nc, n, nm, ny, nu, any_contact = 0, substepped = 0;
-    int closed_prev = 0; /* a contact closed at x_{k-1}: substeps and the trapezoidal F both ask */
-    const caekf_scalar_t *s;
-    caekf_contact_t *ct;                /* the contacts' laws at x_k-, after the Newton solve (in scratch) */
-    const caekf_contact_t *ct_pred = 0; /* with substeps: the prediction's contacts at x_k- when it evaluated them */
-    caekf_scalar_t nis = 0;
-    caekf_mismatch_t monitor;
-    int corrected = 0, rescale;
-
-    if (report != 0) {
-        report->flags = 0;
-        report->newton_iters = 0;
-        report->delta = 0;
-        report->nis = 0;
-    }
-    if (est == 0 || (measured && y == 0)) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
-    }
-    dims = &est->dims;
-    nq = CAEKF_DIM_NQ(&est->model);
-    nc = CAEKF_DIM_NC(&est->model);
-    n = CAEKF_DIM_N(&est->model);
-    nm = CAEKF_DIM_NM(&est->model);
-    nu = CAEKF_DIM_NU(&est->model);
-    ny = est->cfg.model.sensors;
-    if (nu > 0 && u == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!all_finite(u, nu) || (y != 0 && !all_finite(y, ny))) {
-        if (report != 0) {
-            report->flags = CAEKF_FLAG_INPUT_REJECTED;
-        }
-        return CAEKF_ERR_INPUT; /* nothing in *est has been written */
-    }
-    s = est->scale;
-    ct = est->scratch.contacts;
-    xprev = X_PREV(est);
-    z = est->x_pred;
-    u0 = predict ? U_PREV(est, u) : u; /* a correction at the estimate's own time: no step, no rate */
-
-    /* Prediction (Table 1): Newton solve of the step, then F by eq. (10) at x_k-. The first step after
-     * init holds u over its interval unless caekf_correct gave the input at t0. */
+    const int n = CAEKF_DIM_N(&est->model), substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
+    caekf_scalar_t *const xprev = X_PREV(est);
+    int i, closed_before, r = 0;
     for (i = 0; i < n; ++i) {
-        xprev[i] = est->z[i] * s[i];
+        xprev[i] = est->z[i] * est->scale[i];
     }
-    if (CAEKF_MAX_MECH_PARAMS > 0 && nm > 0 && set_mechanism(est, xprev) != 0) {
-        flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_SINGULAR;
-        goto done;
+    if (CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_DIM_NM(&est->model) > 0 && set_mechanism(est, xprev) != 0) {
+        *flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+        return CAEKF_ERR_SINGULAR;
     }
     if (CAEKF_HAS_SLR && est->cfg.contact_slr_p > 0) {
         set_penetration_std(est);
@@ -938,40 +912,51 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         for (i = 0; i < n; ++i) {
             est->x_pred[i] = xprev[i];
         }
-    } else {
-        const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
-        int closed_before, r = 0;
-        /* With substeps the contacts at x_{k-1} (sub_ct[1]: the first substep's start, and the one step's) and at
-         * the one step's x_k- (sub_ct[0]) are kept: evaluated once each. */
-        closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) &&
-                      (CAEKF_HAS_SUBSTEPS ? caekf_model_contacts_any(&est->model, xprev, SUB_CT(est, 1))
-                                          : caekf_model_any_contact(&est->model, xprev));
-        closed_before = substeps > 1 && closed_prev;
-        if (!closed_before && CAEKF_HAS_SUBSTEPS) { /* a step from an open contact: one step unless it closes one */
-            r = caekf_model_newton_ct(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
-                                      est->x_pred, &iters, est->scratch.m, SUB_CT(est, 0),
-                                      CAEKF_METHOD_TRAP(&est->model) ? SUB_CT(est, 1) : 0, 0);
-            ct_pred = SUB_CT(est, 0);
-        } else if (!closed_before) {
-            r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
-                                   est->x_pred, &iters, est->scratch.m);
-        }
-        if (CAEKF_HAS_SUBSTEPS &&
-            (closed_before || (substeps > 1 && caekf_model_contacts_any(&est->model, 0, SUB_CT(est, 0))))) {
-            substepped = 1; /* the one-step solution only decided that substeps are needed */
-            r = substep_predict(est, u0, u, &iters);
-            ct_pred = SUB_CT(est, (substeps + 1) & 1);
-            if (r < 0) {
-                flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
-                st = CAEKF_ERR_SINGULAR;
-                goto done;
-            }
-        }
-        if (r != 0) {
-            flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
+        return CAEKF_OK;
+    }
+    /* With substeps the contacts at x_{k-1} (sub_ct[1]: the first substep's start, and the one step's) and at the
+     * one step's x_k- (sub_ct[0]) are kept: evaluated once each. */
+    *closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) &&
+                   (CAEKF_HAS_SUBSTEPS ? caekf_model_contacts_any(&est->model, xprev, SUB_CT(est, 1))
+                                       : caekf_model_any_contact(&est->model, xprev));
+    closed_before = substeps > 1 && *closed_prev;
+    if (!closed_before && CAEKF_HAS_SUBSTEPS) { /* a step from an open contact: one step unless it closes one */
+        r = caekf_model_newton_ct(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
+                                  est->x_pred, iters, est->scratch.m, SUB_CT(est, 0),
+                                  CAEKF_METHOD_TRAP(&est->model) ? SUB_CT(est, 1) : 0, 0);
+        *ct_pred = SUB_CT(est, 0);
+    } else if (!closed_before) {
+        r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred,
+                               iters, est->scratch.m);
+    }
+    if (CAEKF_HAS_SUBSTEPS &&
+        (closed_before || (substeps > 1 && caekf_model_contacts_any(&est->model, 0, SUB_CT(est, 0))))) {
+        *substepped = 1; /* the one-step solution only decided that substeps are needed */
+        r = substep_predict(est, u0, u, iters);
+        *ct_pred = SUB_CT(est, (substeps + 1) & 1);
+        if (r < 0) {
+            *flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+            return CAEKF_ERR_SINGULAR;
         }
     }
-    for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact (F at x_k- takes the same laws) */
+    if (r != 0) {
+        *flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
+    }
+    return CAEKF_OK;
+}
+
+/* Table 1's switch-off (eq. 21, Sec. 3.2): each contact's law at x_k- into ct (the prediction's own, ct_pred, when
+ * it evaluated them), whether it is active (closed; statistically linearised: while P(delta > 0) > contact_slr_p)
+ * and so each parameter's policy this step; *deepest: the deepest penetration. Returns whether any contact is
+ * active. */
+CAEKF_HOT_INLINE int switch_off(caekf_t *est, caekf_contact_t *ct, const caekf_contact_t *ct_pred,
+                                caekf_scalar_t *deepest, uint32_t *flags)
+{
+    const int nq = CAEKF_DIM_NQ(&est->model), nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
+    const int mech0 = CAEKF_DIM_MECH0(&est->model) - 2 * nq;
+    caekf_filter_dims_t *const dims = &est->dims;
+    int i, any_contact = 0;
+    for (i = 0; i < nc; ++i) { /* contact by contact (F at x_k- takes the same laws) */
         int on;
         if (CAEKF_HAS_SUBSTEPS && ct_pred != 0) { /* the prediction's own, at x_k- */
             ct[i] = ct_pred[i];
@@ -980,80 +965,99 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
         on = ct[i].delta > 0;
         if (CAEKF_HAS_SLR && est->cfg.contact_slr_p > 0 && CAEKF_SLR_S(&est->model)[i] > 0) {
-            /* active while P(delta > 0) > p; at or past the gap P(delta > 0) = erfc(-x) / 2 >= 1/2 (x >= 0): no
-             * erfc for a closed contact */
+            /* at or past the gap P(delta > 0) = erfc(-x) / 2 >= 1/2 (x >= 0): no erfc for a closed contact */
             on = (ct[i].delta >= 0 && est->cfg.contact_slr_p < CAEKF_C(0.5)) ||
                  CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (CAEKF_SLR_S(&est->model)[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
                      est->cfg.contact_slr_p;
         }
-        deepest = i == 0 ? ct[i].delta : caekf_max(deepest, ct[i].delta);
+        *deepest = i == 0 ? ct[i].delta : caekf_max(*deepest, ct[i].delta);
         any_contact |= on;
         dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, on);
         if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
-            flags |= CAEKF_FLAG_GAMMA_FROZEN;
+            *flags |= CAEKF_FLAG_GAMMA_FROZEN;
         }
     }
-    for (i = nc; i < CAEKF_DIM_MECH0(&est->model) - 2 * nq; ++i) { /* a law parameter follows its contact's gamma */
+    for (i = nc; i < mech0; ++i) { /* a law parameter follows its contact's gamma */
         dims->policy[i] = dims->policy[est->model.param_contact[i]];
     }
-    for (i = CAEKF_DIM_MECH0(&est->model) - 2 * nq; i < n - 2 * nq; ++i) {
-        /* the mechanism's and the sensors' offsets: observable without contact */
+    for (i = mech0; i < n - 2 * nq; ++i) { /* the mechanism's and the sensors' offsets: observable without contact */
         dims->policy[i] = CAEKF_GAMMA_LIVE;
     }
     if (any_contact) {
-        flags |= CAEKF_FLAG_CONTACT_ACTIVE;
+        *flags |= CAEKF_FLAG_CONTACT_ACTIVE;
     }
-    if (!predict) { /* a correction at the estimate's own time: P- is P */
+    return any_contact;
+}
+
+/* Table 1's prediction of the covariance into P_work and z (unless `predict` is 0: P- is P): F at x_k- (eq. 10)
+ * and P- = F P F^T + Q (eq. 12), with the measured inputs' noise and the law's second-order term. closed: a
+ * contact active at x_k-, or (trapezoidal) closed at x_{k-1}. Returns CAEKF_OK, else the error with its
+ * flags. */
+CAEKF_HOT_INLINE caekf_status_t predict_cov(caekf_t *est, int predict, int closed, int any_contact, int substepped,
+                                            const caekf_contact_t *ct, const caekf_scalar_t *u0,
+                                            const caekf_scalar_t *u, uint32_t *flags)
+{
+    const int nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
+    int i;
+    if (!predict) { /* a correction at the estimate's own time */
         for (i = 0; i < n; ++i) {
-            z[i] = est->z[i];
+            est->x_pred[i] = est->z[i];
         }
         for (i = 0; i < n * n; ++i) {
             est->P_work[i] = est->P[i];
         }
-    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped, ct,
-                                  u0, u) != 0) {
-        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_SINGULAR;
-        goto done;
-    } else {
-        if (measured_inputs(est) && add_input_noise(est, ct) != 0) {
-            flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
-            st = CAEKF_ERR_SINGULAR;
-            goto done;
-        }
-        if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
-            for (i = 0; i < nc; ++i) {
-                add_second_order_noise(est, i);
-            }
+        return CAEKF_OK;
+    }
+    if (predict_covariance(est, closed, substepped, ct, u0, u) != 0) {
+        *flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+        return CAEKF_ERR_SINGULAR;
+    }
+    if (measured_inputs(est) && add_input_noise(est, ct) != 0) {
+        *flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+        return CAEKF_ERR_SINGULAR;
+    }
+    if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
+        for (i = 0; i < nc; ++i) {
+            add_second_order_noise(est, i);
         }
     }
+    return CAEKF_OK;
+}
 
-    if (y != 0) {
-        /* Correction, eqs. (13)-(15) / (25)-(27). */
-        if (CAEKF_HAS_SENSOR_ROWS && dims->rows) {
-            sensor_rows(est, z, u, u0, y, y_s);
-        } else {
-            for (i = 0; i < ny; ++i) {
-                y_s[i] = y[i] / s[dims->h[i]];
-            }
-        }
-        corrected = caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
-                                        est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct) == 0;
-        apply_bounds(est, z, &flags);
+/* Table 1's correction (eqs. 13-15, with a parameter switched off eqs. 25-27) of z and P_work by the measurements
+ * y (sensors that read more than one state through their rows of H), then the constraint (eqs. 28-30). u, u0:
+ * the inputs at the step's end and start (an acceleration sensor reads them). Returns whether it corrected. */
+CAEKF_HOT_INLINE int correct(caekf_t *est, caekf_scalar_t *z, const caekf_scalar_t *u, const caekf_scalar_t *u0,
+                             const caekf_scalar_t *y, caekf_scalar_t *nis, uint32_t *flags)
+{
+    const caekf_filter_dims_t *const dims = &est->dims;
+    caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
+    int corrected;
+    if (CAEKF_HAS_SENSOR_ROWS && dims->rows) {
+        sensor_rows(est, z, u, u0, y, y_s);
     } else {
-        flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
+        int i;
+        for (i = 0; i < est->cfg.model.sensors; ++i) {
+            y_s[i] = y[i] / est->scale[dims->h[i]];
+        }
     }
-    flags |= mismatch_update(est, corrected, nis, &monitor);
-    if (!caekf_covariance_health(est->P_work, z, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
-                                 est->cfg.cov_repair_enabled, est->scratch.m, &flags)) {
-        flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_NUMERIC;
-        goto done;
-    }
+    corrected = caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
+                                    est->cfg.gamma_gate_nis, nis, flags, &est->scratch.correct) == 0;
+    apply_bounds(est, z, flags);
+    return corrected;
+}
+
+/* The step's result into the instance: z and P from P_work's upper triangle (filling the lower one), the inputs
+ * (the next step's start) and their trend, the mismatch monitor, the step count. */
+CAEKF_HOT_INLINE void commit(caekf_t *est, const caekf_scalar_t *z, const caekf_scalar_t *u, int predict,
+                             const caekf_mismatch_t *monitor, uint32_t flags)
+{
+    const int n = CAEKF_DIM_N(&est->model);
+    int i, rescale;
     if (CAEKF_SIZED && !CAEKF_ONE_STEP_BE) {
         commit_sized(est, z);
     } else {
-        for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */
+        for (i = 0; i < n; ++i) {
             const caekf_scalar_t *w = &est->P_work[i * n + i];
             caekf_scalar_t *row = &est->P[i * n + i], *col = row, *const end = est->P + i * n + n;
             est->z[i] = z[i];
@@ -1066,7 +1070,7 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         }
     }
     if (CAEKF_KEEPS_U_PREV) {
-        for (i = 0; i < nu; ++i) {
+        for (i = 0; i < CAEKF_DIM_NU(&est->model); ++i) {
             U_PREV_STORE(est)[i] = u[i];
         }
         *U_PREV_KNOWN_STORE(est) = 1;
@@ -1074,15 +1078,72 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
     if (predict && CAEKF_DIM_NM(&est->model) > 0 && est->cfg.input_trend_window > 0 && measured_inputs(est)) {
         track_inputs(est, u);
     }
-    rescale = monitor.q_scale != est->mismatch.q_scale;
-    est->mismatch = monitor;
+    rescale = monitor->q_scale != est->mismatch.q_scale;
+    est->mismatch = *monitor;
     if (rescale) {
         set_body_q(est);
     }
     est->step_count++;
     est->last_flags = flags;
-done:
-    if (st != CAEKF_OK) { /* a rolled-back step leaves the monitor as it was, and says what it says */
+}
+
+/* One step (Table 1): prediction (unless `predict` is 0: caekf_correct), the switch-off, then (with y) the
+ * correction and the constraint, and P's health. y == NULL: no measurement (caekf_predict), which caekf_step
+ * (measured == 1) refuses as a caller error. A step that fails leaves the instance as it was. */
+static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured, int predict,
+                              caekf_report_t *report)
+{
+    caekf_scalar_t *z;                  /* x_k-, then the scaled z once F is formed */
+    const caekf_scalar_t *u0;           /* the inputs at the step's start */
+    caekf_contact_t *ct;                /* the contacts' laws at x_k- (in scratch) */
+    const caekf_contact_t *ct_pred = 0; /* the prediction's, when it evaluated them */
+    caekf_status_t st;
+    caekf_scalar_t deepest = 0, nis = 0;
+    caekf_mismatch_t monitor;
+    uint32_t flags = 0;
+    int iters = 0, closed_prev = 0, substepped = 0;
+
+    if (report != 0) {
+        report->flags = 0;
+        report->newton_iters = 0;
+        report->delta = 0;
+        report->nis = 0;
+    }
+    st = refused(est, u, y, measured);
+    if (st != CAEKF_OK) {
+        if (report != 0 && st == CAEKF_ERR_INPUT) {
+            report->flags = CAEKF_FLAG_INPUT_REJECTED;
+        }
+        return st; /* nothing in *est has been written */
+    }
+    z = est->x_pred;
+    ct = est->scratch.contacts;
+    u0 = predict ? U_PREV(est, u) : u; /* a correction at the estimate's own time: no step, no rate */
+
+    st = predict_state(est, u0, u, predict, &iters, &closed_prev, &substepped, &ct_pred, &flags);
+    if (st == CAEKF_OK) {
+        const int any_contact = switch_off(est, ct, ct_pred, &deepest, &flags);
+        st = predict_cov(est, predict, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), any_contact,
+                         substepped, ct, u0, u, &flags);
+    }
+    if (st == CAEKF_OK) {
+        int corrected = 0;
+        if (y != 0) {
+            corrected = correct(est, z, u, u0, y, &nis, &flags);
+        } else {
+            flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
+        }
+        flags |= mismatch_update(est, corrected, nis, &monitor);
+        if (!caekf_covariance_health(est->P_work, z, CAEKF_DIM_N(&est->model),
+                                     (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
+                                     est->cfg.cov_repair_enabled, est->scratch.m, &flags)) {
+            flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+            st = CAEKF_ERR_NUMERIC;
+        }
+    }
+    if (st == CAEKF_OK) {
+        commit(est, z, u, predict, &monitor, flags);
+    } else { /* a rolled-back step leaves the monitor as it was, and says what it says */
         flags |= mismatch_update(est, 0, 0, &monitor);
     }
     if (report != 0) {

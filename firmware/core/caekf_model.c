@@ -1122,17 +1122,17 @@ static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const 
     }
     /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */
     {
-        caekf_scalar_t amax = 0; /* the LU's threshold, as caekf_lu_factor takes it */
-        caekf_scalar_t *const open_max = CAEKF_A0_MAX_OPEN_STORE(m);
-        if (CAEKF_A0_MAX_OPEN) {
-            *open_max = 0;
-        }
+        caekf_scalar_t amax = 0;     /* the LU's threshold, as caekf_lu_factor takes it */
+        caekf_scalar_t open_max = 0; /* CAEKF_A0_MAX_OPEN: the largest outside contact 1's block */
         for (i = 0; i < nq * nq; ++i) {
             amax = caekf_max(amax, CAEKF_FABS(m->A0_lu[i]));
             if (CAEKF_A0_MAX_OPEN && ((i / nq != m->contact_i[0] && i / nq != m->contact_j[0]) ||
                                       (i % nq != m->contact_i[0] && i % nq != m->contact_j[0]))) {
-                *open_max = caekf_max(*open_max, CAEKF_FABS(m->A0_lu[i])); /* outside contact 1's block */
+                open_max = caekf_max(open_max, CAEKF_FABS(m->A0_lu[i]));
             }
+        }
+        if (CAEKF_A0_MAX_OPEN) {
+            *CAEKF_A0_MAX_OPEN_STORE(m) = open_max;
         }
         if (factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL * amax) != 0) {
             return -1;
