@@ -8,6 +8,7 @@
 #define CAEKF_LINALG_H
 
 #include "caekf/caekf_config.h"
+#include "caekf_kernels.h" /* which kernels the build has */
 
 #define CAEKF_LA_MAX_N CAEKF_N
 
@@ -19,20 +20,8 @@ typedef enum {
     CAEKF_LA_NOT_FINITE = 4 /* a NaN or infinite entry (or squares that overflow) */
 } caekf_la_status_t;
 
-/* The LU of any size. A sized build whose innovation covariance is 2 x 2 and whose Newton matrix is 4 x 4
- * or factored over its pattern (CAEKF_FIXED_LINKS) runs the fixed-size kernels and closed forms only, and
- * leaves it out. */
-#if CAEKF_SIZED
-#define CAEKF_LA_GENERAL_LU (CAEKF_SIZED_SENSORS != 2 || (CAEKF_SIZED_BODIES != 4 && !CAEKF_FIXED_LINKS))
-#else
-#define CAEKF_LA_GENERAL_LU 1
-#endif
-
-/* A build that fixes its mechanism's links (CAEKF_FIXED_LINKS) factors the Newton matrix over the pattern
- * they give it (generated): the 4 x 4 kernels are then not needed, and the dense solve serves a matrix
- * whose LU exchanged rows. */
-#define CAEKF_LA_LU4 (!CAEKF_FIXED_LINKS)
-#define CAEKF_LA_DENSE_SOLVE (CAEKF_LA_GENERAL_LU || CAEKF_FIXED_LINKS)
+/* A size the routines take. */
+static inline int caekf_la_size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
 /* The LU kernels: declared for every build, defined in caekf_kernels.c for the builds that run them (code that
  * names one another build lacks sits under if of a constant false there, and compiles out). */
