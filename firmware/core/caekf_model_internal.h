@@ -164,10 +164,12 @@ caekf_scalar_t caekf_model_contact_dot(const caekf_model_t *m, int c, const caek
 /* Contact c's exponent: the build's constant where every contact of the sized scenario has the same. */
 #ifdef CAEKF_SIZED_CONTACT_N
 #define CAEKF_HAS_CONTACT_N 0 /* the model stores no exponent */
-#define CAEKF_METHOD_CONTACT_N(m, c) ((void)(m), (void)(c), (caekf_scalar_t)CAEKF_SIZED_CONTACT_N)
+#define CAEKF_SIZED_CONTACT_N_VALUE ((caekf_scalar_t)CAEKF_SIZED_CONTACT_N)
+#define CAEKF_METHOD_CONTACT_N(m, c) ((void)(m), (void)(c), CAEKF_SIZED_CONTACT_N_VALUE)
 #define CAEKF_CONTACT_N_STORE(m) ((void)(m), (caekf_scalar_t *)0)
 #else
 #define CAEKF_HAS_CONTACT_N 1
+#define CAEKF_SIZED_CONTACT_N_VALUE ((caekf_scalar_t)0) /* none */
 #define CAEKF_METHOD_CONTACT_N(m, c) ((m)->p.contact_n[c])
 #define CAEKF_CONTACT_N_STORE(m) ((m)->p.contact_n)
 #endif /* CAEKF_SIZED_CONTACT_N */
