@@ -110,20 +110,6 @@ static void slr_moments(caekf_scalar_t d, caekf_scalar_t s, caekf_scalar_t n, ca
     *e = a;
     *e1 = a1;
 }
-#if CAEKF_HAS_SLR
-/* The laws statistically linearised (tangents and switch): elastic laws of gamma alone. A damped law or
- * one with n, lambda or the gap estimated keeps its own tangents and the sign switch of eq. (21): the
- * switch on P(delta > 0) alone, without the expected tangents, measured worse on the whole law
- * (docs/discretisation.md). */
-int caekf_model_slr_law(const caekf_model_t *m, int c)
-{
-    const unsigned char *law = m->law_state[c];
-    if (CAEKF_HAS_LAW_PARAMS && (law[CAEKF_LAW_N] != 0 || law[CAEKF_LAW_LAMBDA] != 0 || law[CAEKF_LAW_GAP] != 0)) {
-        return 0;
-    }
-    return CAEKF_METHOD_LAMBDA(m, c) == 0;
-}
-#endif /* CAEKF_HAS_SLR */
 /* A contact whose force enters the Newton matrix and F: closed, or (statistically linearised) an uncertain
  * contact's tangents. */
 #define CONTACT_ON(c) ((c).delta > 0 || (CAEKF_HAS_SLR && (c).dfc_ddelta != 0))

@@ -249,8 +249,17 @@ void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAE
 
 /* Whether a contact is closed at x (the step map then differs from the constant linear one). */
 int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x);
-/* 1 when contact c's law is linearised statistically (setting contact_slr_p): elastic, gamma alone. Defined
- * where a build has such contacts (CAEKF_HAS_SLR). */
-int caekf_model_slr_law(const caekf_model_t *m, int c);
+/* 1 when contact c's law is linearised statistically (setting contact_slr_p: tangents and switch): elastic laws of
+ * gamma alone. A damped law or one with n, lambda or the gap estimated keeps its own tangents and the sign switch
+ * of eq. (21): the switch on P(delta > 0) alone, without the expected tangents, measured worse on the whole law
+ * (docs/discretisation.md). */
+static inline int caekf_model_slr_law(const caekf_model_t *m, int c)
+{
+    const unsigned char *law = m->law_state[c];
+    if (CAEKF_HAS_LAW_PARAMS && (law[CAEKF_LAW_N] != 0 || law[CAEKF_LAW_LAMBDA] != 0 || law[CAEKF_LAW_GAP] != 0)) {
+        return 0;
+    }
+    return CAEKF_METHOD_LAMBDA(m, c) == 0;
+}
 
 #endif /* CAEKF_MODEL_INTERNAL_H */
