@@ -274,66 +274,14 @@ static caekf_scalar_t input_noise_ratio(const caekf_t *est, const caekf_settings
     return sq(gain * s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
 }
 
-/* caekf_init with the mechanism given as a structure (st) or by the settings' bodies and links (st NULL). */
-static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, const caekf_structure_t *st)
+/* The parameters' scales, initial values, Q and bounds (init): the contacts' gammas (ln gamma with gamma_log), their
+ * estimated law parameters, the mechanism's parameters (ln(value / setting), 0 at first) and the sensors'
+ * offsets (0 at first); each a random walk. */
+static void init_params(caekf_t *est, const caekf_settings_t *s)
 {
-    const caekf_model_params_t *mp;
-    int i, nq, nc, n;
-    if (!CAEKF_HAS_STRUCTURES) { /* a sized build's mechanism is bodies on a line: no structure code linked */
-        st = 0;
-    }
-    if (est == 0 || s == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    mp = &s->model;
-    /* Validation covers everything caekf_model_init checks, so nothing below can fail half-way. */
-    if (caekf_settings_validate(s, 0) != CAEKF_OK || (st != 0 && caekf_model_structure_check(mp, st) != 0)) {
-        return CAEKF_ERR_SETTINGS;
-    }
-    est->cfg = *s; /* first: s may be the instance's own settings */
-    /* The rest of the instance zero (every buffer and flag), then what is not: one loop, less flash. */
-    {
-        unsigned char *bytes = (unsigned char *)est;
-        size_t k;
-        for (k = offsetof(caekf_t, model); k < sizeof *est; ++k) {
-            bytes[k] = 0;
-        }
-    }
-    if (st != 0) { /* checked above; a structure without a nonsingular Newton matrix is refused here */
-        if (caekf_model_init_structure(&est->model, mp, st) != 0) {
-            return CAEKF_ERR_SETTINGS;
-        }
-    } else {
-        (void)caekf_model_init(&est->model, mp);
-    }
-    if (CAEKF_HAS_SUBSTEPS && s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
-        caekf_model_params_t sub = *mp;
-        sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
-        if (st != 0) {
-            if (caekf_model_init_structure(SUB_MODEL(est), &sub, st) != 0) {
-                return CAEKF_ERR_SETTINGS;
-            }
-        } else {
-            (void)caekf_model_init(SUB_MODEL(est), &sub);
-        }
-    } else if (CAEKF_HAS_SUBSTEPS) {
-        *SUB_MODEL(est) = est->model;
-    }
-    nq = est->model.nq;
-    nc = est->model.nc;
-    n = est->model.n;
-    for (i = 0; i < CAEKF_N; ++i) {
-        est->scale[i] = 1;
-    }
-    for (i = 0; i < nq; ++i) { /* a structure starts at rest at q = 0 (q0 and v0 are a line's bodies') */
-        est->scale[i] = s->sigma_q0;
-        est->scale[nq + i] = s->sigma_v0;
-        est->z[i] = st == 0 ? s->q0[i] / s->sigma_q0 : 0;
-        est->z[nq + i] = st == 0 ? s->v0[i] / s->sigma_v0 : 0;
-    }
-    est->mismatch.nis_mean = 1;
-    est->mismatch.q_scale = 1;
-    set_body_q(est);
+    const caekf_model_params_t *mp = &s->model;
+    const int nq = est->model.nq, nc = est->model.nc;
+    int i;
     for (i = 0; i < nc; ++i) {
         const int g = 2 * nq + i;
         if (CAEKF_PARAMS_GAMMA_LOG(mp)) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
@@ -376,13 +324,21 @@ static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, con
             est->q_diag[k] = sq(s->sigma_q_mech);
         }
     }
+}
+
+/* The filter's sizes, sensed states and scaled R (init). rows: the sensors read rows of H (a structure's). */
+static void init_dims(caekf_t *est, const caekf_settings_t *s, int rows)
+{
+    const caekf_model_params_t *mp = &s->model;
+    const int nq = est->model.nq, n = est->model.n;
+    int i;
     est->dims.nq = nq;
     est->dims.n = n;
     est->dims.ny = mp->sensors;
     for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
         est->dims.r[i] = 1;
     }
-    est->dims.rows = st != 0; /* a structure's sensors read rows */
+    est->dims.rows = rows;
     for (i = 0; i < mp->sensors; ++i) {
         const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
         est->dims.rows |= mp->sensor_kind[i] > CAEKF_SENSOR_VELOCITY || est->model.sensor_bias[i] != 0;
@@ -396,6 +352,69 @@ static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, con
             est->dims.r[i] += input_noise_ratio(est, s, i, k);
         }
     }
+}
+
+/* caekf_init with the mechanism given as a structure (st) or by the settings' bodies and links (st NULL). */
+static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, const caekf_structure_t *st)
+{
+    const caekf_model_params_t *mp;
+    int i, nq, n;
+    if (!CAEKF_HAS_STRUCTURES) { /* a sized build's mechanism is bodies on a line: no structure code linked */
+        st = 0;
+    }
+    if (est == 0 || s == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    mp = &s->model;
+    /* Validation covers everything caekf_model_init checks, so nothing below can fail half-way. */
+    if (caekf_settings_validate(s, 0) != CAEKF_OK || (st != 0 && caekf_model_structure_check(mp, st) != 0)) {
+        return CAEKF_ERR_SETTINGS;
+    }
+    est->cfg = *s; /* first: s may be the instance's own settings */
+    /* The rest of the instance zero (every buffer and flag), then what is not: one loop, less flash. */
+    {
+        unsigned char *bytes = (unsigned char *)est;
+        size_t k;
+        for (k = offsetof(caekf_t, model); k < sizeof *est; ++k) {
+            bytes[k] = 0;
+        }
+    }
+    if (st != 0) { /* checked above; a structure without a nonsingular Newton matrix is refused here */
+        if (caekf_model_init_structure(&est->model, mp, st) != 0) {
+            return CAEKF_ERR_SETTINGS;
+        }
+    } else {
+        (void)caekf_model_init(&est->model, mp);
+    }
+    if (CAEKF_HAS_SUBSTEPS && s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
+        caekf_model_params_t sub = *mp;
+        sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
+        if (st != 0) {
+            if (caekf_model_init_structure(SUB_MODEL(est), &sub, st) != 0) {
+                return CAEKF_ERR_SETTINGS;
+            }
+        } else {
+            (void)caekf_model_init(SUB_MODEL(est), &sub);
+        }
+    } else if (CAEKF_HAS_SUBSTEPS) {
+        *SUB_MODEL(est) = est->model;
+    }
+    nq = est->model.nq;
+    n = est->model.n;
+    for (i = 0; i < CAEKF_N; ++i) {
+        est->scale[i] = 1;
+    }
+    for (i = 0; i < nq; ++i) { /* a structure starts at rest at q = 0 (q0 and v0 are a line's bodies') */
+        est->scale[i] = s->sigma_q0;
+        est->scale[nq + i] = s->sigma_v0;
+        est->z[i] = st == 0 ? s->q0[i] / s->sigma_q0 : 0;
+        est->z[nq + i] = st == 0 ? s->v0[i] / s->sigma_v0 : 0;
+    }
+    est->mismatch.nis_mean = 1;
+    est->mismatch.q_scale = 1;
+    set_body_q(est);
+    init_params(est, s);
+    init_dims(est, s, st != 0);
     for (i = 0; i < n; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
         est->P[i * n + i] = 1;
     }

@@ -442,6 +442,111 @@ static void upper_col(const caekf_scalar_t *P, int n, int h, caekf_scalar_t *out
     }
 }
 
+/* Eq. (15) on the upper triangle of P: P+ = P - G (H P). With a parameter's gain zeroed (live 0), its row of this
+ * product would stay stale; the upper triangle alone gives the Schmidt result P_xg <- P_xg - G_x (H P)_g, P_gg
+ * unchanged. Rows and columns of skip (eq. 27, the paper's switch-off) are left. */
+CAEKF_HOT_INLINE void update_standard(caekf_scalar_t *P, caekf_scalar_t (*G)[CAEKF_MAX_SENSORS],
+                                      caekf_scalar_t (*hp)[CAEKF_N], const unsigned char *live,
+                                      const unsigned char *skip, int any_skip, int n, int nx, int ny)
+{
+    int i, j, k;
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t *p = &AT(P, n, i, 0);
+        if (skip[i]) {
+            continue;
+        }
+        if (ny == 2) { /* two sensors: the gains held in registers */
+            const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
+            const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
+            p[i] -= g0 * h0[i] + g1 * h1[i];
+            if (!any_skip) {
+                for (j = i + 1; j < n; ++j) {
+                    p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                }
+                continue;
+            }
+            for (j = i + 1; j < n; ++j) {
+                if (!skip[j]) {
+                    p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                }
+            }
+            continue;
+        }
+        for (j = i; j < n; ++j) {
+            caekf_scalar_t s = 0;
+            if (skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[i][k] * hp[k][j];
+            }
+            p[j] = j == i ? p[j] - s : flush(p[j] - s);
+        }
+    }
+    /* A held parameter i (gain 0) before a live state j: the upper triangle keeps P_ij, which is row j's
+     * update P_ji - G_j (H P)_i (the Schmidt result on both sides); the row loop above left it. Only a
+     * state with more than one parameter has such pairs. */
+    for (i = nx; CAEKF_NP > 1 && i < n; ++i) {
+        if (live[i] || skip[i]) {
+            continue;
+        }
+        for (j = i + 1; j < n; ++j) {
+            caekf_scalar_t s = 0;
+            if (!live[j] || skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[j][k] * hp[k][i];
+            }
+            AT(P, n, i, j) = flush(AT(P, n, i, j) - s);
+        }
+    }
+}
+
+/* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,sensed} G^T + G R G^T, on the upper
+ * triangle of P. Row i of A P at the sensed states comes from the copies of H P (P is symmetric). R enters as r_0
+ * times the ratios r_k / r_0 (exactly 1 when the sensors share R). Rows and columns of skip are left. */
+CAEKF_HOT_INLINE void update_joseph(caekf_scalar_t *P, caekf_scalar_t (*G)[CAEKF_MAX_SENSORS],
+                                    caekf_scalar_t (*hp)[CAEKF_N], const unsigned char *skip,
+                                    const caekf_filter_dims_t *d, const caekf_correct_work_t *work, int n, int ny)
+{
+    caekf_scalar_t rr[CAEKF_MAX_SENSORS];
+    int i, j, k, l;
+    for (k = 0; k < ny; ++k) {
+        rr[k] = d->r[k] / d->r[0];
+    }
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t a[CAEKF_MAX_SENSORS], gr[CAEKF_MAX_SENSORS];
+        if (skip[i]) {
+            continue;
+        }
+        for (k = 0; k < ny; ++k) {
+            caekf_scalar_t s = 0;
+            for (l = 0; l < ny; ++l) {
+                s += G[i][l] * (ROWS(d) ? work->hph[l][k] : hp[l][d->h[k]]); /* the prior's H P H^T */
+            }
+            a[k] = hp[k][i] - s;
+            gr[k] = G[i][k] * rr[k];
+        }
+        for (j = i; j < n; ++j) {
+            caekf_scalar_t s = 0, rg = 0, v;
+            if (skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[i][k] * hp[k][j];
+                rg += gr[k] * G[j][k];
+            }
+            v = AT(P, n, i, j) - s;
+            for (k = 0; k < ny; ++k) {
+                v -= a[k] * G[j][k];
+            }
+            v += d->r[0] * rg;
+            AT(P, n, i, j) = j > i ? flush(v) : v;
+        }
+    }
+}
+
 int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
                         const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
                         caekf_correct_work_t *work)
@@ -450,11 +555,11 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
     caekf_scalar_t(*const G)[CAEKF_MAX_SENSORS] = work->gain;
     caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */
-    caekf_scalar_t e[CAEKF_MAX_SENSORS], rr[CAEKF_MAX_SENSORS];
+    caekf_scalar_t e[CAEKF_MAX_SENSORS];
     unsigned char live[CAEKF_N], skip[CAEKF_N];
     int any_live = 0, any_skip = 0;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j, k, l;
+    int i, k, l;
     if (ROWS(d)) {
         sensed_rows(P, d, work);
     }
@@ -535,97 +640,9 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         }
     }
     if (!JOSEPH_FORM(joseph)) {
-        /* Eq. (15) on the upper triangle: P+ = P - G (H P). With a gamma's gain zeroed, its row of this
-         * product would stay stale; the upper triangle alone gives the Schmidt result
-         * P_xg <- P_xg - G_x (H P)_g, P_gg unchanged. */
-        for (i = 0; i < n; ++i) {
-            caekf_scalar_t *p = &AT(P, n, i, 0);
-            if (skip[i]) {
-                continue;
-            }
-            if (ny == 2) { /* two sensors: the gains held in registers */
-                const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
-                const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
-                p[i] -= g0 * h0[i] + g1 * h1[i];
-                if (!any_skip) {
-                    for (j = i + 1; j < n; ++j) {
-                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
-                    }
-                    continue;
-                }
-                for (j = i + 1; j < n; ++j) {
-                    if (!skip[j]) {
-                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
-                    }
-                }
-                continue;
-            }
-            for (j = i; j < n; ++j) {
-                caekf_scalar_t s = 0;
-                if (skip[j]) {
-                    continue;
-                }
-                for (k = 0; k < ny; ++k) {
-                    s += G[i][k] * hp[k][j];
-                }
-                p[j] = j == i ? p[j] - s : flush(p[j] - s);
-            }
-        }
-        /* A held parameter i (gain 0) before a live state j: the upper triangle keeps P_ij, which is row j's
-         * update P_ji - G_j (H P)_i (the Schmidt result on both sides); the row loop above left it. Only a
-         * state with more than one parameter has such pairs. */
-        for (i = nx; CAEKF_NP > 1 && i < n; ++i) {
-            if (live[i] || skip[i]) {
-                continue;
-            }
-            for (j = i + 1; j < n; ++j) {
-                caekf_scalar_t s = 0;
-                if (!live[j] || skip[j]) {
-                    continue;
-                }
-                for (k = 0; k < ny; ++k) {
-                    s += G[j][k] * hp[k][i];
-                }
-                AT(P, n, i, j) = flush(AT(P, n, i, j) - s);
-            }
-        }
-        return 0;
-    }
-    /* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,sensed} G^T + G R G^T. Row i
-     * of A P at the sensed states comes from the copies of H P (P is symmetric). R enters as r_0 times
-     * the ratios r_k / r_0 (exactly 1 when the sensors share R). */
-    for (k = 0; k < ny; ++k) {
-        rr[k] = d->r[k] / d->r[0];
-    }
-    for (i = 0; i < n; ++i) {
-        caekf_scalar_t a[CAEKF_MAX_SENSORS], gr[CAEKF_MAX_SENSORS];
-        if (skip[i]) {
-            continue;
-        }
-        for (k = 0; k < ny; ++k) {
-            caekf_scalar_t s = 0;
-            for (l = 0; l < ny; ++l) {
-                s += G[i][l] * (ROWS(d) ? work->hph[l][k] : hp[l][d->h[k]]); /* the prior's H P H^T */
-            }
-            a[k] = hp[k][i] - s;
-            gr[k] = G[i][k] * rr[k];
-        }
-        for (j = i; j < n; ++j) {
-            caekf_scalar_t s = 0, rg = 0, v;
-            if (skip[j]) {
-                continue;
-            }
-            for (k = 0; k < ny; ++k) {
-                s += G[i][k] * hp[k][j];
-                rg += gr[k] * G[j][k];
-            }
-            v = AT(P, n, i, j) - s;
-            for (k = 0; k < ny; ++k) {
-                v -= a[k] * G[j][k];
-            }
-            v += d->r[0] * rg;
-            AT(P, n, i, j) = j > i ? flush(v) : v;
-        }
+        update_standard(P, G, hp, live, skip, any_skip, n, nx, ny);
+    } else {
+        update_joseph(P, G, hp, skip, d, work, n, ny);
     }
     return 0;
 }
