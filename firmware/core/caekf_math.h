@@ -24,7 +24,7 @@
 #define CAEKF_EXP(x) exp(x)
 #define CAEKF_ERFC(x) erfc(x)
 #define CAEKF_C(x) ((caekf_scalar_t)(x))
-#endif
+#endif /* CAEKF_USE_FLOAT */
 
 /* CAEKF_HOT_INLINE: a small helper on the step's hot path, inlined even at -Os (a call costs more than its
  * body). CAEKF_NOINLINE keeps a function out of line: its frame then adds to the stack only while it runs. */
@@ -48,7 +48,7 @@
 #else
 #define CAEKF_UNROLL_SIZED
 #define CAEKF_UNROLL_DOT
-#endif
+#endif /* CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__) */
 
 /* isfinite() is type-generic in C99. */
 #define CAEKF_ISFINITE(x) (isfinite(x) != 0)

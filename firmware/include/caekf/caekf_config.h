@@ -165,7 +165,7 @@ typedef double caekf_scalar_t;
 #endif
 #ifndef CAEKF_PSD_WRITTEN_OUT_MAX_N
 #define CAEKF_PSD_WRITTEN_OUT_MAX_N 12
-#endif
+#endif /* !CAEKF_PSD_WRITTEN_OUT_MAX_N */
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]
