@@ -256,7 +256,7 @@ int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x);
 static inline int caekf_model_slr_law(const caekf_model_t *m, int c)
 {
     const unsigned char *law = m->law_state[c];
-    if (CAEKF_HAS_LAW_PARAMS && (law[CAEKF_LAW_N] != 0 || law[CAEKF_LAW_LAMBDA] != 0 || law[CAEKF_LAW_GAP] != 0)) {
+    if (CAEKF_HAS_LAW_PARAMS && (law[CAEKF_LAW_N] != 0u || law[CAEKF_LAW_LAMBDA] != 0u || law[CAEKF_LAW_GAP] != 0u)) {
         return 0;
     }
     return CAEKF_METHOD_LAMBDA(m, c) == 0;
