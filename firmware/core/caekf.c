@@ -19,23 +19,45 @@ CAEKF_STATIC_ASSERT(CAEKF_N *CAEKF_N >= CAEKF_N + 2 * CAEKF_MAX_INPUTS, p_work_h
 CAEKF_STATIC_ASSERT(CAEKF_GAMMA_LIVE == 0, init_zeroes_the_policies_to_live);
 CAEKF_STATIC_ASSERT(offsetof(caekf_t, cfg) == 0, init_zeroes_what_follows_the_settings);
 
+/* The instance's members a build may lack (caekf.h's layout), as caekf_model_internal.h's: the member, or where
+ * the layout lacks it a null pointer of its type, named only under if (the switch), which compiles out there. */
+
 /* x_{k-1}, step work: in P_work, which is free until the covariance prediction, when the step has no
  * substeps (they keep their start there); else in the instance. */
 #if CAEKF_ONE_STEP_BE
 #define X_PREV(est) ((est)->P_work)
 #else
 #define X_PREV(est) ((est)->x_prev)
-#endif
-
-static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
+#endif /* CAEKF_ONE_STEP_BE */
 
 /* The inputs at the estimate's time (the step's start): the last step's, or u itself until a step or
- * caekf_correct has seen them (the first step holds u over its interval). */
+ * caekf_correct has seen them (the first step holds u over its interval). Only the trapezoidal rule, the
+ * substeps and base inputs read them. */
 #if CAEKF_KEEPS_U_PREV
 #define U_PREV(est, u) ((est)->u_prev_known ? (const caekf_scalar_t *)(est)->u_prev : (u))
+#define U_PREV_STORE(est) ((est)->u_prev)
+#define U_PREV_KNOWN_STORE(est) (&(est)->u_prev_known)
 #else
-#define U_PREV(est, u) ((void)(est), (u)) /* only the trapezoidal rule, the substeps and base inputs read it */
-#endif
+#define U_PREV(est, u) ((void)(est), (u))
+#define U_PREV_STORE(est) ((void)(est), (caekf_scalar_t *)0)
+#define U_PREV_KNOWN_STORE(est) ((void)(est), (uint32_t *)0)
+#endif /* CAEKF_KEEPS_U_PREV */
+
+/* The substeps' model (at dt / contact_substeps), the q-rows of their F, the contacts at a substep's start and
+ * end, and the LU of the Newton matrix at its start (CAEKF_HAS_SUBSTEPS). */
+#if CAEKF_HAS_SUBSTEPS
+#define SUB_MODEL(est) (&(est)->sub_model)
+#define SUB_FQ(est) ((est)->fq)
+#define SUB_CT(est, k) ((est)->sub_ct[k])
+#define SUB_LU(est) (&(est)->sub_lu)
+#else
+#define SUB_MODEL(est) ((void)(est), (caekf_model_t *)0)
+#define SUB_FQ(est) ((void)(est), (caekf_scalar_t(*)[CAEKF_N])0)
+#define SUB_CT(est, k) ((void)(est), (void)(k), (caekf_contact_t *)0)
+#define SUB_LU(est) ((void)(est), (caekf_newton_lu_t *)0)
+#endif /* CAEKF_HAS_SUBSTEPS */
+
+static caekf_scalar_t sq(caekf_scalar_t x) { return x * x; }
 
 /* F in scaled coordinates, S^-1 F S: column j of the v-rows times s_j / s_v, which is exactly 1 for
  * the v-columns (so those are left alone), one ratio for all q-columns and one per gamma. */
@@ -109,7 +131,6 @@ static caekf_scalar_t gamma_bound(const caekf_settings_t *s, int c, int is_max)
     return CAEKF_PARAMS_GAMMA_LOG(&s->model) ? CAEKF_LOG(b) : b;
 }
 
-#if CAEKF_HAS_LAW_PARAMS
 /* An estimated law parameter at state g: its scale sigma0, initial value, Q and bounds. */
 static void init_param(caekf_t *est, int g, caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q,
                        caekf_scalar_t lo, caekf_scalar_t hi)
@@ -119,17 +140,15 @@ static void init_param(caekf_t *est, int g, caekf_scalar_t x0, caekf_scalar_t si
     est->q_diag[g] = sq(sigma_q / sigma0);
     set_bounds(est, g - 2 * est->model.nq, 1, lo, hi > 0, hi);
 }
-#endif
 
 /* The physical bound (the minimum, or with is_max the maximum) of parameter k, from the settings. */
 static caekf_scalar_t bound_of(const caekf_t *est, int k, int is_max)
 {
     const caekf_settings_t *s = &est->cfg;
     const int c = est->model.param_contact[k];
-#if CAEKF_HAS_LAW_PARAMS
     const unsigned char *law = est->model.law_state[c];
     const int g = 2 * est->model.nq + k;
-    if (k >= est->model.nc) {
+    if (CAEKF_HAS_LAW_PARAMS && k >= est->model.nc) { /* an estimated law parameter's */
         if (law[CAEKF_LAW_N] == g) {
             return is_max ? s->n_max[c] : s->n_min[c];
         }
@@ -138,7 +157,6 @@ static caekf_scalar_t bound_of(const caekf_t *est, int k, int is_max)
         }
         return is_max ? s->gap_max[c] : s->gap_min[c];
     }
-#endif
     return gamma_bound(s, c, is_max);
 }
 
@@ -256,11 +274,91 @@ static caekf_scalar_t input_noise_ratio(const caekf_t *est, const caekf_settings
     return sq(gain * s->input_sigma[k] / (mp->m[mp->sensor_body[i] - 1] * sensor_sigma(s, i)));
 }
 
+/* The parameters' scales, initial values, Q and bounds (init): the contacts' gammas (ln gamma with gamma_log), their
+ * estimated law parameters, the mechanism's parameters (ln(value / setting), 0 at first) and the sensors'
+ * offsets (0 at first); each a random walk. */
+static void init_params(caekf_t *est, const caekf_settings_t *s)
+{
+    const caekf_model_params_t *mp = &s->model;
+    const int nq = est->model.nq, nc = est->model.nc;
+    int i;
+    for (i = 0; i < nc; ++i) {
+        const int g = 2 * nq + i;
+        if (CAEKF_PARAMS_GAMMA_LOG(mp)) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
+            est->scale[g] = s->sigma_gamma0[i] / s->gamma0[i];
+            est->z[g] = CAEKF_LOG(s->gamma0[i]) / est->scale[g];
+        } else {
+            est->scale[g] = s->sigma_gamma0[i];
+            est->z[g] = s->gamma0[i] / s->sigma_gamma0[i];
+        }
+        /* the same ratio either way: sigma_q_gamma / gamma0 over sigma_gamma0 / gamma0 for ln gamma */
+        est->q_diag[g] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
+        if (s->constraint_enabled) { /* gamma's bounds: the paper's eqs. (28)-(30); ln 0 is no bound */
+            set_bounds(est, i, !CAEKF_PARAMS_GAMMA_LOG(mp) || s->gamma_min[i] > 0, gamma_bound(s, i, 0),
+                       s->gamma_max[i] > 0, gamma_bound(s, i, 1));
+        }
+    }
+    for (i = 0; CAEKF_HAS_LAW_PARAMS && i < nc; ++i) { /* the estimated law parameters: after the gammas, bounded */
+        const unsigned char *law = est->model.law_state[i];
+        if (law[CAEKF_LAW_N] != 0) {
+            init_param(est, law[CAEKF_LAW_N], s->n0[i], s->sigma_n0[i], s->sigma_q_n[i], s->n_min[i], s->n_max[i]);
+        }
+        if (law[CAEKF_LAW_LAMBDA] != 0) {
+            init_param(est, law[CAEKF_LAW_LAMBDA], s->lambda0[i], s->sigma_lambda0[i], s->sigma_q_lambda[i],
+                       s->lambda_min[i], s->lambda_max[i]);
+        }
+        if (law[CAEKF_LAW_GAP] != 0) {
+            init_param(est, law[CAEKF_LAW_GAP], s->gap0[i], s->sigma_gap0[i], s->sigma_q_gap[i], s->gap_min[i],
+                       s->gap_max[i]);
+        }
+    }
+    for (i = 0; i < CAEKF_DIM_NM(&est->model); ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
+        const int k = CAEKF_DIM_MECH0(&est->model) + i;
+        (void)caekf_model_mech_setting(&est->model, mp, i, &est->scale[k]);
+        est->q_diag[k] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
+    }
+    for (i = 0; i < mp->sensors; ++i) { /* the sensors' offsets: 0 at first, a random walk */
+        const int k = est->model.sensor_bias[i];
+        if (k != 0) {
+            est->scale[k] = mp->sensor_bias_sigma[i];
+            est->q_diag[k] = sq(s->sigma_q_mech);
+        }
+    }
+}
+
+/* The filter's sizes, sensed states and scaled R (init). rows: the sensors read rows of H (a structure's). */
+static void init_dims(caekf_t *est, const caekf_settings_t *s, int rows)
+{
+    const caekf_model_params_t *mp = &s->model;
+    const int nq = est->model.nq, n = est->model.n;
+    int i;
+    est->dims.nq = nq;
+    est->dims.n = n;
+    est->dims.ny = mp->sensors;
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
+        est->dims.r[i] = 1;
+    }
+    est->dims.rows = rows;
+    for (i = 0; i < mp->sensors; ++i) {
+        const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
+        est->dims.rows |= mp->sensor_kind[i] > CAEKF_SENSOR_VELOCITY || est->model.sensor_bias[i] != 0;
+        est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
+        est->dims.r[i] = sq(sensor_sigma(s, i) / (velocity ? s->sigma_v0 : s->sigma_q0));
+    }
+    for (i = 0; i < mp->sensors && est->dims.rows; ++i) { /* rows of H: each sensor in units of its noise */
+        int k;
+        est->dims.r[i] = 1;
+        for (k = 0; k < mp->inputs && mp->sensor_kind[i] == CAEKF_SENSOR_ACCELERATION; ++k) {
+            est->dims.r[i] += input_noise_ratio(est, s, i, k);
+        }
+    }
+}
+
 /* caekf_init with the mechanism given as a structure (st) or by the settings' bodies and links (st NULL). */
 static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, const caekf_structure_t *st)
 {
     const caekf_model_params_t *mp;
-    int i, nq, nc, n;
+    int i, nq, n;
     if (!CAEKF_HAS_STRUCTURES) { /* a sized build's mechanism is bodies on a line: no structure code linked */
         st = 0;
     }
@@ -288,23 +386,20 @@ static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, con
     } else {
         (void)caekf_model_init(&est->model, mp);
     }
-#if CAEKF_HAS_SUBSTEPS
-    if (s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
+    if (CAEKF_HAS_SUBSTEPS && s->contact_substeps > 1) { /* validation checked dt / contact_substeps is usable */
         caekf_model_params_t sub = *mp;
         sub.dt = mp->dt / (caekf_scalar_t)s->contact_substeps;
         if (st != 0) {
-            if (caekf_model_init_structure(&est->sub_model, &sub, st) != 0) {
+            if (caekf_model_init_structure(SUB_MODEL(est), &sub, st) != 0) {
                 return CAEKF_ERR_SETTINGS;
             }
         } else {
-            (void)caekf_model_init(&est->sub_model, &sub);
+            (void)caekf_model_init(SUB_MODEL(est), &sub);
         }
-    } else {
-        est->sub_model = est->model;
+    } else if (CAEKF_HAS_SUBSTEPS) {
+        *SUB_MODEL(est) = est->model;
     }
-#endif
     nq = est->model.nq;
-    nc = est->model.nc;
     n = est->model.n;
     for (i = 0; i < CAEKF_N; ++i) {
         est->scale[i] = 1;
@@ -318,70 +413,8 @@ static caekf_status_t init_instance(caekf_t *est, const caekf_settings_t *s, con
     est->mismatch.nis_mean = 1;
     est->mismatch.q_scale = 1;
     set_body_q(est);
-    for (i = 0; i < nc; ++i) {
-        const int g = 2 * nq + i;
-        if (CAEKF_PARAMS_GAMMA_LOG(mp)) { /* ln gamma, scaled by sigma_gamma0 / gamma0 (its P0 std to first order) */
-            est->scale[g] = s->sigma_gamma0[i] / s->gamma0[i];
-            est->z[g] = CAEKF_LOG(s->gamma0[i]) / est->scale[g];
-        } else {
-            est->scale[g] = s->sigma_gamma0[i];
-            est->z[g] = s->gamma0[i] / s->sigma_gamma0[i];
-        }
-        /* the same ratio either way: sigma_q_gamma / gamma0 over sigma_gamma0 / gamma0 for ln gamma */
-        est->q_diag[g] = s->q_gamma_scale * sq(s->sigma_q_gamma[i] / s->sigma_gamma0[i]);
-        if (s->constraint_enabled) { /* gamma's bounds: the paper's eqs. (28)-(30); ln 0 is no bound */
-            set_bounds(est, i, !CAEKF_PARAMS_GAMMA_LOG(mp) || s->gamma_min[i] > 0, gamma_bound(s, i, 0),
-                       s->gamma_max[i] > 0, gamma_bound(s, i, 1));
-        }
-    }
-#if CAEKF_HAS_LAW_PARAMS
-    for (i = 0; i < nc; ++i) { /* the estimated law parameters: states after the gammas, always bounded */
-        const unsigned char *law = est->model.law_state[i];
-        if (law[CAEKF_LAW_N] != 0) {
-            init_param(est, law[CAEKF_LAW_N], s->n0[i], s->sigma_n0[i], s->sigma_q_n[i], s->n_min[i], s->n_max[i]);
-        }
-        if (law[CAEKF_LAW_LAMBDA] != 0) {
-            init_param(est, law[CAEKF_LAW_LAMBDA], s->lambda0[i], s->sigma_lambda0[i], s->sigma_q_lambda[i],
-                       s->lambda_min[i], s->lambda_max[i]);
-        }
-        if (law[CAEKF_LAW_GAP] != 0) {
-            init_param(est, law[CAEKF_LAW_GAP], s->gap0[i], s->sigma_gap0[i], s->sigma_q_gap[i], s->gap_min[i],
-                       s->gap_max[i]);
-        }
-    }
-#endif
-    for (i = 0; i < CAEKF_DIM_NM(&est->model); ++i) { /* the mechanism's parameters: ln(value / setting), 0 at first */
-        const int k = CAEKF_DIM_MECH0(&est->model) + i;
-        (void)caekf_model_mech_setting(&est->model, mp, i, &est->scale[k]);
-        est->q_diag[k] = sq(s->sigma_q_mech); /* relative to sigma: already scaled */
-    }
-    for (i = 0; i < mp->sensors; ++i) { /* the sensors' offsets: 0 at first, a random walk */
-        const int k = est->model.sensor_bias[i];
-        if (k != 0) {
-            est->scale[k] = mp->sensor_bias_sigma[i];
-            est->q_diag[k] = sq(s->sigma_q_mech);
-        }
-    }
-    est->dims.nq = nq;
-    est->dims.n = n;
-    est->dims.ny = mp->sensors;
-    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
-        est->dims.r[i] = 1;
-    }
-    est->dims.rows = st != 0; /* a structure's sensors read rows */
-    for (i = 0; i < mp->sensors; ++i) {
-        const int velocity = mp->sensor_kind[i] == CAEKF_SENSOR_VELOCITY;
-        est->dims.rows |= mp->sensor_kind[i] > CAEKF_SENSOR_VELOCITY || est->model.sensor_bias[i] != 0;
-        est->dims.h[i] = (velocity ? nq : 0) + mp->sensor_body[i] - 1;
-        est->dims.r[i] = sq(sensor_sigma(s, i) / (velocity ? s->sigma_v0 : s->sigma_q0));
-    }
-    for (i = 0; i < mp->sensors && est->dims.rows; ++i) { /* rows of H: each sensor in units of its noise */
-        int k;
-        est->dims.r[i] = 1;
-        for (k = 0; k < mp->inputs && mp->sensor_kind[i] == CAEKF_SENSOR_ACCELERATION; ++k) {
-            est->dims.r[i] += input_noise_ratio(est, s, i, k);
-        }
-    }
+    init_params(est, s);
+    init_dims(est, s, st != 0);
     for (i = 0; i < n; ++i) { /* P0 = diag(sigma0^2) is the identity in scaled coordinates */
         est->P[i * n + i] = 1;
     }
@@ -425,7 +458,26 @@ static int all_finite(const caekf_scalar_t *v, int n)
     return nf == 0;
 }
 
-#if CAEKF_HAS_SUBSTEPS
+/* The caller errors a step refuses before it writes anything: CAEKF_ERR_NULL (no instance, no inputs where the
+ * mechanism has some, or no measurements where `measured`), CAEKF_ERR_NOT_INIT, CAEKF_ERR_INPUT (a value of u or
+ * y not finite); else CAEKF_OK. */
+static caekf_status_t refused(const caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured)
+{
+    if (est == 0 || (measured && y == 0)) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!is_init(est)) {
+        return CAEKF_ERR_NOT_INIT;
+    }
+    if (CAEKF_DIM_NU(&est->model) > 0 && u == 0) {
+        return CAEKF_ERR_NULL;
+    }
+    if (!all_finite(u, CAEKF_DIM_NU(&est->model)) || (y != 0 && !all_finite(y, est->cfg.model.sensors))) {
+        return CAEKF_ERR_INPUT;
+    }
+    return CAEKF_OK;
+}
+
 /* x_{k-1} (x_prev) -> x_k- (x_pred) in contact_substeps substeps of the sub-model, inputs linear from u0 to
  * u, with F = F_S .. F_1 accumulated in physical units into fq (q-rows) and fv (v-rows), each map applied
  * without forming it (caekf_model_substep_map); F's gamma rows
@@ -434,7 +486,7 @@ static int all_finite(const caekf_scalar_t *v, int n)
  * Newton solve did not converge, -1 on a singular matrix. */
 static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u, int *iters)
 {
-    const caekf_model_t *m = &est->sub_model;
+    const caekf_model_t *m = SUB_MODEL(est);
     const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m), nu = CAEKF_DIM_NU(m), steps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
     /* P_work is free until the covariance prediction: it holds each substep's start and inputs, off the
      * stack (the substeps' Newton solve is the deepest call of a step) */
@@ -447,7 +499,7 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
     }
     for (i = 0; i < nq; ++i) { /* F = I, accumulated map by map */
         for (j = 0; j < n; ++j) {
-            est->fq[i][j] = j == i ? 1 : 0;
+            SUB_FQ(est)[i][j] = j == i ? 1 : 0;
             est->fv[i][j] = j == nq + i ? 1 : 0;
         }
     }
@@ -462,17 +514,17 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
         }
         /* the contacts at the substep's start and end (the next one's start): their roles swap every
          * substep */
-        caekf_contact_t *ct0 = est->sub_ct[step & 1], *ct = est->sub_ct[(step + 1) & 1];
+        caekf_contact_t *ct0 = SUB_CT(est, step & 1), *ct = SUB_CT(est, (step + 1) & 1);
         /* Each substep's first Newton update takes the Jacobian at its start: the previous substep's map
          * has factorised it; the first substep's is factorised here (refused: its own Jacobian). */
-        const int first_ok = step > 1 || caekf_model_newton_lu(m, ct0, &est->sub_lu) == 0;
+        const int first_ok = step > 1 || caekf_model_newton_lu(m, ct0, SUB_LU(est)) == 0;
         if (caekf_model_newton_ct(m, xa, ua, ub, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred, &it,
                                   est->scratch.m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0,
-                                  first_ok ? &est->sub_lu : 0) != 0) {
+                                  first_ok ? SUB_LU(est) : 0) != 0) {
             result = 1;
         }
         *iters += it;
-        if (caekf_model_substep_map(m, ct, ct0, est->fq, est->fv, &est->sub_lu, w) != 0) {
+        if (caekf_model_substep_map(m, ct, ct0, SUB_FQ(est), est->fv, SUB_LU(est), w) != 0) {
             return -1;
         }
         for (i = 0; i < n; ++i) {
@@ -481,14 +533,6 @@ static int substep_predict(caekf_t *est, const caekf_scalar_t *u0, const caekf_s
     }
     return result;
 }
-#endif
-
-/* The product's q-rows after substeps (NULL: F's q-rows follow from its v-rows). */
-#if CAEKF_HAS_SUBSTEPS
-#define SUBSTEP_FQ(est, substepped) ((substepped) ? (est)->fq : 0)
-#else
-#define SUBSTEP_FQ(est, substepped) ((void)(substepped), (caekf_scalar_t(*)[CAEKF_N])0)
-#endif
 
 /* Any input given a noise (input{i}_sigma > 0). */
 static int measured_inputs(const caekf_t *est)
@@ -556,8 +600,8 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
     const caekf_scalar_t *s = est->scale, s_q = s[0], s_v = s[nq];
     caekf_scalar_t *z = est->x_pred;
     int i;
-#if CAEKF_HAS_SUBSTEPS
-    if (substepped) { /* scaled: S^-1 F S, column j times s_j / s_q (q-rows) or s_j / s_v (v-rows) */
+    if (CAEKF_HAS_SUBSTEPS && substepped) { /* scaled: S^-1 F S, column j times s_j / s_q (q-rows) or s_j / s_v
+                                               * (v-rows) */
         const caekf_scalar_t rvq = s_v / s_q, rqv = s_q / s_v;
         est->fv_const = 0;
         if (CAEKF_DIM_NM(&est->model) > 0) { /* the mechanism's columns over the whole step (docs) */
@@ -568,12 +612,12 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
             for (i = 0; i < nq; ++i) {
                 int j;
                 for (j = first; j < end; ++j) {
-                    est->fq[i][j] = est->model.hs * est->fv[i][j];
+                    SUB_FQ(est)[i][j] = est->model.hs * est->fv[i][j];
                 }
             }
         }
         for (i = 0; i < nq; ++i) {
-            caekf_scalar_t *fq = est->fq[i], *fv = est->fv[i];
+            caekf_scalar_t *fq = SUB_FQ(est)[i], *fv = est->fv[i];
             int j;
             /* the ratio is exactly 1 for the rows' own kind (one scale for all q, one for all v) */
             CAEKF_UNROLL_SIZED
@@ -587,19 +631,13 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
             }
         }
         caekf_fv_dense(nq, n, &est->fv_pattern); /* dense in contact: no scan for zeros */
-    } else
-#endif
-        if (closed || CAEKF_DIM_NM(&est->model) > 0) {
+    } else if (closed || CAEKF_DIM_NM(&est->model) > 0) {
         est->fv_const = 0;
-#if CAEKF_HAS_SUBSTEPS /* the trapezoidal rule's contacts at x_{k-1}: advance's, in sub_ct[1] */
-        if (caekf_model_transition_ct(&est->model, ct, est->sub_ct[1], est->fv) != 0) {
+        /* with substeps the trapezoidal rule's contacts at x_{k-1} are advance's, in sub_ct[1] */
+        if (CAEKF_HAS_SUBSTEPS ? caekf_model_transition_ct(&est->model, ct, SUB_CT(est, 1), est->fv) != 0
+                               : caekf_model_transition_v_at(&est->model, ct, X_PREV(est), est->fv) != 0) {
             return -1;
         }
-#else
-        if (caekf_model_transition_v_at(&est->model, ct, X_PREV(est), est->fv) != 0) {
-            return -1;
-        }
-#endif
         if (CAEKF_DIM_NM(&est->model) > 0 && mech_columns(est, ct, u0, u) != 0) {
             return -1;
         }
@@ -616,8 +654,8 @@ static int predict_covariance(caekf_t *est, int closed, int substepped, const ca
     }
     /* From here on P_work holds the upper triangle only; the commit mirrors it. */
     caekf_predict_covariance(est->P, est->P_work, est->fv, &est->fv_pattern, est->model.hs * s_v / s_q,
-                             (est->model.p.dt - est->model.hs) * s_v / s_q, SUBSTEP_FQ(est, substepped), est->q_diag,
-                             &est->dims);
+                             (est->model.p.dt - est->model.hs) * s_v / s_q,
+                             CAEKF_HAS_SUBSTEPS && substepped ? SUB_FQ(est) : 0, est->q_diag, &est->dims);
     return 0;
 }
 
@@ -671,12 +709,10 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     caekf_scalar_t H[4][4], P[4][4], d, r, gamma, nn, lambda, f, fl, L, kg, var = 0;
     int idx[4], kind[4], k = 0, i, j, l;
     caekf_contact_t ct;
-#if CAEKF_HAS_LAW_PARAMS
-    if (!CAEKF_METHOD_GAMMA_LOG(m) &&
+    if (CAEKF_HAS_LAW_PARAMS && !CAEKF_METHOD_GAMMA_LOG(m) &&
         (m->law_state[c][CAEKF_LAW_N] | m->law_state[c][CAEKF_LAW_LAMBDA] | m->law_state[c][CAEKF_LAW_GAP]) == 0) {
         return; /* gamma alone: the law is linear in it */
     }
-#endif
     for (i = 0; i < n; ++i) {
         x[i] = est->x_pred[i] * s[i];
     }
@@ -691,8 +727,7 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     lambda = CAEKF_METHOD_LAMBDA(m, c);
     idx[k] = 2 * nq + c;
     kind[k++] = -1;
-#if CAEKF_HAS_LAW_PARAMS
-    for (i = 0; i < CAEKF_LAW_COUNT; ++i) {
+    for (i = 0; CAEKF_HAS_LAW_PARAMS && i < CAEKF_LAW_COUNT; ++i) { /* the estimated law parameters */
         const int g = m->law_state[c][i];
         if (g != 0) {
             idx[k] = g;
@@ -704,7 +739,6 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
             }
         }
     }
-#endif
     if (k == 1 && !CAEKF_METHOD_GAMMA_LOG(m)) {
         return; /* gamma alone: the law is linear in it */
     }
@@ -769,7 +803,6 @@ CAEKF_NOINLINE static void add_second_order_noise(caekf_t *est, int c)
     }
 }
 
-#if CAEKF_SIZED && !CAEKF_ONE_STEP_BE
 /* The commit of a step in a sized build with substeps or the trapezoidal rule: z, and P from P_work's upper
  * triangle, filling the lower one; the sizes are constants, and the copy is written out (no loop overhead
  * per entry). The one-step build's loop below costs 127 instructions more and 652 B less. */
@@ -789,9 +822,7 @@ static void commit_sized(caekf_t *est, const caekf_scalar_t *z)
         }
     }
 }
-#endif
 
-#if CAEKF_HAS_SLR
 /* Statistically linearised contacts (contact_slr_p > 0): each contact's penetration std,
  * sqrt(b^T P_qq b) from P_{k-1} (physical units; every q shares one scale), into both models; 0 for a
  * law that is not linearised statistically (caekf_model_slr_law), which keeps eq. (21)'s sign switch. */
@@ -822,13 +853,12 @@ static void set_penetration_std(caekf_t *est)
             }
         }
         v = v > 0 && caekf_model_slr_law(&est->model, c) ? CAEKF_SQRT(v) * est->scale[0] : 0;
-        est->model.slr_s[c] = v;
-#if CAEKF_HAS_SUBSTEPS
-        est->sub_model.slr_s[c] = v;
-#endif
+        CAEKF_SLR_S(&est->model)[c] = v;
+        if (CAEKF_HAS_SUBSTEPS) {
+            CAEKF_SLR_S(SUB_MODEL(est))[c] = v;
+        }
     }
 }
-#endif
 
 /* The correction's rows of H for sensors that read more than one state: at the scaled prediction z (the
  * physical state is z times the scales), each sensor's h(x), row and measurement scaled by its noise std
@@ -867,38 +897,230 @@ static int set_mechanism(caekf_t *est, const caekf_scalar_t *x)
         mult[j] = CAEKF_EXP(x[first + j]);
     }
     r = caekf_model_set_mech(&est->model, &est->cfg.model, mult);
-#if CAEKF_HAS_SUBSTEPS
-    if (est->cfg.contact_substeps > 1) {
-        r |= caekf_model_set_mech(&est->sub_model, &est->cfg.model, mult);
+    if (CAEKF_HAS_SUBSTEPS && est->cfg.contact_substeps > 1) {
+        r |= caekf_model_set_mech(SUB_MODEL(est), &est->cfg.model, mult);
     }
-#endif
     return r; /* fv_const stays unused: with mechanism parameters every step forms F (predict_covariance) */
 }
 
-/* One step: prediction (unless `predict` is 0: caekf_correct), then (with y) the correction and the
- * constraint. y == NULL: no measurement (caekf_predict), which caekf_step (measured == 1) refuses as a
- * caller error. */
+/* Table 1's prediction of the state, x_{k-1} -> x_k- (eq. 19), into x_pred (physical units), from the scaled z: the
+ * model at the mechanism's estimates and the contacts' penetration std first, then (unless `predict` is 0:
+ * caekf_correct, x_k- = x_{k-1}) the Newton solve of one step from the inputs u0 to u or, where a contact is
+ * closed at either end of it, of the substeps. The first step after init holds u over its interval unless
+ * caekf_correct gave the input at t0. *closed_prev: a contact closed at x_{k-1} (substeps and the trapezoidal F
+ * both ask); *substepped: the substeps ran; *ct_pred: the contacts at x_k- the prediction evaluated (NULL: none).
+ * Returns CAEKF_OK, else the error with its flags. */
+CAEKF_HOT_INLINE caekf_status_t predict_state(caekf_t *est, const caekf_scalar_t *u0, const caekf_scalar_t *u,
+                                              int predict, int *iters, int *closed_prev, int *substepped,
+                                              const caekf_contact_t **ct_pred, uint32_t *flags)
+{
+    const int n = CAEKF_DIM_N(&est->model), substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
+    caekf_scalar_t *const xprev = X_PREV(est);
+    int i, closed_before, r = 0;
+    for (i = 0; i < n; ++i) {
+        xprev[i] = est->z[i] * est->scale[i];
+    }
+    if (CAEKF_MAX_MECH_PARAMS > 0 && CAEKF_DIM_NM(&est->model) > 0 && set_mechanism(est, xprev) != 0) {
+        *flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+        return CAEKF_ERR_SINGULAR;
+    }
+    if (CAEKF_HAS_SLR && est->cfg.contact_slr_p > 0) {
+        set_penetration_std(est);
+    }
+    if (!predict) {
+        for (i = 0; i < n; ++i) {
+            est->x_pred[i] = xprev[i];
+        }
+        return CAEKF_OK;
+    }
+    /* With substeps the contacts at x_{k-1} (sub_ct[1]: the first substep's start, and the one step's) and at the
+     * one step's x_k- (sub_ct[0]) are kept: evaluated once each. */
+    *closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) &&
+                   (CAEKF_HAS_SUBSTEPS ? caekf_model_contacts_any(&est->model, xprev, SUB_CT(est, 1))
+                                       : caekf_model_any_contact(&est->model, xprev));
+    closed_before = substeps > 1 && *closed_prev;
+    if (!closed_before && CAEKF_HAS_SUBSTEPS) { /* a step from an open contact: one step unless it closes one */
+        r = caekf_model_newton_ct(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
+                                  est->x_pred, iters, est->scratch.m, SUB_CT(est, 0),
+                                  CAEKF_METHOD_TRAP(&est->model) ? SUB_CT(est, 1) : 0, 0);
+        *ct_pred = SUB_CT(est, 0);
+    } else if (!closed_before) {
+        r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol, est->x_pred,
+                               iters, est->scratch.m);
+    }
+    if (CAEKF_HAS_SUBSTEPS &&
+        (closed_before || (substeps > 1 && caekf_model_contacts_any(&est->model, 0, SUB_CT(est, 0))))) {
+        *substepped = 1; /* the one-step solution only decided that substeps are needed */
+        r = substep_predict(est, u0, u, iters);
+        *ct_pred = SUB_CT(est, (substeps + 1) & 1);
+        if (r < 0) {
+            *flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+            return CAEKF_ERR_SINGULAR;
+        }
+    }
+    if (r != 0) {
+        *flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
+    }
+    return CAEKF_OK;
+}
+
+/* Table 1's switch-off (eq. 21, Sec. 3.2): each contact's law at x_k- into ct (the prediction's own, ct_pred, when
+ * it evaluated them), whether it is active (closed; statistically linearised: while P(delta > 0) > contact_slr_p)
+ * and so each parameter's policy this step; *deepest: the deepest penetration. Returns whether any contact is
+ * active. */
+CAEKF_HOT_INLINE int switch_off(caekf_t *est, caekf_contact_t *ct, const caekf_contact_t *ct_pred,
+                                caekf_scalar_t *deepest, uint32_t *flags)
+{
+    const int nq = CAEKF_DIM_NQ(&est->model), nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
+    const int mech0 = CAEKF_DIM_MECH0(&est->model) - 2 * nq;
+    caekf_filter_dims_t *const dims = &est->dims;
+    int i, any_contact = 0;
+    for (i = 0; i < nc; ++i) { /* contact by contact (F at x_k- takes the same laws) */
+        int on;
+        if (CAEKF_HAS_SUBSTEPS && ct_pred != 0) { /* the prediction's own, at x_k- */
+            ct[i] = ct_pred[i];
+        } else {
+            caekf_model_contact(&est->model, i, est->x_pred, &ct[i]);
+        }
+        on = ct[i].delta > 0;
+        if (CAEKF_HAS_SLR && est->cfg.contact_slr_p > 0 && CAEKF_SLR_S(&est->model)[i] > 0) {
+            /* at or past the gap P(delta > 0) = erfc(-x) / 2 >= 1/2 (x >= 0): no erfc for a closed contact */
+            on = (ct[i].delta >= 0 && est->cfg.contact_slr_p < CAEKF_C(0.5)) ||
+                 CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (CAEKF_SLR_S(&est->model)[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
+                     est->cfg.contact_slr_p;
+        }
+        *deepest = i == 0 ? ct[i].delta : caekf_max(*deepest, ct[i].delta);
+        any_contact |= on;
+        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, on);
+        if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
+            *flags |= CAEKF_FLAG_GAMMA_FROZEN;
+        }
+    }
+    for (i = nc; i < mech0; ++i) { /* a law parameter follows its contact's gamma */
+        dims->policy[i] = dims->policy[est->model.param_contact[i]];
+    }
+    for (i = mech0; i < n - 2 * nq; ++i) { /* the mechanism's and the sensors' offsets: observable without contact */
+        dims->policy[i] = CAEKF_GAMMA_LIVE;
+    }
+    if (any_contact) {
+        *flags |= CAEKF_FLAG_CONTACT_ACTIVE;
+    }
+    return any_contact;
+}
+
+/* Table 1's prediction of the covariance into P_work and z (unless `predict` is 0: P- is P): F at x_k- (eq. 10)
+ * and P- = F P F^T + Q (eq. 12), with the measured inputs' noise and the law's second-order term. closed: a
+ * contact active at x_k-, or (trapezoidal) closed at x_{k-1}. Returns CAEKF_OK, else the error with its
+ * flags. */
+CAEKF_HOT_INLINE caekf_status_t predict_cov(caekf_t *est, int predict, int closed, int any_contact, int substepped,
+                                            const caekf_contact_t *ct, const caekf_scalar_t *u0,
+                                            const caekf_scalar_t *u, uint32_t *flags)
+{
+    const int nc = CAEKF_DIM_NC(&est->model), n = CAEKF_DIM_N(&est->model);
+    int i;
+    if (!predict) { /* a correction at the estimate's own time */
+        for (i = 0; i < n; ++i) {
+            est->x_pred[i] = est->z[i];
+        }
+        for (i = 0; i < n * n; ++i) {
+            est->P_work[i] = est->P[i];
+        }
+        return CAEKF_OK;
+    }
+    if (predict_covariance(est, closed, substepped, ct, u0, u) != 0) {
+        *flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
+        return CAEKF_ERR_SINGULAR;
+    }
+    if (measured_inputs(est) && add_input_noise(est, ct) != 0) {
+        *flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+        return CAEKF_ERR_SINGULAR;
+    }
+    if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
+        for (i = 0; i < nc; ++i) {
+            add_second_order_noise(est, i);
+        }
+    }
+    return CAEKF_OK;
+}
+
+/* Table 1's correction (eqs. 13-15, with a parameter switched off eqs. 25-27) of z and P_work by the measurements
+ * y (sensors that read more than one state through their rows of H), then the constraint (eqs. 28-30). u, u0:
+ * the inputs at the step's end and start (an acceleration sensor reads them). Returns whether it corrected. */
+CAEKF_HOT_INLINE int correct(caekf_t *est, caekf_scalar_t *z, const caekf_scalar_t *u, const caekf_scalar_t *u0,
+                             const caekf_scalar_t *y, caekf_scalar_t *nis, uint32_t *flags)
+{
+    const caekf_filter_dims_t *const dims = &est->dims;
+    caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
+    int corrected;
+    if (CAEKF_HAS_SENSOR_ROWS && dims->rows) {
+        sensor_rows(est, z, u, u0, y, y_s);
+    } else {
+        int i;
+        for (i = 0; i < est->cfg.model.sensors; ++i) {
+            y_s[i] = y[i] / est->scale[dims->h[i]];
+        }
+    }
+    corrected = caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
+                                    est->cfg.gamma_gate_nis, nis, flags, &est->scratch.correct) == 0;
+    apply_bounds(est, z, flags);
+    return corrected;
+}
+
+/* The step's result into the instance: z and P from P_work's upper triangle (filling the lower one), the inputs
+ * (the next step's start) and their trend, the mismatch monitor, the step count. */
+CAEKF_HOT_INLINE void commit(caekf_t *est, const caekf_scalar_t *z, const caekf_scalar_t *u, int predict,
+                             const caekf_mismatch_t *monitor, uint32_t flags)
+{
+    const int n = CAEKF_DIM_N(&est->model);
+    int i, rescale;
+    if (CAEKF_SIZED && !CAEKF_ONE_STEP_BE) {
+        commit_sized(est, z);
+    } else {
+        for (i = 0; i < n; ++i) {
+            const caekf_scalar_t *w = &est->P_work[i * n + i];
+            caekf_scalar_t *row = &est->P[i * n + i], *col = row, *const end = est->P + i * n + n;
+            est->z[i] = z[i];
+            *row = *w;
+            while (++row != end) {
+                col += n;
+                *row = *++w;
+                *col = *w;
+            }
+        }
+    }
+    if (CAEKF_KEEPS_U_PREV) {
+        for (i = 0; i < CAEKF_DIM_NU(&est->model); ++i) {
+            U_PREV_STORE(est)[i] = u[i];
+        }
+        *U_PREV_KNOWN_STORE(est) = 1;
+    }
+    if (predict && CAEKF_DIM_NM(&est->model) > 0 && est->cfg.input_trend_window > 0 && measured_inputs(est)) {
+        track_inputs(est, u);
+    }
+    rescale = monitor->q_scale != est->mismatch.q_scale;
+    est->mismatch = *monitor;
+    if (rescale) {
+        set_body_q(est);
+    }
+    est->step_count++;
+    est->last_flags = flags;
+}
+
+/* One step (Table 1): prediction (unless `predict` is 0: caekf_correct), the switch-off, then (with y) the
+ * correction and the constraint, and P's health. y == NULL: no measurement (caekf_predict), which caekf_step
+ * (measured == 1) refuses as a caller error. A step that fails leaves the instance as it was. */
 static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf_scalar_t *y, int measured, int predict,
                               caekf_report_t *report)
 {
-    caekf_scalar_t *xprev, *z; /* z reuses x_pred once F is formed */
-    const caekf_scalar_t *u0;  /* the inputs at the step's start */
-    caekf_scalar_t y_s[CAEKF_MAX_SENSORS];
-    caekf_filter_dims_t *dims; /* the instance's, once est is known to be one */
-    caekf_status_t st = CAEKF_OK;
-    caekf_scalar_t deepest = 0;
-    uint32_t flags = 0;
-    int iters = 0;
-    int i, nq, nc, n, nm, ny, nu, any_contact = 0, substepped = 0;
-    int closed_prev = 0; /* a contact closed at x_{k-1}: substeps and the trapezoidal F both ask */
-    const caekf_scalar_t *s;
-    caekf_contact_t *ct; /* the contacts' laws at x_k-, after the Newton solve (in scratch) */
-#if CAEKF_HAS_SUBSTEPS
-    const caekf_contact_t *ct_pred = 0; /* the prediction's contacts at x_k- when it evaluated them */
-#endif
-    caekf_scalar_t nis = 0;
+    caekf_scalar_t *z;                  /* x_k-, then the scaled z once F is formed */
+    const caekf_scalar_t *u0;           /* the inputs at the step's start */
+    caekf_contact_t *ct;                /* the contacts' laws at x_k- (in scratch) */
+    const caekf_contact_t *ct_pred = 0; /* the prediction's, when it evaluated them */
+    caekf_status_t st;
+    caekf_scalar_t deepest = 0, nis = 0;
     caekf_mismatch_t monitor;
-    int corrected = 0, rescale;
+    uint32_t flags = 0;
+    int iters = 0, closed_prev = 0, substepped = 0;
 
     if (report != 0) {
         report->flags = 0;
@@ -906,206 +1128,41 @@ static caekf_status_t advance(caekf_t *est, const caekf_scalar_t *u, const caekf
         report->delta = 0;
         report->nis = 0;
     }
-    if (est == 0 || (measured && y == 0)) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!is_init(est)) {
-        return CAEKF_ERR_NOT_INIT;
-    }
-    dims = &est->dims;
-    nq = CAEKF_DIM_NQ(&est->model);
-    nc = CAEKF_DIM_NC(&est->model);
-    n = CAEKF_DIM_N(&est->model);
-    nm = CAEKF_DIM_NM(&est->model);
-    nu = CAEKF_DIM_NU(&est->model);
-    ny = est->cfg.model.sensors;
-    if (nu > 0 && u == 0) {
-        return CAEKF_ERR_NULL;
-    }
-    if (!all_finite(u, nu) || (y != 0 && !all_finite(y, ny))) {
-        if (report != 0) {
+    st = refused(est, u, y, measured);
+    if (st != CAEKF_OK) {
+        if (report != 0 && st == CAEKF_ERR_INPUT) {
             report->flags = CAEKF_FLAG_INPUT_REJECTED;
         }
-        return CAEKF_ERR_INPUT; /* nothing in *est has been written */
+        return st; /* nothing in *est has been written */
     }
-    s = est->scale;
-    ct = est->scratch.contacts;
-    xprev = X_PREV(est);
     z = est->x_pred;
+    ct = est->scratch.contacts;
     u0 = predict ? U_PREV(est, u) : u; /* a correction at the estimate's own time: no step, no rate */
 
-    /* Prediction (Table 1): Newton solve of the step, then F by eq. (10) at x_k-. The first step after
-     * init holds u over its interval unless caekf_correct gave the input at t0. */
-    for (i = 0; i < n; ++i) {
-        xprev[i] = est->z[i] * s[i];
+    st = predict_state(est, u0, u, predict, &iters, &closed_prev, &substepped, &ct_pred, &flags);
+    if (st == CAEKF_OK) {
+        const int any_contact = switch_off(est, ct, ct_pred, &deepest, &flags);
+        st = predict_cov(est, predict, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), any_contact,
+                         substepped, ct, u0, u, &flags);
     }
-    if (CAEKF_MAX_MECH_PARAMS > 0 && nm > 0 && set_mechanism(est, xprev) != 0) {
-        flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_SINGULAR;
-        goto done;
-    }
-#if CAEKF_HAS_SLR
-    if (est->cfg.contact_slr_p > 0) {
-        set_penetration_std(est);
-    }
-#endif
-    if (!predict) {
-        for (i = 0; i < n; ++i) {
-            est->x_pred[i] = xprev[i];
-        }
-    } else {
-        const int substeps = CAEKF_METHOD_SUBSTEPS(&est->cfg);
-        int closed_before, r = 0;
-#if CAEKF_HAS_SUBSTEPS
-        /* The contacts at x_{k-1} (sub_ct[1]: the first substep's start, and the one step's) and at the
-         * one step's x_k- (sub_ct[0]) are kept: evaluated once each. */
-        closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) &&
-                      caekf_model_contacts_any(&est->model, xprev, est->sub_ct[1]);
-#else
-        closed_prev = (substeps > 1 || CAEKF_METHOD_TRAP(&est->model)) && caekf_model_any_contact(&est->model, xprev);
-#endif
-        closed_before = substeps > 1 && closed_prev;
-        if (!closed_before) { /* a step from an open contact: one step unless it closes one */
-#if CAEKF_HAS_SUBSTEPS
-            r = caekf_model_newton_ct(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
-                                      est->x_pred, &iters, est->scratch.m, est->sub_ct[0],
-                                      CAEKF_METHOD_TRAP(&est->model) ? est->sub_ct[1] : 0, 0);
-            ct_pred = est->sub_ct[0];
-#else
-            r = caekf_model_newton(&est->model, xprev, u0, u, est->cfg.newton_max_iter, est->cfg.newton_rtol,
-                                   est->x_pred, &iters, est->scratch.m);
-#endif
-        }
-#if CAEKF_HAS_SUBSTEPS
-        if (closed_before || (substeps > 1 && caekf_model_contacts_any(&est->model, 0, est->sub_ct[0]))) {
-            substepped = 1; /* the one-step solution only decided that substeps are needed */
-            r = substep_predict(est, u0, u, &iters);
-            ct_pred = est->sub_ct[(substeps + 1) & 1];
-            if (r < 0) {
-                flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
-                st = CAEKF_ERR_SINGULAR;
-                goto done;
-            }
-        }
-#endif
-        if (r != 0) {
-            flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED;
-        }
-    }
-    for (i = 0; i < nc; ++i) { /* eq. (21), contact by contact (F at x_k- takes the same laws) */
-        int on;
-#if CAEKF_HAS_SUBSTEPS
-        if (ct_pred != 0) { /* the prediction's own, at x_k- */
-            ct[i] = ct_pred[i];
-        } else
-#endif
-            caekf_model_contact(&est->model, i, est->x_pred, &ct[i]);
-        on = ct[i].delta > 0;
-#if CAEKF_HAS_SLR
-        if (est->cfg.contact_slr_p > 0 && est->model.slr_s[i] > 0) { /* active while P(delta > 0) > p */
-            /* at or past the gap P(delta > 0) = erfc(-x) / 2 >= 1/2 (x >= 0): no erfc for a closed contact */
-            on = (ct[i].delta >= 0 && est->cfg.contact_slr_p < CAEKF_C(0.5)) ||
-                 CAEKF_C(0.5) * CAEKF_ERFC(-ct[i].delta / (est->model.slr_s[i] * CAEKF_SQRT(CAEKF_C(2.0)))) >
-                     est->cfg.contact_slr_p;
-        }
-#endif
-        deepest = i == 0 ? ct[i].delta : caekf_max(deepest, ct[i].delta);
-        any_contact |= on;
-        dims->policy[i] = (uint8_t)gamma_policy(&est->cfg, on);
-        if (dims->policy[i] != CAEKF_GAMMA_LIVE) {
-            flags |= CAEKF_FLAG_GAMMA_FROZEN;
-        }
-    }
-    for (i = nc; i < CAEKF_DIM_MECH0(&est->model) - 2 * nq; ++i) { /* a law parameter follows its contact's gamma */
-        dims->policy[i] = dims->policy[est->model.param_contact[i]];
-    }
-    for (i = CAEKF_DIM_MECH0(&est->model) - 2 * nq; i < n - 2 * nq; ++i) {
-        /* the mechanism's and the sensors' offsets: observable without contact */
-        dims->policy[i] = CAEKF_GAMMA_LIVE;
-    }
-    if (any_contact) {
-        flags |= CAEKF_FLAG_CONTACT_ACTIVE;
-    }
-    if (!predict) { /* a correction at the estimate's own time: P- is P */
-        for (i = 0; i < n; ++i) {
-            z[i] = est->z[i];
-        }
-        for (i = 0; i < n * n; ++i) {
-            est->P_work[i] = est->P[i];
-        }
-    } else if (predict_covariance(est, any_contact || (CAEKF_METHOD_TRAP(&est->model) && closed_prev), substepped, ct,
-                                  u0, u) != 0) {
-        flags |= CAEKF_FLAG_NEWTON_NOT_CONVERGED | CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_SINGULAR;
-        goto done;
-    } else {
-        if (measured_inputs(est) && add_input_noise(est, ct) != 0) {
-            flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
-            st = CAEKF_ERR_SINGULAR;
-            goto done;
-        }
-        if (any_contact && est->cfg.law_second_order && (CAEKF_HAS_LAW_PARAMS || CAEKF_METHOD_GAMMA_LOG(&est->model))) {
-            for (i = 0; i < nc; ++i) {
-                add_second_order_noise(est, i);
-            }
-        }
-    }
-
-    if (y != 0) {
-        /* Correction, eqs. (13)-(15) / (25)-(27). */
-        if (CAEKF_HAS_SENSOR_ROWS && dims->rows) {
-            sensor_rows(est, z, u, u0, y, y_s);
+    if (st == CAEKF_OK) {
+        int corrected = 0;
+        if (y != 0) {
+            corrected = correct(est, z, u, u0, y, &nis, &flags);
         } else {
-            for (i = 0; i < ny; ++i) {
-                y_s[i] = y[i] / s[dims->h[i]];
-            }
+            flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
         }
-        corrected = caekf_correct_upper(z, est->P_work, y_s, est->cfg.cov_update == CAEKF_COV_JOSEPH, dims,
-                                        est->cfg.gamma_gate_nis, &nis, &flags, &est->scratch.correct) == 0;
-        apply_bounds(est, z, &flags);
-    } else {
-        flags |= CAEKF_FLAG_NO_MEASUREMENT; /* prediction only: gamma cannot move */
-    }
-    flags |= mismatch_update(est, corrected, nis, &monitor);
-    if (!caekf_covariance_health(est->P_work, z, n, (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
-                                 est->cfg.cov_repair_enabled, est->scratch.m, &flags)) {
-        flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
-        st = CAEKF_ERR_NUMERIC;
-        goto done;
-    }
-#if CAEKF_SIZED && !CAEKF_ONE_STEP_BE
-    commit_sized(est, z);
-#else
-    for (i = 0; i < n; ++i) { /* commit, filling the lower triangle */
-        const caekf_scalar_t *w = &est->P_work[i * n + i];
-        caekf_scalar_t *row = &est->P[i * n + i], *col = row, *const end = est->P + i * n + n;
-        est->z[i] = z[i];
-        *row = *w;
-        while (++row != end) {
-            col += n;
-            *row = *++w;
-            *col = *w;
+        flags |= mismatch_update(est, corrected, nis, &monitor);
+        if (!caekf_covariance_health(est->P_work, z, CAEKF_DIM_N(&est->model),
+                                     (est->step_count % (uint32_t)est->cfg.psd_check_period) == 0,
+                                     est->cfg.cov_repair_enabled, est->scratch.m, &flags)) {
+            flags |= CAEKF_FLAG_NUMERIC_ROLLBACK;
+            st = CAEKF_ERR_NUMERIC;
         }
     }
-#endif
-#if CAEKF_KEEPS_U_PREV
-    for (i = 0; i < nu; ++i) {
-        est->u_prev[i] = u[i];
-    }
-    est->u_prev_known = 1;
-#endif
-    if (predict && CAEKF_DIM_NM(&est->model) > 0 && est->cfg.input_trend_window > 0 && measured_inputs(est)) {
-        track_inputs(est, u);
-    }
-    rescale = monitor.q_scale != est->mismatch.q_scale;
-    est->mismatch = monitor;
-    if (rescale) {
-        set_body_q(est);
-    }
-    est->step_count++;
-    est->last_flags = flags;
-done:
-    if (st != CAEKF_OK) { /* a rolled-back step leaves the monitor as it was, and says what it says */
+    if (st == CAEKF_OK) {
+        commit(est, z, u, predict, &monitor, flags);
+    } else { /* a rolled-back step leaves the monitor as it was, and says what it says */
         flags |= mismatch_update(est, 0, 0, &monitor);
     }
     if (report != 0) {
@@ -1224,14 +1281,12 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
     law[CAEKF_LAW_N] = CAEKF_METHOD_CONTACT_N(&est->model, c);
     law[CAEKF_LAW_LAMBDA] = CAEKF_METHOD_LAMBDA(&est->model, c);
     law[CAEKF_LAW_GAP] = p->contact_gap[c];
-#if CAEKF_HAS_LAW_PARAMS
-    for (k = 0; k < CAEKF_LAW_COUNT; ++k) {
+    for (k = 0; CAEKF_HAS_LAW_PARAMS && k < CAEKF_LAW_COUNT; ++k) { /* the estimated ones: states */
         const int s = est->model.law_state[c][k];
         if (s != 0) {
             law[k] = state_value(est, s, &f);
         }
     }
-#endif
     g = 2 * est->model.nq + c;
     if (gamma != 0) {
         *gamma = state_value(est, g, &f);
@@ -1245,7 +1300,6 @@ caekf_status_t caekf_get_contact_law(const caekf_t *est, int c, caekf_scalar_t *
     if (gap != 0) {
         *gap = law[CAEKF_LAW_GAP];
     }
-    (void)k;
     return CAEKF_OK;
 }
 

@@ -8,23 +8,23 @@
 #define AT(P, n, i, j) ((P)[(i) * (n) + (j)])
 
 /* The filter's sizes: constants in a build sized for one mechanism (the branches for other sizes and
- * the loop bounds then fold away), the instance's otherwise. */
+ * the loop bounds then fold away), the instance's otherwise. SIZED_N: the size of the n x n matrices the
+ * functions below are given (a sized build runs its mechanism's n only, a constant there; the argument
+ * otherwise). BOUNDED_STATE(g): parameter state g that a bound is applied to, a constant where the state has one
+ * bounded parameter (contact 1's gamma). */
 #if CAEKF_SIZED
 #define DIM_NQ(d) ((void)(d), CAEKF_SIZED_BODIES)
 #define DIM_N(d) ((void)(d), CAEKF_SIZED_N)
 #define DIM_NY(d) ((void)(d), CAEKF_SIZED_SENSORS)
+#define SIZED_N(n) ((void)(n), DIM_N((const caekf_filter_dims_t *)0))
+#define BOUNDED_STATE(g) (CAEKF_SIZED_CONTACTS == 1 && CAEKF_SIZED_LAW_PARAMS == 0 ? 2 * CAEKF_SIZED_BODIES : (g))
 #else
 #define DIM_NQ(d) ((d)->nq)
 #define DIM_N(d) ((d)->n)
 #define DIM_NY(d) ((d)->ny)
-#endif
-/* The size of the n x n matrices the functions below are given: a sized build runs its mechanism's n
- * only, a constant there (fixed loop bounds); the argument otherwise. */
-#if CAEKF_SIZED
-#define SIZED_N(n) ((void)(n), DIM_N((const caekf_filter_dims_t *)0))
-#else
 #define SIZED_N(n) (n)
-#endif
+#define BOUNDED_STATE(g) (g)
+#endif /* CAEKF_SIZED */
 /* The covariance correction's form and the gammas' switch-off: the sized configuration's (CAEKF_SIZED_METHOD,
  * so the other form's code folds away), the caller's otherwise. */
 #if CAEKF_SIZED_METHOD
@@ -33,18 +33,10 @@
 #else
 #define JOSEPH_FORM(joseph) (joseph)
 #define FROZEN_PAPER(policy) ((policy) == CAEKF_GAMMA_FROZEN_PAPER)
-#endif
+#endif /* CAEKF_SIZED_METHOD */
 /* Substeps' q-rows of F and the trapezoidal rule's c2: never given where the build cannot run them. */
-#if CAEKF_HAS_SUBSTEPS
-#define FQ_GIVEN(fq) ((fq) != 0)
-#else
-#define FQ_GIVEN(fq) ((void)(fq), 0)
-#endif
-#if CAEKF_HAS_TRAPEZOIDAL
-#define C2_GIVEN(c2) ((c2) != 0)
-#else
-#define C2_GIVEN(c2) ((void)(c2), 0)
-#endif
+#define FQ_GIVEN(fq) (CAEKF_HAS_SUBSTEPS && (fq) != 0)
+#define C2_GIVEN(c2) (CAEKF_HAS_TRAPEZOIDAL && (c2) != 0)
 /* P_ij of a matrix kept as its upper triangle. */
 #define UP(P, n, i, j) ((i) <= (j) ? AT(P, n, i, j) : AT(P, n, j, i))
 
@@ -96,12 +88,9 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
 {
     caekf_scalar_t s = 0;
     int k;
-#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
-#pragma GCC unroll 32 /* a sized build knows n: written out even at -Os */
-#elif defined(__GNUC__) && !defined(__clang__)
-#pragma GCC unroll 4 /* n at run time: four terms a turn, in the same order */
-#endif
-    for (k = 0; k < n; ++k) {
+    CAEKF_UNROLL_DOT /* a sized build knows n: written out even at -Os; else four terms a turn, in the same order */
+        for (k = 0; k < n; ++k)
+    {
         s += a[k] * b[k];
     }
     return s;
@@ -111,18 +100,15 @@ CAEKF_HOT_INLINE caekf_scalar_t dot(const caekf_scalar_t *a, const caekf_scalar_
  * that the copy lives in registers), else a itself (a copy of unknown length would not stay there). */
 CAEKF_HOT_INLINE const caekf_scalar_t *held_row(caekf_scalar_t *buf, const caekf_scalar_t *a, int n)
 {
-#if CAEKF_SIZED
     int k;
+    if (!CAEKF_SIZED) {
+        return a;
+    }
     CAEKF_UNROLL_SIZED
     for (k = 0; k < n; ++k) {
         buf[k] = a[k];
     }
     return buf;
-#else
-    (void)buf;
-    (void)n;
-    return a;
-#endif
 }
 
 /* A dense row f of Fv times P: tv[j] = f . P_j (P symmetric), tq[j] = P_ij + c tv[j]; f is held (in
@@ -141,7 +127,6 @@ CAEKF_NOINLINE static void fp_row_dense(const caekf_scalar_t *f, const caekf_sca
     }
 }
 
-#if CAEKF_HAS_SUBSTEPS
 /* tf[j] = f . P_j and tg[j] = g . P_j (P symmetric) for two dense rows f, g of F (the product of substep
  * maps): each entry of P is read once for both; f and g are held (in registers when sized) across the
  * rows of P. */
@@ -154,9 +139,7 @@ CAEKF_NOINLINE static void f_rows2_dense(const caekf_scalar_t *f, const caekf_sc
     int j, k;
     for (j = 0; j < n; ++j, pj += n) {
         caekf_scalar_t sf = fr[0] * pj[0], sg = gr[0] * pj[0];
-#if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
-#pragma GCC unroll 32
-#endif
+        CAEKF_UNROLL_SIZED
         for (k = 1; k < n; ++k) {
             sf += fr[k] * pj[k];
             sg += gr[k] * pj[k];
@@ -165,9 +148,7 @@ CAEKF_NOINLINE static void f_rows2_dense(const caekf_scalar_t *f, const caekf_sc
         tg[j] = sg;
     }
 }
-#endif
 
-#if CAEKF_HAS_SUBSTEPS
 /* After substeps (every row of F dense): the x-block's upper triangle of T F^T + Q in place, with
  * F = [Fq; Fv] and T = F P: rows a and a + 1 of T are held (in registers when sized) against each row
  * b >= a of F, so each row of F is read once per pair. Row a of T only feeds row a of P-; the gamma columns
@@ -208,7 +189,6 @@ CAEKF_NOINLINE static void tf_upper_dense(caekf_scalar_t *T, caekf_scalar_t fq[C
         }
     }
 }
-#endif
 
 /* w[j] = t . Fv_j for j = j0 .. nq - 1 with every row of Fv dense; t is held (in registers when sized). */
 CAEKF_NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N], int j0, int nq, int n,
@@ -222,6 +202,68 @@ CAEKF_NOINLINE static void w_dense(const caekf_scalar_t *t, caekf_scalar_t fv[CA
     }
 }
 
+/* T = F P without substeps: the v-rows Fv P, the q-rows P_q + c (Fv P), row by row over each row's nonzeros
+ * (compacted: pat). */
+static void fp_rows(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
+                    const caekf_fv_pattern_t *pat, caekf_scalar_t c, int nq, int n)
+{
+    const unsigned char *cnt = pat->nnz;
+    int i, j, k;
+    for (i = 0; i < nq; ++i) {
+        const unsigned char *idx = pat->nz[i];
+        const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
+        caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
+        if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
+            fp_row_dense(f, P, pi, tq, tv, c, n);
+            continue;
+        }
+        if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
+            const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
+            const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+            for (j = 0; j < n; ++j, pj += n) {
+                caekf_scalar_t s = 0;
+                s += f0 * pj[i0];
+                s += f1 * pj[i1];
+                s += f2 * pj[i2];
+                s += f3 * pj[i3];
+                tv[j] = s;
+                tq[j] = pi[j] + c * s;
+            }
+            continue;
+        }
+        for (j = 0; j < n; ++j, pj += n) {
+            caekf_scalar_t s = 0;
+            for (k = 0; k < cnt[i]; ++k) {
+                s += f[k] * pj[idx[k]];
+            }
+            tv[j] = s;
+            tq[j] = pi[j] + c * s;
+        }
+    }
+}
+
+/* The parameter rows of P- (rows nx .. n-1, upper triangle): F's are identity rows, so the parameters' block is
+ * P's, plus Q_gamma while live (eq. 21); switched off as the paper has it, the parameter's column too (eqs.
+ * 23-24: only P_xx propagates). */
+static void param_rows(const caekf_scalar_t *P, caekf_scalar_t *T, const caekf_scalar_t *q_diag,
+                       const caekf_filter_dims_t *d, int nx, int n)
+{
+    int i, j;
+    for (i = nx; i < n; ++i) {
+        const caekf_gamma_policy_t policy = (caekf_gamma_policy_t)d->policy[i - nx];
+        for (j = i; j < n; ++j) {
+            AT(T, n, i, j) = AT(P, n, i, j);
+        }
+        if (policy == CAEKF_GAMMA_LIVE) {
+            AT(T, n, i, i) += q_diag[i];
+        } else if (FROZEN_PAPER(policy)) {
+            for (j = 0; j <= i; ++j) {
+                AT(T, n, j, i) = AT(P, n, j, i);
+            }
+        }
+    }
+}
+
 void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N],
                               const caekf_fv_pattern_t *pat, caekf_scalar_t c, caekf_scalar_t c2,
                               caekf_scalar_t fq[CAEKF_NQ][CAEKF_N], const caekf_scalar_t *q_diag,
@@ -232,44 +274,13 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     caekf_scalar_t w[CAEKF_NQ];
     const int all_dense = pat->dense;
     int i, j, k;
-#if CAEKF_HAS_SUBSTEPS
     if (FQ_GIVEN(fq)) { /* after substeps (every row dense): T = F P, q-row i and v-row i at once */
         for (i = 0; i < nq; ++i) {
             f_rows2_dense(fq[i], fv[i], P, T + i * n, T + (nq + i) * n, n);
         }
-    } else
-#endif
-        for (i = 0; i < nq; ++i) { /* T = F P: v-rows Fv P, q-rows P_q + c (Fv P) */
-            const unsigned char *idx = pat->nz[i];
-            const caekf_scalar_t *f = fv[i], *pi = P + i * n, *pj = P;
-            caekf_scalar_t *tq = T + i * n, *tv = T + (nq + i) * n;
-            if (cnt[i] == n) { /* a dense row (in contact): no indices (nz is not written) */
-                fp_row_dense(f, P, pi, tq, tv, c, n);
-                continue;
-            }
-            if (cnt[i] == 4) { /* a link-free row of a chain: the 4 terms held in registers */
-                const caekf_scalar_t f0 = f[0], f1 = f[1], f2 = f[2], f3 = f[3];
-                const int i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
-                for (j = 0; j < n; ++j, pj += n) {
-                    caekf_scalar_t s = 0;
-                    s += f0 * pj[i0];
-                    s += f1 * pj[i1];
-                    s += f2 * pj[i2];
-                    s += f3 * pj[i3];
-                    tv[j] = s;
-                    tq[j] = pi[j] + c * s;
-                }
-                continue;
-            }
-            for (j = 0; j < n; ++j, pj += n) {
-                caekf_scalar_t s = 0;
-                for (k = 0; k < cnt[i]; ++k) {
-                    s += f[k] * pj[idx[k]];
-                }
-                tv[j] = s;
-                tq[j] = pi[j] + c * s;
-            }
-        }
+    } else {
+        fp_rows(P, T, fv, pat, c, nq, n);
+    }
     if (!FQ_GIVEN(fq) && C2_GIVEN(c2)) { /* the trapezoidal rule's q-rows also carry c2 * I in the v-columns */
         for (i = 0; i < nq; ++i) {
             const caekf_scalar_t *pv = P + (nq + i) * n;
@@ -282,11 +293,9 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
     /* Upper triangle of T F^T + Q row by row, in place: row i only reads row i of T. w = T_i Fv^T
      * gives the v-columns; a q-row's q-columns are T_q + c w; the gamma columns are T's. Off-diagonal
      * entries are flushed as they are final. */
-#if CAEKF_HAS_SUBSTEPS
     if (FQ_GIVEN(fq)) {
         tf_upper_dense(T, fq, fv, q_diag, nq, n);
     }
-#endif
     for (i = FQ_GIVEN(fq) ? nx : 0; i < nx; ++i) { /* after substeps the x-block is done */
         caekf_scalar_t *t = T + i * n;
         caekf_scalar_t dd;
@@ -337,20 +346,7 @@ void caekf_predict_covariance(const caekf_scalar_t *P, caekf_scalar_t *T, caekf_
             t[j] = flush(t[j]);
         }
     }
-    /* The gamma rows of F are identity rows: the gamma block is P's, plus Q_gamma while live (eq. 21). */
-    for (i = nx; i < n; ++i) {
-        const caekf_gamma_policy_t policy = (caekf_gamma_policy_t)d->policy[i - nx];
-        for (j = i; j < n; ++j) {
-            AT(T, n, i, j) = AT(P, n, i, j);
-        }
-        if (policy == CAEKF_GAMMA_LIVE) {
-            AT(T, n, i, i) += q_diag[i];
-        } else if (FROZEN_PAPER(policy)) {
-            for (j = 0; j <= i; ++j) { /* eqs. (23)-(24): only P_xx propagates */
-                AT(T, n, j, i) = AT(P, n, j, i);
-            }
-        }
-    }
+    param_rows(P, T, q_diag, d, nx, n);
 }
 
 /* The sensors are rows of H (dims rows), in builds that have them (CAEKF_HAS_SENSOR_ROWS). */
@@ -395,12 +391,10 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
                               caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS])
 {
     const int ny = DIM_NY(d);
-#if CAEKF_LA_GENERAL_LU
     caekf_scalar_t S[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     caekf_scalar_t I[CAEKF_MAX_SENSORS * CAEKF_MAX_SENSORS];
     int piv[CAEKF_MAX_SENSORS];
     int k, l;
-#endif
     if (ny == 2) {
         caekf_scalar_t inv[3];
         if (caekf_sym2_inverse(hph(P, d, work, 0, 0) + d->r[0], hph(P, d, work, 0, 1), hph(P, d, work, 1, 1) + d->r[1],
@@ -412,7 +406,9 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
         Si[1][1] = inv[2];
         return 0;
     }
-#if CAEKF_LA_GENERAL_LU
+    if (!CAEKF_LA_GENERAL_LU) { /* every build without the general LU has two sensors */
+        return 0;
+    }
     for (k = 0; k < ny; ++k) {
         for (l = 0; l < ny; ++l) {
             S[k * ny + l] = hph(P, d, work, k, l) + (k == l ? d->r[k] : 0);
@@ -431,7 +427,6 @@ static int innovation_inverse(const caekf_scalar_t *P, const caekf_filter_dims_t
             Si[k][l] = I[k * ny + l];
         }
     }
-#endif
     return 0;
 }
 
@@ -447,6 +442,111 @@ static void upper_col(const caekf_scalar_t *P, int n, int h, caekf_scalar_t *out
     }
 }
 
+/* Eq. (15) on the upper triangle of P: P+ = P - G (H P). With a parameter's gain zeroed (live 0), its row of this
+ * product would stay stale; the upper triangle alone gives the Schmidt result P_xg <- P_xg - G_x (H P)_g, P_gg
+ * unchanged. Rows and columns of skip (eq. 27, the paper's switch-off) are left. */
+CAEKF_HOT_INLINE void update_standard(caekf_scalar_t *P, caekf_scalar_t (*G)[CAEKF_MAX_SENSORS],
+                                      caekf_scalar_t (*hp)[CAEKF_N], const unsigned char *live,
+                                      const unsigned char *skip, int any_skip, int n, int nx, int ny)
+{
+    int i, j, k;
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t *p = &AT(P, n, i, 0);
+        if (skip[i]) {
+            continue;
+        }
+        if (ny == 2) { /* two sensors: the gains held in registers */
+            const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
+            const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
+            p[i] -= g0 * h0[i] + g1 * h1[i];
+            if (!any_skip) {
+                for (j = i + 1; j < n; ++j) {
+                    p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                }
+                continue;
+            }
+            for (j = i + 1; j < n; ++j) {
+                if (!skip[j]) {
+                    p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
+                }
+            }
+            continue;
+        }
+        for (j = i; j < n; ++j) {
+            caekf_scalar_t s = 0;
+            if (skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[i][k] * hp[k][j];
+            }
+            p[j] = j == i ? p[j] - s : flush(p[j] - s);
+        }
+    }
+    /* A held parameter i (gain 0) before a live state j: the upper triangle keeps P_ij, which is row j's
+     * update P_ji - G_j (H P)_i (the Schmidt result on both sides); the row loop above left it. Only a
+     * state with more than one parameter has such pairs. */
+    for (i = nx; CAEKF_NP > 1 && i < n; ++i) {
+        if (live[i] || skip[i]) {
+            continue;
+        }
+        for (j = i + 1; j < n; ++j) {
+            caekf_scalar_t s = 0;
+            if (!live[j] || skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[j][k] * hp[k][i];
+            }
+            AT(P, n, i, j) = flush(AT(P, n, i, j) - s);
+        }
+    }
+}
+
+/* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,sensed} G^T + G R G^T, on the upper
+ * triangle of P. Row i of A P at the sensed states comes from the copies of H P (P is symmetric). R enters as r_0
+ * times the ratios r_k / r_0 (exactly 1 when the sensors share R). Rows and columns of skip are left. */
+CAEKF_HOT_INLINE void update_joseph(caekf_scalar_t *P, caekf_scalar_t (*G)[CAEKF_MAX_SENSORS],
+                                    caekf_scalar_t (*hp)[CAEKF_N], const unsigned char *skip,
+                                    const caekf_filter_dims_t *d, const caekf_correct_work_t *work, int n, int ny)
+{
+    caekf_scalar_t rr[CAEKF_MAX_SENSORS];
+    int i, j, k, l;
+    for (k = 0; k < ny; ++k) {
+        rr[k] = d->r[k] / d->r[0];
+    }
+    for (i = 0; i < n; ++i) {
+        caekf_scalar_t a[CAEKF_MAX_SENSORS], gr[CAEKF_MAX_SENSORS];
+        if (skip[i]) {
+            continue;
+        }
+        for (k = 0; k < ny; ++k) {
+            caekf_scalar_t s = 0;
+            for (l = 0; l < ny; ++l) {
+                s += G[i][l] * (ROWS(d) ? work->hph[l][k] : hp[l][d->h[k]]); /* the prior's H P H^T */
+            }
+            a[k] = hp[k][i] - s;
+            gr[k] = G[i][k] * rr[k];
+        }
+        for (j = i; j < n; ++j) {
+            caekf_scalar_t s = 0, rg = 0, v;
+            if (skip[j]) {
+                continue;
+            }
+            for (k = 0; k < ny; ++k) {
+                s += G[i][k] * hp[k][j];
+                rg += gr[k] * G[j][k];
+            }
+            v = AT(P, n, i, j) - s;
+            for (k = 0; k < ny; ++k) {
+                v -= a[k] * G[j][k];
+            }
+            v += d->r[0] * rg;
+            AT(P, n, i, j) = j > i ? flush(v) : v;
+        }
+    }
+}
+
 int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar_t *y_s, int joseph,
                         const caekf_filter_dims_t *d, caekf_scalar_t gate, caekf_scalar_t *nis, uint32_t *flags,
                         caekf_correct_work_t *work)
@@ -455,11 +555,11 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
     caekf_scalar_t Si[CAEKF_MAX_SENSORS][CAEKF_MAX_SENSORS];
     caekf_scalar_t(*const G)[CAEKF_MAX_SENSORS] = work->gain;
     caekf_scalar_t(*const hp)[CAEKF_N] = work->hp; /* H P = the sensed rows of P, from its upper triangle */
-    caekf_scalar_t e[CAEKF_MAX_SENSORS], rr[CAEKF_MAX_SENSORS];
+    caekf_scalar_t e[CAEKF_MAX_SENSORS];
     unsigned char live[CAEKF_N], skip[CAEKF_N];
     int any_live = 0, any_skip = 0;
     /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
-    int i, j, k, l;
+    int i, k, l;
     if (ROWS(d)) {
         sensed_rows(P, d, work);
     }
@@ -540,97 +640,9 @@ int caekf_correct_upper(caekf_scalar_t *z, caekf_scalar_t *P, const caekf_scalar
         }
     }
     if (!JOSEPH_FORM(joseph)) {
-        /* Eq. (15) on the upper triangle: P+ = P - G (H P). With a gamma's gain zeroed, its row of this
-         * product would stay stale; the upper triangle alone gives the Schmidt result
-         * P_xg <- P_xg - G_x (H P)_g, P_gg unchanged. */
-        for (i = 0; i < n; ++i) {
-            caekf_scalar_t *p = &AT(P, n, i, 0);
-            if (skip[i]) {
-                continue;
-            }
-            if (ny == 2) { /* two sensors: the gains held in registers */
-                const caekf_scalar_t g0 = G[i][0], g1 = G[i][1];
-                const caekf_scalar_t *h0 = hp[0], *h1 = hp[1];
-                p[i] -= g0 * h0[i] + g1 * h1[i];
-                if (!any_skip) {
-                    for (j = i + 1; j < n; ++j) {
-                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
-                    }
-                    continue;
-                }
-                for (j = i + 1; j < n; ++j) {
-                    if (!skip[j]) {
-                        p[j] = flush(p[j] - (g0 * h0[j] + g1 * h1[j]));
-                    }
-                }
-                continue;
-            }
-            for (j = i; j < n; ++j) {
-                caekf_scalar_t s = 0;
-                if (skip[j]) {
-                    continue;
-                }
-                for (k = 0; k < ny; ++k) {
-                    s += G[i][k] * hp[k][j];
-                }
-                p[j] = j == i ? p[j] - s : flush(p[j] - s);
-            }
-        }
-        /* A held parameter i (gain 0) before a live state j: the upper triangle keeps P_ij, which is row j's
-         * update P_ji - G_j (H P)_i (the Schmidt result on both sides); the row loop above left it. Only a
-         * state with more than one parameter has such pairs. */
-        for (i = nx; CAEKF_NP > 1 && i < n; ++i) {
-            if (live[i] || skip[i]) {
-                continue;
-            }
-            for (j = i + 1; j < n; ++j) {
-                caekf_scalar_t s = 0;
-                if (!live[j] || skip[j]) {
-                    continue;
-                }
-                for (k = 0; k < ny; ++k) {
-                    s += G[j][k] * hp[k][i];
-                }
-                AT(P, n, i, j) = flush(AT(P, n, i, j) - s);
-            }
-        }
-        return 0;
-    }
-    /* Joseph: P+ = (A P) A^T + G R G^T with A = I - G H, i.e. A P - (A P)_{:,sensed} G^T + G R G^T. Row i
-     * of A P at the sensed states comes from the copies of H P (P is symmetric). R enters as r_0 times
-     * the ratios r_k / r_0 (exactly 1 when the sensors share R). */
-    for (k = 0; k < ny; ++k) {
-        rr[k] = d->r[k] / d->r[0];
-    }
-    for (i = 0; i < n; ++i) {
-        caekf_scalar_t a[CAEKF_MAX_SENSORS], gr[CAEKF_MAX_SENSORS];
-        if (skip[i]) {
-            continue;
-        }
-        for (k = 0; k < ny; ++k) {
-            caekf_scalar_t s = 0;
-            for (l = 0; l < ny; ++l) {
-                s += G[i][l] * (ROWS(d) ? work->hph[l][k] : hp[l][d->h[k]]); /* the prior's H P H^T */
-            }
-            a[k] = hp[k][i] - s;
-            gr[k] = G[i][k] * rr[k];
-        }
-        for (j = i; j < n; ++j) {
-            caekf_scalar_t s = 0, rg = 0, v;
-            if (skip[j]) {
-                continue;
-            }
-            for (k = 0; k < ny; ++k) {
-                s += G[i][k] * hp[k][j];
-                rg += gr[k] * G[j][k];
-            }
-            v = AT(P, n, i, j) - s;
-            for (k = 0; k < ny; ++k) {
-                v -= a[k] * G[j][k];
-            }
-            v += d->r[0] * rg;
-            AT(P, n, i, j) = j > i ? flush(v) : v;
-        }
+        update_standard(P, G, hp, live, skip, any_skip, n, nx, ny);
+    } else {
+        update_joseph(P, G, hp, skip, d, work, n, ny);
     }
     return 0;
 }
@@ -639,11 +651,7 @@ int caekf_constrain_upper(caekf_scalar_t *z, caekf_scalar_t *P, int n_arg, int g
                           caekf_scalar_t s_g, caekf_scalar_t bound_phys, uint32_t *flags)
 {
     const int n = SIZED_N(n_arg);
-#if CAEKF_SIZED && CAEKF_SIZED_CONTACTS == 1 && CAEKF_SIZED_LAW_PARAMS == 0
-    const int g = ((void)g_arg, 2 * DIM_NQ((const caekf_filter_dims_t *)0)); /* the one parameter: gamma */
-#else
-    const int g = g_arg;
-#endif
+    const int g = BOUNDED_STATE(g_arg);
     const caekf_scalar_t s = AT(P, n, g, g);
     const caekf_scalar_t dz = zb - z[g];
     caekf_scalar_t col[CAEKF_N]; /* P's gamma column, contiguous */

@@ -8,6 +8,7 @@
 #define CAEKF_LINALG_H
 
 #include "caekf/caekf_config.h"
+#include "caekf_kernels.h" /* which kernels the build has */
 
 #define CAEKF_LA_MAX_N CAEKF_N
 
@@ -19,22 +20,12 @@ typedef enum {
     CAEKF_LA_NOT_FINITE = 4 /* a NaN or infinite entry (or squares that overflow) */
 } caekf_la_status_t;
 
-/* The LU of any size. A sized build whose innovation covariance is 2 x 2 and whose Newton matrix is 4 x 4
- * or factored over its pattern (CAEKF_FIXED_LINKS) runs the fixed-size kernels and closed forms only, and
- * leaves it out. */
-#if CAEKF_SIZED
-#define CAEKF_LA_GENERAL_LU (CAEKF_SIZED_SENSORS != 2 || (CAEKF_SIZED_BODIES != 4 && !CAEKF_FIXED_LINKS))
-#else
-#define CAEKF_LA_GENERAL_LU 1
-#endif
+/* A size the routines take. */
+static inline int caekf_la_size_ok(int n) { return n >= 1 && n <= CAEKF_LA_MAX_N; }
 
-/* A build that fixes its mechanism's links (CAEKF_FIXED_LINKS) factors the Newton matrix over the pattern
- * they give it (generated): the 4 x 4 kernels are then not needed, and the dense solve serves a matrix
- * whose LU exchanged rows. */
-#define CAEKF_LA_LU4 (!CAEKF_FIXED_LINKS)
-#define CAEKF_LA_DENSE_SOLVE (CAEKF_LA_GENERAL_LU || CAEKF_FIXED_LINKS)
+/* The LU kernels: declared for every build, defined in caekf_kernels.c for the builds that run them (code that
+ * names one another build lacks sits under if of a constant false there, and compiles out). */
 
-#if CAEKF_LA_GENERAL_LU
 /* LU with partial pivoting, in place: PA = LU. A pivot whose magnitude is <= rel_tol * max|a_ij| is
  * refused (CAEKF_LA_SINGULAR) instead of being divided by. */
 caekf_la_status_t caekf_lu_factor(caekf_scalar_t *a, int n, int piv[], caekf_scalar_t rel_tol);
@@ -46,18 +37,14 @@ caekf_la_status_t caekf_lu_factor_tol(caekf_scalar_t *a, int n, int piv[], caekf
 /* Solves A X = B for nrhs right-hand sides stored as the columns of b (n x nrhs, leading dim ldb). */
 caekf_la_status_t caekf_lu_solve(const caekf_scalar_t *lu, int n, const int piv[], caekf_scalar_t *b, int nrhs,
                                  int ldb);
-#endif
 
-#if CAEKF_LA_LU4
 /* caekf_lu_factor for n = 4 with the refusal threshold given (tol = rel_tol * max|a_ij|, from a
  * caller who knows the largest entry already): bit for bit the same, faster. */
 caekf_la_status_t caekf_lu4_factor_tol(caekf_scalar_t *a, int piv[4], caekf_scalar_t tol);
 
 /* caekf_lu_solve for n = 4 (lu row-major 4 x 4), bit for bit the same, faster. */
 void caekf_lu4_solve(const caekf_scalar_t *lu, const int piv[4], caekf_scalar_t *b, int nrhs, int ldb);
-#endif
 
-#if CAEKF_FIXED_LINKS
 /* The LU with partial pivoting (caekf_lu_factor's, with the refusal threshold given) of a matrix with the Newton matrix's pattern
  * (CAEKF_SIZED_LU_UPPER_NZ / _LOWER_NZ, its fill-in included): the same operations on the pattern's
  * entries, the others skipped (they subtract l * 0 or 0 * u), so the factors are the same bit for bit up
@@ -68,7 +55,6 @@ caekf_la_status_t caekf_lu_factor_sized(caekf_scalar_t *a, int piv[], caekf_scal
 /* The solve with such factors, alike: the pattern's operations where the LU exchanged no rows,
  * the dense solve where it did. */
 void caekf_lu_solve_sized(const caekf_scalar_t *lu, const int piv[], caekf_scalar_t *b, int nrhs, int ldb);
-#endif
 
 /* Inverse of a symmetric 2x2 [a b; b c]. Refused (SINGULAR) when the determinant is <= rel_tol * a c
  * or a, c <= 0: an innovation covariance must be positive definite. */

@@ -24,29 +24,31 @@
 #define CAEKF_EXP(x) exp(x)
 #define CAEKF_ERFC(x) erfc(x)
 #define CAEKF_C(x) ((caekf_scalar_t)(x))
-#endif
+#endif /* CAEKF_USE_FLOAT */
 
-/* A small helper on the step's hot path: inlined even at -Os (a call costs more than its body). */
+/* CAEKF_HOT_INLINE: a small helper on the step's hot path, inlined even at -Os (a call costs more than its
+ * body). CAEKF_NOINLINE keeps a function out of line: its frame then adds to the stack only while it runs. */
 #if defined(__GNUC__)
 #define CAEKF_HOT_INLINE static inline __attribute__((always_inline))
-#else
-#define CAEKF_HOT_INLINE static inline
-#endif
-
-/* Keeps a function out of line: its frame then adds to the stack only while it runs. */
-#if defined(__GNUC__)
 #define CAEKF_NOINLINE __attribute__((noinline))
 #else
+#define CAEKF_HOT_INLINE static inline
 #define CAEKF_NOINLINE
-#endif
+#endif /* __GNUC__ */
 
 /* Before a loop whose bound is a size: a sized build knows it, and the loop is then written out even at
- * -Os (no library call for a fill, operands held in registers). */
+ * -Os (no library call for a fill, operands held in registers). CAEKF_UNROLL_DOT, before a dot product's
+ * loop: written out where the build knows n, else four terms a turn (the same order). */
 #if CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__)
 #define CAEKF_UNROLL_SIZED _Pragma("GCC unroll 32")
+#define CAEKF_UNROLL_DOT _Pragma("GCC unroll 32")
+#elif defined(__GNUC__) && !defined(__clang__)
+#define CAEKF_UNROLL_SIZED
+#define CAEKF_UNROLL_DOT _Pragma("GCC unroll 4")
 #else
 #define CAEKF_UNROLL_SIZED
-#endif
+#define CAEKF_UNROLL_DOT
+#endif /* CAEKF_SIZED && defined(__GNUC__) && !defined(__clang__) */
 
 /* isfinite() is type-generic in C99. */
 #define CAEKF_ISFINITE(x) (isfinite(x) != 0)

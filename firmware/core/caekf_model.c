@@ -7,20 +7,22 @@
 #include "caekf_linalg.h"
 #include "caekf_math.h"
 
+/* Compiler hints only. The loops of the step path (the Newton solve, its matrix, F's right-hand sides) are
+ * written out where the build's sizes are constants and the step runs them many times (substeps or the
+ * trapezoidal rule); the one-step build keeps these loops (less flash; its inner loops over the links' pattern
+ * are written out). add_contact_block is written into its callers where the build fixes the links (the
+ * contacts' ends are constants; on the step's path: the Newton matrix and F), a function elsewhere (less
+ * flash). */
 #if CAEKF_FIXED_LINKS
-/* The sized scenario's links (generated): the pattern of K and C they give. */
-static const unsigned char link_nnz[CAEKF_SIZED_BODIES] = CAEKF_SIZED_LINK_NNZ;
-static const unsigned char link_nz[CAEKF_SIZED_BODIES][CAEKF_SIZED_LINK_WIDTH] = CAEKF_SIZED_LINK_NZ;
-#endif
-
-/* The loops of the step path (the Newton solve, its matrix, F's right-hand sides), written out where the
- * build's sizes are constants and the step runs them many times (substeps or the trapezoidal rule); the
- * one-step build keeps these loops (less flash; its inner loops over the links' pattern are written out). */
+#define ADD_CONTACT_BLOCK_INLINE CAEKF_HOT_INLINE
+#else
+#define ADD_CONTACT_BLOCK_INLINE static
+#endif /* CAEKF_FIXED_LINKS */
 #if CAEKF_FIXED_LINKS && !CAEKF_ONE_STEP_BE
 #define UNROLL_STEP CAEKF_UNROLL_SIZED
 #else
 #define UNROLL_STEP
-#endif
+#endif /* CAEKF_FIXED_LINKS && !CAEKF_ONE_STEP_BE */
 
 /* delta^n and n delta^(n-1) for delta > 0: the Hertz (1.5) and linear (1) laws exactly, others by pow. */
 CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar_t *dn, caekf_scalar_t *dn1)
@@ -37,10 +39,6 @@ CAEKF_HOT_INLINE void power_law(caekf_scalar_t d, caekf_scalar_t n, caekf_scalar
         *dn1 = CAEKF_POW(d, n - 1);
     }
 }
-
-#if !CAEKF_HAS_STRUCTURES
-const caekf_scalar_t caekf_no_structure[CAEKF_NQ] = {0};
-#endif
 
 /* w^T x over the model's nq positions (or velocities, x + nq). */
 static caekf_scalar_t structure_dot(const caekf_model_t *m, const caekf_scalar_t *w, const caekf_scalar_t *x)
@@ -62,7 +60,6 @@ caekf_scalar_t caekf_model_contact_dot(const caekf_model_t *m, int c, const caek
     return (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0);
 }
 
-#if CAEKF_HAS_SLR
 /* Gauss-Hermite rule, 20 nodes (symmetric): the 10 positive nodes of the weight exp(-x^2) and their
  * weights over sqrt(pi), which sum to 1 over all 20. E[g(t)] for t ~ N(mu, s^2) is
  * sum_k w_k (g(mu + sqrt(2) s x_k) + g(mu - sqrt(2) s x_k)). */
@@ -113,24 +110,9 @@ static void slr_moments(caekf_scalar_t d, caekf_scalar_t s, caekf_scalar_t n, ca
     *e = a;
     *e1 = a1;
 }
-/* The laws statistically linearised (tangents and switch): elastic laws of gamma alone. A damped law or
- * one with n, lambda or the gap estimated keeps its own tangents and the sign switch of eq. (21): the
- * switch on P(delta > 0) alone, without the expected tangents, measured worse on the whole law
- * (docs/discretisation.md). */
-int caekf_model_slr_law(const caekf_model_t *m, int c)
-{
-#if CAEKF_HAS_LAW_PARAMS
-    const unsigned char *law = m->law_state[c];
-    if (law[CAEKF_LAW_N] != 0 || law[CAEKF_LAW_LAMBDA] != 0 || law[CAEKF_LAW_GAP] != 0) {
-        return 0;
-    }
-#endif
-    return CAEKF_METHOD_LAMBDA(m, c) == 0;
-}
-#define CONTACT_ON(c) ((c).delta > 0 || (c).dfc_ddelta != 0) /* closed, or an uncertain contact's tangents */
-#else
-#define CONTACT_ON(c) ((c).delta > 0)
-#endif
+/* A contact whose force enters the Newton matrix and F: closed, or (statistically linearised) an uncertain
+ * contact's tangents. */
+#define CONTACT_ON(c) ((c).delta > 0 || (CAEKF_HAS_SLR && (c).dfc_ddelta != 0))
 
 /* Eqs. (16)-(17) generalised: f = gamma delta^n (1 + lambda d delta/dt) while delta > 0, never pulling
  * (a Hunt-Crossley factor below 0 gives f = 0 and no derivatives). gamma is the state's; n, lambda and
@@ -145,21 +127,21 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
     const caekf_scalar_t gamma = CAEKF_METHOD_GAMMA_LOG(m) ? CAEKF_EXP(x[2 * nq + c]) : x[2 * nq + c];
     caekf_scalar_t n = CAEKF_METHOD_CONTACT_N(m, c), lambda = CAEKF_METHOD_LAMBDA(m, c), gap = m->p.contact_gap[c], d;
     int damped = lambda != 0;
-#if CAEKF_HAS_LAW_PARAMS
     const unsigned char *law = m->law_state[c];
-    if (law[CAEKF_LAW_N] != 0) {
-        n = x[law[CAEKF_LAW_N]];
+    if (CAEKF_HAS_LAW_PARAMS) { /* the estimated ones are states */
+        if (law[CAEKF_LAW_N] != 0) {
+            n = x[law[CAEKF_LAW_N]];
+        }
+        if (law[CAEKF_LAW_LAMBDA] != 0) {
+            lambda = x[law[CAEKF_LAW_LAMBDA]];
+            damped = 1; /* its derivative is needed even at lambda = 0 */
+        }
+        if (law[CAEKF_LAW_GAP] != 0) {
+            gap = x[law[CAEKF_LAW_GAP]];
+        }
+        *CAEKF_DFC_DN_STORE(out) = 0;
+        *CAEKF_DFC_DLAMBDA_STORE(out) = 0;
     }
-    if (law[CAEKF_LAW_LAMBDA] != 0) {
-        lambda = x[law[CAEKF_LAW_LAMBDA]];
-        damped = 1; /* its derivative is needed even at lambda = 0 */
-    }
-    if (law[CAEKF_LAW_GAP] != 0) {
-        gap = x[law[CAEKF_LAW_GAP]];
-    }
-    out->dfc_dn = 0;
-    out->dfc_dlambda = 0;
-#endif
     d = CAEKF_IS_STRUCTURE(m) ? structure_dot(m, CAEKF_STRUCTURE_W(m, c), x) - gap
                               : (i >= 0 ? x[i] : 0) - (j >= 0 ? x[j] : 0) - gap;
     out->delta = d;
@@ -167,8 +149,7 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
     out->dfc_ddelta = 0;
     out->dfc_drate = 0;
     out->dfc_dgamma = 0;
-#if CAEKF_HAS_SLR
-    if (m->slr_s[c] > 0) { /* set only for the laws caekf_model_slr_law linearises */
+    if (CAEKF_HAS_SLR && CAEKF_SLR_S(m)[c] > 0) { /* set only for the laws caekf_model_slr_law linearises */
         /* Statistically linearised tangents (setting contact_slr_p): the force is the law's own, its
          * tangents in delta and gamma the expectations of the law's over delta ~ N(d, slr_s^2) (the
          * regression slopes of the force on the states, Stein's lemma): the tangents of a contact whose
@@ -176,7 +157,7 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
          * on the open side of eq. (21). */
         caekf_scalar_t e = 0, e1 = 0, dn = 0, dn1 = 0;
         if (tangents) {
-            slr_moments(d, m->slr_s[c], n, &e, &e1);
+            slr_moments(d, CAEKF_SLR_S(m)[c], n, &e, &e1);
         }
         if (d > 0) {
             power_law(d, n, &dn, &dn1);
@@ -186,7 +167,6 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
         out->dfc_dgamma = CAEKF_METHOD_GAMMA_LOG(m) ? gamma * e : e; /* df/d(ln gamma) = gamma df/dgamma */
         return;
     }
-#endif
     if (d > 0) {
         caekf_scalar_t dn, dn1;
         power_law(d, n, &dn, &dn1);
@@ -203,16 +183,14 @@ CAEKF_HOT_INLINE void contact_law(const caekf_model_t *m, int c, const caekf_sca
                 out->fc = gamma * out->dfc_dgamma;
                 out->dfc_ddelta = n * gamma * dn1 * h;
                 out->dfc_drate = gamma * dn * lambda;
-#if CAEKF_HAS_LAW_PARAMS
-                out->dfc_dlambda = gamma * dn * rate;
-#endif
+                if (CAEKF_HAS_LAW_PARAMS) {
+                    *CAEKF_DFC_DLAMBDA_STORE(out) = gamma * dn * rate;
+                }
             }
         }
-#if CAEKF_HAS_LAW_PARAMS
-        if (law[CAEKF_LAW_N] != 0) { /* d(delta^n)/dn = delta^n ln(delta) */
-            out->dfc_dn = out->fc * CAEKF_LOG(d);
+        if (CAEKF_HAS_LAW_PARAMS && law[CAEKF_LAW_N] != 0) { /* d(delta^n)/dn = delta^n ln(delta) */
+            *CAEKF_DFC_DN_STORE(out) = out->fc * CAEKF_LOG(d);
         }
-#endif
         if (CAEKF_METHOD_GAMMA_LOG(m)) { /* df/d(ln gamma) = gamma df/dgamma = f */
             out->dfc_dgamma = out->fc;
         }
@@ -224,21 +202,11 @@ void caekf_model_contact(const caekf_model_t *m, int c, const caekf_scalar_t *x,
     contact_law(m, c, x, out, 1);
 }
 
-#if CAEKF_HAS_SUBSTEPS
-/* The force of contact c at x without the statistically linearised tangents. */
+/* The force of contact c at x without the statistically linearised tangents (the substeps' chord update). */
 static void contact_force(const caekf_model_t *m, int c, const caekf_scalar_t *x, caekf_contact_t *out)
 {
     contact_law(m, c, x, out, 0);
 }
-#endif
-
-/* Written into its callers in a build sized for one backward-Euler step per sample (on the step's path: the
- * Newton matrix and F), a function elsewhere (less flash where the step has more paths). */
-#if CAEKF_ONE_STEP_BE || CAEKF_FIXED_LINKS /* the latter: the contacts' ends are constants there */
-#define ADD_CONTACT_BLOCK_INLINE CAEKF_HOT_INLINE
-#else
-#define ADD_CONTACT_BLOCK_INLINE static
-#endif
 
 /* Adds s * (e_i - e_j)(e_i - e_j)^T to the nq x nq matrix a (leading dimension ld); ground ends (-1)
  * drop out. Entry order: (i,i), (i,j), (j,i), (j,j). */
@@ -324,57 +292,57 @@ static void momentum_residual(const caekf_model_t *m, const caekf_scalar_t *x, c
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), nu = CAEKF_DIM_NU(m);
     const caekf_scalar_t *q = x, *v = x + nq;
     int i, k;
-#if CAEKF_FIXED_LINKS
-    /* The links' pattern is the build's (constants: written out, no index loads), the same operations in
-     * the same order as below; a link of zero stiffness and damping adds its zero terms. */
-    CAEKF_UNROLL_SIZED
-    for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        caekf_scalar_t s = inertia, a = CAEKF_FABS(inertia);
+    if (CAEKF_FIXED_LINKS) {
+        /* The links' pattern is the build's (constants: written out, no index loads), the same operations in
+         * the same order as below; a link of zero stiffness and damping adds its zero terms. */
         CAEKF_UNROLL_SIZED
-        for (k = 0; k < link_nnz[i]; ++k) {
-            const int j = link_nz[i][k];
-            const caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
-            s += kq + cv;
-            a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
-        }
-        r[i] = s;
-        if (mag != 0) {
-            mag[i] = a;
-        }
-    }
-#else
-    for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
-        const caekf_scalar_t *Ki = m->K[i], *Ci = m->C[i];
-        const unsigned char *nz = m->nz[i];
-        caekf_scalar_t s = inertia;
-        if (m->nnz[i] == 2) { /* a body with one neighbour (a chain's end or pair): written out */
-            const int j0 = nz[0], j1 = nz[1];
-            const caekf_scalar_t kq0 = Ki[j0] * q[j0], cv0 = Ci[j0] * v[j0];
-            const caekf_scalar_t kq1 = Ki[j1] * q[j1], cv1 = Ci[j1] * v[j1];
-            r[i] = s + (kq0 + cv0) + (kq1 + cv1);
+        for (i = 0; i < nq; ++i) {
+            const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
+            caekf_scalar_t s = inertia, a = CAEKF_FABS(inertia);
+            CAEKF_UNROLL_SIZED
+            for (k = 0; k < CAEKF_ROW_NNZ(m, i); ++k) {
+                const int j = CAEKF_ROW_NZ(m, i)[k];
+                const caekf_scalar_t kq = m->K[i][j] * q[j], cv = m->C[i][j] * v[j];
+                s += kq + cv;
+                a += CAEKF_FABS(kq) + CAEKF_FABS(cv);
+            }
+            r[i] = s;
             if (mag != 0) {
-                mag[i] =
-                    CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) + (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+                mag[i] = a;
             }
-            continue;
         }
-        for (k = 0; k < m->nnz[i]; ++k) { /* K and C's nonzeros of row i, ascending */
-            const int j = nz[k];
-            s += Ki[j] * q[j] + Ci[j] * v[j];
-        }
-        r[i] = s;
-        if (mag != 0) {
-            caekf_scalar_t a = CAEKF_FABS(inertia);
-            for (k = 0; k < m->nnz[i]; ++k) {
+    } else {
+        for (i = 0; i < nq; ++i) {
+            const caekf_scalar_t inertia = m->m_dt[i] * (v[i] - vprev[i]);
+            const caekf_scalar_t *Ki = m->K[i], *Ci = m->C[i];
+            const unsigned char *nz = CAEKF_ROW_NZ(m, i);
+            caekf_scalar_t s = inertia;
+            if (CAEKF_ROW_NNZ(m, i) == 2) { /* a body with one neighbour (a chain's end or pair): written out */
+                const int j0 = nz[0], j1 = nz[1];
+                const caekf_scalar_t kq0 = Ki[j0] * q[j0], cv0 = Ci[j0] * v[j0];
+                const caekf_scalar_t kq1 = Ki[j1] * q[j1], cv1 = Ci[j1] * v[j1];
+                r[i] = s + (kq0 + cv0) + (kq1 + cv1);
+                if (mag != 0) {
+                    mag[i] =
+                        CAEKF_FABS(inertia) + (CAEKF_FABS(kq0) + CAEKF_FABS(cv0)) + (CAEKF_FABS(kq1) + CAEKF_FABS(cv1));
+                }
+                continue;
+            }
+            for (k = 0; k < CAEKF_ROW_NNZ(m, i); ++k) { /* K and C's nonzeros of row i, ascending */
                 const int j = nz[k];
-                a += CAEKF_FABS(Ki[j] * q[j]) + CAEKF_FABS(Ci[j] * v[j]);
+                s += Ki[j] * q[j] + Ci[j] * v[j];
             }
-            mag[i] = a;
+            r[i] = s;
+            if (mag != 0) {
+                caekf_scalar_t a = CAEKF_FABS(inertia);
+                for (k = 0; k < CAEKF_ROW_NNZ(m, i); ++k) {
+                    const int j = nz[k];
+                    a += CAEKF_FABS(Ki[j] * q[j]) + CAEKF_FABS(Ci[j] * v[j]);
+                }
+                mag[i] = a;
+            }
         }
     }
-#endif
     if (CAEKF_IS_STRUCTURE(m)) {
         structure_loads(m, u, ct, r, mag);
         return;
@@ -453,59 +421,6 @@ int caekf_model_any_contact(const caekf_model_t *m, const caekf_scalar_t *x)
     return any_contact(ct, CAEKF_DIM_NC(m));
 }
 
-#if CAEKF_HAS_SUBSTEPS
-int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct)
-{
-    if (x != 0) {
-        contacts_at(m, x, ct);
-    }
-    return any_contact(ct, CAEKF_DIM_NC(m));
-}
-#endif
-
-#if CAEKF_MODEL_ORACLES
-/* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
- * the residual with no inertia (v_{k-1} against itself). */
-CAEKF_NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev,
-                                            const caekf_scalar_t *u_prev, caekf_contact_t *ct0, caekf_scalar_t *g0,
-                                            caekf_scalar_t *mag0)
-{
-    contacts_at(m, xprev, ct0);
-    momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
-}
-
-void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
-                          const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
-{
-    const int nq = CAEKF_DIM_NQ(m);
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
-    caekf_scalar_t f[2 * CAEKF_MAX_INPUTS];     /* base displacements as forces: the end's, the start's */
-    const caekf_scalar_t *fe = u, *fs = u_prev; /* the inputs as forces at the step's end and start */
-    int i;
-    if (CAEKF_DIM_NBASE(m) > 0) {
-        base_forces(m, u_prev, u, f, f + CAEKF_MAX_INPUTS);
-        fe = f;
-        fs = f + CAEKF_MAX_INPUTS;
-    }
-    contacts_at(m, xk, ct);
-    for (i = 0; i < nq; ++i) {
-        const caekf_scalar_t v = CAEKF_METHOD_TRAP(m) ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
-        g[i] = (xk[i] - xprev[i]) / m->p.dt - v;
-    }
-    momentum_residual(m, xk, xprev + nq, fe, ct, g + nq, 0);
-    if (CAEKF_METHOD_TRAP(m)) {
-        caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
-        step_start_force(m, xprev, fs, ct, g0, mag0); /* ct (at x_k) is no longer needed */
-        for (i = 0; i < nq; ++i) {
-            g[nq + i] += g0[i];
-        }
-    }
-    for (i = 2 * nq; i < CAEKF_DIM_N(m); ++i) { /* random walks: the gammas and law parameters */
-        g[i] = xk[i] - xprev[i];
-    }
-}
-#endif
-
 /* Adds s b_c to column col of the nq rows at `rows` (leading dimension CAEKF_N): +s on body a's row,
  * -s on body b's (ground ends drop out). */
 static void add_contact_column(const caekf_model_t *m, int c, caekf_scalar_t *rows, int col, caekf_scalar_t s)
@@ -533,76 +448,19 @@ static void add_param_columns(const caekf_model_t *m, int c, const caekf_contact
                               caekf_scalar_t *rows)
 {
     add_contact_column(m, c, rows, 2 * CAEKF_DIM_NQ(m) + c, s * ct->dfc_dgamma);
-#if CAEKF_HAS_LAW_PARAMS
-    {
+    if (CAEKF_HAS_LAW_PARAMS) {
         const unsigned char *law = m->law_state[c];
         if (law[CAEKF_LAW_N] != 0) {
-            add_contact_column(m, c, rows, law[CAEKF_LAW_N], s * ct->dfc_dn);
+            add_contact_column(m, c, rows, law[CAEKF_LAW_N], s * *CAEKF_DFC_DN_STORE(ct));
         }
         if (law[CAEKF_LAW_LAMBDA] != 0) {
-            add_contact_column(m, c, rows, law[CAEKF_LAW_LAMBDA], s * ct->dfc_dlambda);
+            add_contact_column(m, c, rows, law[CAEKF_LAW_LAMBDA], s * *CAEKF_DFC_DLAMBDA_STORE(ct));
         }
         if (law[CAEKF_LAW_GAP] != 0) { /* delta = q_a - q_b - gap */
             add_contact_column(m, c, rows, law[CAEKF_LAW_GAP], -s * ct->dfc_ddelta);
         }
     }
-#endif
 }
-
-#if CAEKF_MODEL_ORACLES
-/* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): the force through
- * delta (q columns), its rate (v columns) and the contact's parameter states. */
-static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
-                                 caekf_scalar_t J[CAEKF_N][CAEKF_N])
-{
-    const int nq = CAEKF_DIM_NQ(m);
-    add_contact_outer(m, c, &J[nq][0], CAEKF_N, ct->dfc_ddelta);
-    add_contact_outer(m, c, &J[nq][nq], CAEKF_N, ct->dfc_drate);
-    add_param_columns(m, c, ct, 1, &J[nq][0]);
-}
-
-void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
-                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
-{
-    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = CAEKF_METHOD_TRAP(m) ? CAEKF_C(0.5) : 1;
-    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
-    int i, j, c;
-    for (i = 0; i < n; ++i) {
-        for (j = 0; j < n; ++j) {
-            Jk[i][j] = 0;
-            Jprev[i][j] = 0;
-        }
-    }
-    for (i = 0; i < nq; ++i) {
-        Jk[i][i] = inv_dt;
-        Jk[i][nq + i] = -theta;
-        Jprev[i][i] = -inv_dt;
-        Jprev[i][nq + i] = theta - 1;
-        Jprev[nq + i][nq + i] = -m->m_dt[i];
-        for (j = 0; j < nq; ++j) {
-            Jk[nq + i][j] = m->K[i][j];
-            Jk[nq + i][nq + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
-            if (CAEKF_METHOD_TRAP(m)) { /* the step's start: G(x_{k-1}) */
-                Jprev[nq + i][j] = m->K[i][j];
-                Jprev[nq + i][nq + j] += m->C[i][j];
-            }
-        }
-    }
-    contacts_at(m, xk, ct);
-    contacts_at(m, xprev, ct0);
-    for (c = 0; c < nc; ++c) {
-        add_contact_tangents(m, c, &ct[c], Jk);
-        if (CAEKF_METHOD_TRAP(m)) {
-            add_contact_tangents(m, c, &ct0[c], Jprev);
-        }
-    }
-    for (i = 2 * nq; i < n; ++i) {
-        Jk[i][i] = 1;
-        Jprev[i][i] = -1;
-    }
-}
-#endif
 
 #define LU_REL_TOL (CAEKF_EPS * 16)
 
@@ -621,9 +479,9 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     caekf_scalar_t amax = 0;
     int i;
-#if CAEKF_ONE_STEP_BE
-    { /* A0 from its upper triangle: M/hs + C + hs K is symmetric bit for bit (links add to both sides) */
-        const caekf_scalar_t *a = m->A0_up;
+    if (CAEKF_ONE_STEP_BE) { /* A0 from its upper triangle: M/hs + C + hs K is symmetric bit for bit (links add to
+                               * both sides) */
+        const caekf_scalar_t *a = m->A0;
         CAEKF_UNROLL_SIZED
         for (i = 0; i < nq; ++i) {
             int j;
@@ -633,23 +491,21 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
                 A[i * nq + j] = A[j * nq + i] = *a++;
             }
         }
+    } else {
+        UNROLL_STEP
+        for (i = 0; i < nq * nq; ++i) {
+            A[i] = m->A0[i];
+        }
     }
-#else
-    UNROLL_STEP
-    for (i = 0; i < nq * nq; ++i) {
-        A[i] = m->A0[i];
-    }
-#endif
     for (i = 0; i < nc; ++i) {
         if (CONTACT_ON(ct[i])) {
             add_contact_outer(m, i, A, nq, m->hs * ct[i].dfc_ddelta + ct[i].dfc_drate);
         }
     }
-#if CAEKF_A0_MAX_OPEN
-    { /* the entries outside the one contact's block are A0's: their maximum is a constant */
+    if (CAEKF_A0_MAX_OPEN) { /* the entries outside the one contact's block are A0's: their maximum is a constant */
         const int e[2] = {CAEKF_CONTACT_I(m, 0), CAEKF_CONTACT_J(m, 0)};
         int a, b;
-        amax = m->a0_max_open;
+        amax = *CAEKF_A0_MAX_OPEN_STORE(m);
         for (a = 0; a < 2; ++a) {
             for (b = 0; b < 2; ++b) {
                 if (e[a] >= 0 && e[b] >= 0) {
@@ -657,51 +513,41 @@ static caekf_scalar_t newton_matrix(const caekf_model_t *m, const caekf_contact_
                 }
             }
         }
+    } else {
+        CAEKF_UNROLL_SIZED
+        for (i = 0; i < nq * nq; ++i) {
+            amax = caekf_max(amax, CAEKF_FABS(A[i]));
+        }
     }
-#else
-    CAEKF_UNROLL_SIZED
-    for (i = 0; i < nq * nq; ++i) {
-        amax = caekf_max(amax, CAEKF_FABS(A[i]));
-    }
-#endif
     return LU_REL_TOL * amax;
 }
 
 /* LU of A with the threshold: over the Newton matrix's pattern where the build fixes the links, else the
- * 4-body kernels where they apply; each the general LU's operations. */
+ * 4-body kernels where they apply; each the general LU's operations (the kernels: caekf_kernels.c). */
 static int factor(caekf_scalar_t *A, int nq, int *piv, caekf_scalar_t tol)
 {
-#if CAEKF_FIXED_LINKS
-    (void)nq;
-    return caekf_lu_factor_sized(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
-#elif CAEKF_LA_GENERAL_LU
+    if (CAEKF_FIXED_LINKS) {
+        return caekf_lu_factor_sized(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
+    }
+    if (!CAEKF_LA_GENERAL_LU) {
+        return caekf_lu4_factor_tol(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
+    }
     return (CAEKF_DIM_IS4(nq) ? caekf_lu4_factor_tol(A, piv, tol) : caekf_lu_factor_tol(A, nq, piv, tol)) == CAEKF_LA_OK
                ? 0
                : -1;
-#else
-    (void)nq;
-    return caekf_lu4_factor_tol(A, piv, tol) == CAEKF_LA_OK ? 0 : -1;
-#endif
 }
 
 static void solve(const caekf_scalar_t *lu, int nq, const int *piv, caekf_scalar_t *b, int nrhs, int ldb)
 {
-#if CAEKF_FIXED_LINKS
-    (void)nq;
-    caekf_lu_solve_sized(lu, piv, b, nrhs, ldb);
-#elif CAEKF_LA_GENERAL_LU
-    if (CAEKF_DIM_IS4(nq)) {
+    if (CAEKF_FIXED_LINKS) {
+        caekf_lu_solve_sized(lu, piv, b, nrhs, ldb);
+    } else if (!CAEKF_LA_GENERAL_LU || CAEKF_DIM_IS4(nq)) {
         caekf_lu4_solve(lu, piv, b, nrhs, ldb);
     } else {
         (void)caekf_lu_solve(lu, nq, piv, b, nrhs, ldb);
     }
-#else
-    (void)nq;
-    caekf_lu4_solve(lu, piv, b, nrhs, ldb);
-#endif
 }
 
-#if CAEKF_HAS_SUBSTEPS
 /* solve with a kept LU: A0's (a constant one) or its own */
 static void solve_lu(const caekf_model_t *m, const caekf_newton_lu_t *lu, caekf_scalar_t *b, int nrhs, int ldb)
 {
@@ -711,24 +557,14 @@ static void solve_lu(const caekf_model_t *m, const caekf_newton_lu_t *lu, caekf_
         solve(lu->lu, CAEKF_DIM_NQ(m), lu->piv, b, nrhs, ldb);
     }
 }
-#endif
 
-/* caekf_model_newton_ct and caekf_model_transition_ct are the substeps' entry points (caekf_model_internal.h);
- * without substeps they are this file's own, so that the one-step path keeps its calls as they are. */
-#if CAEKF_HAS_SUBSTEPS
-#define NEWTON_CT caekf_model_newton_ct
-#define TRANSITION_CT caekf_model_transition_ct
-#define CT_LINKAGE
-#else
-#define NEWTON_CT newton_ct
-#define TRANSITION_CT transition_ct
-#define CT_LINKAGE static
-#endif
-
-CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
-                         const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
-                         int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0,
-                         const caekf_newton_lu_t *first)
+/* The Newton solve (caekf_model_newton) with the contacts passed on: those of each iterate left in ct, those at
+ * x_{k-1} given in ct0 (NULL: evaluated here), the first update's LU given in first (NULL: its own). Its one
+ * copy is the substeps' entry point caekf_model_newton_ct where a build has substeps, else caekf_model_newton. */
+static int newton_solve(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N], const caekf_scalar_t *u_prev,
+                        const caekf_scalar_t *u, int max_iter, caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N],
+                        int *iters, caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct, const caekf_contact_t *ct0,
+                        const caekf_newton_lu_t *first)
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m);
     const caekf_scalar_t *qp = xprev;
@@ -742,9 +578,6 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
     const caekf_scalar_t *fe = u, *fs = u_prev; /* the inputs as forces at the step's end and start */
     int it, i;
     int result = 1;
-#if !CAEKF_HAS_SUBSTEPS
-    (void)first; /* no substeps: every update builds its own matrix */
-#endif
     if (max_iter > CAEKF_NEWTON_MAX_ITER) {
         max_iter = CAEKF_NEWTON_MAX_ITER;
     }
@@ -775,10 +608,9 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         int piv[CAEKF_NQ];
         /* cppcheck-suppress variableScope ; declarations at the top of the block are this file's style */
         caekf_scalar_t rmax = 0, magmax = 0;
-#if CAEKF_HAS_SUBSTEPS
-        /* The first update takes the given LU (the Jacobian at the step's start): the contacts' forces
-         * only, unless the bound stops the loop here (x_k's contacts are then these, tangents and all). */
-        const int chord = it == 0 && first != 0 && max_iter > 0;
+        /* With substeps the first update takes the given LU (the Jacobian at the step's start): the contacts'
+         * forces only, unless the bound stops the loop here (x_k's contacts are then these, tangents and all). */
+        const int chord = CAEKF_HAS_SUBSTEPS && it == 0 && first != 0 && max_iter > 0;
         for (i = 0; i < nc; ++i) {
             if (chord) {
                 contact_force(m, i, xk, &ct[i]);
@@ -786,11 +618,6 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
                 caekf_model_contact(m, i, xk, &ct[i]);
             }
         }
-#else
-        for (i = 0; i < nc; ++i) {
-            caekf_model_contact(m, i, xk, &ct[i]);
-        }
-#endif
         /* The test needs at least one update (it solves the linear part exactly): no sizes before. */
         momentum_residual(m, xk, vp, fe, ct, r, it > 0 ? mag : 0);
         if (CAEKF_METHOD_TRAP(m)) {
@@ -819,12 +646,9 @@ CT_LINKAGE int NEWTON_CT(const caekf_model_t *m, const caekf_scalar_t xprev[CAEK
         if (it == max_iter) {
             break; /* bound reached: x_k keeps the last iterate */
         }
-#if CAEKF_HAS_SUBSTEPS
         if (chord) {
             solve_lu(m, first, r, 1, 1);
-        } else
-#endif
-            if (any_contact(ct, nc)) { /* contact: the tangents change A; else the constant LU */
+        } else if (any_contact(ct, nc)) { /* contact: the tangents change A; else the constant LU */
             if (factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
                 result = 2;
                 break;
@@ -848,7 +672,10 @@ int caekf_model_newton(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_
                        int *iters, caekf_scalar_t work[4 * CAEKF_NQ])
 {
     caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1]; /* each iterate's contacts (first the step's start) */
-    return NEWTON_CT(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
+    if (CAEKF_HAS_SUBSTEPS) {                   /* the solve's one copy */
+        return caekf_model_newton_ct(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
+    }
+    return newton_solve(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, 0, 0);
 }
 
 /* Right-hand sides of the linearised step, A dv_k = -(dg/dx_{k-1}) dx_{k-1}, one column per component of
@@ -860,60 +687,60 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
 {
     const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
     int i, j;
-#if CAEKF_FIXED_LINKS
-    /* The links' pattern is the build's: outside it K and C are +0, so the entries below are -0 there
-     * (-0, -0 - 0 and -(hs 0 + 0); backward Euler's v-columns +0) and the parameter columns 0; the
-     * pattern's entries (and the diagonal's M/hs) by the operations below. */
-    UNROLL_STEP
-    for (i = 0; i < nq; ++i) {
-        int k;
-        CAEKF_UNROLL_SIZED
-        for (j = 0; j < nq; ++j) {
-            fv[i][j] = -CAEKF_C(0.0);
-            fv[i][nq + j] = ct0 != 0 ? -CAEKF_C(0.0) : 0;
-        }
-        CAEKF_UNROLL_SIZED
-        for (j = 2 * nq; j < n; ++j) {
-            fv[i][j] = 0;
-        }
-        CAEKF_UNROLL_SIZED
-        for (k = 0; k < link_nnz[i]; ++k) {
-            j = link_nz[i][k];
-            fv[i][j] = -m->K[i][j];
-            if (ct0 != 0) {
-                fv[i][j] -= m->K[i][j];
-                fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
-            }
-        }
-        if (ct0 != 0) {
-            fv[i][nq + i] += m->m_dt[i];
-        } else {
-            fv[i][nq + i] = m->m_dt[i];
-        }
-    }
-#else
-    UNROLL_STEP
-    for (i = 0; i < nq; ++i) {
-        CAEKF_UNROLL_SIZED
-        for (j = 0; j < nq; ++j) {
-            fv[i][j] = -m->K[i][j];
-        }
-        CAEKF_UNROLL_SIZED
-        for (j = nq; j < n; ++j) {
-            fv[i][j] = 0;
-        }
-        if (ct0 != 0) {
+    if (CAEKF_FIXED_LINKS) {
+        /* The links' pattern is the build's: outside it K and C are +0, so the entries below are -0 there
+         * (-0, -0 - 0 and -(hs 0 + 0); backward Euler's v-columns +0) and the parameter columns 0; the
+         * pattern's entries (and the diagonal's M/hs) by the operations below. */
+        UNROLL_STEP
+        for (i = 0; i < nq; ++i) {
+            int k;
             CAEKF_UNROLL_SIZED
             for (j = 0; j < nq; ++j) {
-                fv[i][j] -= m->K[i][j];
-                fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
+                fv[i][j] = -CAEKF_C(0.0);
+                fv[i][nq + j] = ct0 != 0 ? -CAEKF_C(0.0) : 0;
             }
-            fv[i][nq + i] += m->m_dt[i];
-        } else {
-            fv[i][nq + i] = m->m_dt[i];
+            CAEKF_UNROLL_SIZED
+            for (j = 2 * nq; j < n; ++j) {
+                fv[i][j] = 0;
+            }
+            CAEKF_UNROLL_SIZED
+            for (k = 0; k < CAEKF_ROW_NNZ(m, i); ++k) {
+                j = CAEKF_ROW_NZ(m, i)[k];
+                fv[i][j] = -m->K[i][j];
+                if (ct0 != 0) {
+                    fv[i][j] -= m->K[i][j];
+                    fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
+                }
+            }
+            if (ct0 != 0) {
+                fv[i][nq + i] += m->m_dt[i];
+            } else {
+                fv[i][nq + i] = m->m_dt[i];
+            }
+        }
+    } else {
+        UNROLL_STEP
+        for (i = 0; i < nq; ++i) {
+            CAEKF_UNROLL_SIZED
+            for (j = 0; j < nq; ++j) {
+                fv[i][j] = -m->K[i][j];
+            }
+            CAEKF_UNROLL_SIZED
+            for (j = nq; j < n; ++j) {
+                fv[i][j] = 0;
+            }
+            if (ct0 != 0) {
+                CAEKF_UNROLL_SIZED
+                for (j = 0; j < nq; ++j) {
+                    fv[i][j] -= m->K[i][j];
+                    fv[i][nq + j] = -(m->hs * m->K[i][j] + m->C[i][j]);
+                }
+                fv[i][nq + i] += m->m_dt[i];
+            } else {
+                fv[i][nq + i] = m->m_dt[i];
+            }
         }
     }
-#endif
     for (i = 0; i < nc; ++i) {
         if (CONTACT_ON(ct[i])) {
             add_contact_outer(m, i, &fv[0][0], CAEKF_N, -ct[i].dfc_ddelta);
@@ -932,44 +759,77 @@ static void transition_rhs(const caekf_model_t *m, const caekf_contact_t *ct, co
 
 void caekf_model_free_transition_v(const caekf_model_t *m, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
-#if CAEKF_ONE_STEP_BE
-    caekf_contact_t none[CAEKF_MAX_CONTACTS + 1]; /* every contact open: only delta = 0 is read */
-    int i;
-    for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
-        none[i].delta = 0;
-        none[i].dfc_ddelta = 0;
-    }
-    transition_rhs(m, none, 0, fv);
-    solve(m->A0_lu, CAEKF_DIM_NQ(m), m->A0_piv, &fv[0][0], CAEKF_DIM_N(m), CAEKF_N);
-#else
     const int nq = CAEKF_DIM_NQ(m), n = CAEKF_DIM_N(m);
     int i, j;
+    if (CAEKF_ONE_STEP_BE) {                          /* not kept: the same operations as derive_values' */
+        caekf_contact_t none[CAEKF_MAX_CONTACTS + 1]; /* every contact open: only delta = 0 is read */
+        for (i = 0; i <= CAEKF_MAX_CONTACTS; ++i) {
+            none[i].delta = 0;
+            none[i].dfc_ddelta = 0;
+        }
+        transition_rhs(m, none, 0, fv);
+        solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
+        return;
+    }
     for (i = 0; i < nq; ++i) {
         for (j = 0; j < n; ++j) {
-            fv[i][j] = m->fv0[i][j];
+            fv[i][j] = CAEKF_FV0(m)[i][j];
         }
     }
-#endif
+}
+
+/* F's v-rows from the contacts at x_k (ct) and, trapezoidal, at x_{k-1} (ct0): its one copy is the substeps'
+ * entry point caekf_model_transition_ct where a build has substeps, else caekf_model_transition_v_at's. */
+CAEKF_HOT_INLINE int transition_solve(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
+                                      caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+{
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
+    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
+    int piv[CAEKF_NQ];
+    const int closed = any_contact(ct, nc), closed0 = CAEKF_METHOD_TRAP(m) ? any_contact(ct0, nc) : 0;
+    if (!closed && !closed0) { /* linear step: the constant F */
+        caekf_model_free_transition_v(m, fv);
+        return 0;
+    }
+    if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
+        return -1;
+    }
+    transition_rhs(m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0, fv); /* solved in place */
+    if (closed) {
+        solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
+    } else { /* trapezoidal, closed only at the step's start: A is A0 */
+        solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
+    }
+    return 0;
 }
 
 #if CAEKF_HAS_SUBSTEPS
+/* The substeps' entry points (caekf_model_internal.h): only a build with substeps has them. */
+
+int caekf_model_contacts_any(const caekf_model_t *m, const caekf_scalar_t *x, caekf_contact_t *ct)
+{
+    if (x != 0) {
+        contacts_at(m, x, ct);
+    }
+    return any_contact(ct, CAEKF_DIM_NC(m));
+}
+
+/* Out of line, so that caekf_model_newton calls it rather than taking a second copy of the solve. */
+CAEKF_NOINLINE int caekf_model_newton_ct(const caekf_model_t *m, const caekf_scalar_t xprev[CAEKF_N],
+                                         const caekf_scalar_t *u_prev, const caekf_scalar_t *u, int max_iter,
+                                         caekf_scalar_t rtol, caekf_scalar_t xk[CAEKF_N], int *iters,
+                                         caekf_scalar_t work[4 * CAEKF_NQ], caekf_contact_t *ct,
+                                         const caekf_contact_t *ct0, const caekf_newton_lu_t *first)
+{
+    return newton_solve(m, xprev, u_prev, u, max_iter, rtol, xk, iters, work, ct, ct0, first);
+}
+
 int caekf_model_newton_lu(const caekf_model_t *m, const caekf_contact_t *ct, caekf_newton_lu_t *lu)
 {
     const int nq = CAEKF_DIM_NQ(m);
     lu->constant = !any_contact(ct, CAEKF_DIM_NC(m));
     return lu->constant ? 0 : factor(lu->lu, nq, lu->piv, newton_matrix(m, ct, lu->lu));
 }
-#endif
-
-#if CAEKF_HAS_SUBSTEPS
-/* The nonzero columns of K's and C's row i: the build's pattern (constants) or the model's. */
-#if CAEKF_FIXED_LINKS
-#define ROW_NNZ(m, i) ((void)(m), link_nnz[i])
-#define ROW_NZ(m, i, k) ((void)(m), link_nz[i][k])
-#else
-#define ROW_NNZ(m, i) ((m)->nnz[i])
-#define ROW_NZ(m, i, k) ((m)->nz[i][k])
-#endif
 
 /* S <- F_j S for the substep's map F_j, without forming F_j: its v-rows are A^-1 R with R the right-hand
  * sides of transition_rhs, and R's v-columns are kq M/hs - A (+ the rate tangents' change, trapezoidal), so
@@ -992,16 +852,16 @@ int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, c
         const caekf_scalar_t mi = kq * m->m_dt[i];
         caekf_scalar_t kk[CAEKF_NQ];
         UNROLL_STEP
-        for (k = 0; k < ROW_NNZ(m, i); ++k) {
-            kk[k] = kq * m->K[i][ROW_NZ(m, i, k)];
+        for (k = 0; k < CAEKF_ROW_NNZ(m, i); ++k) {
+            kk[k] = kq * m->K[i][CAEKF_ROW_NZ(m, i)[k]];
         }
         CAEKF_UNROLL_SIZED
         for (j = 0; j < n; ++j) {
             caekf_scalar_t acc = mi * sv[i][j];
             UNROLL_STEP
-            for (k = 0; k < ROW_NNZ(m, i); ++k) {
+            for (k = 0; k < CAEKF_ROW_NNZ(m, i); ++k) {
                 /* cppcheck-suppress uninitvar ; kk is written above for every k of this loop */
-                acc -= kk[k] * sq[ROW_NZ(m, i, k)][j];
+                acc -= kk[k] * sq[CAEKF_ROW_NZ(m, i)[k]][j];
             }
             w[i][j] = acc;
         }
@@ -1060,30 +920,14 @@ int caekf_model_substep_map(const caekf_model_t *m, const caekf_contact_t *ct, c
     }
     return 0;
 }
-#endif
 
-CT_LINKAGE int TRANSITION_CT(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_contact_t *ct0,
-                             caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
+/* Out of line, as caekf_model_newton_ct. */
+CAEKF_NOINLINE int caekf_model_transition_ct(const caekf_model_t *m, const caekf_contact_t *ct,
+                                             const caekf_contact_t *ct0, caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
 {
-    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
-    caekf_scalar_t A[CAEKF_NQ * CAEKF_NQ];
-    int piv[CAEKF_NQ];
-    const int closed = any_contact(ct, nc), closed0 = CAEKF_METHOD_TRAP(m) ? any_contact(ct0, nc) : 0;
-    if (!closed && !closed0) { /* linear step: the constant F */
-        caekf_model_free_transition_v(m, fv);
-        return 0;
-    }
-    if (closed && factor(A, nq, piv, newton_matrix(m, ct, A)) != 0) {
-        return -1;
-    }
-    transition_rhs(m, ct, CAEKF_METHOD_TRAP(m) ? ct0 : 0, fv); /* solved in place */
-    if (closed) {
-        solve(A, nq, piv, &fv[0][0], n, CAEKF_N);
-    } else { /* trapezoidal, closed only at the step's start: A is A0 */
-        solve(m->A0_lu, nq, m->A0_piv, &fv[0][0], n, CAEKF_N);
-    }
-    return 0;
+    return transition_solve(m, ct, ct0, fv);
 }
+#endif /* CAEKF_HAS_SUBSTEPS */
 
 int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *ct, const caekf_scalar_t xprev[CAEKF_N],
                                 caekf_scalar_t fv[CAEKF_NQ][CAEKF_N])
@@ -1092,7 +936,10 @@ int caekf_model_transition_v_at(const caekf_model_t *m, const caekf_contact_t *c
     if (CAEKF_METHOD_TRAP(m)) {
         contacts_at(m, xprev, ct0);
     }
-    return TRANSITION_CT(m, ct, ct0, fv);
+    if (CAEKF_HAS_SUBSTEPS) { /* the one copy */
+        return caekf_model_transition_ct(m, ct, ct0, fv);
+    }
+    return transition_solve(m, ct, ct0, fv);
 }
 
 int caekf_model_transition_v(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
@@ -1175,41 +1022,33 @@ static void mech_states(caekf_model_t *m, const caekf_model_params_t *p)
  * end that is not the ground (validation checked that one end is). */
 static void base_inputs(caekf_model_t *m, const caekf_model_params_t *p)
 {
-#if CAEKF_HAS_BASE_INPUTS
     int i;
-    m->nbase = 0;
+    if (!CAEKF_HAS_BASE_INPUTS) {
+        return;
+    }
+    *CAEKF_NBASE_STORE(m) = 0;
     for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
-        m->base_link[i] = 0;
+        CAEKF_BASE_LINK_STORE(m)[i] = 0;
         if (i < p->inputs && p->input_kind[i] == CAEKF_INPUT_BASE_DISPLACEMENT) {
             const int l = p->input_link[i] - 1;
-            m->base_link[i] = (unsigned char)p->input_link[i];
+            CAEKF_BASE_LINK_STORE(m)[i] = (unsigned char)p->input_link[i];
             m->p.input_body[i] = p->spring_a[l] != 0 ? p->spring_a[l] : p->spring_b[l];
-            m->nbase++;
+            ++*CAEKF_NBASE_STORE(m);
         }
     }
-#else
-    (void)m;
-    (void)p;
-#endif
 }
 
 /* The base inputs' links' stiffness and damper at mult (derive_values). */
 static void base_values(caekf_model_t *m, const caekf_model_params_t *p, const caekf_scalar_t *mult)
 {
-#if CAEKF_HAS_BASE_INPUTS
     int i;
     for (i = 0; i < CAEKF_DIM_NU(m); ++i) {
-        const int l = m->base_link[i] - 1;
+        const int l = CAEKF_BASE_LINK(m, i) - 1;
         if (l >= 0) {
-            m->base_k[i] = p->spring_k[l] * mech_factor(m, mult, CAEKF_MECH_STIFFNESS, l);
-            m->base_c[i] = p->spring_c[l] * mech_factor(m, mult, CAEKF_MECH_DAMPER, l);
+            CAEKF_BASE_K_STORE(m)[i] = p->spring_k[l] * mech_factor(m, mult, CAEKF_MECH_STIFFNESS, l);
+            CAEKF_BASE_C_STORE(m)[i] = p->spring_c[l] * mech_factor(m, mult, CAEKF_MECH_DAMPER, l);
         }
     }
-#else
-    (void)m;
-    (void)p;
-    (void)mult;
-#endif
 }
 
 /* The matrices derived from the values: K, C, M / hs, A0 and its LU, the contact-free F; the estimated
@@ -1251,84 +1090,74 @@ static int derive_values(caekf_model_t *m, const caekf_model_params_t *p, const 
         base_values(m, p, mult);
     }
     for (i = 0; i < nq; ++i) {
-#if !CAEKF_FIXED_LINKS
-        m->nnz[i] = 0;
-#endif
+        if (!CAEKF_FIXED_LINKS) {
+            CAEKF_ROW_NNZ_STORE(m)[i] = 0;
+        }
         for (j = 0; j < nq; ++j) {
             const caekf_scalar_t a = a0_entry(m, i, j);
-#if !CAEKF_ONE_STEP_BE
-            m->A0[i * nq + j] = a;
-#else
-            if (j >= i) { /* row i of the upper triangle follows rows 0 .. i-1 (nq - k entries each) */
-                m->A0_up[i * nq - i * (i - 1) / 2 + j - i] = a;
+            if (!CAEKF_ONE_STEP_BE) {
+                m->A0[i * nq + j] = a;
+            } else if (j >= i) { /* row i of the upper triangle follows rows 0 .. i-1 (nq - k entries each) */
+                m->A0[i * nq - i * (i - 1) / 2 + j - i] = a;
             }
-#endif
             m->A0_lu[i * nq + j] = a;
-#if !CAEKF_FIXED_LINKS
-            if (m->K[i][j] != 0 || m->C[i][j] != 0) {
-                m->nz[i][m->nnz[i]++] = (unsigned char)j;
+            if (!CAEKF_FIXED_LINKS && (m->K[i][j] != 0 || m->C[i][j] != 0)) { /* the pattern of row i */
+                CAEKF_ROW_NZ_STORE(m)[i][CAEKF_ROW_NNZ_STORE(m)[i]++] = (unsigned char)j;
             }
-#endif
         }
     }
     /* A0 = M/hs + C + hs K is positive definite for valid parameters; the check is belt and braces. */
     {
-        caekf_scalar_t amax = 0; /* the LU's threshold, as caekf_lu_factor takes it */
-#if CAEKF_A0_MAX_OPEN
-        m->a0_max_open = 0;
-#endif
+        caekf_scalar_t amax = 0;     /* the LU's threshold, as caekf_lu_factor takes it */
+        caekf_scalar_t open_max = 0; /* CAEKF_A0_MAX_OPEN: the largest outside contact 1's block */
         for (i = 0; i < nq * nq; ++i) {
             amax = caekf_max(amax, CAEKF_FABS(m->A0_lu[i]));
-#if CAEKF_A0_MAX_OPEN
-            if ((i / nq != m->contact_i[0] && i / nq != m->contact_j[0]) ||
-                (i % nq != m->contact_i[0] && i % nq != m->contact_j[0])) { /* outside contact 1's block */
-                m->a0_max_open = caekf_max(m->a0_max_open, CAEKF_FABS(m->A0_lu[i]));
+            if (CAEKF_A0_MAX_OPEN && ((i / nq != m->contact_i[0] && i / nq != m->contact_j[0]) ||
+                                      (i % nq != m->contact_i[0] && i % nq != m->contact_j[0]))) {
+                open_max = caekf_max(open_max, CAEKF_FABS(m->A0_lu[i]));
             }
-#endif
+        }
+        if (CAEKF_A0_MAX_OPEN) {
+            *CAEKF_A0_MAX_OPEN_STORE(m) = open_max;
         }
         if (factor(m->A0_lu, nq, m->A0_piv, LU_REL_TOL * amax) != 0) {
             return -1;
         }
     }
-#if !CAEKF_ONE_STEP_BE
-    transition_rhs(m, none, CAEKF_METHOD_TRAP(m) ? none : 0, m->fv0);
-    solve(m->A0_lu, nq, m->A0_piv, &m->fv0[0][0], m->n, CAEKF_N);
-#else
-    (void)none;
-#endif
+    if (!CAEKF_ONE_STEP_BE) { /* the contact-free F, kept */
+        transition_rhs(m, none, CAEKF_METHOD_TRAP(m) ? none : 0, CAEKF_FV0(m));
+        solve(m->A0_lu, nq, m->A0_piv, &CAEKF_FV0(m)[0][0], m->n, CAEKF_N);
+    }
     return 0;
 }
 
 /* A structure's matrices and vectors into the model (st NULL: bodies on a line). */
 static void load_structure(caekf_model_t *m, const caekf_model_params_t *p, const caekf_structure_t *st)
 {
-#if CAEKF_HAS_STRUCTURES
     int i, j;
-    m->structure = st != 0;
+    if (!CAEKF_HAS_STRUCTURES) { /* bodies on a line only */
+        return;
+    }
+    *CAEKF_IS_STRUCTURE_STORE(m) = st != 0;
     if (st == 0) {
         return;
     }
     for (i = 0; i < st->dofs; ++i) {
-        m->mass[i] = st->mass[i];
+        CAEKF_STRUCTURE_MASS(m)[i] = st->mass[i];
         for (j = 0; j < st->dofs; ++j) {
             m->K[i][j] = st->stiffness[i * st->dofs + j];
             m->C[i][j] = st->damping != 0 ? st->damping[i * st->dofs + j] : 0;
         }
         for (j = 0; j < p->inputs; ++j) {
-            m->bu[j][i] = st->inputs[i * p->inputs + j];
+            CAEKF_STRUCTURE_BU(m, j)[i] = st->inputs[i * p->inputs + j];
         }
         for (j = 0; j < p->contacts; ++j) {
-            m->w[j][i] = st->contacts[j * st->dofs + i];
+            CAEKF_STRUCTURE_W(m, j)[i] = st->contacts[j * st->dofs + i];
         }
         for (j = 0; j < p->sensors; ++j) {
-            m->h[j][i] = st->sensors[j * st->dofs + i];
+            CAEKF_STRUCTURE_H(m, j)[i] = st->sensors[j * st->dofs + i];
         }
     }
-#else
-    (void)m;
-    (void)p;
-    (void)st;
-#endif
 }
 
 static int model_init(caekf_model_t *m, const caekf_model_params_t *p, const caekf_structure_t *st)
@@ -1341,32 +1170,31 @@ static int model_init(caekf_model_t *m, const caekf_model_params_t *p, const cae
         st = 0;
     }
     load_structure(m, p, st);
+    /* The run-time values the model reads (a sized build's count, exponent and method are constants). */
     m->p.dt = p->dt;
-#if !CAEKF_SIZED
-    m->p.inputs = p->inputs;
-#endif
+    if (!CAEKF_SIZED) {
+        *CAEKF_INPUTS_STORE(m) = p->inputs;
+    }
     for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
         m->p.input_body[i] = p->input_body[i];
     }
     base_inputs(m, p);
     for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
         m->p.contact_gap[i] = p->contact_gap[i];
-#ifndef CAEKF_SIZED_CONTACT_N
-        m->p.contact_n[i] = p->contact_n[i];
-#endif
-#if CAEKF_HAS_DAMPING
-        m->p.contact_lambda[i] = p->contact_lambda[i];
-#endif
+        if (CAEKF_HAS_CONTACT_N) {
+            CAEKF_CONTACT_N_STORE(m)[i] = p->contact_n[i];
+        }
+        if (CAEKF_HAS_DAMPING) {
+            CAEKF_LAMBDA_STORE(m)[i] = p->contact_lambda[i];
+        }
     }
-#if !CAEKF_SIZED_METHOD
-    m->p.gamma_log = p->gamma_log;
-    m->trap = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
-#endif
-#if CAEKF_HAS_SLR
-    for (i = 0; i < CAEKF_MAX_CONTACTS; ++i) {
-        m->slr_s[i] = 0;
+    if (!CAEKF_SIZED_METHOD) {
+        *CAEKF_GAMMA_LOG_STORE(m) = p->gamma_log;
+        *CAEKF_TRAP_STORE(m) = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL;
     }
-#endif
+    for (i = 0; CAEKF_HAS_SLR && i < CAEKF_MAX_CONTACTS; ++i) {
+        CAEKF_SLR_S(m)[i] = 0;
+    }
     m->hs = p->discretisation == CAEKF_DISCRETISATION_TRAPEZOIDAL ? p->dt / 2 : p->dt;
     nq = st != 0 ? st->dofs : p->bodies;
     m->nq = nq;
@@ -1596,6 +1424,102 @@ int caekf_model_mech_columns(const caekf_model_t *m, const caekf_contact_t *ct, 
 }
 
 #if CAEKF_MODEL_ORACLES
+/* The model's reference functions (caekf_model_internal.h): test oracles the estimator never calls. */
+
+/* The trapezoidal rule's constant part of the momentum rows, G(x_{k-1}, u_{k-1}), and its terms' sizes:
+ * the residual with no inertia (v_{k-1} against itself). */
+CAEKF_NOINLINE static void step_start_force(const caekf_model_t *m, const caekf_scalar_t *xprev,
+                                            const caekf_scalar_t *u_prev, caekf_contact_t *ct0, caekf_scalar_t *g0,
+                                            caekf_scalar_t *mag0)
+{
+    contacts_at(m, xprev, ct0);
+    momentum_residual(m, xprev, xprev + CAEKF_DIM_NQ(m), u_prev, ct0, g0, mag0);
+}
+
+void caekf_model_residual(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
+                          const caekf_scalar_t *u_prev, const caekf_scalar_t *u, caekf_scalar_t *g)
+{
+    const int nq = CAEKF_DIM_NQ(m);
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1];
+    caekf_scalar_t f[2 * CAEKF_MAX_INPUTS];     /* base displacements as forces: the end's, the start's */
+    const caekf_scalar_t *fe = u, *fs = u_prev; /* the inputs as forces at the step's end and start */
+    int i;
+    if (CAEKF_DIM_NBASE(m) > 0) {
+        base_forces(m, u_prev, u, f, f + CAEKF_MAX_INPUTS);
+        fe = f;
+        fs = f + CAEKF_MAX_INPUTS;
+    }
+    contacts_at(m, xk, ct);
+    for (i = 0; i < nq; ++i) {
+        const caekf_scalar_t v = CAEKF_METHOD_TRAP(m) ? (xk[nq + i] + xprev[nq + i]) / 2 : xk[nq + i];
+        g[i] = (xk[i] - xprev[i]) / m->p.dt - v;
+    }
+    momentum_residual(m, xk, xprev + nq, fe, ct, g + nq, 0);
+    if (CAEKF_METHOD_TRAP(m)) {
+        caekf_scalar_t g0[CAEKF_NQ], mag0[CAEKF_NQ];
+        step_start_force(m, xprev, fs, ct, g0, mag0); /* ct (at x_k) is no longer needed */
+        for (i = 0; i < nq; ++i) {
+            g[nq + i] += g0[i];
+        }
+    }
+    for (i = 2 * nq; i < CAEKF_DIM_N(m); ++i) { /* random walks: the gammas and law parameters */
+        g[i] = xk[i] - xprev[i];
+    }
+}
+
+/* Adds one contact's tangents to the momentum rows of a Jacobian (row nq .. of J): the force through
+ * delta (q columns), its rate (v columns) and the contact's parameter states. */
+static void add_contact_tangents(const caekf_model_t *m, int c, const caekf_contact_t *ct,
+                                 caekf_scalar_t J[CAEKF_N][CAEKF_N])
+{
+    const int nq = CAEKF_DIM_NQ(m);
+    add_contact_outer(m, c, &J[nq][0], CAEKF_N, ct->dfc_ddelta);
+    add_contact_outer(m, c, &J[nq][nq], CAEKF_N, ct->dfc_drate);
+    add_param_columns(m, c, ct, 1, &J[nq][0]);
+}
+
+void caekf_model_jacobians(const caekf_model_t *m, const caekf_scalar_t *xk, const caekf_scalar_t *xprev,
+                           caekf_scalar_t Jk[CAEKF_N][CAEKF_N], caekf_scalar_t Jprev[CAEKF_N][CAEKF_N])
+{
+    const int nq = CAEKF_DIM_NQ(m), nc = CAEKF_DIM_NC(m), n = CAEKF_DIM_N(m);
+    const caekf_scalar_t inv_dt = 1 / m->p.dt, theta = CAEKF_METHOD_TRAP(m) ? CAEKF_C(0.5) : 1;
+    caekf_contact_t ct[CAEKF_MAX_CONTACTS + 1], ct0[CAEKF_MAX_CONTACTS + 1];
+    int i, j, c;
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            Jk[i][j] = 0;
+            Jprev[i][j] = 0;
+        }
+    }
+    for (i = 0; i < nq; ++i) {
+        Jk[i][i] = inv_dt;
+        Jk[i][nq + i] = -theta;
+        Jprev[i][i] = -inv_dt;
+        Jprev[i][nq + i] = theta - 1;
+        Jprev[nq + i][nq + i] = -m->m_dt[i];
+        for (j = 0; j < nq; ++j) {
+            Jk[nq + i][j] = m->K[i][j];
+            Jk[nq + i][nq + j] = m->C[i][j] + (i == j ? m->m_dt[i] : 0);
+            if (CAEKF_METHOD_TRAP(m)) { /* the step's start: G(x_{k-1}) */
+                Jprev[nq + i][j] = m->K[i][j];
+                Jprev[nq + i][nq + j] += m->C[i][j];
+            }
+        }
+    }
+    contacts_at(m, xk, ct);
+    contacts_at(m, xprev, ct0);
+    for (c = 0; c < nc; ++c) {
+        add_contact_tangents(m, c, &ct[c], Jk);
+        if (CAEKF_METHOD_TRAP(m)) {
+            add_contact_tangents(m, c, &ct0[c], Jprev);
+        }
+    }
+    for (i = 2 * nq; i < n; ++i) {
+        Jk[i][i] = 1;
+        Jprev[i][i] = -1;
+    }
+}
+
 int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF_N],
                            const caekf_scalar_t xprev[CAEKF_N], caekf_scalar_t F[CAEKF_N][CAEKF_N])
 {
@@ -1618,4 +1542,4 @@ int caekf_model_transition(const caekf_model_t *m, const caekf_scalar_t xk[CAEKF
     }
     return 0;
 }
-#endif
+#endif /* CAEKF_MODEL_ORACLES */

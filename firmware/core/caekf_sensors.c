@@ -109,17 +109,17 @@ static caekf_scalar_t acceleration(const caekf_model_t *m, const caekf_model_par
         add(row, ca < 0 ? -1 : nq + ca, side * ct.dfc_drate);
         add(row, cb < 0 ? -1 : nq + cb, -side * ct.dfc_drate);
         row[2 * nq + c] += side * ct.dfc_dgamma;
-#if CAEKF_HAS_LAW_PARAMS
-        if (m->law_state[c][CAEKF_LAW_N] != 0) {
-            row[m->law_state[c][CAEKF_LAW_N]] += side * ct.dfc_dn;
+        if (CAEKF_HAS_LAW_PARAMS) { /* the estimated law parameters' columns */
+            if (m->law_state[c][CAEKF_LAW_N] != 0) {
+                row[m->law_state[c][CAEKF_LAW_N]] += side * *CAEKF_DFC_DN_STORE(&ct);
+            }
+            if (m->law_state[c][CAEKF_LAW_LAMBDA] != 0) {
+                row[m->law_state[c][CAEKF_LAW_LAMBDA]] += side * *CAEKF_DFC_DLAMBDA_STORE(&ct);
+            }
+            if (m->law_state[c][CAEKF_LAW_GAP] != 0) {
+                row[m->law_state[c][CAEKF_LAW_GAP]] -= side * ct.dfc_ddelta;
+            }
         }
-        if (m->law_state[c][CAEKF_LAW_LAMBDA] != 0) {
-            row[m->law_state[c][CAEKF_LAW_LAMBDA]] += side * ct.dfc_dlambda;
-        }
-        if (m->law_state[c][CAEKF_LAW_GAP] != 0) {
-            row[m->law_state[c][CAEKF_LAW_GAP]] -= side * ct.dfc_ddelta;
-        }
-#endif
     }
     a = force / mass;
     for (i = 0; i < CAEKF_DIM_N(m); ++i) {
@@ -174,17 +174,17 @@ static caekf_scalar_t structure_sensor(const caekf_model_t *m, const caekf_model
             row[nq + j] -= gw * ct.dfc_drate * w[j];
         }
         row[2 * nq + c] -= gw * ct.dfc_dgamma;
-#if CAEKF_HAS_LAW_PARAMS
-        if (m->law_state[c][CAEKF_LAW_N] != 0) {
-            row[m->law_state[c][CAEKF_LAW_N]] -= gw * ct.dfc_dn;
+        if (CAEKF_HAS_LAW_PARAMS) { /* the estimated law parameters' columns */
+            if (m->law_state[c][CAEKF_LAW_N] != 0) {
+                row[m->law_state[c][CAEKF_LAW_N]] -= gw * *CAEKF_DFC_DN_STORE(&ct);
+            }
+            if (m->law_state[c][CAEKF_LAW_LAMBDA] != 0) {
+                row[m->law_state[c][CAEKF_LAW_LAMBDA]] -= gw * *CAEKF_DFC_DLAMBDA_STORE(&ct);
+            }
+            if (m->law_state[c][CAEKF_LAW_GAP] != 0) { /* delta = w^T q - gap */
+                row[m->law_state[c][CAEKF_LAW_GAP]] += gw * ct.dfc_ddelta;
+            }
         }
-        if (m->law_state[c][CAEKF_LAW_LAMBDA] != 0) {
-            row[m->law_state[c][CAEKF_LAW_LAMBDA]] -= gw * ct.dfc_dlambda;
-        }
-        if (m->law_state[c][CAEKF_LAW_GAP] != 0) { /* delta = w^T q - gap */
-            row[m->law_state[c][CAEKF_LAW_GAP]] += gw * ct.dfc_ddelta;
-        }
-#endif
     }
     return value;
 }

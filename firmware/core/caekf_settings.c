@@ -230,7 +230,6 @@ CAEKF_NOINLINE static int usable(caekf_scalar_t num, caekf_scalar_t den, unsigne
     return usable_times(num, den, 1, how);
 }
 
-#if CAEKF_HAS_LAW_PARAMS
 /* One estimated law parameter's scaled values (x0, bounds and Q over sigma0, and sigma0 / sigma_v0 in
  * the scaled transition): 1 with *bad set when one is not usable. */
 static int law_unscalable(caekf_scalar_t x0, caekf_scalar_t sigma0, caekf_scalar_t sigma_q, caekf_scalar_t lo,
@@ -256,17 +255,13 @@ static int first_unscalable_law(const caekf_settings_t *s, unsigned c, int *bad)
             law_unscalable(s->gap0[c], s->sigma_gap0[c], s->sigma_q_gap[c], s->gap_min[c], s->gap_max[c], s->sigma_v0,
                            CAEKF_PARAM_SIGMA_GAP0 + (int)c, bad));
 }
-#endif
 
 /* The blamed parameter id of the first failing derived check, or -1. */
 static int first_unscalable(const caekf_settings_t *s)
 {
     const caekf_model_params_t *m = &s->model;
     const caekf_scalar_t rq = s->sigma_q0 / s->sigma_v0;
-    int i;
-#if CAEKF_HAS_LAW_PARAMS
-    int bad = -1;
-#endif
+    int i, bad = -1;
     for (i = 0; i < m->bodies; ++i) {
         if (!usable(s->q0[i], s->sigma_q0, 0)) {
             return (int)CAEKF_PARAM_Q0 + i;
@@ -299,11 +294,9 @@ static int first_unscalable(const caekf_settings_t *s)
         if (!usable(s->gamma_max[i], s->sigma_gamma0[i], 0)) {
             return (int)CAEKF_PARAM_GAMMA_MAX + i;
         }
-#if CAEKF_HAS_LAW_PARAMS
-        if (first_unscalable_law(s, (unsigned)i, &bad)) {
+        if (CAEKF_HAS_LAW_PARAMS && first_unscalable_law(s, (unsigned)i, &bad)) {
             return bad;
         }
-#endif
         /* The scaled transition multiplies by sigma_gamma0 / sigma_v0. */
         if (!usable(s->sigma_gamma0[i], s->sigma_v0, USABLE_POS)) {
             return (int)CAEKF_PARAM_SIGMA_V0;
@@ -392,7 +385,6 @@ static int first_bad_base_input(const caekf_model_params_t *m)
     return -1;
 }
 
-#if CAEKF_HAS_LAW_PARAMS
 /* One estimated law parameter's settings (the settings' ids of its flag, initial value, sigma0, minimum
  * and maximum): the blamed id and reason of the first problem, or -1. */
 static int bad_law_param(int estimated, unsigned c, caekf_scalar_t x0, int x0_id, caekf_scalar_t sigma0, int sigma0_id,
@@ -432,7 +424,6 @@ static int first_bad_law_param(const caekf_settings_t *s, unsigned *reason)
     }
     return bad;
 }
-#endif
 
 /* A build sized for one mechanism (CAEKF_SIZED) runs exactly its counts: the first count that differs. */
 static int first_unsized(const caekf_model_params_t *m)
@@ -465,7 +456,7 @@ static int first_unsized(const caekf_model_params_t *m)
 #else
     (void)m;
     return -1;
-#endif
+#endif /* CAEKF_SIZED: its counts are generated only there */
 }
 
 /* A build sized for one configuration (CAEKF_SIZED_METHOD) runs exactly its step method: the first
@@ -483,15 +474,10 @@ static int first_unsized_method(const caekf_model_params_t *m, const caekf_setti
     if (m->gamma_log != CAEKF_SIZED_GAMMA_LOG) {
         return (int)CAEKF_PARAM_GAMMA_LOG;
     }
-#if CAEKF_SIZED_SLR
-    if (s != 0 && !(s->contact_slr_p > 0)) { /* statistically linearised contacts: the sized method (CAEKF_HAS_SLR) */
+    /* statistically linearised contacts: the sized method, or compiled out (CAEKF_HAS_SLR) */
+    if (s != 0 && (CAEKF_HAS_SLR ? !(s->contact_slr_p > 0) : s->contact_slr_p != 0)) {
         return (int)CAEKF_PARAM_CONTACT_SLR_P;
     }
-#else
-    if (s != 0 && s->contact_slr_p != 0) { /* statistically linearised contacts: compiled out (CAEKF_HAS_SLR) */
-        return (int)CAEKF_PARAM_CONTACT_SLR_P;
-    }
-#endif
     if (s != 0 && s->cov_update != CAEKF_SIZED_COV_UPDATE) {
         return (int)CAEKF_PARAM_COV_UPDATE;
     }
@@ -499,17 +485,14 @@ static int first_unsized_method(const caekf_model_params_t *m, const caekf_setti
         return (int)CAEKF_PARAM_SWITCHOFF;
     }
     for (i = 0; i < (unsigned)m->contacts; ++i) {
-#ifdef CAEKF_SIZED_CONTACT_N
-        if (m->contact_n[i] != (caekf_scalar_t)CAEKF_SIZED_CONTACT_N) {
+        if (!CAEKF_HAS_CONTACT_N && m->contact_n[i] != CAEKF_SIZED_CONTACT_N_VALUE) { /* the build's exponent */
             return (int)(CAEKF_PARAM_CONTACT_N + i);
         }
-#endif
         if (!CAEKF_HAS_DAMPING && m->contact_lambda[i] != 0) { /* the build's laws are elastic */
             return (int)(CAEKF_PARAM_CONTACT_LAMBDA + i);
         }
     }
-#if CAEKF_FIXED_LINKS
-    {
+    { /* CAEKF_FIXED_LINKS: the build's links */
         static const int sized_a[] = CAEKF_SIZED_SPRING_A, sized_b[] = CAEKF_SIZED_SPRING_B;
         static const int sized_ca[] = CAEKF_SIZED_CONTACT_A, sized_cb[] = CAEKF_SIZED_CONTACT_B;
         for (i = 0; i < (unsigned)CAEKF_SIZED_SPRINGS; ++i) { /* the links' ends: the build's step is theirs */
@@ -529,12 +512,11 @@ static int first_unsized_method(const caekf_model_params_t *m, const caekf_setti
             }
         }
     }
-#endif
     (void)i;
 #else
     (void)m;
     (void)s;
-#endif
+#endif /* CAEKF_SIZED_METHOD: its method and links are generated only there */
     return -1;
 }
 
@@ -670,12 +652,10 @@ caekf_status_t caekf_settings_validate(const caekf_settings_t *s, caekf_setting_
             return refuse(err, CAEKF_SETTING_BELOW_GAMMA_MIN, CAEKF_PARAM_GAMMA0 + i);
         }
     }
-#if CAEKF_HAS_LAW_PARAMS
-    bad = first_bad_law_param(s, &k);
+    bad = CAEKF_HAS_LAW_PARAMS ? first_bad_law_param(s, &k) : -1;
     if (bad >= 0) {
         return refuse(err, k, (unsigned)bad);
     }
-#endif
     bad = first_unscalable(s);
     if (bad >= 0) {
         return refuse(err, CAEKF_SETTING_NOT_SCALABLE, (unsigned)bad);

@@ -4,6 +4,7 @@
 set(CAEKF_CORE_SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/caekf.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_filter.c
+    ${CMAKE_CURRENT_LIST_DIR}/caekf_kernels.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_linalg.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_model.c
     ${CMAKE_CURRENT_LIST_DIR}/caekf_sensors.c

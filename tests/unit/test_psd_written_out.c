@@ -3,7 +3,7 @@
  * indefinite matrices of every scale: this suite compiles the linear algebra with it set for n = 9 and
  * compares both instances on random matrices. */
 #define CAEKF_PSD_WRITTEN_OUT_N 9
-#include "caekf_linalg.c" /* the module itself: the loop instance is its static psd_ldl */
+#include "caekf_kernels.c" /* the module itself: the loop instance is its static psd_ldl */
 
 #include "unity.h"
 

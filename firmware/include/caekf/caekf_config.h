@@ -160,9 +160,12 @@ typedef double caekf_scalar_t;
 #define CAEKF_N (2 * CAEKF_NQ + CAEKF_NP)
 /* Arrays with one element per estimated parameter: at least one (C has no empty arrays). */
 #define CAEKF_NP_STORE (CAEKF_NP > 0 ? CAEKF_NP : 1)
+#ifndef CAEKF_MODEL_ORACLES
+#define CAEKF_MODEL_ORACLES (!CAEKF_SIZED_METHOD)
+#endif
 #ifndef CAEKF_PSD_WRITTEN_OUT_MAX_N
 #define CAEKF_PSD_WRITTEN_OUT_MAX_N 12
-#endif
+#endif /* !CAEKF_PSD_WRITTEN_OUT_MAX_N */
 
 /* C99 static assert (no _Static_assert before C11). */
 #define CAEKF_STATIC_ASSERT(cond, name) typedef char caekf_static_assert_##name[(cond) ? 1 : -1]

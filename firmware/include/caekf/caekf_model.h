@@ -53,6 +53,10 @@ typedef struct {
  * maximum is the same in any order). */
 #define CAEKF_A0_MAX_OPEN (CAEKF_SIZED && CAEKF_MAX_CONTACTS == 1)
 
+/* A0's storage: the whole nq x nq, or where the step is one backward-Euler step per sample only its upper
+ * triangle. */
+#define CAEKF_A0_STORE (CAEKF_ONE_STEP_BE ? CAEKF_NQ * (CAEKF_NQ + 1) / 2 : CAEKF_NQ * CAEKF_NQ)
+
 /* Matrices derived once from the parameters. Sizes: nq bodies, nc contacts, n = 2 nq + nc + ne states
  * (x = [q; v; gamma_1..gamma_nc; the ne estimated law parameters, contact by contact in the order n,
  * lambda, gap]); arrays are sized for the build's capacity. */
@@ -132,11 +136,7 @@ typedef struct {
      * is linear: A0's LU and the v-rows of F are constants, computed once by the same code the contact
      * path runs, so using them changes no bit of the result (CAEKF_ONE_STEP_BE: A0 is kept as its upper
      * triangle, and fv0 is not kept but recomputed where needed, by the same operations). */
-#if !CAEKF_ONE_STEP_BE
-    caekf_scalar_t A0[CAEKF_NQ * CAEKF_NQ];
-#else
-    caekf_scalar_t A0_up[CAEKF_NQ * (CAEKF_NQ + 1) / 2]; /* A0's upper triangle, row by row (it is symmetric) */
-#endif
+    caekf_scalar_t A0[CAEKF_A0_STORE]; /* CAEKF_ONE_STEP_BE: its upper triangle, row by row (it is symmetric) */
     caekf_scalar_t A0_lu[CAEKF_NQ * CAEKF_NQ];
     int A0_piv[CAEKF_NQ];
 #if !CAEKF_ONE_STEP_BE
