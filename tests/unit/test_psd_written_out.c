@@ -74,9 +74,50 @@ static void test_written_out_instance_gives_the_loops_verdict(void)
     TEST_ASSERT_TRUE(refused > 300);
 }
 
+/* The special matrices' verdicts (a NaN, infinite or negative variance; a zero variance with and without a
+ * coupling left; a correlation above one; a PSD matrix) by the written-out instance (n = PSD_N) and by the
+ * loop caekf_psd_check falls back to for any other n (here 3): the same verdict from both. */
+static void test_both_instances_refuse_non_finite_negative_and_coupled_zero_variances(void)
+{
+    static caekf_scalar_t a[PSD_N * PSD_N], w[PSD_N * PSD_N];
+    static const int sizes[2] = {PSD_N, 3};
+    const caekf_scalar_t tol = CAEKF_EPS * 1024;
+    int k, c, i;
+    for (k = 0; k < 2; ++k) {
+        const int n = sizes[k];
+        for (c = 0; c < 8; ++c) {
+            caekf_la_status_t expect = CAEKF_LA_NOT_PSD;
+            for (i = 0; i < n * n; ++i) {
+                a[i] = i % (n + 1) == 0 ? 1 : 0;
+            }
+            switch (c) {
+            case 0: expect = CAEKF_LA_OK; break;
+            case 1: a[(n - 1) * (n + 1)] = (caekf_scalar_t)NAN; break;      /* the last variance */
+            case 2: a[(n - 1) * (n + 1)] = (caekf_scalar_t)INFINITY; break; /* the last variance */
+            case 3: a[n + 1] = -1; break;
+            case 4: /* a zero variance with nothing left to couple: semidefinite */
+                a[0] = 0;
+                expect = CAEKF_LA_OK;
+                break;
+            case 5: /* a zero variance still coupled */
+                a[0] = 0;
+                a[n - 1] = a[(n - 1) * n] = (caekf_scalar_t)0.5;
+                break;
+            case 6: /* correlation 2: a negative pivot */ a[1] = a[n] = 2; break;
+            default: /* correlation 0.5 between the first and the last: PSD, a pivot that eliminates */
+                a[n - 1] = a[(n - 1) * n] = (caekf_scalar_t)0.5;
+                expect = CAEKF_LA_OK;
+                break;
+            }
+            TEST_ASSERT_EQUAL_INT_MESSAGE(expect, caekf_psd_check(a, n, tol, w), n == PSD_N ? "written out" : "loop");
+        }
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_written_out_instance_gives_the_loops_verdict);
+    RUN_TEST(test_both_instances_refuse_non_finite_negative_and_coupled_zero_variances);
     return UNITY_END();
 }

@@ -119,6 +119,210 @@ static void check_chain_as_matrices(int discretisation, int substeps, int accele
     TEST_ASSERT_TRUE_MESSAGE(worst_q < (CAEKF_USE_FLOAT ? 1e-3 : 1e-9), "positions differ beyond rounding");
 }
 
+/* What the settings s's sensors read on the truth's mechanism (the paper's chain, its one contact) at record r:
+ * positions and velocities from the record, an acceleration from the chain's model at the record's state. */
+static void truth_readings(const caekf_settings_t *s, const truth_rec_t *r, const caekf_scalar_t *u, caekf_scalar_t *y)
+{
+    static caekf_model_t m;
+    static caekf_settings_t t;
+    caekf_scalar_t x[CAEKF_N], row[CAEKF_N];
+    int i;
+    paper_settings(&t, -1);
+    t.model.inputs = s->model.inputs;
+    t.model.sensors = s->model.sensors;
+    for (i = 0; i < CAEKF_MAX_INPUTS; ++i) {
+        t.model.input_kind[i] = s->model.input_kind[i];
+        t.model.input_body[i] = s->model.input_body[i];
+    }
+    for (i = 0; i < CAEKF_MAX_SENSORS; ++i) {
+        t.model.sensor_kind[i] = s->model.sensor_kind[i];
+        t.model.sensor_body[i] = s->model.sensor_body[i];
+    }
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init(&m, &t.model));
+    for (i = 0; i < CAEKF_N; ++i) {
+        x[i] = 0;
+    }
+    for (i = 0; i < 4; ++i) {
+        x[i] = (caekf_scalar_t)r->q[i];
+        x[4 + i] = (caekf_scalar_t)r->v[i];
+    }
+    x[8] = (caekf_scalar_t)paper_gamma_true();
+    for (i = 0; i < s->model.sensors; ++i) {
+        const int b = s->model.sensor_body[i] - 1;
+        switch (s->model.sensor_kind[i]) {
+        case CAEKF_SENSOR_VELOCITY: y[i] = (caekf_scalar_t)r->v[b]; break;
+        case CAEKF_SENSOR_ACCELERATION: caekf_model_sensor(&m, &t.model, i, x, u, u, &y[i], row); break;
+        default: y[i] = (caekf_scalar_t)r->q[b]; break;
+        }
+    }
+}
+
+static caekf_t cmp_line, cmp_structure; /* compare_chain_and_matrices' estimators, read after it */
+
+/* The settings s run by the chain (cmp_line) and by the chain written as matrices (cmp_structure), side by
+ * side over `steps` of the truth (a second input at rest, each sensor reading the truth's mechanism:
+ * truth_readings): every step's status and flags the same, every contact's law and the positions within the
+ * tolerances (relative; positions over 1 mm). Returns the union of the flags and counts the steps each contact
+ * was closed in the chain's estimate (its penetration at the estimate, from the line's model). */
+static uint32_t compare_chain_and_matrices(const caekf_settings_t *s, long steps, double law_tol, double q_tol,
+                                           long closed[CAEKF_MAX_CONTACTS])
+{
+    static matrices_t mx;
+    caekf_t *const line = &cmp_line, *const structure = &cmp_structure;
+    caekf_report_t rl, rs;
+    truth_rec_t r;
+    long k = 0;
+    double worst_law = 0, worst_q = 0;
+    uint32_t all = 0;
+    int c;
+    for (c = 0; c < CAEKF_MAX_CONTACTS; ++c) {
+        closed[c] = 0;
+    }
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init(line, s));
+    chain_as_matrices(s, &line->model, &mx);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init_structure(structure, s, &mx.st));
+    TEST_ASSERT_EQUAL_INT(0, truth_open());
+    while (k < steps && truth_next(&r) == 1) {
+        const caekf_scalar_t u[2] = {(caekf_scalar_t)r.u, 0};
+        caekf_scalar_t y[CAEKF_MAX_SENSORS], xl[CAEKF_N], xs[CAEKF_N];
+        caekf_status_t stl, sts;
+        int i;
+        truth_readings(s, &r, u, y);
+        stl = caekf_step(line, u, y, &rl);
+        sts = caekf_step(structure, u, y, &rs);
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, stl);
+        TEST_ASSERT_EQUAL_INT(stl, sts);
+        TEST_ASSERT_EQUAL_UINT32(rl.flags, rs.flags);
+        all |= rl.flags;
+        (void)caekf_get_state(line, xl);
+        (void)caekf_get_state(structure, xs);
+        for (c = 0; c < s->model.contacts; ++c) {
+            caekf_scalar_t law_l[4], law_s[4];
+            caekf_contact_t ct;
+            int j;
+            (void)caekf_get_contact_law(line, c, &law_l[0], &law_l[1], &law_l[2], &law_l[3]);
+            (void)caekf_get_contact_law(structure, c, &law_s[0], &law_s[1], &law_s[2], &law_s[3]);
+            for (j = 0; j < 4; ++j) {
+                worst_law =
+                    fmax(worst_law, fabs((double)law_s[j] - (double)law_l[j]) / fmax(fabs((double)law_l[j]), 1e-3));
+            }
+            caekf_model_contact(&line->model, c, xl, &ct);
+            closed[c] += ct.delta > 0;
+        }
+        for (i = 0; i < 4; ++i) {
+            worst_q = fmax(worst_q, fabs((double)xs[i] - (double)xl[i]) / 1e-3);
+        }
+        ++k;
+    }
+    truth_close();
+    TEST_ASSERT_EQUAL_INT(steps, k);
+    TEST_ASSERT_TRUE_MESSAGE(worst_law < law_tol, "a contact's law differs beyond rounding");
+    TEST_ASSERT_TRUE_MESSAGE(worst_q < q_tol, "positions differ beyond rounding");
+    return all;
+}
+
+/* A second contact against the ground on body 1's far side (its first end the ground: delta = -q1 - gap, the
+ * force +f on body 1), damped hard enough that the law lets go (1 + lambda d delta/dt <= 0) while still
+ * penetrating; ln gamma with its second-order noise, the first contact's law statistically linearised (the
+ * Hertz exponent, and 2: a power the law takes by pow), a second measured input (both inputs' noise as Q), an
+ * accelerometer on body 1, a pure damper between bodies 1 and 3 (a C entry with no K entry) and a heavier
+ * body 3: the chain and its matrices estimate alike, both contacts closing. */
+static void test_a_ground_stop_two_inputs_and_an_accelerometer_as_matrices(void)
+{
+    caekf_settings_t s;
+    long closed[CAEKF_MAX_CONTACTS];
+    uint32_t flags;
+    int power;
+    for (power = 0; power < 2; ++power) {
+        paper_settings(&s, -1);
+        if (power) { /* about the Hertz law's force at the truth's penetrations */
+            s.model.contact_n[0] = 2;
+            s.gamma0[0] = (caekf_scalar_t)6e10;
+            s.sigma_gamma0[0] = (caekf_scalar_t)2e10;
+        }
+        s.model.contacts = 2;
+        s.model.contact_a[1] = 0;
+        s.model.contact_b[1] = 1;
+        s.model.contact_gap[1] = (caekf_scalar_t)1.2e-3;
+        s.model.contact_n[1] = (caekf_scalar_t)1.5;
+        s.model.contact_lambda[1] = (caekf_scalar_t)3e4; /* s/m: lets go above 0.033 mm/s apart */
+        s.gamma0[1] = (caekf_scalar_t)1e7;
+        s.sigma_gamma0[1] = (caekf_scalar_t)1e7;
+        s.sigma_q_gamma[1] = (caekf_scalar_t)1e5;
+        s.gamma_min[1] = (caekf_scalar_t)1e5;
+        s.model.gamma_log = 1;
+        s.law_second_order = 1;
+        s.contact_slr_p = (caekf_scalar_t)0.01;
+        s.model.inputs = 2;
+        s.model.input_kind[1] = CAEKF_INPUT_FORCE;
+        s.model.input_body[1] = 4;
+        s.input_sigma[0] = (caekf_scalar_t)1e-3;
+        s.input_sigma[1] = (caekf_scalar_t)1e-3;
+        s.model.sensor_kind[1] = CAEKF_SENSOR_ACCELERATION;
+        s.model.sensor_body[1] = 1;
+        s.sensor_sigma[1] = (caekf_scalar_t)1e-2;
+        s.model.m[2] = (caekf_scalar_t)1.25; /* unequal masses along the contact's w */
+        s.model.springs = 5;
+        s.model.spring_a[4] = 1;
+        s.model.spring_b[4] = 3;
+        s.model.spring_k[4] = 0;
+        s.model.spring_c[4] = 2;
+        flags =
+            compare_chain_and_matrices(&s, 14000, CAEKF_USE_FLOAT ? 1e-2 : 1e-8, CAEKF_USE_FLOAT ? 1e-3 : 1e-9, closed);
+        TEST_ASSERT_TRUE(closed[0] > 20 && closed[1] > 100);
+        TEST_ASSERT_TRUE((flags & CAEKF_FLAG_CONTACT_ACTIVE) != 0);
+    }
+}
+
+/* The contact's law parameters estimated within tight bounds (each put back on them: the constraint's bound of
+ * a law parameter), an accelerometer on the contact's body 2 (its row over the law's states): the exponent,
+ * damping and gap together, or the damping alone with the elastic laws statistically linearised (a damped
+ * law keeps its own tangents). The chain and its matrices estimate alike, and every law parameter ends within
+ * its bounds. */
+static void check_law_parameters_as_matrices(int all)
+{
+    caekf_settings_t s;
+    uint32_t flags;
+    caekf_scalar_t g, nn, lam, gap;
+    long closed[CAEKF_MAX_CONTACTS];
+    paper_settings(&s, EXP_SWITCHED_HIGHQ_CONSTRAINED);
+    s.model.contact_estimate_n[0] = all;
+    s.n0[0] = s.model.contact_n[0];
+    s.sigma_n0[0] = (caekf_scalar_t)0.1;
+    s.sigma_q_n[0] = (caekf_scalar_t)0.01;
+    s.n_min[0] = s.model.contact_n[0] * (caekf_scalar_t)0.999;
+    s.n_max[0] = s.model.contact_n[0] * (caekf_scalar_t)1.001;
+    s.model.contact_estimate_lambda[0] = 1;
+    s.lambda0[0] = 0;
+    s.sigma_lambda0[0] = (caekf_scalar_t)0.5;
+    s.sigma_q_lambda[0] = (caekf_scalar_t)0.05;
+    s.lambda_min[0] = 0;
+    s.lambda_max[0] = (caekf_scalar_t)(all ? 0.01 : 1e-6);
+    s.model.contact_estimate_gap[0] = all;
+    s.gap0[0] = s.model.contact_gap[0];
+    s.sigma_gap0[0] = s.model.contact_gap[0] * (caekf_scalar_t)0.1;
+    s.sigma_q_gap[0] = s.model.contact_gap[0] * (caekf_scalar_t)0.01;
+    s.gap_min[0] = s.model.contact_gap[0] * (caekf_scalar_t)0.999;
+    s.gap_max[0] = s.model.contact_gap[0] * (caekf_scalar_t)1.001;
+    s.law_second_order = 1;
+    s.contact_slr_p = (caekf_scalar_t)(all ? 0 : 0.01);
+    s.model.sensor_kind[1] = CAEKF_SENSOR_ACCELERATION;
+    s.model.sensor_body[1] = 2;
+    s.sensor_sigma[1] = (caekf_scalar_t)1e-2;
+    flags = compare_chain_and_matrices(&s, 14000, CAEKF_USE_FLOAT ? 1e-2 : 1e-8, CAEKF_USE_FLOAT ? 1e-3 : 1e-9, closed);
+    TEST_ASSERT_TRUE(closed[0] > 20);
+    TEST_ASSERT_TRUE((flags & CAEKF_FLAG_CONSTRAINT_APPLIED) != 0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_contact_law(&cmp_structure, 0, &g, &nn, &lam, &gap));
+    TEST_ASSERT_TRUE(!all || (nn >= s.n_min[0] && nn <= s.n_max[0]));
+    TEST_ASSERT_TRUE(lam >= s.lambda_min[0] && lam <= s.lambda_max[0]);
+    TEST_ASSERT_TRUE(!all || (gap >= s.gap_min[0] && gap <= s.gap_max[0]));
+    TEST_ASSERT_TRUE(g >= s.gamma_min[0]);
+}
+
+static void test_estimated_law_parameters_on_a_structure_as_matrices(void) { check_law_parameters_as_matrices(1); }
+
+static void test_an_estimated_damping_alone_on_a_structure_as_matrices(void) { check_law_parameters_as_matrices(0); }
+
 static void test_the_chain_as_matrices_estimates_as_the_chain(void)
 {
     check_chain_as_matrices(CAEKF_DISCRETISATION_TRAPEZOIDAL, 5, 0);
@@ -364,17 +568,194 @@ static void test_a_structure_the_core_cannot_take_is_refused(void)
     TEST_ASSERT_EQUAL_MEMORY(before, after, sizeof before);
 }
 
+/* Guards each rule of caekf_model_structure_check one at a time on the dense structure (taken as it is): a
+ * missing argument or array, no degree of freedom, a non-finite entry of each array, C not symmetric, a
+ * negative mass, a sensor or input kind of a line, a declared link parameter; caekf_model_init_structure
+ * refuses what the check refuses. */
+static void test_each_rule_of_the_structure_check(void)
+{
+    static matrices_t mx;
+    static caekf_model_t m;
+    caekf_settings_t s, b;
+    caekf_structure_t st;
+    const caekf_scalar_t nan = (caekf_scalar_t)NAN;
+    caekf_scalar_t *const arrays[6] = {mx.mass, mx.K, mx.C, mx.bu, mx.w, mx.h};
+    int k;
+    dense_structure(&s, &mx);
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_structure_check(&s.model, &mx.st));
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(0, &mx.st));
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&s.model, 0));
+    st = mx.st;
+    st.dofs = 0;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&s.model, &st));
+    for (k = 0; k < 6; ++k) { /* each array missing (damping may be: no damping) */
+        st = mx.st;
+        switch (k) {
+        case 0: st.mass = 0; break;
+        case 1: st.stiffness = 0; break;
+        case 2: st.damping = 0; break;
+        case 3: st.inputs = 0; break;
+        case 4: st.contacts = 0; break;
+        default: st.sensors = 0; break;
+        }
+        TEST_ASSERT_EQUAL_INT_MESSAGE(k == 2 ? 0 : -1, caekf_model_structure_check(&s.model, &st), "an array missing");
+    }
+    for (k = 0; k < 6; ++k) { /* a NaN in each array, its last entry (the check must read them all) */
+        static const int last[6] = {
+            DENSE_DOFS - 1, DENSE_DOFS * DENSE_DOFS - 1, DENSE_DOFS * DENSE_DOFS - 1, DENSE_DOFS - 1,
+            DENSE_DOFS - 1, 3 * DENSE_DOFS - 1};
+        const caekf_scalar_t keep = arrays[k][last[k]];
+        arrays[k][last[k]] = k == 1 ? (caekf_scalar_t)INFINITY : nan;
+        TEST_ASSERT_EQUAL_INT_MESSAGE(-1, caekf_model_structure_check(&s.model, &mx.st), "a non-finite entry");
+        TEST_ASSERT_EQUAL_INT_MESSAGE(-1, caekf_model_init_structure(&m, &s.model, &mx.st), "a non-finite entry");
+        arrays[k][last[k]] = keep;
+    }
+    mx.C[DENSE_DOFS * DENSE_DOFS - 2] = (caekf_scalar_t)((double)mx.C[DENSE_DOFS * DENSE_DOFS - 2] * 1.5); /* C_54 */
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&s.model, &mx.st));
+    dense_structure(&s, &mx);
+    mx.mass[DENSE_DOFS - 1] = -1;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&s.model, &mx.st));
+    dense_structure(&s, &mx);
+    b = s;
+    b.model.sensor_kind[2] = CAEKF_SENSOR_RELATIVE; /* a line's: q_b - q_ref */
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&b.model, &mx.st));
+    b = s;
+    b.model.input_kind[0] = CAEKF_INPUT_BASE_DISPLACEMENT;
+    b.model.input_link[0] = 1;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&b.model, &mx.st));
+    b = s;
+    b.model.spring_k_sigma[b.model.springs - 1] = (caekf_scalar_t)0.1;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&b.model, &mx.st));
+    b = s;
+    b.model.spring_c_sigma[b.model.springs - 1] = (caekf_scalar_t)0.1;
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_structure_check(&b.model, &mx.st));
+    TEST_ASSERT_EQUAL_INT(-1, caekf_model_init_structure(&m, &b.model, &mx.st));
+    TEST_ASSERT_EQUAL_INT(0, caekf_model_init_structure(&m, &s.model, &mx.st));
+}
+
+/* Guards a structure with neither inputs nor contacts (their arrays NULL; steps take no input vector) and one
+ * without damping (NULL): it estimates bit for bit as with C all zeros; and, without contacts, every row of F
+ * is dense: P after a prediction is F P0 F^T + Q with F from the model (eq. 10). */
+static void test_a_structure_without_damping_inputs_or_contacts(void)
+{
+    static caekf_t a, b;
+    static matrices_t mx;
+    static caekf_scalar_t P[CAEKF_N][CAEKF_N];
+    caekf_settings_t s;
+    caekf_structure_t st;
+    caekf_report_t ra, rb;
+    caekf_scalar_t xa[CAEKF_N], xb[CAEKF_N];
+    const int n = 2 * DENSE_DOFS;
+    int i, j, k, nn, ny, nu;
+    dense_structure(&s, &mx);
+    s.model.inputs = 0;
+    s.model.contacts = 0;
+    for (i = 0; i < DENSE_DOFS * DENSE_DOFS; ++i) {
+        mx.C[i] = 0;
+    }
+    st = mx.st;
+    st.inputs = 0;
+    st.contacts = 0;
+    st.damping = 0;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init_structure(&a, &s, &st));
+    mx.st.inputs = 0;
+    mx.st.contacts = 0;
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init_structure(&b, &s, &mx.st)); /* C given, all zeros */
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_sizes(&a, &nn, &ny, &nu));
+    TEST_ASSERT_TRUE(nn == n && ny == 3 && nu == 0);
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&a, 0, &ra));
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_get_covariance(&a, P));
+#if CAEKF_MODEL_ORACLES
+    {
+        static caekf_scalar_t F[CAEKF_N][CAEKF_N];
+        caekf_scalar_t x0[CAEKF_N];
+        double p0[2 * DENSE_DOFS], worst = 0;
+        for (i = 0; i < CAEKF_N; ++i) {
+            x0[i] = 0;
+        }
+        TEST_ASSERT_EQUAL_INT(0, caekf_model_transition(&a.model, x0, x0, F));
+        for (i = 0; i < n; ++i) {
+            p0[i] = i < DENSE_DOFS ? (double)s.sigma_q0 * (double)s.sigma_q0 : (double)s.sigma_v0 * (double)s.sigma_v0;
+        }
+        for (i = 0; i < n; ++i) {
+            for (j = 0; j < n; ++j) {
+                double ref = 0;
+                for (k = 0; k < n; ++k) {
+                    ref += (double)F[i][k] * p0[k] * (double)F[j][k];
+                }
+                if (i == j) {
+                    const double q = i < DENSE_DOFS ? (double)s.sigma_qx_q : (double)s.sigma_qx_v;
+                    ref += q * q;
+                }
+                worst = fmax(worst, fabs((double)P[i][j] - ref) / sqrt(p0[i] * p0[j]));
+            }
+        }
+        TEST_ASSERT_TRUE_MESSAGE(worst < (CAEKF_USE_FLOAT ? 1e-4 : 1e-10), "P- is not F P0 F^T + Q");
+    }
+#endif
+    TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_predict(&b, 0, &rb));
+    for (k = 0; k < 200; ++k) {
+        const caekf_scalar_t y[3] = {(caekf_scalar_t)(1e-6 * sin(0.05 * k)), (caekf_scalar_t)(1e-5 * cos(0.05 * k)),
+                                     (caekf_scalar_t)(1e-3 * sin(0.1 * k))};
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&a, 0, y, &ra));
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_step(&b, 0, y, &rb));
+        TEST_ASSERT_EQUAL_UINT32(ra.flags, rb.flags);
+    }
+    (void)caekf_get_state(&a, xa);
+    (void)caekf_get_state(&b, xb);
+    TEST_ASSERT_EQUAL_MEMORY(xb, xa, sizeof xa);
+    TEST_ASSERT_TRUE(xa[0] != 0);
+}
+
+/* A two-dof structure whose Newton matrix M/hs + C + hs K is singular (K_00 = -m_0 / hs^2, a negative
+ * stiffness the check cannot see): refused, the instance left uninitialised; with substeps, the singular
+ * matrix the substeps' (hs / substeps), not the step's: refused as well. */
+static void test_a_structure_with_a_singular_newton_matrix_is_refused(void)
+{
+    static caekf_t est;
+    caekf_scalar_t mass[2] = {1, 2}, K[4] = {0, 0, 0, (caekf_scalar_t)4e4}, bu[2] = {1, 0}, w[2] = {1, -1},
+                   h[4] = {1, 0, 0, 1}, x[CAEKF_N];
+    caekf_structure_t st;
+    caekf_settings_t s;
+    int sub;
+    paper_settings(&s, -1);
+    st.dofs = 2;
+    st.mass = mass;
+    st.stiffness = K;
+    st.damping = 0;
+    st.inputs = bu;
+    st.contacts = w;
+    st.sensors = h;
+    for (sub = 0; sub < 2; ++sub) {
+        const caekf_scalar_t dt = sub ? s.model.dt / (caekf_scalar_t)5 : s.model.dt;
+        const caekf_scalar_t hs = dt / 2; /* trapezoidal */
+        s.model.discretisation = CAEKF_DISCRETISATION_TRAPEZOIDAL;
+        s.contact_substeps = sub ? 5 : 1;
+        K[0] = -(mass[0] / hs) / hs;
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_SETTINGS, caekf_init_structure(&est, &s, &st));
+        TEST_ASSERT_EQUAL_INT(CAEKF_ERR_NOT_INIT, caekf_get_state(&est, x));
+        K[0] = (caekf_scalar_t)4e4; /* the same structure, stiff: taken */
+        TEST_ASSERT_EQUAL_INT(CAEKF_OK, caekf_init_structure(&est, &s, &st));
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_the_chain_as_matrices_estimates_as_the_chain);
     RUN_TEST(test_the_chain_as_matrices_by_backward_euler_one_step);
     RUN_TEST(test_the_chain_as_matrices_with_an_accelerometer);
+    RUN_TEST(test_a_ground_stop_two_inputs_and_an_accelerometer_as_matrices);
+    RUN_TEST(test_estimated_law_parameters_on_a_structure_as_matrices);
+    RUN_TEST(test_an_estimated_damping_alone_on_a_structure_as_matrices);
 #if CAEKF_MODEL_ORACLES && !CAEKF_USE_FLOAT
     RUN_TEST(test_a_dense_structure_is_eq10_of_its_residual);
 #endif
     RUN_TEST(test_a_structure_accelerometer_reads_the_momentum_balance);
     RUN_TEST(test_an_estimator_on_a_dense_structure_runs_through_contact);
     RUN_TEST(test_a_structure_the_core_cannot_take_is_refused);
+    RUN_TEST(test_each_rule_of_the_structure_check);
+    RUN_TEST(test_a_structure_without_damping_inputs_or_contacts);
+    RUN_TEST(test_a_structure_with_a_singular_newton_matrix_is_refused);
     return UNITY_END();
 }
